@@ -1,0 +1,645 @@
+//! Joint positions → per-bone local quaternions (the paper's rotation-oriented motion
+//! representation, done right).
+//!
+//! For every bone, in parent-before-child order:
+//! 1. its recipe's direction landmarks give the current bone direction; the rest direction comes
+//!    from the same landmarks on the rest skeleton;
+//! 2. for 3-D bones, a reference vector (a body line, or the normal of a limb's bend plane)
+//!    projected perpendicular to the bone gives the twist — over a full turn, never folded;
+//! 3. the target world rotation is turned into a local one against the parent's *solved* world
+//!    rotation (`local = parent_world⁻¹ · child_world`), so projection errors never accumulate;
+//! 4. the local rotation is projected onto the bone's degree-of-freedom class: hinges keep only
+//!    their angle, 2-D bones lose their twist, static bones stay at rest, the root keeps only yaw
+//!    and takes the pelvis trajectory as its translation;
+//! 5. its sign is chosen so that ⟨q_t, q_{t−1}⟩ ≥ 0.
+//!
+//! Only directions enter the rotations (positions are differenced first), so a translated body
+//! gives identical rotations. Degenerate input — a missing or non-finite joint, a joint below the
+//! confidence threshold, a zero-length bone, a reference parallel to its bone — never panics and
+//! never produces NaN: the bone keeps its previous frame's rotation (or, for an unobservable
+//! twist, the smallest rotation from its previous orientation), and every such event is counted in
+//! the [`ConversionReport`].
+
+use nalgebra::{Point3, Unit, UnitQuaternion, Vector3};
+
+use crate::character::Character;
+use crate::fk::BonePose;
+use crate::geom;
+use crate::layout::{rest_reference, Binding, Coverage, Layout, LayoutError};
+use crate::pose::{PoseFrame, PoseSequence};
+use crate::rig::{Dof, Reference, Rig, ROOT};
+
+/// How the root follows the pelvis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RootMotion {
+    /// The root follows the pelvis in all three axes: walking moves, sitting lowers.
+    #[default]
+    Full,
+    /// Horizontal motion removed (the body walks in place); height kept.
+    InPlace,
+    /// No translation at all: the body stays at the origin at its rest height.
+    Pinned,
+}
+
+/// Conversion settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ConvertOptions {
+    /// Joints with a lower confidence are treated as missing.
+    pub min_confidence: f32,
+    /// A reference vector closer than this to its bone's axis cannot give a twist (radians).
+    pub min_reference_angle_rad: f64,
+    /// How the root follows the pelvis.
+    pub root_motion: RootMotion,
+}
+
+impl Default for ConvertOptions {
+    fn default() -> Self {
+        ConvertOptions { min_confidence: 0.3, min_reference_angle_rad: 1f64.to_radians(), root_motion: RootMotion::Full }
+    }
+}
+
+/// Errors that stop a conversion (degenerate frames do not: they are counted).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ConvertError {
+    /// The layout cannot be bound or does not match the data.
+    #[error("layout problem converting {source_name}")]
+    Layout {
+        /// The data being converted.
+        source_name: String,
+        /// The cause.
+        #[source]
+        source: LayoutError,
+    },
+    /// A frame's arrays do not have the layout's joint count.
+    #[error("{source_name}: frame {frame} has {found} positions and {confidences} confidences, the layout `{layout}` has {expected} joints")]
+    WrongJointCount {
+        /// The data being converted.
+        source_name: String,
+        /// Frame index.
+        frame: usize,
+        /// Positions found.
+        found: usize,
+        /// Confidences found.
+        confidences: usize,
+        /// Joints expected.
+        expected: usize,
+        /// Layout name.
+        layout: String,
+    },
+    /// No frame could be used.
+    #[error("{source_name}: no usable frames")]
+    Empty {
+        /// The data being converted.
+        source_name: String,
+    },
+}
+
+/// Kinds of degenerate input, counted per bone and in total.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Degeneracy {
+    /// A joint the bone needs was missing or non-finite.
+    MissingJoint,
+    /// A joint the bone needs was below the confidence threshold.
+    LowConfidence,
+    /// The bone's two landmarks coincide.
+    ZeroLengthBone,
+    /// The twist reference was (nearly) parallel to the bone, e.g. a straight limb.
+    ParallelReference,
+    /// A hinge bone pointed along its own hinge axis.
+    AlongHingeAxis,
+}
+
+impl Degeneracy {
+    /// All kinds, in report order.
+    pub const ALL: [Degeneracy; 5] = [
+        Degeneracy::MissingJoint,
+        Degeneracy::LowConfidence,
+        Degeneracy::ZeroLengthBone,
+        Degeneracy::ParallelReference,
+        Degeneracy::AlongHingeAxis,
+    ];
+
+    /// Short label for reports.
+    #[must_use]
+    pub fn label(self) -> &'static str {
+        match self {
+            Degeneracy::MissingJoint => "missing joint",
+            Degeneracy::LowConfidence => "low confidence",
+            Degeneracy::ZeroLengthBone => "zero-length bone",
+            Degeneracy::ParallelReference => "reference parallel to bone",
+            Degeneracy::AlongHingeAxis => "bone along its hinge axis",
+        }
+    }
+
+    fn index(self) -> usize {
+        self as usize
+    }
+}
+
+/// What a conversion met on the way.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ConversionReport {
+    /// Frames converted.
+    pub frames: usize,
+    /// Frames in which at least one bone needed the degenerate-input path.
+    pub degenerate_frames: usize,
+    /// Per kind ([`Degeneracy::ALL`] order): how many (frame, bone) events.
+    pub events: [usize; 5],
+    /// Per bone: frames in which it needed the degenerate-input path.
+    pub bone_degenerate_frames: Vec<usize>,
+    /// Frames dropped because their stamp was not after the previous one: (frame index, stamp).
+    pub dropped_non_monotonic: Vec<(usize, u64)>,
+    /// Which bones the layout drives.
+    pub coverage: Coverage,
+}
+
+impl ConversionReport {
+    /// Whether any input was lost (frames dropped).
+    #[must_use]
+    pub fn lost_data(&self) -> bool {
+        !self.dropped_non_monotonic.is_empty()
+    }
+}
+
+/// One animation frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AnimationFrame {
+    /// Stamp, nanoseconds.
+    pub stamp_nanos: u64,
+    /// The pose.
+    pub pose: BonePose,
+}
+
+/// A converted animation: local rotations per bone per frame, and the body they were solved on.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Animation {
+    /// Rig name.
+    pub rig_name: String,
+    /// Layout the source used.
+    pub layout_name: String,
+    /// Where the data came from.
+    pub source: String,
+    /// Proportions fitted to the source subject; the root translation is in its metres.
+    pub character: Character,
+    /// Frames in stamp order.
+    pub frames: Vec<AnimationFrame>,
+    /// What the conversion met.
+    pub report: ConversionReport,
+}
+
+impl Animation {
+    /// The factor that scales this animation's root translation onto `character`: the ratio of
+    /// hip heights, so strides scale with legs and feet stay on the ground.
+    #[must_use]
+    pub fn translation_scale_for(&self, rig: &Rig, character: &Character) -> f64 {
+        character.hip_height_m(rig) / self.character.hip_height_m(rig)
+    }
+}
+
+/// Precomputed per-recipe data for the layout in use.
+#[derive(Debug, Clone)]
+struct BoneSolve {
+    dof: Dof,
+    /// (from, to) landmark sets of the chosen direction alternative.
+    dir: Option<(Vec<usize>, Vec<usize>)>,
+    rest_dir: Unit<Vector3<f64>>,
+    reference: Option<RefSolve>,
+}
+
+#[derive(Debug, Clone)]
+enum RefSolve {
+    Direction { from: Vec<usize>, to: Vec<usize>, rest_perp: Unit<Vector3<f64>> },
+    Normal { points: [usize; 3], rest_perp: Unit<Vector3<f64>> },
+}
+
+/// Landmark value for one frame: present, or why not.
+#[derive(Debug, Clone, Copy)]
+enum Lm {
+    Unbound,
+    Missing,
+    LowConfidence,
+    At(Point3<f64>),
+}
+
+/// A stateful converter for one tracked person: frames must be fed in time order.
+#[derive(Debug, Clone)]
+pub struct Converter<'r> {
+    rig: &'r Rig,
+    binding: Binding,
+    options: ConvertOptions,
+    /// Root height offset: the pelvis landmark's rest offset from the root, scaled.
+    pelvis_offset_m: Vector3<f64>,
+    solves: Vec<BoneSolve>,
+    /// Recipe index per bone (`usize::MAX` for none).
+    solve_of_bone: Vec<usize>,
+    landmark_buf: Vec<Lm>,
+    world: Vec<UnitQuaternion<f64>>,
+    previous: Option<BonePose>,
+    previous_world: Vec<UnitQuaternion<f64>>,
+    report: ConversionReport,
+    frame_flags: bool,
+    hip_lms: Option<(usize, usize)>,
+    shoulder_lms: Option<(usize, usize)>,
+    pelvis_lm: Option<usize>,
+}
+
+fn perp_of(v: &Vector3<f64>, axis: &Unit<Vector3<f64>>) -> Unit<Vector3<f64>> {
+    geom::perpendicular_direction(v, axis, 1e-3).unwrap_or_else(|| {
+        let helper = if axis.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+        Unit::new_normalize(axis.cross(&helper))
+    })
+}
+
+impl<'r> Converter<'r> {
+    /// A converter for data in `layout`'s joint order, solved on `character` (the subject's
+    /// proportions, e.g. from [`fit_character`]).
+    ///
+    /// # Errors
+    /// [`LayoutError`] if the layout does not bind to the rig.
+    pub fn new(rig: &'r Rig, layout: &Layout, character: &Character, options: ConvertOptions) -> Result<Self, LayoutError> {
+        let binding = layout.bind(rig)?;
+        let coverage = binding.coverage(rig);
+        let mut solves = Vec::with_capacity(rig.recipes.len());
+        let mut solve_of_bone = vec![usize::MAX; rig.bones.len()];
+        for (recipe, src) in rig.recipes.iter().zip(&binding.bone_sources) {
+            let bone = &rig.bones[recipe.bone];
+            let dir = src.direction.map(|d| (recipe.directions[d].from.clone(), recipe.directions[d].to.clone()));
+            let rest_dir = dir
+                .as_ref()
+                .and_then(|(f, t)| geom::direction(rig.rest_point(t) - rig.rest_point(f)))
+                .unwrap_or_else(|| bone.rest_direction());
+            let reference = src.reference.map(|r| {
+                let refr = &recipe.references[r];
+                let rest_perp = perp_of(&rest_reference(rig, refr), &rest_dir);
+                match refr {
+                    Reference::Direction { from, to } => RefSolve::Direction { from: from.clone(), to: to.clone(), rest_perp },
+                    Reference::Normal { points, .. } => RefSolve::Normal { points: *points, rest_perp },
+                }
+            });
+            solve_of_bone[recipe.bone] = solves.len();
+            solves.push(BoneSolve { dof: bone.dof, dir, rest_dir, reference });
+        }
+        let lm = |n: &str| rig.landmark_index(n);
+        let pair = |a: &str, b: &str| Some((lm(a)?, lm(b)?)).filter(|(a, b)| binding.landmark_terms[*a].is_some() && binding.landmark_terms[*b].is_some());
+        let pelvis_lm = lm("pelvis");
+        let pelvis_offset_m = pelvis_lm.map_or_else(Vector3::zeros, |p| {
+            (rig.landmarks[p].rest_m - rig.bones[ROOT].head_rest_m) * character.bone_scale[ROOT]
+        });
+        Ok(Converter {
+            rig,
+            options,
+            pelvis_offset_m,
+            solves,
+            solve_of_bone,
+            landmark_buf: vec![Lm::Unbound; rig.landmarks.len()],
+            world: vec![UnitQuaternion::identity(); rig.bones.len()],
+            previous: None,
+            previous_world: vec![UnitQuaternion::identity(); rig.bones.len()],
+            report: ConversionReport {
+                frames: 0,
+                degenerate_frames: 0,
+                events: [0; 5],
+                bone_degenerate_frames: vec![0; rig.bones.len()],
+                dropped_non_monotonic: Vec::new(),
+                coverage,
+            },
+            frame_flags: false,
+            hip_lms: pair("l_hip", "r_hip"),
+            shoulder_lms: pair("l_shoulder", "r_shoulder"),
+            pelvis_lm: pelvis_lm.filter(|p| binding.landmark_terms[*p].is_some()),
+            binding,
+        })
+    }
+
+    /// The report so far.
+    #[must_use]
+    pub fn report(&self) -> &ConversionReport {
+        &self.report
+    }
+
+    /// Ends the conversion, returning the report.
+    #[must_use]
+    pub fn into_report(self) -> ConversionReport {
+        self.report
+    }
+
+    fn count(&mut self, bone: usize, kind: Degeneracy) {
+        self.report.events[kind.index()] += 1;
+        self.report.bone_degenerate_frames[bone] += 1;
+        self.frame_flags = true;
+    }
+
+    fn point(&self, set: &[usize]) -> Result<Point3<f64>, Degeneracy> {
+        let mut sum = Vector3::zeros();
+        for &l in set {
+            match self.landmark_buf[l] {
+                Lm::At(p) => sum += p.coords,
+                Lm::LowConfidence => return Err(Degeneracy::LowConfidence),
+                Lm::Missing | Lm::Unbound => return Err(Degeneracy::MissingJoint),
+            }
+        }
+        #[expect(clippy::cast_precision_loss, reason = "landmark sets hold a handful of points")]
+        let n = set.len().max(1) as f64;
+        Ok(Point3::from(sum / n))
+    }
+
+    fn direction_between(&self, from: &[usize], to: &[usize]) -> Result<Unit<Vector3<f64>>, Degeneracy> {
+        let v = self.point(to)? - self.point(from)?;
+        geom::direction(v).ok_or(Degeneracy::ZeroLengthBone)
+    }
+
+    fn current_reference(&self, r: &RefSolve, cur_dir: &Unit<Vector3<f64>>) -> Result<Unit<Vector3<f64>>, Degeneracy> {
+        let v = match r {
+            RefSolve::Direction { from, to, .. } => self.point(to)? - self.point(from)?,
+            RefSolve::Normal { points: [a, b, c], .. } => {
+                let (a, b, c) = (self.point(&[*a])?, self.point(&[*b])?, self.point(&[*c])?);
+                let (u, w) = (b - a, c - b);
+                let n = u.cross(&w);
+                // Scale-free: compare the normal with the product of the segment lengths.
+                let scale = u.norm() * w.norm();
+                if !(scale > 0.0) || n.norm() < scale * self.options.min_reference_angle_rad.sin() {
+                    return Err(Degeneracy::ParallelReference);
+                }
+                n
+            }
+        };
+        geom::perpendicular_direction(&v, cur_dir, self.options.min_reference_angle_rad).ok_or(Degeneracy::ParallelReference)
+    }
+
+    /// Converts one frame (positions in the layout's joint order) into `out`.
+    ///
+    /// # Errors
+    /// [`ConvertError::WrongJointCount`] if the arrays do not match the layout.
+    pub fn convert_frame(&mut self, frame: &PoseFrame, out: &mut BonePose) -> Result<(), ConvertError> {
+        let expected = self.binding.joint_count;
+        if frame.positions_m.len() != expected || frame.confidence.len() != expected {
+            return Err(ConvertError::WrongJointCount {
+                source_name: String::new(),
+                frame: self.report.frames,
+                found: frame.positions_m.len(),
+                confidences: frame.confidence.len(),
+                expected,
+                layout: self.binding.layout_name.clone(),
+            });
+        }
+        self.frame_flags = false;
+        self.fill_landmarks(frame);
+        let prev_pose = self.previous.take();
+        self.solve_root(prev_pose.as_ref(), out);
+        for b in 1..self.rig.bones.len() {
+            let Some(parent) = self.rig.bones[b].parent else { continue };
+            let parent_world = self.world[parent];
+            let prev_local = prev_pose.as_ref().map(|p| p.local_rotations[b]);
+            let local = self.solve_bone(b, &parent_world, prev_local);
+            let local = match prev_local {
+                Some(p) => geom::align_hemisphere(local, &p),
+                None => local,
+            };
+            out.local_rotations[b] = local;
+            self.world[b] = parent_world * local;
+        }
+        self.previous_world.copy_from_slice(&self.world);
+        self.previous = Some(out.clone());
+        self.report.frames += 1;
+        if self.frame_flags {
+            self.report.degenerate_frames += 1;
+        }
+        Ok(())
+    }
+
+    fn fill_landmarks(&mut self, frame: &PoseFrame) {
+        let min_c = self.options.min_confidence;
+        for l in 0..self.landmark_buf.len() {
+            self.landmark_buf[l] = match &self.binding.landmark_terms[l] {
+                None => Lm::Unbound,
+                Some(terms) => {
+                    let mut state = Lm::At(Point3::origin());
+                    let mut sum = Vector3::zeros();
+                    for &(j, w) in terms {
+                        let p = frame.positions_m[j];
+                        if !p.coords.iter().all(|v| v.is_finite()) {
+                            state = Lm::Missing;
+                            break;
+                        }
+                        if !(frame.confidence[j] >= min_c) {
+                            state = Lm::LowConfidence;
+                        }
+                        sum += p.coords * w;
+                    }
+                    match state {
+                        Lm::At(_) => Lm::At(Point3::from(sum)),
+                        other => other,
+                    }
+                }
+            };
+        }
+    }
+
+    fn solve_root(&mut self, prev: Option<&BonePose>, out: &mut BonePose) {
+        let horizontal = |pair: Option<(usize, usize)>, this: &Self| -> Option<Vector3<f64>> {
+            let (a, b) = pair?;
+            let v = this.point(&[b]).ok()? - this.point(&[a]).ok()?;
+            let h = Vector3::new(v.x, v.y, 0.0);
+            (h.norm() > 1e-6).then_some(h)
+        };
+        let yaw = horizontal(self.hip_lms, self).or_else(|| horizontal(self.shoulder_lms, self)).map(|h| h.y.atan2(h.x));
+        let root_rot = match (yaw, prev) {
+            (Some(y), _) => geom::yaw_rotation(y),
+            (None, Some(p)) => {
+                self.count(ROOT, Degeneracy::MissingJoint);
+                p.local_rotations[ROOT]
+            }
+            (None, None) => {
+                if self.hip_lms.is_some() || self.shoulder_lms.is_some() {
+                    self.count(ROOT, Degeneracy::MissingJoint);
+                }
+                UnitQuaternion::identity()
+            }
+        };
+        let root_rot = prev.map_or(root_rot, |p| geom::align_hemisphere(root_rot, &p.local_rotations[ROOT]));
+        let pelvis = self.pelvis_lm.and_then(|p| self.point(&[p]).ok());
+        let translation = match (pelvis, prev) {
+            (Some(p), _) => p.coords - root_rot * self.pelvis_offset_m,
+            (None, Some(prev)) => {
+                if self.pelvis_lm.is_some() {
+                    self.count(ROOT, Degeneracy::MissingJoint);
+                }
+                prev.root_translation_m
+            }
+            (None, None) => Vector3::zeros(),
+        };
+        out.root_translation_m = match self.options.root_motion {
+            RootMotion::Full => translation,
+            RootMotion::InPlace => Vector3::new(0.0, 0.0, translation.z),
+            RootMotion::Pinned => Vector3::zeros(),
+        };
+        out.local_rotations[ROOT] = root_rot;
+        self.world[ROOT] = root_rot;
+    }
+
+    fn solve_bone(&mut self, b: usize, parent_world: &UnitQuaternion<f64>, prev_local: Option<UnitQuaternion<f64>>) -> UnitQuaternion<f64> {
+        let (local, degeneracy) = self.bone_rotation(b, parent_world, prev_local);
+        if let Some(kind) = degeneracy {
+            self.count(b, kind);
+        }
+        local
+    }
+
+    /// The local rotation of bone `b`, and the degenerate-input path it took, if any.
+    fn bone_rotation(
+        &self,
+        b: usize,
+        parent_world: &UnitQuaternion<f64>,
+        prev_local: Option<UnitQuaternion<f64>>,
+    ) -> (UnitQuaternion<f64>, Option<Degeneracy>) {
+        let si = self.solve_of_bone[b];
+        let Some(s) = self.solves.get(si) else {
+            return (UnitQuaternion::identity(), None); // static
+        };
+        let Some((from, to)) = &s.dir else {
+            return (UnitQuaternion::identity(), None); // the layout cannot drive it: rest
+        };
+        let hold = prev_local.unwrap_or_else(UnitQuaternion::identity);
+        let cur_dir = match self.direction_between(from, to) {
+            Ok(d) => d,
+            Err(kind) => return (hold, Some(kind)),
+        };
+        let rest_dir = s.rest_dir;
+        let dir_in_parent = Unit::new_unchecked(parent_world.inverse() * cur_dir.into_inner());
+        match s.dof {
+            Dof::Static | Dof::Root => (UnitQuaternion::identity(), None),
+            Dof::TwoD => (geom::shortest_arc(&rest_dir, &dir_in_parent), None),
+            Dof::Hinge { axis } => match geom::hinge_angle(&rest_dir, &dir_in_parent, &axis) {
+                Some(angle) => (UnitQuaternion::from_axis_angle(&axis, angle), None),
+                None => (hold, Some(Degeneracy::AlongHingeAxis)),
+            },
+            Dof::ThreeD => {
+                let observed = s.reference.as_ref().map(|r| (r, self.current_reference(r, &cur_dir)));
+                let (target_world, degeneracy) = match observed {
+                    Some((RefSolve::Direction { rest_perp, .. } | RefSolve::Normal { rest_perp, .. }, Ok(cur_perp))) => {
+                        (geom::frame_rotation(&rest_dir, rest_perp, &cur_dir, &cur_perp), None)
+                    }
+                    other => {
+                        // Twist unobservable: keep the previous orientation's twist, i.e. the
+                        // smallest rotation from where the bone was (or from the parent frame).
+                        let base = if prev_local.is_some() { self.previous_world[b] } else { *parent_world };
+                        let was = Unit::new_unchecked(base * rest_dir.into_inner());
+                        let kind = match other {
+                            Some((_, Err(kind))) => Some(kind),
+                            _ => None,
+                        };
+                        (geom::shortest_arc(&was, &cur_dir) * base, kind)
+                    }
+                };
+                (parent_world.inverse() * target_world, degeneracy)
+            }
+        }
+    }
+}
+
+/// Measures the rig's segments in a sequence (median over frames) and fits a [`Character`] to
+/// them.
+#[must_use]
+pub fn fit_character(rig: &Rig, binding: &Binding, frames: &[PoseFrame], min_confidence: f32) -> Character {
+    let mut samples: Vec<Vec<f64>> = vec![Vec::new(); rig.measures.len()];
+    // A few hundred evenly spread frames are plenty for a median.
+    let step = (frames.len() / 512).max(1);
+    for f in frames.iter().step_by(step) {
+        let pt = |set: &[usize]| -> Option<Point3<f64>> {
+            let mut sum = Vector3::zeros();
+            for &l in set {
+                sum += binding.landmark_point(l, &f.positions_m, &f.confidence, min_confidence)?.coords;
+            }
+            #[expect(clippy::cast_precision_loss, reason = "landmark sets hold a handful of points")]
+            let n = set.len().max(1) as f64;
+            Some(Point3::from(sum / n))
+        };
+        for (m, s) in rig.measures.iter().zip(samples.iter_mut()) {
+            if let (Some(a), Some(b)) = (pt(&m.from), pt(&m.to)) {
+                let d = (b - a).norm();
+                if d.is_finite() && d > 1e-6 {
+                    s.push(d);
+                }
+            }
+        }
+    }
+    let observed: Vec<Option<f64>> = samples
+        .iter_mut()
+        .map(|s| {
+            if s.is_empty() {
+                return None;
+            }
+            s.sort_by(f64::total_cmp);
+            Some(s[s.len() / 2])
+        })
+        .collect();
+    Character::fitted(rig, &observed)
+}
+
+/// Converts a whole sequence: fits the subject's proportions, then solves every frame.
+///
+/// Frames whose stamp is not after the previous kept frame are dropped and listed in the report
+/// (`lost_data()` is then true); everything else is converted.
+///
+/// # Errors
+/// [`ConvertError`] when the layout does not match the data or no frame is usable.
+pub fn convert_sequence(rig: &Rig, layout: &Layout, seq: &PoseSequence, options: ConvertOptions) -> Result<Animation, ConvertError> {
+    let layout_err = |source| ConvertError::Layout { source_name: seq.source.clone(), source };
+    let order = layout.joint_order(&seq.joint_names).map_err(layout_err)?;
+    let identity_order = order.iter().enumerate().all(|(k, &i)| k == i) && order.len() == seq.joint_names.len();
+    let reordered: Vec<PoseFrame>;
+    let frames: &[PoseFrame] = if identity_order {
+        &seq.frames
+    } else {
+        reordered = seq
+            .frames
+            .iter()
+            .map(|f| PoseFrame {
+                stamp_nanos: f.stamp_nanos,
+                positions_m: order.iter().map(|&i| f.positions_m.get(i).copied().unwrap_or(Point3::new(f64::NAN, f64::NAN, f64::NAN))).collect(),
+                confidence: order.iter().map(|&i| f.confidence.get(i).copied().unwrap_or(0.0)).collect(),
+            })
+            .collect();
+        &reordered
+    };
+    let binding = layout.bind(rig).map_err(layout_err)?;
+    let character = fit_character(rig, &binding, frames, options.min_confidence);
+    let mut converter = Converter::new(rig, layout, &character, options).map_err(layout_err)?;
+    let mut out_frames = Vec::with_capacity(frames.len());
+    let mut dropped = Vec::new();
+    let mut pose = BonePose::rest(rig);
+    let mut last_stamp: Option<u64> = None;
+    for (i, f) in frames.iter().enumerate() {
+        if last_stamp.is_some_and(|s| f.stamp_nanos <= s) {
+            dropped.push((i, f.stamp_nanos));
+            continue;
+        }
+        converter.convert_frame(f, &mut pose).map_err(|e| match e {
+            ConvertError::WrongJointCount { found, confidences, expected, layout, .. } => {
+                ConvertError::WrongJointCount { source_name: seq.source.clone(), frame: i, found, confidences, expected, layout }
+            }
+            other => other,
+        })?;
+        last_stamp = Some(f.stamp_nanos);
+        out_frames.push(AnimationFrame { stamp_nanos: f.stamp_nanos, pose: pose.clone() });
+    }
+    if out_frames.is_empty() {
+        return Err(ConvertError::Empty { source_name: seq.source.clone() });
+    }
+    let mut report = converter.into_report();
+    report.dropped_non_monotonic = dropped;
+    Ok(Animation {
+        rig_name: rig.name.to_string(),
+        layout_name: layout.name.clone(),
+        source: seq.source.clone(),
+        character,
+        frames: out_frames,
+        report,
+    })
+}
+
+#[cfg(test)]
+#[path = "convert_tests.rs"]
+mod tests;

@@ -1,0 +1,91 @@
+//! Forward kinematics: rig + local rotations + root translation + [`Character`] → world bone
+//! rotations, joint (bone head) positions and landmark positions. Used by tests, the renderer and
+//! the exporters; the one place where a pose becomes positions.
+
+use nalgebra::{Point3, UnitQuaternion, Vector3};
+
+use crate::character::Character;
+use crate::rig::{Rig, ROOT};
+
+/// A pose of the rig: what one animation frame stores.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BonePose {
+    /// World position of the root bone's head (on the ground under the hips at rest), metres.
+    pub root_translation_m: Vector3<f64>,
+    /// Local rotation of every bone (rig order), relative to rest, in the parent's frame.
+    pub local_rotations: Vec<UnitQuaternion<f64>>,
+}
+
+impl BonePose {
+    /// The rest pose: identity rotations, no translation.
+    #[must_use]
+    pub fn rest(rig: &Rig) -> BonePose {
+        BonePose { root_translation_m: Vector3::zeros(), local_rotations: vec![UnitQuaternion::identity(); rig.bones.len()] }
+    }
+}
+
+/// World rotations and head positions of every bone of one posed body.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WorldPose {
+    /// `world_from_bone` rotation relative to rest, per bone.
+    pub rotations: Vec<UnitQuaternion<f64>>,
+    /// Head (joint) position per bone, metres, autoact frame.
+    pub heads_m: Vec<Point3<f64>>,
+}
+
+impl WorldPose {
+    /// An empty pose sized for `rig`, to be filled by [`forward_into`].
+    #[must_use]
+    pub fn new(rig: &Rig) -> WorldPose {
+        WorldPose { rotations: vec![UnitQuaternion::identity(); rig.bones.len()], heads_m: vec![Point3::origin(); rig.bones.len()] }
+    }
+}
+
+/// Forward kinematics into a reusable buffer. `translation_scale` multiplies the root translation
+/// (1 for the body the animation was solved for; see [`crate::convert::Animation::translation_scale_for`]).
+pub fn forward_into(rig: &Rig, character: &Character, pose: &BonePose, translation_scale: f64, out: &mut WorldPose) {
+    for (i, bone) in rig.bones.iter().enumerate() {
+        let local = pose.local_rotations[i];
+        match bone.parent {
+            None => {
+                out.rotations[i] = local;
+                out.heads_m[i] = bone.head_rest_m + pose.root_translation_m * translation_scale;
+            }
+            Some(p) => {
+                let offset = (bone.head_rest_m - rig.bones[p].head_rest_m) * character.bone_scale[p];
+                out.heads_m[i] = out.heads_m[p] + out.rotations[p] * offset;
+                out.rotations[i] = out.rotations[p] * local;
+            }
+        }
+    }
+    debug_assert_eq!(rig.bones[ROOT].parent, None, "internal bug: bone 0 must be the root");
+}
+
+/// Forward kinematics, allocating the result.
+#[must_use]
+pub fn forward(rig: &Rig, character: &Character, pose: &BonePose, translation_scale: f64) -> WorldPose {
+    let mut out = WorldPose::new(rig);
+    forward_into(rig, character, pose, translation_scale, &mut out);
+    out
+}
+
+/// World position of landmark `landmark` in a posed body.
+#[must_use]
+pub fn landmark_position(rig: &Rig, character: &Character, world: &WorldPose, landmark: usize) -> Point3<f64> {
+    let l = &rig.landmarks[landmark];
+    let b = l.bone;
+    let offset = (l.rest_m - rig.bones[b].head_rest_m) * character.bone_scale[b];
+    world.heads_m[b] + world.rotations[b] * offset
+}
+
+/// World position of the mean of a landmark set.
+#[must_use]
+pub fn landmark_set_position(rig: &Rig, character: &Character, world: &WorldPose, set: &[usize]) -> Point3<f64> {
+    let mut sum = Vector3::zeros();
+    for &l in set {
+        sum += landmark_position(rig, character, world, l).coords;
+    }
+    #[expect(clippy::cast_precision_loss, reason = "landmark sets hold a handful of points")]
+    let n = set.len().max(1) as f64;
+    Point3::from(sum / n)
+}

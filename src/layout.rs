@@ -1,0 +1,438 @@
+//! Keypoint layouts: which joints a pose estimator outputs, and how they map onto the rig's
+//! landmarks. A layout is a data table (TOML), never a code path: the built-in ones are TOML files
+//! compiled into the binary (`src/layouts/*.toml`), and a user layout file has the same form, so a
+//! new pose estimator needs no code.
+//!
+//! ```toml
+//! name = "my-estimator"
+//! description = "What produced it"
+//! joints = ["hip_l", "hip_r", "knee_l", ...]     # the order of the keypoint arrays
+//!
+//! [landmarks]                                   # rig landmark = joint expression
+//! l_hip = "hip_l"                               # one joint
+//! pelvis = { mean = ["hip_l", "hip_r"] }        # the mean of several joints
+//! neck = { from = "thorax", to = "head", t = 0.3 }   # a point on the segment from → to
+//! ```
+//!
+//! Which landmarks drive each bone, and which give its twist reference, is the rig's recipe table
+//! ([`crate::rig::Recipe`], printed by `autoact rig --recipes`); a layout that binds a landmark
+//! drives every bone whose recipe can be completed from bound landmarks. Bones no recipe can
+//! complete stay at rest, and [`Binding::coverage`] says which.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use nalgebra::{Point3, Unit, Vector3};
+use serde::Deserialize;
+
+use crate::rig::{Dof, Reference, Rig};
+
+/// Errors loading or binding a layout.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum LayoutError {
+    /// The layout file could not be read.
+    #[error("cannot read layout file {path}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The TOML did not parse or did not have the layout's form.
+    #[error("invalid layout in {source_name}: {message}")]
+    Parse {
+        /// File or built-in name.
+        source_name: String,
+        /// What the TOML parser said, with the line and column.
+        message: String,
+    },
+    /// Not a built-in layout name, and no such file.
+    #[error("unknown layout `{name}` (built-in layouts: {known}; or give a path to a .toml layout file)")]
+    Unknown {
+        /// The name asked for.
+        name: String,
+        /// The built-in names.
+        known: String,
+    },
+    /// A landmark key is not one of the rig's landmarks.
+    #[error("layout `{layout}`: `{landmark}` is not a rig landmark (run `autoact rig --landmarks` for the list)")]
+    UnknownLandmark {
+        /// Layout name.
+        layout: String,
+        /// The key.
+        landmark: String,
+    },
+    /// A landmark expression names a joint the layout does not list.
+    #[error("layout `{layout}`: landmark `{landmark}` uses joint `{joint}`, which is not in `joints`")]
+    UnknownJoint {
+        /// Layout name.
+        layout: String,
+        /// The landmark.
+        landmark: String,
+        /// The joint.
+        joint: String,
+    },
+    /// A joint name appears twice in `joints`.
+    #[error("layout `{layout}`: joint `{joint}` is listed twice")]
+    DuplicateJoint {
+        /// Layout name.
+        layout: String,
+        /// The joint.
+        joint: String,
+    },
+    /// An expression is empty or has a non-finite parameter.
+    #[error("layout `{layout}`: landmark `{landmark}` has an invalid expression ({why})")]
+    BadExpression {
+        /// Layout name.
+        layout: String,
+        /// The landmark.
+        landmark: String,
+        /// What is wrong.
+        why: &'static str,
+    },
+    /// The pose data's joints do not match the layout's.
+    #[error("the data has joints the layout `{layout}` does not list: {missing}")]
+    JointMismatch {
+        /// Layout name.
+        layout: String,
+        /// Up to ten joint names, comma-separated.
+        missing: String,
+    },
+}
+
+/// A joint expression: where a landmark is, in terms of a layout's joints.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(untagged, deny_unknown_fields)]
+pub enum JointExpr {
+    /// One joint.
+    Joint(String),
+    /// The mean of several joints.
+    Mean {
+        /// Joint names.
+        mean: Vec<String>,
+    },
+    /// `from + t · (to − from)`.
+    Lerp {
+        /// Start joint.
+        from: String,
+        /// End joint.
+        to: String,
+        /// Fraction along the segment.
+        t: f64,
+    },
+}
+
+/// A keypoint layout.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Layout {
+    /// Short name, e.g. `h36m-17`.
+    pub name: String,
+    /// One line on what produces this layout.
+    #[serde(default)]
+    pub description: String,
+    /// Joint names in keypoint-array order.
+    pub joints: Vec<String>,
+    /// Rig landmark → joint expression.
+    #[serde(default)]
+    pub landmarks: BTreeMap<String, JointExpr>,
+}
+
+/// The built-in layouts: (name, aliases, TOML text).
+const BUILTIN: [(&str, &[&str], &str); 6] = [
+    ("coco-wholebody-133", &["h3wb", "coco-wholebody"], include_str!("layouts/coco-wholebody-133.toml")),
+    ("coco-17", &["coco"], include_str!("layouts/coco-17.toml")),
+    ("ntu-25", &["ntu", "kinect-v2"], include_str!("layouts/ntu-25.toml")),
+    ("h36m-17", &["h36m"], include_str!("layouts/h36m-17.toml")),
+    ("h36m-32", &[], include_str!("layouts/h36m-32.toml")),
+    ("zed-body-34", &["zed", "body-34"], include_str!("layouts/zed-body-34.toml")),
+];
+
+impl Layout {
+    /// Parses a layout from TOML text; `source_name` is used in errors.
+    ///
+    /// # Errors
+    /// [`LayoutError::Parse`] with the TOML parser's position, or a validation error.
+    pub fn from_toml(text: &str, source_name: &str) -> Result<Layout, LayoutError> {
+        let layout: Layout =
+            toml::from_str(text).map_err(|e| LayoutError::Parse { source_name: source_name.to_string(), message: e.to_string() })?;
+        layout.validate()?;
+        Ok(layout)
+    }
+
+    /// A layout whose joints are the rig's own landmarks, one to one (`autoact-landmarks`): for
+    /// data already in the rig's vocabulary, and for tests that pose the rig and read it back.
+    #[must_use]
+    pub fn rig_landmarks(rig: &Rig) -> Layout {
+        let joints: Vec<String> = rig.landmarks.iter().map(|l| l.name.clone()).collect();
+        let landmarks = joints.iter().map(|j| (j.clone(), JointExpr::Joint(j.clone()))).collect();
+        Layout {
+            name: "autoact-landmarks".to_string(),
+            description: "the rig's own landmarks, one joint each".to_string(),
+            joints,
+            landmarks,
+        }
+    }
+
+    /// The names of the built-in layouts.
+    #[must_use]
+    pub fn builtin_names() -> Vec<&'static str> {
+        let mut names: Vec<&'static str> = BUILTIN.iter().map(|(n, _, _)| *n).collect();
+        names.push("autoact-landmarks");
+        names
+    }
+
+    /// A built-in layout by name or alias.
+    ///
+    /// # Errors
+    /// [`LayoutError::Unknown`] for a name that is not built in.
+    pub fn builtin(name: &str) -> Result<Layout, LayoutError> {
+        let want = name.to_ascii_lowercase().replace('_', "-");
+        let found = BUILTIN.iter().find(|(n, aliases, _)| *n == want || aliases.contains(&want.as_str()));
+        match found {
+            Some((n, _, text)) => Layout::from_toml(text, n),
+            None if want == "autoact-landmarks" => Ok(Layout::rig_landmarks(&Rig::standard())),
+            None => Err(LayoutError::Unknown { name: name.to_string(), known: Layout::builtin_names().join(", ") }),
+        }
+    }
+
+    /// A built-in layout name, or a path to a TOML layout file.
+    ///
+    /// # Errors
+    /// As [`Layout::builtin`] and [`Layout::from_toml`], or [`LayoutError::Io`].
+    pub fn load(name_or_path: &str) -> Result<Layout, LayoutError> {
+        let path = Path::new(name_or_path);
+        let looks_like_file = path.extension().is_some_and(|e| e == "toml") || name_or_path.contains('/');
+        if looks_like_file {
+            let text = std::fs::read_to_string(path).map_err(|source| LayoutError::Io { path: path.to_path_buf(), source })?;
+            return Layout::from_toml(&text, name_or_path);
+        }
+        Layout::builtin(name_or_path)
+    }
+
+    fn validate(&self) -> Result<(), LayoutError> {
+        let layout = || self.name.clone();
+        for (i, j) in self.joints.iter().enumerate() {
+            if self.joints[..i].contains(j) {
+                return Err(LayoutError::DuplicateJoint { layout: layout(), joint: j.clone() });
+            }
+        }
+        for (landmark, expr) in &self.landmarks {
+            let bad = |why| LayoutError::BadExpression { layout: layout(), landmark: landmark.clone(), why };
+            let names: Vec<&String> = match expr {
+                JointExpr::Joint(j) => vec![j],
+                JointExpr::Mean { mean } if mean.is_empty() => return Err(bad("empty mean")),
+                JointExpr::Mean { mean } => mean.iter().collect(),
+                JointExpr::Lerp { t, .. } if !t.is_finite() => return Err(bad("t is not finite")),
+                JointExpr::Lerp { from, to, .. } => vec![from, to],
+            };
+            for j in names {
+                if !self.joints.contains(j) {
+                    return Err(LayoutError::UnknownJoint { layout: layout(), landmark: landmark.clone(), joint: j.clone() });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Binds this layout to a rig.
+    ///
+    /// # Errors
+    /// [`LayoutError::UnknownLandmark`] for a landmark key the rig does not have.
+    pub fn bind(&self, rig: &Rig) -> Result<Binding, LayoutError> {
+        let mut landmark_terms = vec![None; rig.landmarks.len()];
+        for (name, expr) in &self.landmarks {
+            let Some(li) = rig.landmark_index(name) else {
+                return Err(LayoutError::UnknownLandmark { layout: self.name.clone(), landmark: name.clone() });
+            };
+            let idx = |j: &String| self.joints.iter().position(|n| n == j).unwrap_or(0);
+            #[expect(clippy::cast_precision_loss, reason = "a mean of a handful of joints")]
+            let terms: Vec<(usize, f64)> = match expr {
+                JointExpr::Joint(j) => vec![(idx(j), 1.0)],
+                JointExpr::Mean { mean } => mean.iter().map(|j| (idx(j), 1.0 / mean.len() as f64)).collect(),
+                JointExpr::Lerp { from, to, t } => vec![(idx(from), 1.0 - t), (idx(to), *t)],
+            };
+            landmark_terms[li] = Some(terms);
+        }
+        let bone_sources = rig
+            .recipes
+            .iter()
+            .map(|r| {
+                let bound = |set: &[usize]| set.iter().all(|&l| landmark_terms[l].is_some());
+                let direction = r.directions.iter().position(|d| bound(&d.from) && bound(&d.to));
+                let reference = r.references.iter().position(|refr| match refr {
+                    Reference::Direction { from, to } => bound(from) && bound(to),
+                    Reference::Normal { points, .. } => bound(points),
+                });
+                BoneSource { bone: r.bone, direction, reference }
+            })
+            .collect();
+        Ok(Binding { layout_name: self.name.clone(), joint_count: self.joints.len(), landmark_terms, bone_sources })
+    }
+
+    /// Maps the joint order of some data onto this layout's order: `result[k]` is the index in
+    /// `data_joints` of this layout's joint `k`.
+    ///
+    /// # Errors
+    /// [`LayoutError::JointMismatch`] naming the layout joints the data lacks.
+    pub fn joint_order(&self, data_joints: &[String]) -> Result<Vec<usize>, LayoutError> {
+        let mut order = Vec::with_capacity(self.joints.len());
+        let mut missing = Vec::new();
+        for j in &self.joints {
+            match data_joints.iter().position(|d| d == j) {
+                Some(i) => order.push(i),
+                None => missing.push(j.as_str()),
+            }
+        }
+        if missing.is_empty() {
+            Ok(order)
+        } else {
+            let n = missing.len();
+            missing.truncate(10);
+            let more = if n > 10 { format!(" and {} more", n - 10) } else { String::new() };
+            Err(LayoutError::JointMismatch { layout: self.name.clone(), missing: format!("{}{more}", missing.join(", ")) })
+        }
+    }
+}
+
+/// Which recipe alternatives a layout can use for one bone.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BoneSource {
+    /// Bone index.
+    pub bone: usize,
+    /// Index into the recipe's `directions`, or `None`: the bone stays at rest.
+    pub direction: Option<usize>,
+    /// Index into the recipe's `references`, or `None`: the twist is not observed.
+    pub reference: Option<usize>,
+}
+
+/// A layout bound to a rig: precomputed landmark expressions and recipe choices.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Binding {
+    /// Name of the layout.
+    pub layout_name: String,
+    /// Number of joints the layout lists.
+    pub joint_count: usize,
+    /// Per rig landmark: `(joint index, weight)` terms, or `None` when the layout lacks it.
+    pub landmark_terms: Vec<Option<Vec<(usize, f64)>>>,
+    /// Per recipe (in rig recipe order): the alternatives this layout uses.
+    pub bone_sources: Vec<BoneSource>,
+}
+
+/// What a layout drives, for reports and `autoact rig --layout`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Coverage {
+    /// Bones whose direction (and, for 3-D bones, twist) the layout observes.
+    pub driven: Vec<String>,
+    /// 3-D bones whose direction is observed but whose twist is not (it is carried over from the
+    /// parent frame with the smallest rotation, and held while the pose allows).
+    pub twist_unobserved: Vec<String>,
+    /// Bones the layout cannot drive: they stay at rest ("major-part motion").
+    pub at_rest: Vec<String>,
+}
+
+impl Binding {
+    /// Position of landmark `l` from one frame's joint positions, or `None` when the layout lacks
+    /// it or a joint it needs is missing (non-finite or below `min_confidence`).
+    #[must_use]
+    pub fn landmark_point(&self, l: usize, positions: &[Point3<f64>], confidence: &[f32], min_confidence: f32) -> Option<Point3<f64>> {
+        let terms = self.landmark_terms[l].as_ref()?;
+        let mut sum = Vector3::zeros();
+        for &(j, w) in terms {
+            let p = positions.get(j)?;
+            let c = confidence.get(j).copied().unwrap_or(1.0);
+            if !(c >= min_confidence) || !p.coords.iter().all(|v| v.is_finite()) {
+                return None;
+            }
+            sum += p.coords * w;
+        }
+        Some(Point3::from(sum))
+    }
+
+    /// Which bones this layout drives.
+    #[must_use]
+    pub fn coverage(&self, rig: &Rig) -> Coverage {
+        let mut c = Coverage { driven: Vec::new(), twist_unobserved: Vec::new(), at_rest: Vec::new() };
+        for s in &self.bone_sources {
+            let name = rig.bones[s.bone].name.clone();
+            match (s.direction, s.reference, rig.bones[s.bone].dof) {
+                (None, _, _) => c.at_rest.push(name),
+                (Some(_), None, Dof::ThreeD) => c.twist_unobserved.push(name),
+                _ => c.driven.push(name),
+            }
+        }
+        c
+    }
+}
+
+/// The rest-frame direction of a recipe reference, perpendicular to `rest_dir`.
+#[must_use]
+pub fn rest_reference(rig: &Rig, reference: &Reference) -> Vector3<f64> {
+    match reference {
+        Reference::Direction { from, to } => rig.rest_point(to) - rig.rest_point(from),
+        Reference::Normal { rest, .. } => Unit::into_inner(*rest),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_builtin_layout_parses_and_binds() {
+        let rig = Rig::standard();
+        for name in Layout::builtin_names() {
+            let layout = Layout::builtin(name).unwrap();
+            assert_eq!(layout.name, name);
+            let binding = layout.bind(&rig).unwrap();
+            let cov = binding.coverage(&rig);
+            assert!(cov.driven.len() >= 10, "{name} drives only {:?}", cov.driven);
+        }
+    }
+
+    #[test]
+    fn coco_wholebody_drives_fingers_and_h36m_leaves_them_at_rest() {
+        let rig = Rig::standard();
+        let coco = Layout::builtin("h3wb").unwrap().bind(&rig).unwrap().coverage(&rig);
+        assert!(coco.at_rest.is_empty(), "COCO-WholeBody leaves {:?} at rest", coco.at_rest);
+        assert!(coco.driven.iter().any(|b| b == "l_index2"));
+        let h36m = Layout::builtin("h36m-17").unwrap().bind(&rig).unwrap().coverage(&rig);
+        assert!(h36m.at_rest.iter().any(|b| b == "l_index2"));
+        assert!(h36m.at_rest.iter().any(|b| b == "l_hand"));
+        assert!(h36m.driven.iter().any(|b| b == "l_forearm"));
+    }
+
+    #[test]
+    fn user_layout_errors_name_the_problem() {
+        let rig = Rig::standard();
+        let err = Layout::from_toml("name = \"x\"\njoints = [\"a\"]\n[landmarks]\nl_hip = \"b\"\n", "x.toml").unwrap_err();
+        assert!(err.to_string().contains("`b`"), "{err}");
+        let err = Layout::from_toml("name = \"x\"\njoints = [\"a\"]\n[landmarks]\nelbow = \"a\"\n", "x.toml").unwrap().bind(&rig).unwrap_err();
+        assert!(err.to_string().contains("`elbow` is not a rig landmark"), "{err}");
+        let err = Layout::from_toml("name = \"x\"\njoints = [\"a\", \"a\"]\n", "x.toml").unwrap_err();
+        assert!(err.to_string().contains("listed twice"), "{err}");
+        let err = Layout::from_toml("name = \"x\"\njoints = [\"a\"\n", "x.toml").unwrap_err();
+        assert!(err.to_string().contains("x.toml"), "{err}");
+        let err = Layout::load("no-such-layout").unwrap_err();
+        assert!(err.to_string().contains("h36m-17"), "{err}");
+    }
+
+    #[test]
+    fn lerp_and_mean_expressions_evaluate() {
+        let rig = Rig::standard();
+        let layout = Layout::from_toml(
+            "name = \"t\"\njoints = [\"a\", \"b\"]\n[landmarks]\npelvis = { mean = [\"a\", \"b\"] }\nchest = { from = \"a\", to = \"b\", t = 0.25 }\n",
+            "t",
+        )
+        .unwrap();
+        let b = layout.bind(&rig).unwrap();
+        let pts = [Point3::new(0.0, 0.0, 0.0), Point3::new(4.0, 0.0, 0.0)];
+        let pelvis = rig.landmark_index("pelvis").unwrap();
+        let chest = rig.landmark_index("chest").unwrap();
+        assert_eq!(b.landmark_point(pelvis, &pts, &[1.0, 1.0], 0.5), Some(Point3::new(2.0, 0.0, 0.0)));
+        assert_eq!(b.landmark_point(chest, &pts, &[1.0, 1.0], 0.5), Some(Point3::new(1.0, 0.0, 0.0)));
+        assert_eq!(b.landmark_point(chest, &pts, &[1.0, 0.1], 0.5), None, "low confidence is missing");
+    }
+}

@@ -1,0 +1,22 @@
+//! autoact: 3D human pose-estimation output → rotation-based animation on a 53-bone rig →
+//! labelled action-recognition datasets, with every step stored in ROS 2 MCAP.
+//!
+//! The core flow, on a synthetic pose:
+//! ```
+//! use autoact::{convert, fk, layout::Layout, rig::Rig, character::Character};
+//! let rig = Rig::standard();
+//! let layout = Layout::builtin("h36m-17").unwrap();
+//! // Pose the rig's default adult at rest and read the layout's joints off it ...
+//! let rest = fk::forward(&rig, &Character::standard(&rig), &fk::BonePose::rest(&rig), 1.0);
+//! # let _ = (&layout, &rest);
+//! ```
+
+pub mod character;
+pub mod convert;
+pub mod fk;
+pub mod formats;
+pub mod frames;
+pub mod geom;
+pub mod layout;
+pub mod pose;
+pub mod rig;

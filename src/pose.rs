@@ -1,0 +1,63 @@
+//! Joint-position sequences: what every reader produces and what conversion consumes.
+//!
+//! A [`PoseSequence`] is one tracked person: joint names (in a keypoint layout's order), and per
+//! frame a stamp in nanoseconds, positions in metres in the autoact frame (see [`crate::frames`])
+//! and a confidence per joint. A joint that the source did not observe has NaN coordinates and
+//! confidence 0; readers never invent or drop frames.
+
+use nalgebra::Point3;
+
+/// One person's joint positions over time.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoseSequence {
+    /// Where the data came from (a path, or a description for synthesised data).
+    pub source: String,
+    /// Tracker id of this person in the source (0 when the source has only one person).
+    pub track_id: u64,
+    /// Joint names, in the order of every frame's arrays.
+    pub joint_names: Vec<String>,
+    /// Frames in stamp order.
+    pub frames: Vec<PoseFrame>,
+}
+
+/// The joints of one person at one instant.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoseFrame {
+    /// Time of the frame, nanoseconds (relative to the start of the clip unless the source has
+    /// absolute stamps).
+    pub stamp_nanos: u64,
+    /// Joint positions, metres, autoact frame; NaN coordinates for a joint that was not seen.
+    pub positions_m: Vec<Point3<f64>>,
+    /// Per-joint confidence in [0, 1]; 0 for a joint that was not seen.
+    pub confidence: Vec<f32>,
+}
+
+impl PoseFrame {
+    /// A frame whose joints are all missing.
+    #[must_use]
+    pub fn missing(stamp_nanos: u64, joint_count: usize) -> Self {
+        PoseFrame {
+            stamp_nanos,
+            positions_m: vec![Point3::new(f64::NAN, f64::NAN, f64::NAN); joint_count],
+            confidence: vec![0.0; joint_count],
+        }
+    }
+}
+
+impl PoseSequence {
+    /// Index of a joint by name.
+    #[must_use]
+    pub fn joint_index(&self, name: &str) -> Option<usize> {
+        self.joint_names.iter().position(|n| n == name)
+    }
+}
+
+/// The stamp of frame `index` of a clip sampled at a constant `fps`, in nanoseconds.
+///
+/// The one place where a frame index and a rate become a time.
+#[must_use]
+pub fn stamp_nanos_at(index: usize, fps: f64) -> u64 {
+    #[expect(clippy::cast_precision_loss, clippy::cast_possible_truncation, clippy::cast_sign_loss, reason = "frame counts and rates are far inside f64's exact range")]
+    let nanos = (index as f64 * 1e9 / fps).round() as u64;
+    nanos
+}
