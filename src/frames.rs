@@ -19,7 +19,9 @@ use nalgebra::{Matrix3, Point3, Rotation3, UnitQuaternion, Vector3};
 pub enum SourceAxes {
     /// Already the autoact frame: +Z up.
     ZUp,
-    /// +Y up, right-handed (BVH, Kinect camera space, ZED, OpenGL): (x, y, z) → (x, −z, y).
+    /// +Y up, right-handed, subject facing +Z (BVH, Kinect camera space, ZED, OpenGL):
+    /// (x, y, z) → (−x, z, y), a half turn about the vertical after the tilt, so that a body
+    /// facing +Z with its right hand at −X lands facing +Y with its right hand at +X.
     YUp,
     /// +Y down, right-handed camera frame (OpenCV, Human3.6M camera space): (x, y, z) → (x, z, −y).
     YDown,
@@ -31,7 +33,7 @@ impl SourceAxes {
     pub fn autoact_from_source(self) -> Rotation3<f64> {
         let m = match self {
             SourceAxes::ZUp => Matrix3::identity(),
-            SourceAxes::YUp => Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0),
+            SourceAxes::YUp => Matrix3::new(-1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0),
             SourceAxes::YDown => Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, -1.0, 0.0),
         };
         Rotation3::from_matrix_unchecked(m)
@@ -74,6 +76,12 @@ mod tests {
             let det = axes.autoact_from_source().matrix().determinant();
             assert!((det - 1.0).abs() < 1e-12, "{axes:?} has determinant {det}");
         }
+    }
+
+    #[test]
+    fn y_up_facing_plus_z_lands_facing_plus_y() {
+        assert_eq!(SourceAxes::YUp.to_autoact(Vector3::z()), Vector3::y());
+        assert_eq!(SourceAxes::YUp.to_autoact(-Vector3::x()), Vector3::x(), "the right hand");
     }
 
     #[test]

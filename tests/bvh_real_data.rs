@@ -1,0 +1,329 @@
+//! The BVH reader on real files from `../shared/data/bvh` (see `../shared/data/SOURCES.md` §1).
+//!
+//! The data is not part of the crate, so every test is `#[ignore]`d; CI runs them with
+//! `cargo test --test bvh_real_data -- --ignored` when the data exists.
+
+use std::path::{Path, PathBuf};
+
+use autoact::formats::bvh::{self, Bvh};
+use autoact::frames::SourceAxes;
+use nalgebra::Point3;
+
+const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data");
+
+fn data(rel: &str) -> PathBuf {
+    Path::new(DATA).join(rel)
+}
+
+fn load(rel: &str) -> Bvh {
+    match bvh::read(&data(rel)) {
+        Ok(b) => b,
+        Err(e) => panic!("{e}"),
+    }
+}
+
+/// Every `.bvh` under `dir`, recursively, sorted.
+fn bvh_files(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let entries = std::fs::read_dir(dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
+    for entry in entries {
+        let path = entry.expect("directory entry").path();
+        if path.is_dir() {
+            out.extend(bvh_files(&path));
+        } else if path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("bvh"))
+        {
+            out.push(path);
+        }
+    }
+    out.sort();
+    out
+}
+
+fn bandai_files() -> Vec<PathBuf> {
+    let files = bvh_files(&data("bvh/bandai_namco"));
+    assert_eq!(files.len(), 8, "Bandai-Namco clips");
+    files
+}
+
+/// Independent count of the motion values: whitespace tokens after the `Frame Time:` line.
+fn motion_token_count(text: &str) -> usize {
+    let mut lines = text.lines();
+    for line in lines.by_ref() {
+        if line.trim_start().starts_with("Frame Time") {
+            break;
+        }
+    }
+    lines.map(|l| l.split_ascii_whitespace().count()).sum()
+}
+
+/// `Frames:` as declared in the file, read independently of the parser.
+fn declared_frames(text: &str) -> usize {
+    text.lines()
+        .find_map(|l| l.trim().strip_prefix("Frames:"))
+        .and_then(|n| n.trim().parse().ok())
+        .expect("Frames: line")
+}
+
+#[test]
+#[ignore = "needs ../shared/data"]
+fn every_file_parses_with_frames_times_channels_values() {
+    let files = bvh_files(&data("bvh"));
+    assert_eq!(files.len(), 14, "BVH files in the data set");
+    for path in files {
+        let text = std::fs::read_to_string(&path).expect("read");
+        let b = load(
+            path.strip_prefix(DATA)
+                .expect("under DATA")
+                .to_str()
+                .expect("utf-8"),
+        );
+        let name = path.display();
+        assert_eq!(b.frame_count(), declared_frames(&text), "{name}");
+        assert!(
+            b.frames.iter().all(|f| f.len() == b.channel_count()),
+            "{name}"
+        );
+        assert_eq!(
+            b.frame_count() * b.channel_count(),
+            motion_token_count(&text),
+            "{name}: frames × channels"
+        );
+        assert!(b.frames.iter().flatten().all(|v| v.is_finite()), "{name}");
+        assert!(b.frame_time_secs > 0.0, "{name}");
+        // FK works on every frame and stays finite.
+        for f in 0..b.frame_count() {
+            assert!(
+                b.world_transforms(f)
+                    .iter()
+                    .all(|(p, q)| p.coords.iter().all(|c| c.is_finite()) && q.w.is_finite()),
+                "{name} frame {f}"
+            );
+        }
+    }
+}
+
+#[test]
+#[ignore = "needs ../shared/data"]
+fn known_shapes_of_the_files() {
+    // (file, joints without End Sites, End Sites, channels, frames, fps)
+    let cases = [
+        (
+            "bvh/bandai_namco/dataset-1_walk_normal_001.bvh",
+            22,
+            5,
+            132,
+            195,
+            30.0,
+        ),
+        (
+            "bvh/bandai_namco/dataset-2_walk-turn-left_normal_001.bvh",
+            22,
+            5,
+            132,
+            102,
+            30.0,
+        ),
+        ("bvh/xia_style/neutral_01_000.bvh", 31, 7, 96, 327, 120.0),
+        ("bvh/misc/walk01.bvh", 19, 5, 60, 101, 24.0),
+        ("bvh/misc/test_mocapbank.bvh", 19, 5, 60, 455, 30.0),
+        ("bvh/misc/test_freebvh.bvh", 55, 15, 168, 69, 30.0),
+    ];
+    for (rel, joints, ends, channels, frames, fps) in cases {
+        let b = load(rel);
+        let n_end = b.joints.iter().filter(|j| j.is_end_site).count();
+        assert_eq!((b.joints.len() - n_end, n_end), (joints, ends), "{rel}");
+        assert_eq!(b.channel_count(), channels, "{rel}");
+        assert_eq!(b.frame_count(), frames, "{rel}");
+        assert!((b.fps() - fps).abs() < 0.01, "{rel}: fps {}", b.fps());
+        let mut names = b.joint_names();
+        names.sort();
+        names.dedup();
+        assert_eq!(names.len(), b.joints.len(), "{rel}: joint names are unique");
+    }
+    // Mixamo: colon names and leaf joints declared as JOINT with channels.
+    let b = load("bvh/misc/test_freebvh.bvh");
+    let top = b
+        .joint_index("mixamorig:HeadTop_End")
+        .expect("mixamorig:HeadTop_End");
+    assert_eq!(b.joints[top].channels.len(), 3);
+    assert_eq!(
+        b.joint_index("mixamorig:HeadTop_End_End"),
+        Some(top + 1),
+        "its End Site"
+    );
+}
+
+#[test]
+#[ignore = "needs ../shared/data"]
+#[allow(
+    clippy::print_stderr,
+    reason = "the test reports the measured FK error"
+)]
+fn walk01_fk_matches_bvh_toolbox_positions() {
+    let b = load("bvh/misc/walk01.bvh");
+    let csv = std::fs::read_to_string(data("bvh/misc/walk01_pos.csv")).expect("walk01_pos.csv");
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
+    assert_eq!(header.first(), Some(&"time"));
+    // Columns `<joint>.x/.y/.z`; bvh-toolbox names End Sites `<parent>_End`, as we do.
+    let mut columns = Vec::new();
+    for (col, name) in header.iter().enumerate().skip(1) {
+        let (joint, axis) = name.rsplit_once('.').expect("joint.axis");
+        let j = b
+            .joint_index(joint)
+            .unwrap_or_else(|| panic!("csv joint {joint} not in the BVH"));
+        let k = ["x", "y", "z"]
+            .iter()
+            .position(|a| *a == axis)
+            .expect("axis");
+        columns.push((col, j, k));
+    }
+    assert_eq!(
+        columns.len(),
+        3 * b.joints.len(),
+        "every joint (End Sites too) is in the csv"
+    );
+
+    let mut max_err = 0.0_f64;
+    let mut worst = (0, String::new());
+    let mut rows = 0;
+    for (frame, line) in lines.filter(|l| !l.trim().is_empty()).enumerate() {
+        let values: Vec<f64> = line
+            .split(',')
+            .map(|v| v.trim().parse().expect("csv number"))
+            .collect();
+        assert_eq!(values.len(), header.len(), "csv row {frame}");
+        assert!(
+            (values[0] - frame as f64 * b.frame_time_secs).abs() < 1e-4,
+            "time of row {frame}"
+        );
+        let world = b.world_transforms(frame);
+        for &(col, j, k) in &columns {
+            let err = (world[j].0[k] - values[col]).abs();
+            if err > max_err {
+                max_err = err;
+                worst = (frame, header[col].to_owned());
+            }
+        }
+        rows += 1;
+    }
+    assert_eq!(rows, b.frame_count(), "one csv row per frame");
+    eprintln!(
+        "walk01 FK vs bvh-toolbox: max |error| {max_err:.2e} units (cm) over {rows} frames × {} joints, worst at frame {} {}",
+        b.joints.len(),
+        worst.0,
+        worst.1
+    );
+    // The csv has 5 decimals, so 5e-6 is the floor.
+    assert!(max_err < 1e-3, "max FK error {max_err} at {worst:?}");
+}
+
+#[test]
+#[ignore = "needs ../shared/data"]
+fn bandai_bone_lengths_equal_offsets_in_every_frame() {
+    for path in bandai_files() {
+        let b = bvh::read(&path).expect("parse");
+        let name = path.display();
+        assert!(
+            b.joints
+                .iter()
+                .filter(|j| !j.is_end_site)
+                .all(|j| j.channels.len() == 6),
+            "{name}: every joint has 6 channels"
+        );
+        let mut max_err = 0.0_f64;
+        for f in 0..b.frame_count() {
+            let world = b.world_transforms(f);
+            for (j, joint) in b.joints.iter().enumerate() {
+                let Some(p) = joint.parent else { continue };
+                // Hips (child of joint_Root) carries the root translation in its channels.
+                if b.joints[p].parent.is_none() {
+                    continue;
+                }
+                let length = (world[j].0 - world[p].0).norm();
+                max_err = max_err.max((length - joint.offset.norm()).abs());
+            }
+        }
+        // Adding the position channels to the offsets would double every bone.
+        assert!(
+            max_err < 1e-3,
+            "{name}: bone length differs from offset by {max_err}"
+        );
+        // joint_Root stays on the ground, unrotated. (It is not always at the origin: in the run
+        // and walk-back loops it carries the forward progression along Z.)
+        for f in 0..b.frame_count() {
+            let (p, q) = b.world_transforms(f)[0];
+            assert!(
+                p.y.abs() < 1e-6 && q.angle() < 1e-6,
+                "{name} frame {f}: joint_Root at {p}"
+            );
+        }
+    }
+}
+
+#[test]
+#[ignore = "needs ../shared/data"]
+fn unit_guess_and_autoact_frame() {
+    for path in bandai_files() {
+        let b = bvh::read(&path).expect("parse");
+        assert_eq!(b.guess_metres_per_unit(), Some(0.01), "{}", path.display());
+    }
+    for rel in ["bvh/misc/walk01.bvh", "bvh/misc/test_mocapbank.bvh"] {
+        assert_eq!(load(rel).guess_metres_per_unit(), Some(0.01), "{rel}");
+    }
+    for path in bvh_files(&data("bvh/xia_style")) {
+        let b = bvh::read(&path).expect("parse");
+        assert_eq!(b.guess_metres_per_unit(), None, "{}", path.display());
+    }
+
+    // Bandai walk: root ~1.25 m/s in the autoact horizontal plane, +Z up.
+    let b = load("bvh/bandai_namco/dataset-1_walk_normal_001.bvh");
+    let seq = b.to_pose_sequence(0.01, SourceAxes::YUp);
+    assert_eq!(seq.joint_names, b.joint_names());
+    assert_eq!(seq.frames.len(), 195);
+    assert_eq!(seq.frames[1].stamp_nanos, 33_333_300);
+    let idx = |n: &str| seq.joint_index(n).unwrap_or_else(|| panic!("{n}"));
+    let (hips, head) = (idx("Hips"), idx("Head"));
+    let feet = [idx("Foot_L"), idx("Foot_R"), idx("Toes_L"), idx("Toes_R")];
+    let first: Point3<f64> = seq.frames[0].positions_m[hips];
+    let last: Point3<f64> = seq.frames[seq.frames.len() - 1].positions_m[hips];
+    let secs = (seq.frames.len() - 1) as f64 * b.frame_time_secs;
+    let d = last - first;
+    let speed = d.x.hypot(d.y) / secs;
+    assert!(
+        (speed - 1.25).abs() < 0.1,
+        "hips horizontal speed {speed} m/s"
+    );
+    assert!(d.z.abs() < 0.05, "hips rise {} m over the walk", d.z);
+    // The run loop moves its root through joint_Root, not Hips: ~2.5 m/s.
+    let run = load("bvh/bandai_namco/dataset-1_run_normal_001.bvh")
+        .to_pose_sequence(0.01, SourceAxes::YUp);
+    let hips_run = run.joint_index("Hips").expect("Hips");
+    let d_run = run.frames[run.frames.len() - 1].positions_m[hips_run]
+        - run.frames[0].positions_m[hips_run];
+    let run_speed = d_run.x.hypot(d_run.y) / ((run.frames.len() - 1) as f64 * b.frame_time_secs);
+    assert!(
+        (run_speed - 2.5).abs() < 0.25,
+        "run hips speed {run_speed} m/s"
+    );
+
+    for (f, frame) in seq.frames.iter().enumerate() {
+        let p = &frame.positions_m;
+        let lowest_foot = feet.iter().map(|&j| p[j].z).fold(f64::INFINITY, f64::min);
+        assert!(
+            p[head].z > lowest_foot + 1.2,
+            "frame {f}: head not 1.2 m above the feet"
+        );
+        assert!(
+            (0.8..1.05).contains(&p[hips].z),
+            "frame {f}: hips height {} m",
+            p[hips].z
+        );
+        assert!(
+            lowest_foot > -0.05 && lowest_foot < 0.2,
+            "frame {f}: feet at {lowest_foot} m"
+        );
+    }
+}
