@@ -4,8 +4,14 @@
 //! A bone's scale multiplies every offset measured from its head: its children's heads and the
 //! landmarks that ride on it. The root's scale is derived from the legs so that, at rest, the
 //! soles touch the ground plane `z = 0` whatever the proportions.
+//!
+//! The offsets themselves are stored (`head_offset_m`, `landmark_offset_m`), so that a fitted
+//! subject can also carry its own fixed geometry where the rig is rigid: where its shoulders sit
+//! on its clavicles, where its hip joints sit on its pelvis (see
+//! [`crate::convert::fit_character`]). Offsets of moving bones always stay along the rig's rest
+//! directions, so rotations keep their meaning on every body.
 
-use nalgebra::Point3;
+use nalgebra::{Point3, Vector3};
 
 use crate::rig::{Rig, ROOT};
 
@@ -28,11 +34,15 @@ impl Default for Proportions {
     }
 }
 
-/// Per-bone length scales for one body.
+/// One body: per-bone length scales and the rest offsets they give.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Character {
     /// Scale of each bone of the rig, in rig order (root first).
     pub bone_scale: Vec<f64>,
+    /// Per bone: its head's rest offset from its parent's head, metres (zero for the root).
+    pub head_offset_m: Vec<Vector3<f64>>,
+    /// Per landmark: its rest offset from the head of the bone it rides on, metres.
+    pub landmark_offset_m: Vec<Vector3<f64>>,
 }
 
 impl Character {
@@ -42,7 +52,22 @@ impl Character {
     /// The rig's default adult.
     #[must_use]
     pub fn standard(rig: &Rig) -> Character {
-        Character { bone_scale: vec![1.0; rig.bones.len()] }
+        Character::from_scales(rig, vec![1.0; rig.bones.len()])
+    }
+
+    /// A character from per-bone scales (the root's is derived from the legs).
+    #[must_use]
+    pub fn from_scales(rig: &Rig, bone_scale: Vec<f64>) -> Character {
+        let mut c = Character { bone_scale, head_offset_m: Vec::new(), landmark_offset_m: Vec::new() };
+        c.derive_root_scale(rig);
+        c.head_offset_m = rig
+            .bones
+            .iter()
+            .map(|b| b.parent.map_or_else(Vector3::zeros, |p| (b.head_rest_m - rig.bones[p].head_rest_m) * c.bone_scale[p]))
+            .collect();
+        c.landmark_offset_m =
+            rig.landmarks.iter().map(|l| (l.rest_m - rig.bones[l.bone].head_rest_m) * c.bone_scale[l.bone]).collect();
+        c
     }
 
     /// A character with the given proportions.
@@ -66,9 +91,7 @@ impl Character {
                 base * part
             })
             .collect();
-        let mut c = Character { bone_scale };
-        c.derive_root_scale(rig);
-        c
+        Character::from_scales(rig, bone_scale)
     }
 
     /// Fits per-bone scales to a subject: `observed[m]` is the measured length (metres) of the
@@ -92,9 +115,19 @@ impl Character {
         }
         let global = median(&mut all).unwrap_or(1.0);
         let bone_scale = per_bone.iter_mut().map(|v| median(v).unwrap_or(global)).collect();
-        let mut c = Character { bone_scale };
-        c.derive_root_scale(rig);
-        c
+        Character::from_scales(rig, bone_scale)
+    }
+
+    /// Sets the fixed position of landmark `landmark` on its (static) bone, and of every child
+    /// bone whose head sits at that landmark, to `offset_m` from the bone's head.
+    pub fn set_static_offset(&mut self, rig: &Rig, landmark: usize, offset_m: Vector3<f64>) {
+        let l = &rig.landmarks[landmark];
+        for (i, b) in rig.bones.iter().enumerate() {
+            if b.parent == Some(l.bone) && (b.head_rest_m - l.rest_m).norm() < 1e-9 {
+                self.head_offset_m[i] = offset_m;
+            }
+        }
+        self.landmark_offset_m[landmark] = offset_m;
     }
 
     /// Sets the root's scale so that the hips stand at the height the legs reach: at rest the
@@ -126,6 +159,22 @@ impl Character {
     pub fn hip_height_m(&self, rig: &Rig) -> f64 {
         let pelvis = rig.landmark_index("pelvis").map_or(Point3::origin(), |l| rig.landmarks[l].rest_m);
         pelvis.z * self.bone_scale[ROOT]
+    }
+
+    /// Offset of landmark `landmark` from the root's head at rest (the chain of head offsets).
+    #[must_use]
+    pub fn landmark_from_root_m(&self, rig: &Rig, landmark: usize) -> Vector3<f64> {
+        let l = &rig.landmarks[landmark];
+        let mut v = self.landmark_offset_m[landmark];
+        let mut b = l.bone;
+        while b != ROOT {
+            v += self.head_offset_m[b];
+            match rig.bones[b].parent {
+                Some(p) => b = p,
+                None => break,
+            }
+        }
+        v
     }
 }
 

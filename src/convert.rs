@@ -284,9 +284,7 @@ impl<'r> Converter<'r> {
         let lm = |n: &str| rig.landmark_index(n);
         let pair = |a: &str, b: &str| Some((lm(a)?, lm(b)?)).filter(|(a, b)| binding.landmark_terms[*a].is_some() && binding.landmark_terms[*b].is_some());
         let pelvis_lm = lm("pelvis");
-        let pelvis_offset_m = pelvis_lm.map_or_else(Vector3::zeros, |p| {
-            (rig.landmarks[p].rest_m - rig.bones[ROOT].head_rest_m) * character.bone_scale[ROOT]
-        });
+        let pelvis_offset_m = pelvis_lm.map_or_else(Vector3::zeros, |p| character.landmark_from_root_m(rig, p));
         Ok(Converter {
             rig,
             options,

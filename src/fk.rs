@@ -52,8 +52,7 @@ pub fn forward_into(rig: &Rig, character: &Character, pose: &BonePose, translati
                 out.heads_m[i] = bone.head_rest_m + pose.root_translation_m * translation_scale;
             }
             Some(p) => {
-                let offset = (bone.head_rest_m - rig.bones[p].head_rest_m) * character.bone_scale[p];
-                out.heads_m[i] = out.heads_m[p] + out.rotations[p] * offset;
+                out.heads_m[i] = out.heads_m[p] + out.rotations[p] * character.head_offset_m[i];
                 out.rotations[i] = out.rotations[p] * local;
             }
         }
@@ -72,10 +71,8 @@ pub fn forward(rig: &Rig, character: &Character, pose: &BonePose, translation_sc
 /// World position of landmark `landmark` in a posed body.
 #[must_use]
 pub fn landmark_position(rig: &Rig, character: &Character, world: &WorldPose, landmark: usize) -> Point3<f64> {
-    let l = &rig.landmarks[landmark];
-    let b = l.bone;
-    let offset = (l.rest_m - rig.bones[b].head_rest_m) * character.bone_scale[b];
-    world.heads_m[b] + world.rotations[b] * offset
+    let b = rig.landmarks[landmark].bone;
+    world.heads_m[b] + world.rotations[b] * character.landmark_offset_m[landmark]
 }
 
 /// World position of the mean of a landmark set.

@@ -1329,10 +1329,10 @@ Frame Time: 0.5
             seq.frames[0].positions_m[2],
             Point3::new(0.0, 0.0, 0.02)
         ));
-        // Frame 1: root at BVH (10, 20, 30) → autoact (0.1, −0.3, 0.2).
+        // Frame 1: root at BVH (10, 20, 30) → autoact (−0.1, 0.3, 0.2).
         assert!(close(
             seq.frames[1].positions_m[0],
-            Point3::new(0.1, -0.3, 0.2)
+            Point3::new(-0.1, 0.3, 0.2)
         ));
         assert!(
             seq.frames
