@@ -1,0 +1,903 @@
+//! Reader for the MMPose-style JSON that 3D pose lifters write (e.g. whole-body lifters with
+//! 133 COCO-WholeBody keypoints).
+//!
+//! # Format
+//!
+//! A top-level list of frames (or an object whose `"instance_info"` is that list, as MMPose's
+//! demo scripts save it):
+//!
+//! ```json
+//! [ {"frame_id": 0,
+//!    "instances": [ {"keypoints": [[x, y, z], ...],
+//!                    "keypoint_scores": [s, ...],
+//!                    "track_id": 3} ]},
+//!   ... ]
+//! ```
+//!
+//! * `frame_id`: non-negative integer, strictly increasing through the file. The frame is
+//!   stamped `stamp_nanos_at(frame_id, fps)`, so gaps in the ids are gaps in time.
+//! * `instances`: a list of people, or a single object (the GTAutoAct reference lifter writes
+//!   `"instances": {"keypoints": [...]}`); `null` or `[]` means nobody in that frame.
+//! * `keypoints`: exactly as many `[x, y, z]` entries as [`JsonOptions::joint_names`]. An entry
+//!   that is `null`, or has a `null`/`NaN`/`Infinity` coordinate, is a joint that was not seen:
+//!   NaN position, confidence 0. (Python's `json` writes bare `NaN`/`Infinity`, which is not
+//!   JSON; this reader reads those tokens as `null`.)
+//! * `keypoint_scores` (optional): one number per keypoint, clamped to [0, 1]; `null` is 0.
+//!   Without scores every seen joint has confidence 1.
+//! * `track_id` (optional): non-negative integer; instances without one are tracked by their
+//!   index in the frame's instance list.
+//!
+//! # Units and axes
+//!
+//! The file carries neither, so the caller states them in [`JsonOptions`]: coordinates are
+//! multiplied by [`JsonOptions::metres_per_unit`] and converted once from
+//! [`JsonOptions::axes`] to the autoact frame through [`SourceAxes::point_to_autoact`].
+//!
+//! # Output
+//!
+//! One [`PoseSequence`] per track id, in ascending track id order; a track has frames only where
+//! its instance appears (nothing is invented).
+//!
+//! # Errors
+//!
+//! [`parse`] and [`read`] never panic; every problem is a [`JsonError`] naming the file and the
+//! line and column (JSON syntax), or the frame (index in the list and `frame_id`), instance and
+//! field: bad options, a wrong type, a missing field, a keypoint or score count that differs
+//! from the joint names, non-increasing `frame_id`s (naming both ids), or the same track twice
+//! in one frame.
+
+use std::borrow::Cow;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use nalgebra::Point3;
+use serde_json::Value;
+use thiserror::Error;
+
+use crate::frames::SourceAxes;
+use crate::pose::{PoseFrame, PoseSequence, stamp_nanos_at};
+
+/// How to interpret a file: the rate, units, axes and keypoint layout it does not state itself.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JsonOptions {
+    /// Frames per second of `frame_id` (positive).
+    pub fps: f64,
+    /// Metres per file unit (1.0 for metres, 0.001 for millimetres; positive).
+    pub metres_per_unit: f64,
+    /// Axis convention of the coordinates.
+    pub axes: SourceAxes,
+    /// Names of the keypoints, in file order (from the chosen keypoint layout).
+    pub joint_names: Vec<String>,
+}
+
+/// Everything that can go wrong reading MMPose-style JSON.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum JsonError {
+    /// The file could not be read.
+    #[error("{file}: cannot read the file: {error}")]
+    Io {
+        /// The file.
+        file: String,
+        /// The underlying error.
+        #[source]
+        error: std::io::Error,
+    },
+    /// The text is not valid JSON (or not UTF-8).
+    #[error("{file}:{line}:{column}: invalid json: {message}")]
+    Syntax {
+        /// The file.
+        file: String,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column (approximate on a line holding bare `NaN`/`Infinity` tokens).
+        column: usize,
+        /// The parser's message.
+        message: String,
+    },
+    /// The caller's options cannot be used.
+    #[error("{file}: invalid option {field}: {message}")]
+    InvalidOptions {
+        /// The file.
+        file: String,
+        /// The option's name.
+        field: &'static str,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// The top level is neither a list of frames nor an object with `instance_info`.
+    #[error("{file}: top level: expected a list of frames, found {found}")]
+    NotAList {
+        /// The file.
+        file: String,
+        /// The JSON type found.
+        found: &'static str,
+    },
+    /// A field has the wrong type or an impossible value.
+    #[error("{file}: frame {frame}: field {field}: expected {expected}, found {found}")]
+    Field {
+        /// The file.
+        file: String,
+        /// 0-based index of the frame in the list.
+        frame: usize,
+        /// Path of the field inside the frame, e.g. `instances[1].keypoints[4][2]`.
+        field: String,
+        /// What was expected.
+        expected: &'static str,
+        /// What was found (type or value).
+        found: String,
+    },
+    /// A required field is missing.
+    #[error("{file}: frame {frame}: missing field {field}")]
+    MissingField {
+        /// The file.
+        file: String,
+        /// 0-based index of the frame in the list.
+        frame: usize,
+        /// Path of the missing field inside the frame.
+        field: String,
+    },
+    /// An instance has a different number of keypoints (or scores) than there are joint names.
+    #[error(
+        "{file}: frame {frame} (frame_id {frame_id}), instance {instance}: {field} has {found} entries, expected {expected}"
+    )]
+    KeypointCount {
+        /// The file.
+        file: String,
+        /// 0-based index of the frame in the list.
+        frame: usize,
+        /// The frame's `frame_id`.
+        frame_id: u64,
+        /// 0-based index of the instance in the frame.
+        instance: usize,
+        /// `keypoints` or `keypoint_scores`.
+        field: &'static str,
+        /// Entries expected (the number of joint names).
+        expected: usize,
+        /// Entries found.
+        found: usize,
+    },
+    /// `frame_id`s do not strictly increase.
+    #[error(
+        "{file}: frame {frame}: frame_id {frame_id} does not follow frame_id {previous} (ids must strictly increase)"
+    )]
+    FrameOrder {
+        /// The file.
+        file: String,
+        /// 0-based index of the offending frame in the list.
+        frame: usize,
+        /// The previous frame's id.
+        previous: u64,
+        /// This frame's id.
+        frame_id: u64,
+    },
+    /// Two instances of one frame have the same track id.
+    #[error(
+        "{file}: frame {frame} (frame_id {frame_id}), instance {instance}: track_id {track_id} appears twice"
+    )]
+    DuplicateTrack {
+        /// The file.
+        file: String,
+        /// 0-based index of the frame in the list.
+        frame: usize,
+        /// The frame's `frame_id`.
+        frame_id: u64,
+        /// 0-based index of the second instance with that id.
+        instance: usize,
+        /// The repeated track id.
+        track_id: u64,
+    },
+}
+
+/// Read a JSON file.
+///
+/// # Errors
+///
+/// [`JsonError::Io`] if the file cannot be read, otherwise as [`parse`].
+pub fn read(path: impl AsRef<Path>, options: &JsonOptions) -> Result<Vec<PoseSequence>, JsonError> {
+    let path = path.as_ref();
+    let file = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|error| JsonError::Io {
+        file: file.clone(),
+        error,
+    })?;
+    match String::from_utf8(bytes) {
+        Ok(text) => parse(&text, &file, options),
+        Err(e) => {
+            let valid = e
+                .as_bytes()
+                .get(..e.utf8_error().valid_up_to())
+                .unwrap_or_default();
+            let line = 1 + valid.iter().filter(|b| **b == b'\n').count();
+            let column = 1 + valid.iter().rev().take_while(|b| **b != b'\n').count();
+            Err(JsonError::Syntax {
+                file,
+                line,
+                column,
+                message: "not utf-8 text".to_owned(),
+            })
+        }
+    }
+}
+
+/// Parse JSON text; `source` names it in errors and in the result.
+///
+/// # Errors
+///
+/// Any [`JsonError`] but `Io`; see the module docs.
+pub fn parse(
+    text: &str,
+    source: &str,
+    options: &JsonOptions,
+) -> Result<Vec<PoseSequence>, JsonError> {
+    check_options(source, options)?;
+    let value: Value =
+        serde_json::from_str(&non_finite_as_null(text)).map_err(|e| JsonError::Syntax {
+            file: source.to_owned(),
+            line: e.line(),
+            column: e.column(),
+            message: e.to_string(),
+        })?;
+    let frames = match &value {
+        Value::Array(frames) => frames,
+        Value::Object(map) => match map.get("instance_info") {
+            Some(Value::Array(frames)) => frames,
+            _ => {
+                return Err(JsonError::NotAList {
+                    file: source.to_owned(),
+                    found: "an object",
+                });
+            }
+        },
+        other => {
+            return Err(JsonError::NotAList {
+                file: source.to_owned(),
+                found: type_name(other),
+            });
+        }
+    };
+
+    let mut tracks: BTreeMap<u64, PoseSequence> = BTreeMap::new();
+    let mut previous: Option<u64> = None;
+    for (index, frame) in frames.iter().enumerate() {
+        let ctx = FrameCtx {
+            file: source,
+            frame: index,
+            frame_id: 0,
+        };
+        let object = frame
+            .as_object()
+            .ok_or_else(|| ctx.field("", "an object", frame))?;
+        let id_value = object
+            .get("frame_id")
+            .ok_or_else(|| ctx.missing("frame_id"))?;
+        let frame_id = id_value
+            .as_u64()
+            .ok_or_else(|| ctx.field("frame_id", "a non-negative integer", id_value))?;
+        if let Some(previous) = previous
+            && frame_id <= previous
+        {
+            return Err(JsonError::FrameOrder {
+                file: source.to_owned(),
+                frame: index,
+                previous,
+                frame_id,
+            });
+        }
+        previous = Some(frame_id);
+        let ctx = FrameCtx { frame_id, ..ctx };
+        let stamp = stamp_nanos_at(usize::try_from(frame_id).unwrap_or(usize::MAX), options.fps);
+
+        let instances: Vec<&Value> = match object.get("instances") {
+            None => return Err(ctx.missing("instances")),
+            Some(Value::Null) => Vec::new(),
+            Some(Value::Array(list)) => list.iter().collect(),
+            Some(single @ Value::Object(_)) => vec![single],
+            Some(other) => {
+                return Err(ctx.field("instances", "a list of instances or one instance", other));
+            }
+        };
+
+        let mut seen: Vec<u64> = Vec::with_capacity(instances.len());
+        for (instance, value) in instances.into_iter().enumerate() {
+            let (track_id, pose) = parse_instance(&ctx, instance, value, stamp, options)?;
+            if seen.contains(&track_id) {
+                return Err(JsonError::DuplicateTrack {
+                    file: source.to_owned(),
+                    frame: index,
+                    frame_id,
+                    instance,
+                    track_id,
+                });
+            }
+            seen.push(track_id);
+            tracks
+                .entry(track_id)
+                .or_insert_with(|| PoseSequence {
+                    source: source.to_owned(),
+                    track_id,
+                    joint_names: options.joint_names.clone(),
+                    frames: Vec::new(),
+                })
+                .frames
+                .push(pose);
+        }
+    }
+    Ok(tracks.into_values().collect())
+}
+
+fn check_options(file: &str, options: &JsonOptions) -> Result<(), JsonError> {
+    let invalid = |field, message: String| JsonError::InvalidOptions {
+        file: file.to_owned(),
+        field,
+        message,
+    };
+    if !(options.fps.is_finite() && options.fps > 0.0) {
+        return Err(invalid(
+            "fps",
+            format!("must be positive and finite, is {}", options.fps),
+        ));
+    }
+    if !(options.metres_per_unit.is_finite() && options.metres_per_unit > 0.0) {
+        return Err(invalid(
+            "metres_per_unit",
+            format!(
+                "must be positive and finite, is {}",
+                options.metres_per_unit
+            ),
+        ));
+    }
+    if options.joint_names.is_empty() {
+        return Err(invalid("joint_names", "must not be empty".to_owned()));
+    }
+    Ok(())
+}
+
+/// One instance → (track id, pose frame).
+fn parse_instance(
+    ctx: &FrameCtx<'_>,
+    instance: usize,
+    value: &Value,
+    stamp: u64,
+    options: &JsonOptions,
+) -> Result<(u64, PoseFrame), JsonError> {
+    let path = |field: &str| format!("instances[{instance}]{field}");
+    let object = value
+        .as_object()
+        .ok_or_else(|| ctx.field(&path(""), "an object", value))?;
+
+    let track_id = match object.get("track_id") {
+        None | Some(Value::Null) => u64::try_from(instance).unwrap_or(u64::MAX),
+        Some(v) => v
+            .as_u64()
+            .ok_or_else(|| ctx.field(&path(".track_id"), "a non-negative integer", v))?,
+    };
+
+    let expected = options.joint_names.len();
+    let keypoints = match object.get("keypoints") {
+        None => return Err(ctx.missing(&path(".keypoints"))),
+        Some(Value::Array(list)) => list,
+        Some(other) => {
+            return Err(ctx.field(&path(".keypoints"), "a list of [x, y, z]", other));
+        }
+    };
+    if keypoints.len() != expected {
+        return Err(ctx.count(instance, "keypoints", expected, keypoints.len()));
+    }
+
+    let scores = match object.get("keypoint_scores") {
+        None | Some(Value::Null) => None,
+        Some(Value::Array(list)) => {
+            if list.len() != expected {
+                return Err(ctx.count(instance, "keypoint_scores", expected, list.len()));
+            }
+            Some(list)
+        }
+        Some(other) => {
+            return Err(ctx.field(&path(".keypoint_scores"), "a list of numbers", other));
+        }
+    };
+
+    let mut frame = PoseFrame::missing(stamp, expected);
+    for (k, ((keypoint, position), confidence)) in keypoints
+        .iter()
+        .zip(&mut frame.positions_m)
+        .zip(&mut frame.confidence)
+        .enumerate()
+    {
+        let Some(point) = parse_point(ctx, &path(&format!(".keypoints[{k}]")), keypoint)? else {
+            continue;
+        };
+        let score = match scores.and_then(|s| s.get(k)) {
+            None => 1.0,
+            Some(Value::Null) => 0.0,
+            Some(v) => v.as_f64().ok_or_else(|| {
+                ctx.field(
+                    &path(&format!(".keypoint_scores[{k}]")),
+                    "a number or null",
+                    v,
+                )
+            })?,
+        };
+        *position = options
+            .axes
+            .point_to_autoact(point * options.metres_per_unit);
+        *confidence = score.clamp(0.0, 1.0) as f32;
+    }
+    Ok((track_id, frame))
+}
+
+/// `[x, y, z]` → `Some(point)`; `null` or any null coordinate → `None` (not seen).
+fn parse_point(
+    ctx: &FrameCtx<'_>,
+    path: &str,
+    value: &Value,
+) -> Result<Option<Point3<f64>>, JsonError> {
+    let list = match value {
+        Value::Null => return Ok(None),
+        Value::Array(list) if list.len() == 3 => list,
+        other => return Err(ctx.field(path, "[x, y, z] or null", other)),
+    };
+    let mut xyz = [0.0; 3];
+    for (c, (slot, v)) in xyz.iter_mut().zip(list).enumerate() {
+        match v {
+            Value::Null => return Ok(None),
+            Value::Number(n) => *slot = n.as_f64().unwrap_or(f64::NAN),
+            other => return Err(ctx.field(&format!("{path}[{c}]"), "a number or null", other)),
+        }
+    }
+    if xyz.iter().all(|c| c.is_finite()) {
+        Ok(Some(Point3::from(xyz)))
+    } else {
+        Ok(None)
+    }
+}
+
+/// Where in the file we are, for errors.
+#[derive(Clone, Copy)]
+struct FrameCtx<'a> {
+    file: &'a str,
+    frame: usize,
+    frame_id: u64,
+}
+
+impl FrameCtx<'_> {
+    fn field(&self, field: &str, expected: &'static str, found: &Value) -> JsonError {
+        let found = match found {
+            Value::Number(n) => format!("the number {n}"),
+            Value::String(s) if s.len() <= 40 => format!("the string {s:?}"),
+            other => type_name(other).to_owned(),
+        };
+        JsonError::Field {
+            file: self.file.to_owned(),
+            frame: self.frame,
+            field: if field.is_empty() {
+                "(the frame itself)".to_owned()
+            } else {
+                field.to_owned()
+            },
+            expected,
+            found,
+        }
+    }
+
+    fn missing(&self, field: &str) -> JsonError {
+        JsonError::MissingField {
+            file: self.file.to_owned(),
+            frame: self.frame,
+            field: field.to_owned(),
+        }
+    }
+
+    fn count(
+        &self,
+        instance: usize,
+        field: &'static str,
+        expected: usize,
+        found: usize,
+    ) -> JsonError {
+        JsonError::KeypointCount {
+            file: self.file.to_owned(),
+            frame: self.frame,
+            frame_id: self.frame_id,
+            instance,
+            field,
+            expected,
+            found,
+        }
+    }
+}
+
+fn type_name(value: &Value) -> &'static str {
+    match value {
+        Value::Null => "null",
+        Value::Bool(_) => "a boolean",
+        Value::Number(_) => "a number",
+        Value::String(_) => "a string",
+        Value::Array(_) => "a list",
+        Value::Object(_) => "an object",
+    }
+}
+
+/// Python's `json` module writes `NaN`, `Infinity` and `-Infinity`, which are not JSON: outside
+/// strings, replace those tokens by `null`.
+fn non_finite_as_null(text: &str) -> Cow<'_, str> {
+    if !text.contains("NaN") && !text.contains("Infinity") {
+        return Cow::Borrowed(text);
+    }
+    let mut out = String::with_capacity(text.len() + 16);
+    let mut in_string = false;
+    let mut escaped = false;
+    let mut resume = 0;
+    for (i, ch) in text.char_indices() {
+        if i < resume {
+            continue;
+        }
+        if in_string {
+            if escaped {
+                escaped = false;
+            } else if ch == '\\' {
+                escaped = true;
+            } else if ch == '"' {
+                in_string = false;
+            }
+            out.push(ch);
+            continue;
+        }
+        let rest = text.get(i..).unwrap_or_default();
+        if let Some(token) = ["NaN", "Infinity", "-Infinity"]
+            .into_iter()
+            .find(|t| rest.starts_with(t))
+        {
+            out.push_str("null");
+            resume = i + token.len();
+            continue;
+        }
+        if ch == '"' {
+            in_string = true;
+        }
+        out.push(ch);
+    }
+    Cow::Owned(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn options(n: usize) -> JsonOptions {
+        JsonOptions {
+            fps: 30.0,
+            metres_per_unit: 1.0,
+            axes: SourceAxes::ZUp,
+            joint_names: (0..n).map(|i| format!("j{i}")).collect(),
+        }
+    }
+
+    fn ok(text: &str, opts: &JsonOptions) -> Vec<PoseSequence> {
+        match parse(text, "t.json", opts) {
+            Ok(s) => s,
+            Err(e) => panic!("{e}"),
+        }
+    }
+
+    fn err(text: &str, opts: &JsonOptions) -> JsonError {
+        match parse(text, "t.json", opts) {
+            Ok(s) => panic!("expected an error, got {} tracks", s.len()),
+            Err(e) => e,
+        }
+    }
+
+    const TWO_TRACKS: &str = r#"[
+        {"frame_id": 0, "instances": [
+            {"keypoints": [[1, 2, 3], [4, 5, 6]], "keypoint_scores": [0.9, 1.5], "track_id": 4},
+            {"keypoints": [[7, 8, 9], null], "track_id": 2}]},
+        {"frame_id": 2, "instances": [
+            {"keypoints": [[1, 2, null], [4, 5, 6]], "keypoint_scores": [-1, null], "track_id": 4}]}
+    ]"#;
+
+    #[test]
+    fn groups_by_track_and_stamps_by_frame_id() {
+        let seqs = ok(TWO_TRACKS, &options(2));
+        assert_eq!(seqs.len(), 2);
+        assert_eq!((seqs[0].track_id, seqs[1].track_id), (2, 4));
+        assert_eq!(seqs[0].frames.len(), 1);
+        let t4 = &seqs[1];
+        assert_eq!(t4.joint_names, vec!["j0", "j1"]);
+        assert_eq!(
+            t4.frames.iter().map(|f| f.stamp_nanos).collect::<Vec<_>>(),
+            vec![0, 66_666_667]
+        );
+        assert_eq!(t4.frames[0].positions_m[1], Point3::new(4.0, 5.0, 6.0));
+        assert_eq!(t4.frames[0].confidence, vec![0.9, 1.0]);
+        // null coordinate → NaN + 0; scores clamp; null score → 0
+        assert!(t4.frames[1].positions_m[0].x.is_nan());
+        assert_eq!(t4.frames[1].confidence, vec![0.0, 0.0]);
+        // no scores → 1 for seen joints, null keypoint → NaN + 0
+        assert_eq!(seqs[0].frames[0].confidence, vec![1.0, 0.0]);
+        assert!(seqs[0].frames[0].positions_m[1].z.is_nan());
+    }
+
+    #[test]
+    fn single_object_instances_with_133_keypoints() {
+        let n = 133;
+        let kps: Vec<String> = (0..n)
+            .map(|k| format!("[{}, {}, {}]", k, 2 * k, 1000 + k))
+            .collect();
+        let text = format!(
+            r#"[{{"frame_id": 0, "instances": {{"keypoints": [{kps}]}}}},
+                {{"frame_id": 1, "instances": {{"keypoints": [{kps}]}}}}]"#,
+            kps = kps.join(", ")
+        );
+        let opts = JsonOptions {
+            fps: 25.0,
+            metres_per_unit: 0.001,
+            axes: SourceAxes::YDown,
+            joint_names: (0..n).map(|i| format!("k{i}")).collect(),
+        };
+        let seqs = ok(&text, &opts);
+        assert_eq!(seqs.len(), 1);
+        assert_eq!(seqs[0].track_id, 0);
+        assert_eq!(seqs[0].frames.len(), 2);
+        assert_eq!(seqs[0].frames[1].stamp_nanos, 40_000_000);
+        // mm → m, Y down → (x, z, −y)
+        let p = seqs[0].frames[0].positions_m[10];
+        assert!((p.x - 0.010).abs() < 1e-12);
+        assert!((p.y - 1.010).abs() < 1e-12);
+        assert!((p.z + 0.020).abs() < 1e-12);
+        assert!(seqs[0].frames[0].confidence.iter().all(|c| *c == 1.0));
+    }
+
+    #[test]
+    fn instance_index_is_the_track_without_track_id_and_instance_info_wrapper() {
+        let text = r#"{"meta_info": {}, "instance_info": [
+            {"frame_id": 1, "instances": [{"keypoints": [[0, 0, 0]]}, {"keypoints": [[1, 1, 1]]}]},
+            {"frame_id": 2, "instances": []},
+            {"frame_id": 3, "instances": null}]}"#;
+        let seqs = ok(text, &options(1));
+        assert_eq!(
+            seqs.iter().map(|s| s.track_id).collect::<Vec<_>>(),
+            vec![0, 1]
+        );
+        assert_eq!(seqs[1].frames[0].positions_m[0], Point3::new(1.0, 1.0, 1.0));
+        assert_eq!(seqs[1].frames[0].stamp_nanos, 33_333_333);
+        assert!(ok("[]", &options(1)).is_empty());
+    }
+
+    #[test]
+    fn python_nan_and_infinity_tokens_are_missing() {
+        let text = r#"[{"frame_id": 0, "instances": [{"keypoints": [[NaN, 1, 2], [1, -Infinity, 2], [1, 2, 3]],
+            "keypoint_scores": [0.5, 0.5, NaN], "note": "NaN in a \" string Infinity"}]}]"#;
+        let seqs = ok(text, &options(3));
+        let f = &seqs[0].frames[0];
+        assert!(f.positions_m[0].x.is_nan() && f.positions_m[1].x.is_nan());
+        assert_eq!(f.confidence, vec![0.0, 0.0, 0.0]);
+        assert_eq!(f.positions_m[2], Point3::new(1.0, 2.0, 3.0));
+        assert_eq!(non_finite_as_null(r#"["NaN", NaN]"#), r#"["NaN", null]"#);
+    }
+
+    #[test]
+    fn keypoint_count_mismatch_names_frame_and_instance() {
+        let text = r#"[{"frame_id": 0, "instances": [{"keypoints": [[0,0,0]]}]},
+                       {"frame_id": 5, "instances": [{"keypoints": [[0,0,0]]}, {"keypoints": [[0,0,0],[1,1,1]]}]}]"#;
+        match err(text, &options(1)) {
+            e @ JsonError::KeypointCount {
+                frame: 1,
+                frame_id: 5,
+                instance: 1,
+                field: "keypoints",
+                expected: 1,
+                found: 2,
+                ..
+            } => {
+                assert_eq!(
+                    e.to_string(),
+                    "t.json: frame 1 (frame_id 5), instance 1: keypoints has 2 entries, expected 1"
+                );
+            }
+            e => panic!("{e}"),
+        }
+        let text =
+            r#"[{"frame_id": 0, "instances": [{"keypoints": [[0,0,0]], "keypoint_scores": []}]}]"#;
+        assert!(matches!(
+            err(text, &options(1)),
+            JsonError::KeypointCount {
+                field: "keypoint_scores",
+                ..
+            }
+        ));
+    }
+
+    #[test]
+    fn frame_ids_must_strictly_increase() {
+        for (a, b) in [(3, 3), (3, 1)] {
+            let text = format!(
+                r#"[{{"frame_id": {a}, "instances": []}}, {{"frame_id": {b}, "instances": []}}]"#
+            );
+            match err(&text, &options(1)) {
+                JsonError::FrameOrder {
+                    frame: 1,
+                    previous,
+                    frame_id,
+                    ..
+                } => {
+                    assert_eq!((previous, frame_id), (a, b));
+                }
+                e => panic!("{e}"),
+            }
+        }
+    }
+
+    #[test]
+    fn duplicate_track_in_one_frame() {
+        let text = r#"[{"frame_id": 0, "instances": [{"keypoints": [[0,0,0]], "track_id": 1},
+                                                     {"keypoints": [[0,0,0]], "track_id": 1}]}]"#;
+        assert!(matches!(
+            err(text, &options(1)),
+            JsonError::DuplicateTrack {
+                frame: 0,
+                instance: 1,
+                track_id: 1,
+                ..
+            }
+        ));
+    }
+
+    #[test]
+    fn wrong_types_and_missing_fields() {
+        let o = options(1);
+        let field = |text: &str| match err(text, &o) {
+            JsonError::Field { field, .. } => field,
+            e => panic!("{e}"),
+        };
+        assert_eq!(field(r#"[{"frame_id": -1, "instances": []}]"#), "frame_id");
+        assert_eq!(field(r#"[{"frame_id": 1.5, "instances": []}]"#), "frame_id");
+        assert_eq!(field(r#"[{"frame_id": 0, "instances": 3}]"#), "instances");
+        assert_eq!(
+            field(r#"[{"frame_id": 0, "instances": [{"keypoints": [[0, 0]]}]}]"#),
+            "instances[0].keypoints[0]"
+        );
+        assert_eq!(
+            field(r#"[{"frame_id": 0, "instances": [{"keypoints": [[0, "a", 0]]}]}]"#),
+            "instances[0].keypoints[0][1]"
+        );
+        assert_eq!(
+            field(r#"[{"frame_id": 0, "instances": [{"keypoints": {}}]}]"#),
+            "instances[0].keypoints"
+        );
+        assert_eq!(
+            field(
+                r#"[{"frame_id": 0, "instances": [{"keypoints": [[0,0,0]], "keypoint_scores": ["x"]}]}]"#
+            ),
+            "instances[0].keypoint_scores[0]"
+        );
+        assert_eq!(
+            field(r#"[{"frame_id": 0, "instances": [{"keypoints": [[0,0,0]], "track_id": "a"}]}]"#),
+            "instances[0].track_id"
+        );
+        assert_eq!(
+            field(r#"[{"frame_id": 0, "instances": [7]}]"#),
+            "instances[0]"
+        );
+        assert_eq!(field("[1]"), "(the frame itself)");
+        let missing = |text: &str| match err(text, &o) {
+            JsonError::MissingField { frame, field, .. } => (frame, field),
+            e => panic!("{e}"),
+        };
+        assert_eq!(
+            missing(r#"[{"instances": []}]"#),
+            (0, "frame_id".to_owned())
+        );
+        assert_eq!(missing(r#"[{"frame_id": 0}]"#), (0, "instances".to_owned()));
+        assert_eq!(
+            missing(r#"[{"frame_id": 0, "instances": [{}]}]"#),
+            (0, "instances[0].keypoints".to_owned())
+        );
+        assert!(matches!(
+            err(r#"{"a": 1}"#, &o),
+            JsonError::NotAList {
+                found: "an object",
+                ..
+            }
+        ));
+        assert!(matches!(
+            err("3", &o),
+            JsonError::NotAList {
+                found: "a number",
+                ..
+            }
+        ));
+    }
+
+    #[test]
+    fn syntax_errors_and_options() {
+        match err("[\n{\"frame_id\": 0,,}]", &options(1)) {
+            JsonError::Syntax {
+                line: 2, column, ..
+            } => assert!(column > 1),
+            e => panic!("{e}"),
+        }
+        let mut o = options(1);
+        o.fps = 0.0;
+        assert!(matches!(
+            err("[]", &o),
+            JsonError::InvalidOptions { field: "fps", .. }
+        ));
+        let mut o = options(1);
+        o.metres_per_unit = f64::NAN;
+        assert!(matches!(
+            err("[]", &o),
+            JsonError::InvalidOptions {
+                field: "metres_per_unit",
+                ..
+            }
+        ));
+        assert!(matches!(
+            err("[]", &options(0)),
+            JsonError::InvalidOptions {
+                field: "joint_names",
+                ..
+            }
+        ));
+    }
+
+    #[test]
+    fn read_reports_io_and_encoding() {
+        let o = options(2);
+        assert!(matches!(
+            read("/nonexistent/x.json", &o),
+            Err(JsonError::Io { .. })
+        ));
+        let dir = std::env::temp_dir().join(format!("autoact-json-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let path = dir.join("a.json");
+        std::fs::write(&path, b"[\n  \xff]").expect("write");
+        assert!(matches!(
+            read(&path, &o),
+            Err(JsonError::Syntax {
+                line: 2,
+                column: 3,
+                ..
+            })
+        ));
+        std::fs::write(&path, TWO_TRACKS).expect("write");
+        assert_eq!(read(&path, &o).expect("valid").len(), 2);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn every_truncation_is_an_error() {
+        let end = TWO_TRACKS.trim_end().len();
+        for k in 0..end {
+            assert!(
+                parse(&TWO_TRACKS[..k], "t", &options(2)).is_err(),
+                "cut at {k} parsed"
+            );
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn arbitrary_text_never_panics(text in "\\PC{0,300}") {
+            let _ = parse(&text, "p", &options(2));
+        }
+
+        #[test]
+        fn json_like_noise_never_panics(text in r#"[\[\]{}":,0-9a-z_\- .NaIfinty]{0,300}"#) {
+            let _ = parse(&text, "p", &options(2));
+        }
+
+        #[test]
+        fn mutated_files_never_panic(pos in 0usize..1000, byte in 0x20u8..0x7f) {
+            let mut bytes = TWO_TRACKS.as_bytes().to_vec();
+            let len = bytes.len();
+            if let Some(b) = bytes.get_mut(pos % len) {
+                *b = byte;
+            }
+            if let Ok(text) = String::from_utf8(bytes) {
+                let _ = parse(&text, "p", &options(2));
+            }
+        }
+    }
+}

@@ -1,0 +1,1484 @@
+//! Reader for ZED 2i body tracking (BODY_34) recordings saved as MATLAB v5 `.mat` files
+//! (by `scipy.io.savemat`).
+//!
+//! # Format
+//!
+//! A MATLAB level-5 MAT-file (128-byte header, then data elements, little- or big-endian,
+//! uncompressed `miMATRIX` or zlib-compressed `miCOMPRESSED` elements) holding two variables:
+//!
+//! * `keypoints`: single (or double) array of shape (T, 34, 3): joint positions. MAT arrays are
+//!   column-major, so element (t, j, c) is value `t + T·(j + 34·c)`.
+//! * `timestampList`: integer (or integral double) array of shape (1, T) or (T, 1):
+//!   milliseconds since the Unix epoch.
+//!
+//! Other variables are skipped. This module contains its own small MAT v5 reader for real
+//! numeric arrays; MAT v7.3 (HDF5) files are not supported.
+//!
+//! # Units and axes
+//!
+//! Positions are **metres** in the ZED camera frame, right-handed, **+Y up** (the subject stands
+//! in front of the camera at negative z), i.e. [`AXES`] = [`SourceAxes::YUp`].
+//! [`ZedRecording::camera_keypoints_m`] keeps them as stored; [`ZedRecording::to_pose_sequence`]
+//! converts each point once through [`SourceAxes::point_to_autoact`]. Joints follow the ZED
+//! BODY_34 order of [`JOINT_NAMES`]; [`JOINT_PARENTS`] gives the tree.
+//!
+//! # Time
+//!
+//! Frame stamps are the real timestamps relative to the first frame (ms → ns), so dropped frames
+//! stay visible as longer gaps; no frame rate is assumed. Timestamps must strictly increase.
+//!
+//! # Missing joints
+//!
+//! The ZED SDK writes NaN for a joint it does not track: such a joint (any coordinate not
+//! finite) gets NaN coordinates and confidence 0; every other joint has confidence 1 (the files
+//! carry no per-joint confidence).
+//!
+//! # Errors
+//!
+//! [`parse`] and [`read`] never panic; every problem is a [`ZedError`] naming the file and the
+//! byte offset of the element, the variable, or the frame: not a MAT v5 file (bad header), a
+//! truncated or malformed element, a decompression failure, a missing or repeated variable, a
+//! wrong class or shape (expected vs found), or a bad or non-increasing timestamp.
+
+use std::io::Read;
+use std::path::Path;
+
+use nalgebra::Point3;
+use thiserror::Error;
+
+use crate::frames::SourceAxes;
+use crate::pose::{PoseFrame, PoseSequence};
+
+/// ZED BODY_34 joint names, in stored order.
+pub const JOINT_NAMES: [&str; 34] = [
+    "PELVIS",
+    "NAVAL_SPINE",
+    "CHEST_SPINE",
+    "NECK",
+    "L_CLAVICLE",
+    "L_SHOULDER",
+    "L_ELBOW",
+    "L_WRIST",
+    "L_HAND",
+    "L_HANDTIP",
+    "L_THUMB",
+    "R_CLAVICLE",
+    "R_SHOULDER",
+    "R_ELBOW",
+    "R_WRIST",
+    "R_HAND",
+    "R_HANDTIP",
+    "R_THUMB",
+    "L_HIP",
+    "L_KNEE",
+    "L_ANKLE",
+    "L_FOOT",
+    "R_HIP",
+    "R_KNEE",
+    "R_ANKLE",
+    "R_FOOT",
+    "HEAD",
+    "NOSE",
+    "L_EYE",
+    "L_EAR",
+    "R_EYE",
+    "R_EAR",
+    "L_HEEL",
+    "R_HEEL",
+];
+
+/// Parent of each joint (0-based index into [`JOINT_NAMES`]); `None` for the root, PELVIS.
+pub const JOINT_PARENTS: [Option<usize>; 34] = [
+    None,
+    Some(0),
+    Some(1),
+    Some(2),
+    Some(2),
+    Some(4),
+    Some(5),
+    Some(6),
+    Some(7),
+    Some(8),
+    Some(7),
+    Some(2),
+    Some(11),
+    Some(12),
+    Some(13),
+    Some(14),
+    Some(15),
+    Some(14),
+    Some(0),
+    Some(18),
+    Some(19),
+    Some(20),
+    Some(0),
+    Some(22),
+    Some(23),
+    Some(24),
+    Some(3),
+    Some(26),
+    Some(26),
+    Some(26),
+    Some(26),
+    Some(26),
+    Some(20),
+    Some(24),
+];
+
+/// Number of joints.
+pub const JOINT_COUNT: usize = 34;
+
+/// Axis convention of the ZED camera frame in these recordings.
+pub const AXES: SourceAxes = SourceAxes::YUp;
+
+/// Name of the keypoint variable.
+pub const KEYPOINTS_VARIABLE: &str = "keypoints";
+
+/// Name of the timestamp variable.
+pub const TIMESTAMPS_VARIABLE: &str = "timestampList";
+
+/// Largest decompressed size accepted for one compressed element (guards against zip bombs).
+pub const MAX_DECOMPRESSED_BYTES: u64 = 1 << 29;
+
+/// Everything that can go wrong reading a ZED `.mat` recording.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum ZedError {
+    /// The file could not be read.
+    #[error("{file}: cannot read the file: {error}")]
+    Io {
+        /// The file.
+        file: String,
+        /// The underlying error.
+        #[source]
+        error: std::io::Error,
+    },
+    /// The 128-byte header is not that of a MAT v5 file.
+    #[error("{file}: not a mat v5 file: header {field}: {message}")]
+    NotMatV5 {
+        /// The file.
+        file: String,
+        /// The header field that is wrong (`text`, `version`, `endian` or `length`).
+        field: &'static str,
+        /// What is wrong.
+        message: String,
+    },
+    /// An element extends past the end of the file (or of its compressed container).
+    #[error(
+        "{file}: byte {offset}: {element} is truncated: needs {needed} bytes, {available} left"
+    )]
+    Truncated {
+        /// The file.
+        file: String,
+        /// Byte offset in the file of the top-level element involved.
+        offset: usize,
+        /// What was being read.
+        element: String,
+        /// Bytes needed.
+        needed: usize,
+        /// Bytes available.
+        available: usize,
+    },
+    /// An element is not laid out as MAT v5 requires.
+    #[error("{file}: byte {offset}: {element}: {message}")]
+    Malformed {
+        /// The file.
+        file: String,
+        /// Byte offset in the file of the top-level element involved.
+        offset: usize,
+        /// What was being read.
+        element: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A compressed element does not inflate.
+    #[error("{file}: byte {offset}: compressed element does not decompress: {message}")]
+    Decompress {
+        /// The file.
+        file: String,
+        /// Byte offset in the file of the compressed element.
+        offset: usize,
+        /// The decoder's message.
+        message: String,
+    },
+    /// A required variable is absent.
+    #[error("{file}: missing variable {name:?}")]
+    MissingVariable {
+        /// The file.
+        file: String,
+        /// The variable's name.
+        name: &'static str,
+    },
+    /// A variable appears twice.
+    #[error("{file}: byte {offset}: variable {name:?} appears twice")]
+    DuplicateVariable {
+        /// The file.
+        file: String,
+        /// Byte offset of the second occurrence.
+        offset: usize,
+        /// The variable's name.
+        name: &'static str,
+    },
+    /// A variable has the wrong class.
+    #[error("{file}: variable {variable:?}: wrong type: expected {expected}, found {found}")]
+    WrongType {
+        /// The file.
+        file: String,
+        /// The variable's name.
+        variable: &'static str,
+        /// The classes accepted.
+        expected: &'static str,
+        /// The class found.
+        found: String,
+    },
+    /// A variable has the wrong dimensions.
+    #[error("{file}: variable {variable:?}: wrong shape: expected {expected}, found {found}")]
+    WrongShape {
+        /// The file.
+        file: String,
+        /// The variable's name.
+        variable: &'static str,
+        /// The shape expected.
+        expected: String,
+        /// The shape found.
+        found: String,
+    },
+    /// A timestamp is not an integer number of milliseconds, or is out of range.
+    #[error("{file}: variable \"timestampList\", frame {frame}: invalid timestamp: {message}")]
+    InvalidTimestamp {
+        /// The file.
+        file: String,
+        /// 0-based frame.
+        frame: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// A timestamp does not exceed the previous one.
+    #[error(
+        "{file}: variable \"timestampList\", frame {frame}: timestamp {stamp_ms} ms does not follow {previous_ms} ms (stamps must strictly increase)"
+    )]
+    NonMonotonic {
+        /// The file.
+        file: String,
+        /// 0-based frame.
+        frame: usize,
+        /// The previous frame's stamp, ms.
+        previous_ms: i64,
+        /// This frame's stamp, ms.
+        stamp_ms: i64,
+    },
+}
+
+/// A ZED BODY_34 recording as stored (camera frame).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ZedRecording {
+    source: String,
+    keypoints_m: Vec<[[f64; 3]; JOINT_COUNT]>,
+    timestamps_ms: Vec<i64>,
+    stamps_nanos: Vec<u64>,
+}
+
+impl ZedRecording {
+    /// Where the data came from.
+    #[must_use]
+    pub fn source(&self) -> &str {
+        &self.source
+    }
+
+    /// Number of frames.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.timestamps_ms.len()
+    }
+
+    /// Whether the recording has no frames.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.timestamps_ms.is_empty()
+    }
+
+    /// Per frame, the 34 joints (x, y, z) in metres, ZED camera frame (+Y up), NaN where untracked.
+    #[must_use]
+    pub fn camera_keypoints_m(&self) -> &[[[f64; 3]; JOINT_COUNT]] {
+        &self.keypoints_m
+    }
+
+    /// Per frame, the timestamp in milliseconds since the Unix epoch (strictly increasing).
+    #[must_use]
+    pub fn timestamps_ms(&self) -> &[i64] {
+        &self.timestamps_ms
+    }
+
+    /// The recording as a [`PoseSequence`] (track 0) in the autoact frame, stamped relative to
+    /// the first frame.
+    #[must_use]
+    pub fn to_pose_sequence(&self) -> PoseSequence {
+        let frames = self
+            .keypoints_m
+            .iter()
+            .zip(&self.stamps_nanos)
+            .map(|(joints, &stamp)| {
+                let mut frame = PoseFrame::missing(stamp, JOINT_COUNT);
+                for ((xyz, position), confidence) in joints
+                    .iter()
+                    .zip(&mut frame.positions_m)
+                    .zip(&mut frame.confidence)
+                {
+                    if xyz.iter().all(|c| c.is_finite()) {
+                        *position = AXES.point_to_autoact(Point3::from(*xyz));
+                        *confidence = 1.0;
+                    }
+                }
+                frame
+            })
+            .collect();
+        PoseSequence {
+            source: self.source.clone(),
+            track_id: 0,
+            joint_names: JOINT_NAMES.iter().map(|n| (*n).to_owned()).collect(),
+            frames,
+        }
+    }
+}
+
+/// Read a ZED `.mat` recording.
+///
+/// # Errors
+///
+/// [`ZedError::Io`] if the file cannot be read, otherwise as [`parse`].
+pub fn read(path: impl AsRef<Path>) -> Result<ZedRecording, ZedError> {
+    let path = path.as_ref();
+    let file = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|error| ZedError::Io {
+        file: file.clone(),
+        error,
+    })?;
+    parse(&bytes, &file)
+}
+
+/// Parse the bytes of a ZED `.mat` recording; `source` names it in errors and in the result.
+///
+/// # Errors
+///
+/// Any [`ZedError`] but `Io`; see the module docs.
+pub fn parse(bytes: &[u8], source: &str) -> Result<ZedRecording, ZedError> {
+    let arrays = mat::read_arrays(bytes, source, &[KEYPOINTS_VARIABLE, TIMESTAMPS_VARIABLE])?;
+    let mut keypoints = None;
+    let mut timestamps = None;
+    for array in arrays {
+        let (slot, name) = if array.name == KEYPOINTS_VARIABLE {
+            (&mut keypoints, KEYPOINTS_VARIABLE)
+        } else {
+            (&mut timestamps, TIMESTAMPS_VARIABLE)
+        };
+        if slot.is_some() {
+            return Err(ZedError::DuplicateVariable {
+                file: source.to_owned(),
+                offset: array.offset,
+                name,
+            });
+        }
+        *slot = Some(array);
+    }
+    let missing = |name| ZedError::MissingVariable {
+        file: source.to_owned(),
+        name,
+    };
+    let keypoints = keypoints.ok_or_else(|| missing(KEYPOINTS_VARIABLE))?;
+    let timestamps = timestamps.ok_or_else(|| missing(TIMESTAMPS_VARIABLE))?;
+
+    let keypoints_m = decode_keypoints(source, &keypoints)?;
+    let frames = keypoints_m.len();
+    let timestamps_ms = decode_timestamps(source, &timestamps, frames)?;
+
+    let mut stamps_nanos = Vec::with_capacity(frames);
+    let first = timestamps_ms.first().copied().unwrap_or(0);
+    let mut previous: Option<i64> = None;
+    for (frame, &stamp_ms) in timestamps_ms.iter().enumerate() {
+        if let Some(previous_ms) = previous
+            && stamp_ms <= previous_ms
+        {
+            return Err(ZedError::NonMonotonic {
+                file: source.to_owned(),
+                frame,
+                previous_ms,
+                stamp_ms,
+            });
+        }
+        previous = Some(stamp_ms);
+        let nanos = (i128::from(stamp_ms) - i128::from(first)) * 1_000_000;
+        let nanos = u64::try_from(nanos).map_err(|_| ZedError::InvalidTimestamp {
+            file: source.to_owned(),
+            frame,
+            message: format!("{stamp_ms} ms is too far from the first stamp {first} ms"),
+        })?;
+        stamps_nanos.push(nanos);
+    }
+
+    Ok(ZedRecording {
+        source: source.to_owned(),
+        keypoints_m,
+        timestamps_ms,
+        stamps_nanos,
+    })
+}
+
+fn decode_keypoints(
+    file: &str,
+    array: &mat::Array,
+) -> Result<Vec<[[f64; 3]; JOINT_COUNT]>, ZedError> {
+    let variable = KEYPOINTS_VARIABLE;
+    let values = match (&array.values, array.class, array.complex) {
+        (mat::Values::Float(v), mat::Class::Double | mat::Class::Single, false) => v,
+        _ => {
+            return Err(ZedError::WrongType {
+                file: file.to_owned(),
+                variable,
+                expected: "a real single or double array",
+                found: array.describe_type(),
+            });
+        }
+    };
+    let frames = match array.dims.as_slice() {
+        &[t, JOINT_COUNT, 3] => t,
+        _ => {
+            return Err(ZedError::WrongShape {
+                file: file.to_owned(),
+                variable,
+                expected: "(T, 34, 3)".to_owned(),
+                found: mat::shape(&array.dims),
+            });
+        }
+    };
+    let mut out = Vec::with_capacity(frames);
+    for t in 0..frames {
+        let mut joints = [[f64::NAN; 3]; JOINT_COUNT];
+        for (j, joint) in joints.iter_mut().enumerate() {
+            for (c, coordinate) in joint.iter_mut().enumerate() {
+                // Column-major: (t, j, c) is at t + T·(j + 34·c); the count was checked.
+                let index = t + frames * (j + JOINT_COUNT * c);
+                *coordinate = values.get(index).copied().unwrap_or(f64::NAN);
+            }
+        }
+        out.push(joints);
+    }
+    Ok(out)
+}
+
+fn decode_timestamps(file: &str, array: &mat::Array, frames: usize) -> Result<Vec<i64>, ZedError> {
+    let variable = TIMESTAMPS_VARIABLE;
+    let wrong_type = || ZedError::WrongType {
+        file: file.to_owned(),
+        variable,
+        expected: "a real integer or double array",
+        found: array.describe_type(),
+    };
+    if array.complex || !(array.class.is_integer() || array.class == mat::Class::Double) {
+        return Err(wrong_type());
+    }
+    if !matches!(array.dims.as_slice(), &[1, t] | &[t, 1] if t == frames) {
+        return Err(ZedError::WrongShape {
+            file: file.to_owned(),
+            variable,
+            expected: format!("(1, {frames}) to match {KEYPOINTS_VARIABLE:?}"),
+            found: mat::shape(&array.dims),
+        });
+    }
+    let invalid = |frame, message: String| ZedError::InvalidTimestamp {
+        file: file.to_owned(),
+        frame,
+        message,
+    };
+    match &array.values {
+        mat::Values::Int(v) => v
+            .iter()
+            .enumerate()
+            .map(|(frame, &x)| {
+                i64::try_from(x).map_err(|_| invalid(frame, format!("{x} does not fit in int64")))
+            })
+            .collect(),
+        mat::Values::Float(v) => v
+            .iter()
+            .enumerate()
+            .map(|(frame, &x)| {
+                // 2^63 as f64; anything at or beyond it does not fit.
+                const LIMIT: f64 = 9_223_372_036_854_775_808.0;
+                if x.is_finite() && x.fract() == 0.0 && x.abs() < LIMIT {
+                    #[allow(clippy::cast_possible_truncation, reason = "integral and in range")]
+                    Ok(x as i64)
+                } else {
+                    Err(invalid(
+                        frame,
+                        format!("{x} is not an integer number of milliseconds"),
+                    ))
+                }
+            })
+            .collect(),
+        mat::Values::Skipped => Err(wrong_type()),
+    }
+}
+
+/// A minimal MAT v5 reader: real numeric arrays only, little- or big-endian, uncompressed or
+/// zlib-compressed elements.
+mod mat {
+    use super::{Read, ZedError};
+
+    const MI_INT8: u32 = 1;
+    const MI_UINT8: u32 = 2;
+    const MI_INT16: u32 = 3;
+    const MI_UINT16: u32 = 4;
+    const MI_INT32: u32 = 5;
+    const MI_UINT32: u32 = 6;
+    const MI_SINGLE: u32 = 7;
+    const MI_DOUBLE: u32 = 9;
+    const MI_INT64: u32 = 12;
+    const MI_UINT64: u32 = 13;
+    const MI_MATRIX: u32 = 14;
+    const MI_COMPRESSED: u32 = 15;
+    const MI_UTF8: u32 = 16;
+
+    const HEADER_LEN: usize = 128;
+    const COMPLEX_FLAG: u32 = 0x0800;
+    const LOGICAL_FLAG: u32 = 0x0200;
+
+    /// MATLAB array class.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub(super) enum Class {
+        Double,
+        Single,
+        Int8,
+        UInt8,
+        Int16,
+        UInt16,
+        Int32,
+        UInt32,
+        Int64,
+        UInt64,
+        /// A non-numeric class (cell, struct, object, char, sparse, ...), by code.
+        Other(u8),
+    }
+
+    impl Class {
+        fn from_code(code: u8) -> Self {
+            match code {
+                6 => Class::Double,
+                7 => Class::Single,
+                8 => Class::Int8,
+                9 => Class::UInt8,
+                10 => Class::Int16,
+                11 => Class::UInt16,
+                12 => Class::Int32,
+                13 => Class::UInt32,
+                14 => Class::Int64,
+                15 => Class::UInt64,
+                other => Class::Other(other),
+            }
+        }
+
+        pub(super) fn is_integer(self) -> bool {
+            !matches!(self, Class::Double | Class::Single | Class::Other(_))
+        }
+
+        fn name(self) -> String {
+            match self {
+                Class::Double => "double".into(),
+                Class::Single => "single".into(),
+                Class::Int8 => "int8".into(),
+                Class::UInt8 => "uint8".into(),
+                Class::Int16 => "int16".into(),
+                Class::UInt16 => "uint16".into(),
+                Class::Int32 => "int32".into(),
+                Class::UInt32 => "uint32".into(),
+                Class::Int64 => "int64".into(),
+                Class::UInt64 => "uint64".into(),
+                Class::Other(1) => "cell".into(),
+                Class::Other(2) => "struct".into(),
+                Class::Other(3) => "object".into(),
+                Class::Other(4) => "char".into(),
+                Class::Other(5) => "sparse".into(),
+                Class::Other(code) => format!("class {code}"),
+            }
+        }
+    }
+
+    /// Decoded values of a numeric array, by storage kind.
+    #[derive(Debug, Clone, PartialEq)]
+    pub(super) enum Values {
+        Float(Vec<f64>),
+        Int(Vec<i128>),
+        /// Not decoded (non-numeric class).
+        Skipped,
+    }
+
+    /// One wanted variable.
+    #[derive(Debug, Clone, PartialEq)]
+    pub(super) struct Array {
+        pub(super) name: String,
+        /// Byte offset of its top-level element in the file.
+        pub(super) offset: usize,
+        pub(super) class: Class,
+        pub(super) complex: bool,
+        pub(super) logical: bool,
+        pub(super) dims: Vec<usize>,
+        pub(super) values: Values,
+    }
+
+    impl Array {
+        pub(super) fn describe_type(&self) -> String {
+            let mut s = String::new();
+            if self.complex {
+                s += "complex ";
+            }
+            if self.logical {
+                s += "logical ";
+            }
+            s += &self.class.name();
+            s += " array";
+            s
+        }
+    }
+
+    /// `(a, b, c)`.
+    pub(super) fn shape(dims: &[usize]) -> String {
+        let parts: Vec<String> = dims.iter().map(ToString::to_string).collect();
+        format!("({})", parts.join(", "))
+    }
+
+    #[derive(Clone, Copy, PartialEq, Eq)]
+    enum Endian {
+        Little,
+        Big,
+    }
+
+    /// Reading state: file name, byte order, and the top-level element being read.
+    struct Ctx<'a> {
+        file: &'a str,
+        endian: Endian,
+        /// Offset in the file of the current top-level element.
+        offset: usize,
+    }
+
+    /// An element tag: data type and the data bytes; `next` is where the following element
+    /// starts (after padding).
+    struct Element<'b> {
+        data_type: u32,
+        data: &'b [u8],
+        next: usize,
+    }
+
+    impl Ctx<'_> {
+        fn truncated(&self, element: &str, needed: usize, available: usize) -> ZedError {
+            ZedError::Truncated {
+                file: self.file.to_owned(),
+                offset: self.offset,
+                element: element.to_owned(),
+                needed,
+                available,
+            }
+        }
+
+        fn malformed(&self, element: &str, message: String) -> ZedError {
+            ZedError::Malformed {
+                file: self.file.to_owned(),
+                offset: self.offset,
+                element: element.to_owned(),
+                message,
+            }
+        }
+
+        fn u32_at(&self, bytes: &[u8], pos: usize, element: &str) -> Result<u32, ZedError> {
+            let available = bytes.len().saturating_sub(pos);
+            let chunk: [u8; 4] = bytes
+                .get(pos..pos.saturating_add(4))
+                .and_then(|s| s.try_into().ok())
+                .ok_or_else(|| self.truncated(element, 4, available))?;
+            Ok(match self.endian {
+                Endian::Little => u32::from_le_bytes(chunk),
+                Endian::Big => u32::from_be_bytes(chunk),
+            })
+        }
+
+        /// The element whose tag starts at `pos` in `bytes`. `padded`: data is followed by
+        /// padding to a multiple of 8 bytes (not so for compressed elements).
+        fn element<'b>(
+            &self,
+            bytes: &'b [u8],
+            pos: usize,
+            element: &str,
+        ) -> Result<Element<'b>, ZedError> {
+            let first = self.u32_at(bytes, pos, element)?;
+            if first >> 16 != 0 {
+                // Small data element: type and size in 4 bytes, up to 4 data bytes.
+                let size = (first >> 16) as usize;
+                let data_type = first & 0xffff;
+                if size > 4 {
+                    return Err(self.malformed(
+                        element,
+                        format!("small data element claims {size} bytes (at most 4)"),
+                    ));
+                }
+                let start = pos.saturating_add(4);
+                let data = bytes
+                    .get(start..start.saturating_add(size))
+                    .ok_or_else(|| self.truncated(element, 4, bytes.len().saturating_sub(start)))?;
+                return Ok(Element {
+                    data_type,
+                    data,
+                    next: pos.saturating_add(8),
+                });
+            }
+            let size = self.u32_at(bytes, pos.saturating_add(4), element)? as usize;
+            let start = pos.saturating_add(8);
+            let end = start.saturating_add(size);
+            let data = bytes
+                .get(start..end)
+                .ok_or_else(|| self.truncated(element, size, bytes.len().saturating_sub(start)))?;
+            let next = if first == MI_COMPRESSED {
+                end
+            } else {
+                end.saturating_add(7) / 8 * 8
+            };
+            Ok(Element {
+                data_type: first,
+                data,
+                next,
+            })
+        }
+    }
+
+    /// Parse a MAT v5 file and return the arrays named in `wanted` (in file order; other
+    /// variables are validated only as far as their names).
+    pub(super) fn read_arrays(
+        bytes: &[u8],
+        file: &str,
+        wanted: &[&str],
+    ) -> Result<Vec<Array>, ZedError> {
+        let not_mat = |field, message: &str| ZedError::NotMatV5 {
+            file: file.to_owned(),
+            field,
+            message: message.to_owned(),
+        };
+        let header = bytes.get(..HEADER_LEN).ok_or_else(|| {
+            not_mat(
+                "length",
+                &format!("file has {} bytes, the header alone 128", bytes.len()),
+            )
+        })?;
+        let text = header.get(..116).unwrap_or_default();
+        if text.starts_with(b"MATLAB 7.3") {
+            return Err(not_mat(
+                "text",
+                "this is a mat v7.3 (hdf5) file; save with -v7 or scipy",
+            ));
+        }
+        if !text.starts_with(b"MATLAB 5.0 MAT-file") {
+            return Err(not_mat(
+                "text",
+                "does not start with \"MATLAB 5.0 MAT-file\"",
+            ));
+        }
+        let endian = match header.get(126..128) {
+            Some(b"IM") => Endian::Little,
+            Some(b"MI") => Endian::Big,
+            _ => return Err(not_mat("endian", "indicator is neither \"IM\" nor \"MI\"")),
+        };
+        let version = match (endian, header.get(124..126)) {
+            (Endian::Little, Some(&[a, b])) => u16::from_le_bytes([a, b]),
+            (Endian::Big, Some(&[a, b])) => u16::from_be_bytes([a, b]),
+            _ => 0,
+        };
+        if version != 0x0100 {
+            return Err(not_mat(
+                "version",
+                &format!("is {version:#06x}, expected 0x0100"),
+            ));
+        }
+
+        let mut arrays = Vec::new();
+        let mut pos = HEADER_LEN;
+        while pos < bytes.len() {
+            let ctx = Ctx {
+                file,
+                endian,
+                offset: pos,
+            };
+            let what = "top-level element";
+            let element = ctx.element(bytes, pos, what)?;
+            let found = match element.data_type {
+                MI_MATRIX => matrix(&ctx, element.data, wanted)?,
+                MI_COMPRESSED => {
+                    let inflated = inflate(&ctx, element.data)?;
+                    let inner = ctx.element(&inflated, 0, "compressed element's content")?;
+                    if inner.data_type != MI_MATRIX {
+                        return Err(ctx.malformed(
+                            "compressed element's content",
+                            format!("data type {} is not miMATRIX (14)", inner.data_type),
+                        ));
+                    }
+                    matrix(&ctx, inner.data, wanted)?
+                }
+                other => {
+                    return Err(ctx.malformed(
+                        what,
+                        format!("data type {other} is not miMATRIX (14) or miCOMPRESSED (15)"),
+                    ));
+                }
+            };
+            arrays.extend(found);
+            pos = element.next;
+        }
+        Ok(arrays)
+    }
+
+    fn inflate(ctx: &Ctx<'_>, data: &[u8]) -> Result<Vec<u8>, ZedError> {
+        let mut out = Vec::new();
+        flate2::read::ZlibDecoder::new(data)
+            .take(super::MAX_DECOMPRESSED_BYTES + 1)
+            .read_to_end(&mut out)
+            .map_err(|e| ZedError::Decompress {
+                file: ctx.file.to_owned(),
+                offset: ctx.offset,
+                message: e.to_string(),
+            })?;
+        if out.len() as u64 > super::MAX_DECOMPRESSED_BYTES {
+            return Err(ZedError::Decompress {
+                file: ctx.file.to_owned(),
+                offset: ctx.offset,
+                message: format!(
+                    "inflates to more than {} bytes",
+                    super::MAX_DECOMPRESSED_BYTES
+                ),
+            });
+        }
+        Ok(out)
+    }
+
+    /// The content of a miMATRIX element → the array, if its name is wanted.
+    fn matrix(ctx: &Ctx<'_>, content: &[u8], wanted: &[&str]) -> Result<Option<Array>, ZedError> {
+        let flags = ctx.element(content, 0, "array flags")?;
+        if flags.data_type != MI_UINT32 || flags.data.len() != 8 {
+            return Err(ctx.malformed(
+                "array flags",
+                format!(
+                    "expected miUINT32 (6) with 8 bytes, found type {} with {} bytes",
+                    flags.data_type,
+                    flags.data.len()
+                ),
+            ));
+        }
+        let flag_word = ctx.u32_at(flags.data, 0, "array flags")?;
+        let class = Class::from_code((flag_word & 0xff) as u8);
+        let complex = flag_word & COMPLEX_FLAG != 0;
+        let logical = flag_word & LOGICAL_FLAG != 0;
+
+        let dims_el = ctx.element(content, flags.next, "dimensions")?;
+        if dims_el.data_type != MI_INT32
+            || !dims_el.data.len().is_multiple_of(4)
+            || dims_el.data.len() < 8
+        {
+            return Err(ctx.malformed(
+                "dimensions",
+                format!(
+                    "expected at least two miINT32 (5), found type {} with {} bytes",
+                    dims_el.data_type,
+                    dims_el.data.len()
+                ),
+            ));
+        }
+        let mut dims = Vec::with_capacity(dims_el.data.len() / 4);
+        for i in 0..dims_el.data.len() / 4 {
+            let raw = ctx.u32_at(dims_el.data, i * 4, "dimensions")?;
+            let dim = i32::from_ne_bytes(raw.to_ne_bytes());
+            let dim = usize::try_from(dim).map_err(|_| {
+                ctx.malformed("dimensions", format!("dimension {i} is negative ({dim})"))
+            })?;
+            dims.push(dim);
+        }
+
+        let name_el = ctx.element(content, dims_el.next, "array name")?;
+        if !matches!(name_el.data_type, MI_INT8 | MI_UINT8 | MI_UTF8) {
+            return Err(ctx.malformed(
+                "array name",
+                format!("expected miINT8 (1), found type {}", name_el.data_type),
+            ));
+        }
+        let name = String::from_utf8_lossy(name_el.data).into_owned();
+        if !wanted.contains(&name.as_str()) {
+            return Ok(None);
+        }
+        let element = format!("variable {name:?}");
+
+        let values = if matches!(class, Class::Other(_)) {
+            Values::Skipped
+        } else {
+            let real = ctx.element(content, name_el.next, &format!("{element} real part"))?;
+            let values = decode(ctx, &element, real.data_type, real.data)?;
+            let count = dims.iter().try_fold(1_usize, |acc, d| acc.checked_mul(*d));
+            let stored = match &values {
+                Values::Float(v) => v.len(),
+                Values::Int(v) => v.len(),
+                Values::Skipped => 0,
+            };
+            if count != Some(stored) {
+                return Err(ctx.malformed(
+                    &element,
+                    format!(
+                        "holds {stored} values but its shape {} needs more or fewer",
+                        shape(&dims)
+                    ),
+                ));
+            }
+            values
+        };
+        Ok(Some(Array {
+            name,
+            offset: ctx.offset,
+            class,
+            complex,
+            logical,
+            dims,
+            values,
+        }))
+    }
+
+    /// Decode numeric data of MAT data type `data_type`.
+    fn decode(
+        ctx: &Ctx<'_>,
+        element: &str,
+        data_type: u32,
+        data: &[u8],
+    ) -> Result<Values, ZedError> {
+        let width = match data_type {
+            MI_INT8 | MI_UINT8 => 1,
+            MI_INT16 | MI_UINT16 => 2,
+            MI_INT32 | MI_UINT32 | MI_SINGLE => 4,
+            MI_DOUBLE | MI_INT64 | MI_UINT64 => 8,
+            other => {
+                return Err(ctx.malformed(
+                    element,
+                    format!("data type {other} is not a numeric mat type"),
+                ));
+            }
+        };
+        if !data.len().is_multiple_of(width) {
+            return Err(ctx.malformed(
+                element,
+                format!("{} data bytes are not a multiple of {width}", data.len()),
+            ));
+        }
+        let little = ctx.endian == Endian::Little;
+        let words = data.chunks_exact(width).map(|c| {
+            let mut b = [0u8; 8];
+            for (dst, src) in b.iter_mut().zip(c) {
+                *dst = *src;
+            }
+            if !little {
+                b.get_mut(..width).unwrap_or_default().reverse();
+            }
+            u64::from_le_bytes(b)
+        });
+        #[allow(
+            clippy::cast_possible_truncation,
+            reason = "each word holds only `width` bytes"
+        )]
+        let values = match data_type {
+            MI_SINGLE => {
+                Values::Float(words.map(|w| f64::from(f32::from_bits(w as u32))).collect())
+            }
+            MI_DOUBLE => Values::Float(words.map(f64::from_bits).collect()),
+            MI_INT8 => Values::Int(words.map(|w| i128::from(w as u8 as i8)).collect()),
+            MI_INT16 => Values::Int(words.map(|w| i128::from(w as u16 as i16)).collect()),
+            MI_INT32 => Values::Int(words.map(|w| i128::from(w as u32 as i32)).collect()),
+            MI_INT64 => Values::Int(words.map(|w| i128::from(w as i64)).collect()),
+            _ => Values::Int(words.map(i128::from).collect()),
+        };
+        Ok(values)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use std::io::Write;
+
+    /// Builds MAT v5 files for tests.
+    struct Mat {
+        big: bool,
+        bytes: Vec<u8>,
+    }
+
+    impl Mat {
+        fn new(big: bool) -> Self {
+            let mut bytes =
+                b"MATLAB 5.0 MAT-file, Platform: test, Created by autoact tests".to_vec();
+            bytes.resize(116, b' ');
+            bytes.extend([0u8; 8]);
+            if big {
+                bytes.extend([0x01, 0x00]);
+                bytes.extend(b"MI");
+            } else {
+                bytes.extend([0x00, 0x01]);
+                bytes.extend(b"IM");
+            }
+            Mat { big, bytes }
+        }
+
+        fn u32(&self, v: u32) -> [u8; 4] {
+            if self.big {
+                v.to_be_bytes()
+            } else {
+                v.to_le_bytes()
+            }
+        }
+
+        /// A tagged sub-element padded to 8 bytes.
+        fn sub(&self, data_type: u32, data: &[u8]) -> Vec<u8> {
+            let mut out = Vec::new();
+            out.extend(self.u32(data_type));
+            out.extend(self.u32(data.len() as u32));
+            out.extend(data);
+            while out.len() % 8 != 0 {
+                out.push(0);
+            }
+            out
+        }
+
+        /// A miMATRIX element. `values` are already encoded words of `data_type`.
+        fn matrix(
+            &self,
+            class: u8,
+            dims: &[i32],
+            name: &str,
+            data_type: u32,
+            data: &[u8],
+        ) -> Vec<u8> {
+            let mut content = Vec::new();
+            content.extend(self.sub(6, &[self.u32(u32::from(class)), [0; 4]].concat()));
+            let dims: Vec<u8> = dims.iter().flat_map(|d| self.u32(*d as u32)).collect();
+            content.extend(self.sub(5, &dims));
+            if name.len() <= 4 {
+                // small data element, as MATLAB and scipy write short names
+                let mut small = self.u32((name.len() as u32) << 16 | 1).to_vec();
+                small.extend(name.as_bytes());
+                small.resize(8, 0);
+                content.extend(small);
+            } else {
+                content.extend(self.sub(1, name.as_bytes()));
+            }
+            content.extend(self.sub(data_type, data));
+            let mut out = Vec::new();
+            out.extend(self.u32(14));
+            out.extend(self.u32(content.len() as u32));
+            out.extend(content);
+            out
+        }
+
+        fn f32s(&self, v: &[f32]) -> Vec<u8> {
+            v.iter().flat_map(|x| self.u32(x.to_bits())).collect()
+        }
+
+        fn i64s(&self, v: &[i64]) -> Vec<u8> {
+            v.iter()
+                .flat_map(|x| {
+                    if self.big {
+                        x.to_be_bytes()
+                    } else {
+                        x.to_le_bytes()
+                    }
+                })
+                .collect()
+        }
+
+        fn push(mut self, element: Vec<u8>) -> Self {
+            self.bytes.extend(element);
+            self
+        }
+
+        fn push_compressed(mut self, element: Vec<u8>) -> Self {
+            let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
+            z.write_all(&element).expect("in memory");
+            let packed = z.finish().expect("in memory");
+            self.bytes.extend(self.u32(15));
+            self.bytes.extend(self.u32(packed.len() as u32));
+            self.bytes.extend(packed);
+            self
+        }
+    }
+
+    /// Keypoint value for (t, j, c) in the synthetic recordings.
+    fn value(t: usize, j: usize, c: usize) -> f32 {
+        (t * 1000 + j * 10 + c) as f32 * 0.001
+    }
+
+    /// Column-major (T, 34, 3) data; joint 5 of frame 1 is NaN.
+    fn keypoint_data(frames: usize) -> Vec<f32> {
+        let mut v = vec![0.0; frames * 34 * 3];
+        for t in 0..frames {
+            for j in 0..34 {
+                for c in 0..3 {
+                    v[t + frames * (j + 34 * c)] = if t == 1 && j == 5 {
+                        f32::NAN
+                    } else {
+                        value(t, j, c)
+                    };
+                }
+            }
+        }
+        v
+    }
+
+    const STAMPS: [i64; 3] = [1_668_529_444_633, 1_668_529_444_700, 1_668_529_444_733];
+
+    fn recording(big: bool, compressed: bool) -> Vec<u8> {
+        let m = Mat::new(big);
+        let stamps = m.matrix(14, &[1, 3], "timestampList", 12, &m.i64s(&STAMPS));
+        let kp = m.matrix(7, &[3, 34, 3], "keypoints", 7, &m.f32s(&keypoint_data(3)));
+        let other = m.matrix(6, &[1, 1], "fps", 9, &2.5f64.to_le_bytes());
+        if compressed {
+            m.push_compressed(stamps)
+                .push_compressed(other)
+                .push_compressed(kp)
+                .bytes
+        } else {
+            m.push(stamps).push(other).push(kp).bytes
+        }
+    }
+
+    fn err(bytes: &[u8]) -> ZedError {
+        match parse(bytes, "t.mat") {
+            Ok(r) => panic!("expected an error, got {} frames", r.len()),
+            Err(e) => e,
+        }
+    }
+
+    #[test]
+    fn reads_plain_compressed_and_big_endian_files() {
+        let reference = parse(&recording(false, false), "t.mat").expect("valid");
+        for (big, compressed) in [(false, true), (true, false), (true, true)] {
+            let other = parse(&recording(big, compressed), "t.mat").expect("valid");
+            assert_eq!(other.timestamps_ms(), reference.timestamps_ms());
+            let (a, b) = (other.camera_keypoints_m(), reference.camera_keypoints_m());
+            assert_eq!(a.len(), b.len());
+            for (fa, fb) in a.iter().zip(b) {
+                for (ja, jb) in fa.iter().zip(fb) {
+                    for (x, y) in ja.iter().zip(jb) {
+                        assert!(x == y || (x.is_nan() && y.is_nan()));
+                    }
+                }
+            }
+        }
+        assert_eq!(reference.len(), 3);
+        assert_eq!(reference.timestamps_ms(), &STAMPS);
+        // column-major order
+        let kp = reference.camera_keypoints_m();
+        assert_eq!(kp[2][33][1], f64::from(value(2, 33, 1)));
+        assert_eq!(kp[0][7][2], f64::from(value(0, 7, 2)));
+    }
+
+    #[test]
+    fn pose_sequence_keeps_real_gaps_nan_and_axes() {
+        let seq = parse(&recording(false, false), "t.mat")
+            .expect("valid")
+            .to_pose_sequence();
+        assert_eq!(seq.joint_names.len(), 34);
+        assert_eq!(seq.joint_index("R_HEEL"), Some(33));
+        let stamps: Vec<u64> = seq.frames.iter().map(|f| f.stamp_nanos).collect();
+        assert_eq!(stamps, vec![0, 67_000_000, 100_000_000]);
+        assert!(seq.frames[1].positions_m[5].x.is_nan());
+        assert_eq!(seq.frames[1].confidence[5], 0.0);
+        assert_eq!(seq.frames[1].confidence[4], 1.0);
+        // converted once through AXES (Y up): source +Y becomes autoact +Z
+        let p = seq.frames[2].positions_m[10];
+        let camera = Point3::new(value(2, 10, 0), value(2, 10, 1), value(2, 10, 2)).cast::<f64>();
+        assert_eq!(p, AXES.point_to_autoact(camera));
+        assert_eq!(p.z, camera.y);
+    }
+
+    #[test]
+    fn double_timestamps_and_column_vector_accepted() {
+        let m = Mat::new(false);
+        let d: Vec<u8> = STAMPS
+            .iter()
+            .flat_map(|s| (*s as f64).to_le_bytes())
+            .collect();
+        let stamps = m.matrix(6, &[3, 1], "timestampList", 9, &d);
+        let kp = m.matrix(7, &[3, 34, 3], "keypoints", 7, &m.f32s(&keypoint_data(3)));
+        let r = parse(&m.push(kp).push(stamps).bytes, "t").expect("valid");
+        assert_eq!(r.timestamps_ms(), &STAMPS);
+    }
+
+    #[test]
+    fn empty_recording() {
+        let m = Mat::new(false);
+        let stamps = m.matrix(14, &[1, 0], "timestampList", 12, &[]);
+        let kp = m.matrix(7, &[0, 34, 3], "keypoints", 7, &[]);
+        let r = parse(&m.push(kp).push(stamps).bytes, "t").expect("valid");
+        assert!(r.is_empty());
+        assert!(r.to_pose_sequence().frames.is_empty());
+    }
+
+    #[test]
+    fn bad_headers() {
+        assert!(matches!(
+            err(b"MATLAB 5.0"),
+            ZedError::NotMatV5 {
+                field: "length",
+                ..
+            }
+        ));
+        let mut b = recording(false, false);
+        b[0] = b'X';
+        assert!(matches!(err(&b), ZedError::NotMatV5 { field: "text", .. }));
+        let mut b = recording(false, false);
+        b[..10].copy_from_slice(b"MATLAB 7.3");
+        assert!(matches!(err(&b), ZedError::NotMatV5 { field: "text", .. }));
+        let mut b = recording(false, false);
+        b[126] = b'X';
+        assert!(matches!(
+            err(&b),
+            ZedError::NotMatV5 {
+                field: "endian",
+                ..
+            }
+        ));
+        let mut b = recording(false, false);
+        b[125] = 2;
+        let e = err(&b);
+        assert!(matches!(
+            e,
+            ZedError::NotMatV5 {
+                field: "version",
+                ..
+            }
+        ));
+        assert_eq!(
+            e.to_string(),
+            "t.mat: not a mat v5 file: header version: is 0x0200, expected 0x0100"
+        );
+    }
+
+    #[test]
+    fn missing_and_duplicate_variables() {
+        let m = Mat::new(false);
+        let kp = m.matrix(7, &[3, 34, 3], "keypoints", 7, &m.f32s(&keypoint_data(3)));
+        let e = err(&Mat::new(false).push(kp.clone()).bytes);
+        assert!(matches!(
+            e,
+            ZedError::MissingVariable {
+                name: "timestampList",
+                ..
+            }
+        ));
+        assert_eq!(e.to_string(), "t.mat: missing variable \"timestampList\"");
+        let stamps = m.matrix(14, &[1, 3], "timestampList", 12, &m.i64s(&STAMPS));
+        assert!(matches!(
+            err(&Mat::new(false).push(stamps.clone()).bytes),
+            ZedError::MissingVariable {
+                name: "keypoints",
+                ..
+            }
+        ));
+        let offset = 128 + kp.len() + stamps.len();
+        let b = Mat::new(false).push(kp.clone()).push(stamps).push(kp).bytes;
+        match err(&b) {
+            ZedError::DuplicateVariable {
+                name: "keypoints",
+                offset: o,
+                ..
+            } => assert_eq!(o, offset),
+            e => panic!("{e}"),
+        }
+    }
+
+    #[test]
+    fn wrong_shapes_and_types() {
+        let m = Mat::new(false);
+        let stamps = m.matrix(14, &[1, 3], "timestampList", 12, &m.i64s(&STAMPS));
+        let kp33 = m.matrix(
+            7,
+            &[3, 33, 3],
+            "keypoints",
+            7,
+            &m.f32s(&vec![0.0; 3 * 33 * 3]),
+        );
+        match err(&Mat::new(false).push(kp33).push(stamps.clone()).bytes) {
+            e @ ZedError::WrongShape {
+                variable: "keypoints",
+                ..
+            } => {
+                assert_eq!(
+                    e.to_string(),
+                    "t.mat: variable \"keypoints\": wrong shape: expected (T, 34, 3), found (3, 33, 3)"
+                );
+            }
+            e => panic!("{e}"),
+        }
+        let kp4 = m.matrix(7, &[4, 34, 3], "keypoints", 7, &m.f32s(&keypoint_data(4)));
+        assert!(matches!(
+            err(&Mat::new(false).push(kp4).push(stamps.clone()).bytes),
+            ZedError::WrongShape {
+                variable: "timestampList",
+                ..
+            }
+        ));
+        let kp_char = m.matrix(4, &[3, 34, 3], "keypoints", 4, &vec![0; 2 * 306]);
+        assert!(matches!(
+            err(&Mat::new(false).push(kp_char).push(stamps.clone()).bytes),
+            ZedError::WrongType {
+                variable: "keypoints",
+                ..
+            }
+        ));
+        let kp_int = m.matrix(12, &[3, 34, 3], "keypoints", 5, &vec![0; 4 * 306]);
+        match err(&Mat::new(false).push(kp_int).push(stamps).bytes) {
+            ZedError::WrongType {
+                variable: "keypoints",
+                found,
+                ..
+            } => assert_eq!(found, "int32 array"),
+            e => panic!("{e}"),
+        }
+        let kp = m.matrix(7, &[3, 34, 3], "keypoints", 7, &m.f32s(&keypoint_data(3)));
+        let stamps_single = m.matrix(7, &[1, 3], "timestampList", 7, &m.f32s(&[1.0, 2.0, 3.0]));
+        assert!(matches!(
+            err(&Mat::new(false).push(kp).push(stamps_single).bytes),
+            ZedError::WrongType {
+                variable: "timestampList",
+                ..
+            }
+        ));
+    }
+
+    #[test]
+    fn non_monotonic_and_invalid_timestamps() {
+        let m = Mat::new(false);
+        let kp = m.matrix(7, &[3, 34, 3], "keypoints", 7, &m.f32s(&keypoint_data(3)));
+        let back = m.matrix(14, &[1, 3], "timestampList", 12, &m.i64s(&[10, 20, 20]));
+        match err(&Mat::new(false).push(kp.clone()).push(back).bytes) {
+            ZedError::NonMonotonic {
+                frame: 2,
+                previous_ms: 20,
+                stamp_ms: 20,
+                ..
+            } => {}
+            e => panic!("{e}"),
+        }
+        let frac: Vec<u8> = [1.0, 2.5, 3.0f64]
+            .iter()
+            .flat_map(|s| s.to_le_bytes())
+            .collect();
+        let frac = m.matrix(6, &[1, 3], "timestampList", 9, &frac);
+        assert!(matches!(
+            err(&Mat::new(false).push(kp.clone()).push(frac).bytes),
+            ZedError::InvalidTimestamp { frame: 1, .. }
+        ));
+        let wide = m.matrix(14, &[1, 3], "timestampList", 12, &m.i64s(&[0, 1, i64::MAX]));
+        assert!(matches!(
+            err(&Mat::new(false).push(kp.clone()).push(wide).bytes),
+            ZedError::InvalidTimestamp { frame: 2, .. }
+        ));
+        let huge = m.matrix(
+            15,
+            &[1, 3],
+            "timestampList",
+            13,
+            &[u64::MAX.to_le_bytes(); 3].concat(),
+        );
+        assert!(matches!(
+            err(&Mat::new(false).push(kp).push(huge).bytes),
+            ZedError::InvalidTimestamp { frame: 0, .. }
+        ));
+    }
+
+    #[test]
+    fn malformed_and_undecompressable_elements() {
+        let m = Mat::new(false);
+        // a top-level element of type miDOUBLE
+        let b = Mat::new(false).push(m.sub(9, &[0; 8])).bytes;
+        assert!(matches!(err(&b), ZedError::Malformed { offset: 128, .. }));
+        // values do not fill the shape
+        let short = m.matrix(7, &[3, 34, 3], "keypoints", 7, &m.f32s(&[0.0; 5]));
+        match err(&Mat::new(false).push(short).bytes) {
+            ZedError::Malformed { element, .. } => assert_eq!(element, "variable \"keypoints\""),
+            e => panic!("{e}"),
+        }
+        // garbage inside a compressed element
+        let mut b = Mat::new(false).bytes;
+        b.extend(15u32.to_le_bytes());
+        b.extend(4u32.to_le_bytes());
+        b.extend([1, 2, 3, 4]);
+        assert!(matches!(err(&b), ZedError::Decompress { offset: 128, .. }));
+        // negative dimension
+        let neg = m.matrix(7, &[-1, 34, 3], "keypoints", 7, &[]);
+        assert!(matches!(
+            err(&Mat::new(false).push(neg).bytes),
+            ZedError::Malformed { .. }
+        ));
+    }
+
+    #[test]
+    fn truncation_at_every_offset_is_an_error() {
+        for compressed in [false, true] {
+            let b = recording(false, compressed);
+            for k in 0..b.len() {
+                match parse(&b[..k], "t.mat") {
+                    Ok(_) => panic!(
+                        "cut at {k} of {} parsed (compressed: {compressed})",
+                        b.len()
+                    ),
+                    Err(ZedError::NotMatV5 { .. }) => assert!(k < 128),
+                    Err(ZedError::Truncated { .. }) => {}
+                    // a cut exactly between elements drops a variable
+                    Err(ZedError::MissingVariable { .. }) => {}
+                    Err(e) => panic!("cut at {k}: unexpected {e}"),
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn read_reports_io() {
+        assert!(matches!(
+            read("/nonexistent/x.mat"),
+            Err(ZedError::Io { .. })
+        ));
+        let dir = std::env::temp_dir().join(format!("autoact-zed-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let path = dir.join("r.mat");
+        std::fs::write(&path, recording(false, true)).expect("write");
+        assert_eq!(read(&path).expect("valid").len(), 3);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    proptest! {
+        #[test]
+        fn arbitrary_bytes_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..600)) {
+            let _ = parse(&bytes, "p");
+        }
+
+        #[test]
+        fn arbitrary_elements_after_a_valid_header_never_panic(
+            tail in proptest::collection::vec(any::<u8>(), 0..600),
+        ) {
+            let mut bytes = Mat::new(false).bytes;
+            bytes.extend(tail);
+            let _ = parse(&bytes, "p");
+        }
+
+        #[test]
+        fn mutated_recordings_never_panic(
+            compressed in any::<bool>(),
+            edits in proptest::collection::vec((any::<usize>(), any::<u8>()), 1..8),
+        ) {
+            let mut bytes = recording(false, compressed);
+            let len = bytes.len();
+            for (pos, byte) in edits {
+                if let Some(b) = bytes.get_mut(pos % len) {
+                    *b = byte;
+                }
+            }
+            let _ = parse(&bytes, "p");
+        }
+    }
+}
