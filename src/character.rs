@@ -118,9 +118,9 @@ impl Character {
         Character::from_scales(rig, bone_scale)
     }
 
-    /// Sets the fixed position of landmark `landmark` on its (static) bone, and of every child
-    /// bone whose head sits at that landmark, to `offset_m` from the bone's head.
-    pub fn set_static_offset(&mut self, rig: &Rig, landmark: usize, offset_m: Vector3<f64>) {
+    /// Sets the position of landmark `landmark` on the bone it rides on, and of every child bone
+    /// whose head sits at that landmark, to `offset_m` from the bone's head.
+    pub fn set_landmark_offset(&mut self, rig: &Rig, landmark: usize, offset_m: Vector3<f64>) {
         let l = &rig.landmarks[landmark];
         for (i, b) in rig.bones.iter().enumerate() {
             if b.parent == Some(l.bone) && (b.head_rest_m - l.rest_m).norm() < 1e-9 {

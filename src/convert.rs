@@ -259,7 +259,12 @@ impl<'r> Converter<'r> {
     /// # Errors
     /// [`LayoutError`] if the layout does not bind to the rig.
     pub fn new(rig: &'r Rig, layout: &Layout, character: &Character, options: ConvertOptions) -> Result<Self, LayoutError> {
-        let binding = layout.bind(rig)?;
+        Ok(Converter::with_binding(rig, layout.bind(rig)?, character, options))
+    }
+
+    /// A converter for an already bound layout.
+    #[must_use]
+    pub fn with_binding(rig: &'r Rig, binding: Binding, character: &Character, options: ConvertOptions) -> Self {
         let coverage = binding.coverage(rig);
         let mut solves = Vec::with_capacity(rig.recipes.len());
         let mut solve_of_bone = vec![usize::MAX; rig.bones.len()];
@@ -285,7 +290,7 @@ impl<'r> Converter<'r> {
         let pair = |a: &str, b: &str| Some((lm(a)?, lm(b)?)).filter(|(a, b)| binding.landmark_terms[*a].is_some() && binding.landmark_terms[*b].is_some());
         let pelvis_lm = lm("pelvis");
         let pelvis_offset_m = pelvis_lm.map_or_else(Vector3::zeros, |p| character.landmark_from_root_m(rig, p));
-        Ok(Converter {
+        Converter {
             rig,
             options,
             pelvis_offset_m,
@@ -308,7 +313,7 @@ impl<'r> Converter<'r> {
             shoulder_lms: pair("l_shoulder", "r_shoulder"),
             pelvis_lm: pelvis_lm.filter(|p| binding.landmark_terms[*p].is_some()),
             binding,
-        })
+        }
     }
 
     /// The report so far.
@@ -537,43 +542,104 @@ impl<'r> Converter<'r> {
     }
 }
 
-/// Measures the rig's segments in a sequence (median over frames) and fits a [`Character`] to
-/// them.
+/// Fits a [`Character`] to a subject: first the length of every segment the layout drives (median
+/// over frames), then where each observed point sits on the bone it rides on, measured in that
+/// bone's solved frame (median over frames). The second pass gives the subject its own geometry
+/// where the rig is rigid — where its hip joints sit on its pelvis, its shoulders on its
+/// clavicles, its heels, ears and thumb tips on their bones — so that no joint below a rigid part
+/// is off by a difference of build, and the points a layout reports land where it reported them.
+/// The pelvis is the exception: it places the root.
 #[must_use]
-pub fn fit_character(rig: &Rig, binding: &Binding, frames: &[PoseFrame], min_confidence: f32) -> Character {
-    let mut samples: Vec<Vec<f64>> = vec![Vec::new(); rig.measures.len()];
+pub fn fit_character(rig: &Rig, binding: &Binding, frames: &[PoseFrame], options: ConvertOptions) -> Character {
     // A few hundred evenly spread frames are plenty for a median.
-    let step = (frames.len() / 512).max(1);
-    for f in frames.iter().step_by(step) {
-        let pt = |set: &[usize]| -> Option<Point3<f64>> {
-            let mut sum = Vector3::zeros();
-            for &l in set {
-                sum += binding.landmark_point(l, &f.positions_m, &f.confidence, min_confidence)?.coords;
+    let step = (frames.len() / 256).max(1);
+    let sample: Vec<&PoseFrame> = frames.iter().step_by(step).collect();
+    let point = |f: &PoseFrame, set: &[usize]| -> Option<Point3<f64>> {
+        let mut sum = Vector3::zeros();
+        for &l in set {
+            sum += binding.landmark_point(l, &f.positions_m, &f.confidence, options.min_confidence)?.coords;
+        }
+        #[expect(clippy::cast_precision_loss, reason = "landmark sets hold a handful of points")]
+        let n = set.len().max(1) as f64;
+        Some(Point3::from(sum / n))
+    };
+    // A segment counts only if this layout drives a bone along it (or it is a static width): an
+    // alternative the layout does not use would pull the median towards a different segment.
+    let in_use = |m: &crate::rig::Measure| {
+        m.used_by.is_empty() || m.used_by.iter().any(|&(r, a)| binding.bone_sources.get(r).is_some_and(|s| s.direction == Some(a)))
+    };
+    let observed: Vec<Option<f64>> = rig
+        .measures
+        .iter()
+        .map(|m| {
+            if !in_use(m) {
+                return None;
             }
-            #[expect(clippy::cast_precision_loss, reason = "landmark sets hold a handful of points")]
-            let n = set.len().max(1) as f64;
-            Some(Point3::from(sum / n))
-        };
-        for (m, s) in rig.measures.iter().zip(samples.iter_mut()) {
-            if let (Some(a), Some(b)) = (pt(&m.from), pt(&m.to)) {
-                let d = (b - a).norm();
-                if d.is_finite() && d > 1e-6 {
-                    s.push(d);
+            let mut d: Vec<f64> = sample
+                .iter()
+                .filter_map(|f| Some((point(f, &m.to)? - point(f, &m.from)?).norm()))
+                .filter(|d| d.is_finite() && *d > 1e-6)
+                .collect();
+            median(&mut d)
+        })
+        .collect();
+    let mut character = Character::fitted(rig, &observed);
+
+    // Pass 2: where each observed point rides. The pelvis landmark places the root, so it stays.
+    let movable: Vec<usize> = rig
+        .landmarks
+        .iter()
+        .enumerate()
+        .filter(|(l, lm)| lm.name != "pelvis" && binding.landmark_terms[*l].is_some())
+        .map(|(l, _)| l)
+        .collect();
+    if movable.is_empty() {
+        return character;
+    }
+    // Solve the sample once: rotations do not depend on where points ride (the pelvis, which
+    // places the root, is not refitted).
+    let mut converter = Converter::with_binding(rig, binding.clone(), &character, options);
+    let mut solved: Vec<(&PoseFrame, BonePose)> = Vec::with_capacity(sample.len());
+    let mut pose = BonePose::rest(rig);
+    for f in &sample {
+        if converter.convert_frame(f, &mut pose).is_ok() {
+            solved.push((f, pose.clone()));
+        }
+    }
+    // Bone by bone, parents first, so each offset is measured from a head already in place.
+    let mut world = crate::fk::WorldPose::new(rig);
+    for b in 0..rig.bones.len() {
+        let riders: Vec<usize> = movable.iter().copied().filter(|&l| rig.landmarks[l].bone == b).collect();
+        if riders.is_empty() {
+            continue;
+        }
+        let mut samples: Vec<[Vec<f64>; 3]> = vec![[Vec::new(), Vec::new(), Vec::new()]; riders.len()];
+        for (f, pose) in &solved {
+            crate::fk::forward_into(rig, &character, pose, 1.0, &mut world);
+            for (k, &l) in riders.iter().enumerate() {
+                let Some(p) = point(f, &[l]) else { continue };
+                let offset = world.rotations[b].inverse() * (p - world.heads_m[b]);
+                for (axis, v) in offset.iter().enumerate() {
+                    samples[k][axis].push(*v);
                 }
             }
         }
-    }
-    let observed: Vec<Option<f64>> = samples
-        .iter_mut()
-        .map(|s| {
-            if s.is_empty() {
-                return None;
+        for (k, &l) in riders.iter().enumerate() {
+            let [x, y, z] = &mut samples[k];
+            if let (Some(x), Some(y), Some(z)) = (median(x), median(y), median(z)) {
+                character.set_landmark_offset(rig, l, Vector3::new(x, y, z));
             }
-            s.sort_by(f64::total_cmp);
-            Some(s[s.len() / 2])
-        })
-        .collect();
-    Character::fitted(rig, &observed)
+        }
+    }
+    character
+}
+
+fn median(v: &mut [f64]) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    Some(v[v.len() / 2])
 }
 
 /// Converts a whole sequence: fits the subject's proportions, then solves every frame.
@@ -603,8 +669,8 @@ pub fn convert_sequence(rig: &Rig, layout: &Layout, seq: &PoseSequence, options:
         &reordered
     };
     let binding = layout.bind(rig).map_err(layout_err)?;
-    let character = fit_character(rig, &binding, frames, options.min_confidence);
-    let mut converter = Converter::new(rig, layout, &character, options).map_err(layout_err)?;
+    let character = fit_character(rig, &binding, frames, options);
+    let mut converter = Converter::with_binding(rig, binding, &character, options);
     let mut out_frames = Vec::with_capacity(frames.len());
     let mut dropped = Vec::new();
     let mut pose = BonePose::rest(rig);

@@ -176,6 +176,25 @@ impl Layout {
         }
     }
 
+    /// This layout without the landmarks that use a joint for which `present` is false: for a
+    /// source that never has those joints (mocap without fingers), so the bones they would drive
+    /// are reported as left at rest instead of as missing in every frame.
+    #[must_use]
+    pub fn restricted(&self, present: &[bool]) -> Layout {
+        let has = |j: &String| self.joints.iter().position(|n| n == j).is_some_and(|i| present.get(i).copied().unwrap_or(false));
+        let landmarks = self
+            .landmarks
+            .iter()
+            .filter(|(_, e)| match e {
+                JointExpr::Joint(j) => has(j),
+                JointExpr::Mean { mean } => mean.iter().all(has),
+                JointExpr::Lerp { from, to, .. } => has(from) && has(to),
+            })
+            .map(|(k, e)| (k.clone(), e.clone()))
+            .collect();
+        Layout { landmarks, ..self.clone() }
+    }
+
     /// The names of the built-in layouts.
     #[must_use]
     pub fn builtin_names() -> Vec<&'static str> {

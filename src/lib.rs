@@ -13,6 +13,7 @@
 
 pub mod character;
 pub mod convert;
+pub mod eval;
 pub mod fk;
 pub mod formats;
 pub mod frames;

@@ -150,6 +150,9 @@ pub struct Measure {
     pub to: LandmarkSet,
     /// Bones whose length scale this distance sets.
     pub bones: Vec<usize>,
+    /// The (recipe index, direction alternative) pairs that drive a bone along this segment;
+    /// empty for the width measures of static bones, which always count.
+    pub used_by: Vec<(usize, usize)>,
 }
 
 /// The rig: bones in parent-before-child order, landmarks, recipes and measures.
@@ -619,21 +622,25 @@ fn bones_between(rig: &Rig, from: usize, to: usize) -> Vec<usize> {
 
 fn build_measures(rig: &Rig) -> Vec<Measure> {
     let mut measures: Vec<Measure> = Vec::new();
-    let mut push = |from: LandmarkSet, to: LandmarkSet| {
+    let mut push = |from: LandmarkSet, to: LandmarkSet, user: Option<(usize, usize)>| {
         let (Some(&f), Some(&t)) = (from.first(), to.first()) else { return };
         let bones = bones_between(rig, f, t);
-        if !bones.is_empty() && !measures.iter().any(|m| m.from == from && m.to == to) {
-            measures.push(Measure { from, to, bones });
+        if bones.is_empty() {
+            return;
+        }
+        match measures.iter_mut().find(|m| m.from == from && m.to == to) {
+            Some(m) => m.used_by.extend(user),
+            None => measures.push(Measure { from, to, bones, used_by: user.into_iter().collect() }),
         }
     };
-    for r in &rig.recipes {
-        for d in &r.directions {
-            push(d.from.clone(), d.to.clone());
+    for (ri, r) in rig.recipes.iter().enumerate() {
+        for (ai, d) in r.directions.iter().enumerate() {
+            push(d.from.clone(), d.to.clone(), Some((ri, ai)));
         }
     }
     // Static bones: shoulder and hip width.
     for (from, to) in [("chest", "l_shoulder"), ("chest", "r_shoulder"), ("pelvis", "l_hip"), ("pelvis", "r_hip")] {
-        push(set(rig, &[from]), set(rig, &[to]));
+        push(set(rig, &[from]), set(rig, &[to]), None);
     }
     measures
 }

@@ -5,6 +5,7 @@
 //! frame (converting axes once, through [`crate::frames::SourceAxes`]) and in metres.
 
 pub mod bvh;
+pub mod bvh_map;
 pub mod h36m_expmap;
 pub mod mmpose_json;
 pub mod ntu;
