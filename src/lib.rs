@@ -12,6 +12,8 @@
 //! ```
 
 pub mod character;
+pub mod cli;
+pub mod cmd;
 pub mod convert;
 pub mod eval;
 pub mod fk;

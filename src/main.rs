@@ -1,1 +1,19 @@
-fn main(){}
+//! The `autoact` command: parse arguments, set up logging, run, map the outcome to an exit code.
+
+use std::process::ExitCode;
+
+use clap::Parser;
+
+fn main() -> ExitCode {
+    let cli = autoact::cli::Cli::parse();
+    autoact::cli::init_logging(&cli.global);
+    match autoact::cmd::dispatch(cli.command) {
+        Ok(outcome) => outcome.exit_code(),
+        Err(err) if autoact::cli::is_broken_pipe(&err) => ExitCode::SUCCESS,
+        Err(err) => {
+            tracing::error!("{err:#}");
+            autoact::cli::report_error(&err);
+            ExitCode::from(autoact::cli::EXIT_FAILURE)
+        }
+    }
+}

@@ -1,0 +1,129 @@
+//! Command-line surface: the [`Cli`] parser, global flags, logging and exit codes.
+
+use clap::{Args, Parser, Subcommand};
+
+/// Exit code for a failure that produced no usable result.
+pub const EXIT_FAILURE: u8 = 1;
+/// Exit code clap uses for a usage error.
+pub const EXIT_USAGE: u8 = 2;
+/// Exit code for a run that finished but lost input data (skipped frames or records).
+pub const EXIT_DATA_LOST: u8 = 3;
+
+const EXIT_CODES_HELP: &str = "\
+Exit codes:
+  0  success
+  1  failure (nothing usable was written)
+  2  usage error
+  3  finished, but some input was lost (skipped frames or records; see the warnings)";
+
+/// Turn 3D human pose-estimation output into rotation-based animation on a 53-bone rig, and into
+/// labelled multi-view action-recognition datasets stored in ROS 2 MCAP.
+#[derive(Debug, Parser)]
+#[command(name = "autoact", version, about, long_about = None, after_help = EXIT_CODES_HELP)]
+pub struct Cli {
+    /// Flags every command takes.
+    #[command(flatten)]
+    pub global: GlobalArgs,
+    /// The command to run.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Flags every command takes.
+#[derive(Debug, Args)]
+pub struct GlobalArgs {
+    /// More diagnostics on stderr (repeat for more); `RUST_LOG` overrides.
+    #[arg(short, long, global = true, action = clap::ArgAction::Count)]
+    pub verbose: u8,
+    /// Only errors on stderr.
+    #[arg(short, long, global = true, conflicts_with = "verbose")]
+    pub quiet: bool,
+}
+
+/// The commands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Print the 53-bone rig: bones, parents, rest geometry, degree-of-freedom classes.
+    ///
+    /// With `--layout`, also which bones a keypoint layout drives, which it leaves at rest, and
+    /// whose twist it cannot observe. `--landmarks` lists the named points layouts bind to,
+    /// `--recipes` which landmarks drive each bone.
+    Rig(crate::cmd::rig::Args),
+    /// List the built-in keypoint layouts, or show one (or a layout file) joint by joint.
+    Layouts(crate::cmd::layouts::Args),
+}
+
+/// Output format of listing commands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum Format {
+    /// An aligned text table.
+    #[default]
+    Table,
+    /// JSON, one document.
+    Json,
+}
+
+/// Installs the stderr logger: warnings by default, `-v` info, `-vv` debug, `-q` errors only;
+/// `RUST_LOG` overrides.
+pub fn init_logging(global: &GlobalArgs) {
+    let level = if global.quiet {
+        "error"
+    } else {
+        match global.verbose {
+            0 => "warn",
+            1 => "info",
+            2 => "debug",
+            _ => "trace",
+        }
+    };
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
+    let _ = tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).with_target(false).without_time().try_init();
+}
+
+/// Whether the error chain ends in a closed pipe (`autoact rig | head`), which is not a failure.
+#[must_use]
+pub fn is_broken_pipe(err: &anyhow::Error) -> bool {
+    err.chain().any(|e| e.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe))
+}
+
+/// Prints an error once, with its causes, on stderr.
+pub fn report_error(err: &anyhow::Error) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr(), "Error: {err:#}");
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn cli_definition_is_consistent() {
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn rig_defaults_and_flags_parse() {
+        let cli = Cli::try_parse_from(["autoact", "rig"]).unwrap();
+        let Command::Rig(args) = cli.command else { panic!("not rig") };
+        assert_eq!(args.format, Format::Table);
+        assert!(args.layout.is_none() && !args.landmarks && !args.recipes);
+        let cli = Cli::try_parse_from(["autoact", "-v", "rig", "--format", "json", "--layout", "h36m-17"]).unwrap();
+        assert_eq!(cli.global.verbose, 1);
+        let Command::Rig(args) = cli.command else { panic!("not rig") };
+        assert_eq!(args.format, Format::Json);
+        assert_eq!(args.layout.as_deref(), Some("h36m-17"));
+        assert!(Cli::try_parse_from(["autoact", "rig", "--landmarks", "--recipes"]).is_err(), "one listing at a time");
+        assert!(Cli::try_parse_from(["autoact", "-q", "-v", "rig"]).is_err());
+    }
+
+    #[test]
+    fn layouts_parses_with_and_without_a_name() {
+        let cli = Cli::try_parse_from(["autoact", "layouts"]).unwrap();
+        let Command::Layouts(args) = cli.command else { panic!("not layouts") };
+        assert!(args.layout.is_none());
+        let cli = Cli::try_parse_from(["autoact", "layouts", "my.toml"]).unwrap();
+        let Command::Layouts(args) = cli.command else { panic!("not layouts") };
+        assert_eq!(args.layout.as_deref(), Some("my.toml"));
+    }
+}
