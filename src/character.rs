@@ -13,7 +13,7 @@
 
 use nalgebra::{Point3, Vector3};
 
-use crate::rig::{Rig, ROOT};
+use crate::rig::{ROOT, Rig};
 
 /// Proportions relative to the rig's default adult (1.0 = unchanged).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -30,7 +30,12 @@ pub struct Proportions {
 
 impl Default for Proportions {
     fn default() -> Self {
-        Proportions { height_m: Character::STANDARD_HEIGHT_M, arm_scale: 1.0, leg_scale: 1.0, torso_scale: 1.0 }
+        Proportions {
+            height_m: Character::STANDARD_HEIGHT_M,
+            arm_scale: 1.0,
+            leg_scale: 1.0,
+            torso_scale: 1.0,
+        }
     }
 }
 
@@ -58,15 +63,26 @@ impl Character {
     /// A character from per-bone scales (the root's is derived from the legs).
     #[must_use]
     pub fn from_scales(rig: &Rig, bone_scale: Vec<f64>) -> Character {
-        let mut c = Character { bone_scale, head_offset_m: Vec::new(), landmark_offset_m: Vec::new() };
+        let mut c = Character {
+            bone_scale,
+            head_offset_m: Vec::new(),
+            landmark_offset_m: Vec::new(),
+        };
         c.derive_root_scale(rig);
         c.head_offset_m = rig
             .bones
             .iter()
-            .map(|b| b.parent.map_or_else(Vector3::zeros, |p| (b.head_rest_m - rig.bones[p].head_rest_m) * c.bone_scale[p]))
+            .map(|b| {
+                b.parent.map_or_else(Vector3::zeros, |p| {
+                    (b.head_rest_m - rig.bones[p].head_rest_m) * c.bone_scale[p]
+                })
+            })
             .collect();
-        c.landmark_offset_m =
-            rig.landmarks.iter().map(|l| (l.rest_m - rig.bones[l.bone].head_rest_m) * c.bone_scale[l.bone]).collect();
+        c.landmark_offset_m = rig
+            .landmarks
+            .iter()
+            .map(|l| (l.rest_m - rig.bones[l.bone].head_rest_m) * c.bone_scale[l.bone])
+            .collect();
         c
     }
 
@@ -102,7 +118,9 @@ impl Character {
         let mut per_bone: Vec<Vec<f64>> = vec![Vec::new(); rig.bones.len()];
         let mut all = Vec::new();
         for (m, obs) in rig.measures.iter().zip(observed) {
-            let Some(obs) = obs.filter(|v| v.is_finite() && *v > 0.0) else { continue };
+            let Some(obs) = obs.filter(|v| v.is_finite() && *v > 0.0) else {
+                continue;
+            };
             let rest = (rig.rest_point(&m.to) - rig.rest_point(&m.from)).norm();
             if rest <= 1e-6 {
                 continue;
@@ -114,7 +132,10 @@ impl Character {
             }
         }
         let global = median(&mut all).unwrap_or(1.0);
-        let bone_scale = per_bone.iter_mut().map(|v| median(v).unwrap_or(global)).collect();
+        let bone_scale = per_bone
+            .iter_mut()
+            .map(|v| median(v).unwrap_or(global))
+            .collect();
         Character::from_scales(rig, bone_scale)
     }
 
@@ -137,14 +158,24 @@ impl Character {
         let mut n = 0.0;
         for side in ["l", "r"] {
             let idx = |s: &str| rig.bone_index(&format!("{side}_{s}"));
-            let (Some(thigh), Some(calf), Some(foot)) = (idx("thigh"), idx("calf"), idx("foot")) else { continue };
+            let (Some(thigh), Some(calf), Some(foot)) = (idx("thigh"), idx("calf"), idx("foot"))
+            else {
+                continue;
+            };
             let drop = |b: usize| {
                 let bone = &rig.bones[b];
-                bone.head_rest_m.z - rig.bones.iter().find(|c| c.parent == Some(b)).map_or(0.0, |c| c.head_rest_m.z)
+                bone.head_rest_m.z
+                    - rig
+                        .bones
+                        .iter()
+                        .find(|c| c.parent == Some(b))
+                        .map_or(0.0, |c| c.head_rest_m.z)
             };
             let ankle_height = rig.bones[foot].head_rest_m.z;
             let rest = drop(thigh) + drop(calf) + ankle_height;
-            let scaled = drop(thigh) * self.bone_scale[thigh] + drop(calf) * self.bone_scale[calf] + ankle_height * self.bone_scale[foot];
+            let scaled = drop(thigh) * self.bone_scale[thigh]
+                + drop(calf) * self.bone_scale[calf]
+                + ankle_height * self.bone_scale[foot];
             sum += scaled / rest;
             n += 1.0;
         }
@@ -157,7 +188,9 @@ impl Character {
     /// translation when an animation moves to another body.
     #[must_use]
     pub fn hip_height_m(&self, rig: &Rig) -> f64 {
-        let pelvis = rig.landmark_index("pelvis").map_or(Point3::origin(), |l| rig.landmarks[l].rest_m);
+        let pelvis = rig
+            .landmark_index("pelvis")
+            .map_or(Point3::origin(), |l| rig.landmarks[l].rest_m);
         pelvis.z * self.bone_scale[ROOT]
     }
 
@@ -184,5 +217,9 @@ fn median(v: &mut [f64]) -> Option<f64> {
     }
     v.sort_by(f64::total_cmp);
     let n = v.len();
-    Some(if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) })
+    Some(if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    })
 }

@@ -76,14 +76,23 @@ pub fn init_logging(global: &GlobalArgs) {
             _ => "trace",
         }
     };
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
-    let _ = tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).with_target(false).without_time().try_init();
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_target(false)
+        .without_time()
+        .try_init();
 }
 
 /// Whether the error chain ends in a closed pipe (`autoact rig | head`), which is not a failure.
 #[must_use]
 pub fn is_broken_pipe(err: &anyhow::Error) -> bool {
-    err.chain().any(|e| e.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe))
+    err.chain().any(|e| {
+        e.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
 }
 
 /// Prints an error once, with its causes, on stderr.
@@ -105,25 +114,39 @@ mod tests {
     #[test]
     fn rig_defaults_and_flags_parse() {
         let cli = Cli::try_parse_from(["autoact", "rig"]).unwrap();
-        let Command::Rig(args) = cli.command else { panic!("not rig") };
+        let Command::Rig(args) = cli.command else {
+            panic!("not rig")
+        };
         assert_eq!(args.format, Format::Table);
         assert!(args.layout.is_none() && !args.landmarks && !args.recipes);
-        let cli = Cli::try_parse_from(["autoact", "-v", "rig", "--format", "json", "--layout", "h36m-17"]).unwrap();
+        let cli = Cli::try_parse_from([
+            "autoact", "-v", "rig", "--format", "json", "--layout", "h36m-17",
+        ])
+        .unwrap();
         assert_eq!(cli.global.verbose, 1);
-        let Command::Rig(args) = cli.command else { panic!("not rig") };
+        let Command::Rig(args) = cli.command else {
+            panic!("not rig")
+        };
         assert_eq!(args.format, Format::Json);
         assert_eq!(args.layout.as_deref(), Some("h36m-17"));
-        assert!(Cli::try_parse_from(["autoact", "rig", "--landmarks", "--recipes"]).is_err(), "one listing at a time");
+        assert!(
+            Cli::try_parse_from(["autoact", "rig", "--landmarks", "--recipes"]).is_err(),
+            "one listing at a time"
+        );
         assert!(Cli::try_parse_from(["autoact", "-q", "-v", "rig"]).is_err());
     }
 
     #[test]
     fn layouts_parses_with_and_without_a_name() {
         let cli = Cli::try_parse_from(["autoact", "layouts"]).unwrap();
-        let Command::Layouts(args) = cli.command else { panic!("not layouts") };
+        let Command::Layouts(args) = cli.command else {
+            panic!("not layouts")
+        };
         assert!(args.layout.is_none());
         let cli = Cli::try_parse_from(["autoact", "layouts", "my.toml"]).unwrap();
-        let Command::Layouts(args) = cli.command else { panic!("not layouts") };
+        let Command::Layouts(args) = cli.command else {
+            panic!("not layouts")
+        };
         assert_eq!(args.layout.as_deref(), Some("my.toml"));
     }
 }

@@ -25,9 +25,9 @@ use nalgebra::{Point3, Unit, UnitQuaternion, Vector3};
 use crate::character::Character;
 use crate::fk::BonePose;
 use crate::geom;
-use crate::layout::{rest_reference, Binding, Coverage, Layout, LayoutError};
+use crate::layout::{Binding, Coverage, Layout, LayoutError, rest_reference};
 use crate::pose::{PoseFrame, PoseSequence};
-use crate::rig::{Dof, Reference, Rig, ROOT};
+use crate::rig::{Dof, ROOT, Reference, Rig};
 
 /// How the root follows the pelvis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
@@ -55,7 +55,11 @@ pub struct ConvertOptions {
 
 impl Default for ConvertOptions {
     fn default() -> Self {
-        ConvertOptions { min_confidence: 0.3, min_reference_angle_rad: 1f64.to_radians(), root_motion: RootMotion::Full }
+        ConvertOptions {
+            min_confidence: 0.3,
+            min_reference_angle_rad: 1f64.to_radians(),
+            root_motion: RootMotion::Full,
+        }
     }
 }
 
@@ -73,7 +77,9 @@ pub enum ConvertError {
         source: LayoutError,
     },
     /// A frame's arrays do not have the layout's joint count.
-    #[error("{source_name}: frame {frame} has {found} positions and {confidences} confidences, the layout `{layout}` has {expected} joints")]
+    #[error(
+        "{source_name}: frame {frame} has {found} positions and {confidences} confidences, the layout `{layout}` has {expected} joints"
+    )]
     WrongJointCount {
         /// The data being converted.
         source_name: String,
@@ -210,8 +216,15 @@ struct BoneSolve {
 
 #[derive(Debug, Clone)]
 enum RefSolve {
-    Direction { from: Vec<usize>, to: Vec<usize>, rest_perp: Unit<Vector3<f64>> },
-    Normal { points: [usize; 3], rest_perp: Unit<Vector3<f64>> },
+    Direction {
+        from: Vec<usize>,
+        to: Vec<usize>,
+        rest_perp: Unit<Vector3<f64>>,
+    },
+    Normal {
+        points: [usize; 3],
+        rest_perp: Unit<Vector3<f64>>,
+    },
 }
 
 /// Landmark value for one frame: present, or why not.
@@ -247,7 +260,11 @@ pub struct Converter<'r> {
 
 fn perp_of(v: &Vector3<f64>, axis: &Unit<Vector3<f64>>) -> Unit<Vector3<f64>> {
     geom::perpendicular_direction(v, axis, 1e-3).unwrap_or_else(|| {
-        let helper = if axis.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+        let helper = if axis.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        };
         Unit::new_normalize(axis.cross(&helper))
     })
 }
@@ -258,19 +275,39 @@ impl<'r> Converter<'r> {
     ///
     /// # Errors
     /// [`LayoutError`] if the layout does not bind to the rig.
-    pub fn new(rig: &'r Rig, layout: &Layout, character: &Character, options: ConvertOptions) -> Result<Self, LayoutError> {
-        Ok(Converter::with_binding(rig, layout.bind(rig)?, character, options))
+    pub fn new(
+        rig: &'r Rig,
+        layout: &Layout,
+        character: &Character,
+        options: ConvertOptions,
+    ) -> Result<Self, LayoutError> {
+        Ok(Converter::with_binding(
+            rig,
+            layout.bind(rig)?,
+            character,
+            options,
+        ))
     }
 
     /// A converter for an already bound layout.
     #[must_use]
-    pub fn with_binding(rig: &'r Rig, binding: Binding, character: &Character, options: ConvertOptions) -> Self {
+    pub fn with_binding(
+        rig: &'r Rig,
+        binding: Binding,
+        character: &Character,
+        options: ConvertOptions,
+    ) -> Self {
         let coverage = binding.coverage(rig);
         let mut solves = Vec::with_capacity(rig.recipes.len());
         let mut solve_of_bone = vec![usize::MAX; rig.bones.len()];
         for (recipe, src) in rig.recipes.iter().zip(&binding.bone_sources) {
             let bone = &rig.bones[recipe.bone];
-            let dir = src.direction.map(|d| (recipe.directions[d].from.clone(), recipe.directions[d].to.clone()));
+            let dir = src.direction.map(|d| {
+                (
+                    recipe.directions[d].from.clone(),
+                    recipe.directions[d].to.clone(),
+                )
+            });
             let rest_dir = dir
                 .as_ref()
                 .and_then(|(f, t)| geom::direction(rig.rest_point(t) - rig.rest_point(f)))
@@ -279,17 +316,34 @@ impl<'r> Converter<'r> {
                 let refr = &recipe.references[r];
                 let rest_perp = perp_of(&rest_reference(rig, refr), &rest_dir);
                 match refr {
-                    Reference::Direction { from, to } => RefSolve::Direction { from: from.clone(), to: to.clone(), rest_perp },
-                    Reference::Normal { points, .. } => RefSolve::Normal { points: *points, rest_perp },
+                    Reference::Direction { from, to } => RefSolve::Direction {
+                        from: from.clone(),
+                        to: to.clone(),
+                        rest_perp,
+                    },
+                    Reference::Normal { points, .. } => RefSolve::Normal {
+                        points: *points,
+                        rest_perp,
+                    },
                 }
             });
             solve_of_bone[recipe.bone] = solves.len();
-            solves.push(BoneSolve { dof: bone.dof, dir, rest_dir, reference });
+            solves.push(BoneSolve {
+                dof: bone.dof,
+                dir,
+                rest_dir,
+                reference,
+            });
         }
         let lm = |n: &str| rig.landmark_index(n);
-        let pair = |a: &str, b: &str| Some((lm(a)?, lm(b)?)).filter(|(a, b)| binding.landmark_terms[*a].is_some() && binding.landmark_terms[*b].is_some());
+        let pair = |a: &str, b: &str| {
+            Some((lm(a)?, lm(b)?)).filter(|(a, b)| {
+                binding.landmark_terms[*a].is_some() && binding.landmark_terms[*b].is_some()
+            })
+        };
         let pelvis_lm = lm("pelvis");
-        let pelvis_offset_m = pelvis_lm.map_or_else(Vector3::zeros, |p| character.landmark_from_root_m(rig, p));
+        let pelvis_offset_m =
+            pelvis_lm.map_or_else(Vector3::zeros, |p| character.landmark_from_root_m(rig, p));
         Converter {
             rig,
             options,
@@ -343,39 +397,60 @@ impl<'r> Converter<'r> {
                 Lm::Missing | Lm::Unbound => return Err(Degeneracy::MissingJoint),
             }
         }
-        #[expect(clippy::cast_precision_loss, reason = "landmark sets hold a handful of points")]
+        #[expect(
+            clippy::cast_precision_loss,
+            reason = "landmark sets hold a handful of points"
+        )]
         let n = set.len().max(1) as f64;
         Ok(Point3::from(sum / n))
     }
 
-    fn direction_between(&self, from: &[usize], to: &[usize]) -> Result<Unit<Vector3<f64>>, Degeneracy> {
+    fn direction_between(
+        &self,
+        from: &[usize],
+        to: &[usize],
+    ) -> Result<Unit<Vector3<f64>>, Degeneracy> {
         let v = self.point(to)? - self.point(from)?;
         geom::direction(v).ok_or(Degeneracy::ZeroLengthBone)
     }
 
-    fn current_reference(&self, r: &RefSolve, cur_dir: &Unit<Vector3<f64>>) -> Result<Unit<Vector3<f64>>, Degeneracy> {
+    fn current_reference(
+        &self,
+        r: &RefSolve,
+        cur_dir: &Unit<Vector3<f64>>,
+    ) -> Result<Unit<Vector3<f64>>, Degeneracy> {
         let v = match r {
             RefSolve::Direction { from, to, .. } => self.point(to)? - self.point(from)?,
-            RefSolve::Normal { points: [a, b, c], .. } => {
+            RefSolve::Normal {
+                points: [a, b, c], ..
+            } => {
                 let (a, b, c) = (self.point(&[*a])?, self.point(&[*b])?, self.point(&[*c])?);
                 let (u, w) = (b - a, c - b);
                 let n = u.cross(&w);
                 // Scale-free: compare the normal with the product of the segment lengths.
                 let scale = u.norm() * w.norm();
-                if !(scale > 0.0) || n.norm() < scale * self.options.min_reference_angle_rad.sin() {
+                if scale.is_nan()
+                    || scale <= 0.0
+                    || n.norm() < scale * self.options.min_reference_angle_rad.sin()
+                {
                     return Err(Degeneracy::ParallelReference);
                 }
                 n
             }
         };
-        geom::perpendicular_direction(&v, cur_dir, self.options.min_reference_angle_rad).ok_or(Degeneracy::ParallelReference)
+        geom::perpendicular_direction(&v, cur_dir, self.options.min_reference_angle_rad)
+            .ok_or(Degeneracy::ParallelReference)
     }
 
     /// Converts one frame (positions in the layout's joint order) into `out`.
     ///
     /// # Errors
     /// [`ConvertError::WrongJointCount`] if the arrays do not match the layout.
-    pub fn convert_frame(&mut self, frame: &PoseFrame, out: &mut BonePose) -> Result<(), ConvertError> {
+    pub fn convert_frame(
+        &mut self,
+        frame: &PoseFrame,
+        out: &mut BonePose,
+    ) -> Result<(), ConvertError> {
         let expected = self.binding.joint_count;
         if frame.positions_m.len() != expected || frame.confidence.len() != expected {
             return Err(ConvertError::WrongJointCount {
@@ -392,7 +467,9 @@ impl<'r> Converter<'r> {
         let prev_pose = self.previous.take();
         self.solve_root(prev_pose.as_ref(), out);
         for b in 1..self.rig.bones.len() {
-            let Some(parent) = self.rig.bones[b].parent else { continue };
+            let Some(parent) = self.rig.bones[b].parent else {
+                continue;
+            };
             let parent_world = self.world[parent];
             let prev_local = prev_pose.as_ref().map(|p| p.local_rotations[b]);
             let local = self.solve_bone(b, &parent_world, prev_local);
@@ -426,7 +503,7 @@ impl<'r> Converter<'r> {
                             state = Lm::Missing;
                             break;
                         }
-                        if !(frame.confidence[j] >= min_c) {
+                        if frame.confidence[j].is_nan() || frame.confidence[j] < min_c {
                             state = Lm::LowConfidence;
                         }
                         sum += p.coords * w;
@@ -447,7 +524,9 @@ impl<'r> Converter<'r> {
             let h = Vector3::new(v.x, v.y, 0.0);
             (h.norm() > 1e-6).then_some(h)
         };
-        let yaw = horizontal(self.hip_lms, self).or_else(|| horizontal(self.shoulder_lms, self)).map(|h| h.y.atan2(h.x));
+        let yaw = horizontal(self.hip_lms, self)
+            .or_else(|| horizontal(self.shoulder_lms, self))
+            .map(|h| h.y.atan2(h.x));
         let root_rot = match (yaw, prev) {
             (Some(y), _) => geom::yaw_rotation(y),
             (None, Some(p)) => {
@@ -461,7 +540,9 @@ impl<'r> Converter<'r> {
                 UnitQuaternion::identity()
             }
         };
-        let root_rot = prev.map_or(root_rot, |p| geom::align_hemisphere(root_rot, &p.local_rotations[ROOT]));
+        let root_rot = prev.map_or(root_rot, |p| {
+            geom::align_hemisphere(root_rot, &p.local_rotations[ROOT])
+        });
         let pelvis = self.pelvis_lm.and_then(|p| self.point(&[p]).ok());
         let translation = match (pelvis, prev) {
             (Some(p), _) => p.coords - root_rot * self.pelvis_offset_m,
@@ -482,7 +563,12 @@ impl<'r> Converter<'r> {
         self.world[ROOT] = root_rot;
     }
 
-    fn solve_bone(&mut self, b: usize, parent_world: &UnitQuaternion<f64>, prev_local: Option<UnitQuaternion<f64>>) -> UnitQuaternion<f64> {
+    fn solve_bone(
+        &mut self,
+        b: usize,
+        parent_world: &UnitQuaternion<f64>,
+        prev_local: Option<UnitQuaternion<f64>>,
+    ) -> UnitQuaternion<f64> {
         let (local, degeneracy) = self.bone_rotation(b, parent_world, prev_local);
         if let Some(kind) = degeneracy {
             self.count(b, kind);
@@ -519,15 +605,26 @@ impl<'r> Converter<'r> {
                 None => (hold, Some(Degeneracy::AlongHingeAxis)),
             },
             Dof::ThreeD => {
-                let observed = s.reference.as_ref().map(|r| (r, self.current_reference(r, &cur_dir)));
+                let observed = s
+                    .reference
+                    .as_ref()
+                    .map(|r| (r, self.current_reference(r, &cur_dir)));
                 let (target_world, degeneracy) = match observed {
-                    Some((RefSolve::Direction { rest_perp, .. } | RefSolve::Normal { rest_perp, .. }, Ok(cur_perp))) => {
-                        (geom::frame_rotation(&rest_dir, rest_perp, &cur_dir, &cur_perp), None)
-                    }
+                    Some((
+                        RefSolve::Direction { rest_perp, .. } | RefSolve::Normal { rest_perp, .. },
+                        Ok(cur_perp),
+                    )) => (
+                        geom::frame_rotation(&rest_dir, rest_perp, &cur_dir, &cur_perp),
+                        None,
+                    ),
                     other => {
                         // Twist unobservable: keep the previous orientation's twist, i.e. the
                         // smallest rotation from where the bone was (or from the parent frame).
-                        let base = if prev_local.is_some() { self.previous_world[b] } else { *parent_world };
+                        let base = if prev_local.is_some() {
+                            self.previous_world[b]
+                        } else {
+                            *parent_world
+                        };
                         let was = Unit::new_unchecked(base * rest_dir.into_inner());
                         let kind = match other {
                             Some((_, Err(kind))) => Some(kind),
@@ -550,23 +647,39 @@ impl<'r> Converter<'r> {
 /// is off by a difference of build, and the points a layout reports land where it reported them.
 /// The pelvis is the exception: it places the root.
 #[must_use]
-pub fn fit_character(rig: &Rig, binding: &Binding, frames: &[PoseFrame], options: ConvertOptions) -> Character {
+pub fn fit_character(
+    rig: &Rig,
+    binding: &Binding,
+    frames: &[PoseFrame],
+    options: ConvertOptions,
+) -> Character {
     // A few hundred evenly spread frames are plenty for a median.
     let step = (frames.len() / 256).max(1);
     let sample: Vec<&PoseFrame> = frames.iter().step_by(step).collect();
     let point = |f: &PoseFrame, set: &[usize]| -> Option<Point3<f64>> {
         let mut sum = Vector3::zeros();
         for &l in set {
-            sum += binding.landmark_point(l, &f.positions_m, &f.confidence, options.min_confidence)?.coords;
+            sum += binding
+                .landmark_point(l, &f.positions_m, &f.confidence, options.min_confidence)?
+                .coords;
         }
-        #[expect(clippy::cast_precision_loss, reason = "landmark sets hold a handful of points")]
+        #[expect(
+            clippy::cast_precision_loss,
+            reason = "landmark sets hold a handful of points"
+        )]
         let n = set.len().max(1) as f64;
         Some(Point3::from(sum / n))
     };
     // A segment counts only if this layout drives a bone along it (or it is a static width): an
     // alternative the layout does not use would pull the median towards a different segment.
     let in_use = |m: &crate::rig::Measure| {
-        m.used_by.is_empty() || m.used_by.iter().any(|&(r, a)| binding.bone_sources.get(r).is_some_and(|s| s.direction == Some(a)))
+        m.used_by.is_empty()
+            || m.used_by.iter().any(|&(r, a)| {
+                binding
+                    .bone_sources
+                    .get(r)
+                    .is_some_and(|s| s.direction == Some(a))
+            })
     };
     let observed: Vec<Option<f64>> = rig
         .measures
@@ -609,11 +722,16 @@ pub fn fit_character(rig: &Rig, binding: &Binding, frames: &[PoseFrame], options
     // Bone by bone, parents first, so each offset is measured from a head already in place.
     let mut world = crate::fk::WorldPose::new(rig);
     for b in 0..rig.bones.len() {
-        let riders: Vec<usize> = movable.iter().copied().filter(|&l| rig.landmarks[l].bone == b).collect();
+        let riders: Vec<usize> = movable
+            .iter()
+            .copied()
+            .filter(|&l| rig.landmarks[l].bone == b)
+            .collect();
         if riders.is_empty() {
             continue;
         }
-        let mut samples: Vec<[Vec<f64>; 3]> = vec![[Vec::new(), Vec::new(), Vec::new()]; riders.len()];
+        let mut samples: Vec<[Vec<f64>; 3]> =
+            vec![[Vec::new(), Vec::new(), Vec::new()]; riders.len()];
         for (f, pose) in &solved {
             crate::fk::forward_into(rig, &character, pose, 1.0, &mut world);
             for (k, &l) in riders.iter().enumerate() {
@@ -649,10 +767,19 @@ fn median(v: &mut [f64]) -> Option<f64> {
 ///
 /// # Errors
 /// [`ConvertError`] when the layout does not match the data or no frame is usable.
-pub fn convert_sequence(rig: &Rig, layout: &Layout, seq: &PoseSequence, options: ConvertOptions) -> Result<Animation, ConvertError> {
-    let layout_err = |source| ConvertError::Layout { source_name: seq.source.clone(), source };
+pub fn convert_sequence(
+    rig: &Rig,
+    layout: &Layout,
+    seq: &PoseSequence,
+    options: ConvertOptions,
+) -> Result<Animation, ConvertError> {
+    let layout_err = |source| ConvertError::Layout {
+        source_name: seq.source.clone(),
+        source,
+    };
     let order = layout.joint_order(&seq.joint_names).map_err(layout_err)?;
-    let identity_order = order.iter().enumerate().all(|(k, &i)| k == i) && order.len() == seq.joint_names.len();
+    let identity_order =
+        order.iter().enumerate().all(|(k, &i)| k == i) && order.len() == seq.joint_names.len();
     let reordered: Vec<PoseFrame>;
     let frames: &[PoseFrame] = if identity_order {
         &seq.frames
@@ -662,8 +789,20 @@ pub fn convert_sequence(rig: &Rig, layout: &Layout, seq: &PoseSequence, options:
             .iter()
             .map(|f| PoseFrame {
                 stamp_nanos: f.stamp_nanos,
-                positions_m: order.iter().map(|&i| f.positions_m.get(i).copied().unwrap_or(Point3::new(f64::NAN, f64::NAN, f64::NAN))).collect(),
-                confidence: order.iter().map(|&i| f.confidence.get(i).copied().unwrap_or(0.0)).collect(),
+                positions_m: order
+                    .iter()
+                    .map(|&i| {
+                        f.positions_m.get(i).copied().unwrap_or(Point3::new(
+                            f64::NAN,
+                            f64::NAN,
+                            f64::NAN,
+                        ))
+                    })
+                    .collect(),
+                confidence: order
+                    .iter()
+                    .map(|&i| f.confidence.get(i).copied().unwrap_or(0.0))
+                    .collect(),
             })
             .collect();
         &reordered
@@ -681,16 +820,32 @@ pub fn convert_sequence(rig: &Rig, layout: &Layout, seq: &PoseSequence, options:
             continue;
         }
         converter.convert_frame(f, &mut pose).map_err(|e| match e {
-            ConvertError::WrongJointCount { found, confidences, expected, layout, .. } => {
-                ConvertError::WrongJointCount { source_name: seq.source.clone(), frame: i, found, confidences, expected, layout }
-            }
+            ConvertError::WrongJointCount {
+                found,
+                confidences,
+                expected,
+                layout,
+                ..
+            } => ConvertError::WrongJointCount {
+                source_name: seq.source.clone(),
+                frame: i,
+                found,
+                confidences,
+                expected,
+                layout,
+            },
             other => other,
         })?;
         last_stamp = Some(f.stamp_nanos);
-        out_frames.push(AnimationFrame { stamp_nanos: f.stamp_nanos, pose: pose.clone() });
+        out_frames.push(AnimationFrame {
+            stamp_nanos: f.stamp_nanos,
+            pose: pose.clone(),
+        });
     }
     if out_frames.is_empty() {
-        return Err(ConvertError::Empty { source_name: seq.source.clone() });
+        return Err(ConvertError::Empty {
+            source_name: seq.source.clone(),
+        });
     }
     let mut report = converter.into_report();
     report.dropped_non_monotonic = dropped;

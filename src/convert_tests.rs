@@ -9,16 +9,31 @@ use crate::fk;
 use crate::geom::rotation_distance;
 
 /// Positions of every rig landmark for `pose` on `character`: a frame in the rig-landmark layout.
-fn landmark_frame(rig: &Rig, character: &Character, pose: &BonePose, stamp_nanos: u64) -> PoseFrame {
+fn landmark_frame(
+    rig: &Rig,
+    character: &Character,
+    pose: &BonePose,
+    stamp_nanos: u64,
+) -> PoseFrame {
     let world = fk::forward(rig, character, pose, 1.0);
-    let positions_m = (0..rig.landmarks.len()).map(|l| fk::landmark_position(rig, character, &world, l)).collect();
-    PoseFrame { stamp_nanos, positions_m, confidence: vec![1.0; rig.landmarks.len()] }
+    let positions_m = (0..rig.landmarks.len())
+        .map(|l| fk::landmark_position(rig, character, &world, l))
+        .collect();
+    PoseFrame {
+        stamp_nanos,
+        positions_m,
+        confidence: vec![1.0; rig.landmarks.len()],
+    }
 }
 
 fn arb_rotation(max_angle: f64) -> impl Strategy<Value = UnitQuaternion<f64>> {
     (-1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64, 0.0..max_angle).prop_map(|(x, y, z, a)| {
         let axis = Vector3::new(x, y, z);
-        if axis.norm() < 1e-3 { UnitQuaternion::identity() } else { UnitQuaternion::from_axis_angle(&nalgebra::Unit::new_normalize(axis), a) }
+        if axis.norm() < 1e-3 {
+            UnitQuaternion::identity()
+        } else {
+            UnitQuaternion::from_axis_angle(&nalgebra::Unit::new_normalize(axis), a)
+        }
     })
 }
 
@@ -39,7 +54,9 @@ fn arb_pose() -> impl Strategy<Value = BonePose> {
                 pose.local_rotations[b] = match bone.dof {
                     // spine1 and spine3 share their recipes with spine0 and spine2: the layout's
                     // landmarks cannot tell them apart, so a bend is carried by the lower bone.
-                    _ if bone.name == "spine1" || bone.name == "spine3" => UnitQuaternion::identity(),
+                    _ if bone.name == "spine1" || bone.name == "spine3" => {
+                        UnitQuaternion::identity()
+                    }
                     Dof::Root => crate::geom::yaw_rotation(yaw),
                     Dof::Static => UnitQuaternion::identity(),
                     Dof::ThreeD => rots[b],
@@ -65,8 +82,13 @@ fn convert_one(rig: &Rig, frame: &PoseFrame) -> (BonePose, ConversionReport) {
     (out, c.into_report())
 }
 
-fn recipe_direction(rig: &Rig, frame: &PoseFrame, from: &[usize], to: &[usize]) -> Vector3<f64> {
-    let mean = |s: &[usize]| s.iter().map(|&l| frame.positions_m[l].coords).sum::<Vector3<f64>>() / s.len() as f64;
+fn recipe_direction(frame: &PoseFrame, from: &[usize], to: &[usize]) -> Vector3<f64> {
+    let mean = |s: &[usize]| {
+        s.iter()
+            .map(|&l| frame.positions_m[l].coords)
+            .sum::<Vector3<f64>>()
+            / s.len() as f64
+    };
     (mean(to) - mean(from)).normalize()
 }
 
@@ -88,8 +110,8 @@ proptest! {
         let output = landmark_frame(&rig, &character, &solved, 0);
         for r in &rig.recipes {
             let d = &r.directions[0];
-            let a = recipe_direction(&rig, &input, &d.from, &d.to);
-            let b = recipe_direction(&rig, &output, &d.from, &d.to);
+            let a = recipe_direction(&input, &d.from, &d.to);
+            let b = recipe_direction(&output, &d.from, &d.to);
             prop_assert!(angle_deg(&a, &b) < 0.01, "{}: {}°", rig.bones[r.bone].name, angle_deg(&a, &b));
         }
         // Every landmark lands where it was (the pose was expressible), to a micrometre.
@@ -179,11 +201,20 @@ fn rest_pose_converts_to_identity() {
     let frame = landmark_frame(&rig, &character, &BonePose::rest(&rig), 0);
     let (pose, report) = convert_one(&rig, &frame);
     for (b, q) in pose.local_rotations.iter().enumerate() {
-        assert!(q.angle() < 1e-9, "{} is {} rad from rest", rig.bones[b].name, q.angle());
+        assert!(
+            q.angle() < 1e-9,
+            "{} is {} rad from rest",
+            rig.bones[b].name,
+            q.angle()
+        );
     }
     assert!(pose.root_translation_m.norm() < 1e-9);
     // Straight arms and legs: the bend planes are undefined, and that is counted.
-    assert_eq!(report.events[Degeneracy::ParallelReference as usize], 4, "{report:?}");
+    assert_eq!(
+        report.events[Degeneracy::ParallelReference as usize],
+        4,
+        "{report:?}"
+    );
     assert!(report.coverage.at_rest.is_empty() && report.coverage.twist_unobserved.is_empty());
 }
 
@@ -201,12 +232,22 @@ fn hemisphere_stays_continuous_through_a_full_turn() {
         let mut pose = BonePose::rest(&rig);
         pose.local_rotations[ROOT] = crate::geom::yaw_rotation(f64::from(k) * 0.05);
         let arm = rig.bone_index("l_upper_arm").unwrap();
-        pose.local_rotations[arm] = UnitQuaternion::from_euler_angles(0.3, f64::from(k) * 0.07, 0.2);
+        pose.local_rotations[arm] =
+            UnitQuaternion::from_euler_angles(0.3, f64::from(k) * 0.07, 0.2);
         let frame = landmark_frame(&rig, &character, &pose, u64::from(k));
         c.convert_frame(&frame, &mut out).unwrap();
         if let Some(p) = &previous {
-            for (b, (q, r)) in out.local_rotations.iter().zip(&p.local_rotations).enumerate() {
-                assert!(q.as_ref().dot(r.as_ref()) >= 0.0, "frame {k}: {} flipped", rig.bones[b].name);
+            for (b, (q, r)) in out
+                .local_rotations
+                .iter()
+                .zip(&p.local_rotations)
+                .enumerate()
+            {
+                assert!(
+                    q.as_ref().dot(r.as_ref()) >= 0.0,
+                    "frame {k}: {} flipped",
+                    rig.bones[b].name
+                );
             }
         }
         previous = Some(out.clone());
@@ -231,10 +272,15 @@ fn straight_limb_keeps_the_previous_twist() {
     let mut straight = bent.clone();
     straight.local_rotations[forearm] = UnitQuaternion::identity();
     let mut out = BonePose::rest(&rig);
-    c.convert_frame(&landmark_frame(&rig, &character, &bent, 0), &mut out).unwrap();
+    c.convert_frame(&landmark_frame(&rig, &character, &bent, 0), &mut out)
+        .unwrap();
     assert!(rotation_distance(&out.local_rotations[arm], &twist) < 1e-9);
-    c.convert_frame(&landmark_frame(&rig, &character, &straight, 1), &mut out).unwrap();
-    assert!(rotation_distance(&out.local_rotations[arm], &twist) < 1e-9, "twist lost on a straight arm");
+    c.convert_frame(&landmark_frame(&rig, &character, &straight, 1), &mut out)
+        .unwrap();
+    assert!(
+        rotation_distance(&out.local_rotations[arm], &twist) < 1e-9,
+        "twist lost on a straight arm"
+    );
     assert_eq!(c.report().bone_degenerate_frames[arm], 1);
 }
 
@@ -266,7 +312,11 @@ fn missing_joints_hold_the_previous_frame_and_are_counted() {
     let r = c.report();
     assert!(r.events[Degeneracy::MissingJoint as usize] >= 1);
     assert!(r.events[Degeneracy::LowConfidence as usize] >= 1);
-    assert_eq!(r.degenerate_frames, 2 + 1, "frame 0 has straight limbs; frames 1 and 2 lost the ankle: {r:?}");
+    assert_eq!(
+        r.degenerate_frames,
+        2 + 1,
+        "frame 0 has straight limbs; frames 1 and 2 lost the ankle: {r:?}"
+    );
 }
 
 #[test]
@@ -274,8 +324,16 @@ fn sequences_drop_and_report_non_monotonic_stamps() {
     let rig = Rig::standard();
     let character = Character::standard(&rig);
     let layout = Layout::rig_landmarks(&rig);
-    let frames: Vec<PoseFrame> = [0u64, 10, 10, 5, 20].iter().map(|&s| landmark_frame(&rig, &character, &BonePose::rest(&rig), s)).collect();
-    let seq = PoseSequence { source: "synthetic".into(), track_id: 0, joint_names: layout.joints.clone(), frames };
+    let frames: Vec<PoseFrame> = [0u64, 10, 10, 5, 20]
+        .iter()
+        .map(|&s| landmark_frame(&rig, &character, &BonePose::rest(&rig), s))
+        .collect();
+    let seq = PoseSequence {
+        source: "synthetic".into(),
+        track_id: 0,
+        joint_names: layout.joints.clone(),
+        frames,
+    };
     let anim = convert_sequence(&rig, &layout, &seq, ConvertOptions::default()).unwrap();
     assert_eq!(anim.frames.len(), 3);
     assert_eq!(anim.report.dropped_non_monotonic, vec![(2, 10), (3, 5)]);
@@ -286,12 +344,23 @@ fn sequences_drop_and_report_non_monotonic_stamps() {
 fn wrong_joint_count_is_an_error_naming_the_frame() {
     let rig = Rig::standard();
     let layout = Layout::rig_landmarks(&rig);
-    let mut frames = vec![PoseFrame::missing(0, layout.joints.len()), PoseFrame::missing(1, 3)];
+    let mut frames = vec![
+        PoseFrame::missing(0, layout.joints.len()),
+        PoseFrame::missing(1, 3),
+    ];
     frames[0].confidence[0] = 1.0;
-    let seq = PoseSequence { source: "clip.json".into(), track_id: 0, joint_names: layout.joints.clone(), frames };
+    let seq = PoseSequence {
+        source: "clip.json".into(),
+        track_id: 0,
+        joint_names: layout.joints.clone(),
+        frames,
+    };
     let err = convert_sequence(&rig, &layout, &seq, ConvertOptions::default()).unwrap_err();
     let msg = err.to_string();
-    assert!(msg.contains("clip.json") && msg.contains("frame 1"), "{msg}");
+    assert!(
+        msg.contains("clip.json") && msg.contains("frame 1"),
+        "{msg}"
+    );
 }
 
 #[test]
@@ -304,17 +373,51 @@ fn retargeting_keeps_directions_and_feet_on_the_ground() {
     pose.local_rotations[thigh] = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 0.6);
     pose.root_translation_m = Vector3::new(0.4, 1.0, 0.0);
     let frame = landmark_frame(&rig, &source, &pose, 0);
-    let seq = PoseSequence { source: "t".into(), track_id: 0, joint_names: Layout::rig_landmarks(&rig).joints, frames: vec![frame] };
-    let anim = convert_sequence(&rig, &Layout::rig_landmarks(&rig), &seq, ConvertOptions::default()).unwrap();
+    let seq = PoseSequence {
+        source: "t".into(),
+        track_id: 0,
+        joint_names: Layout::rig_landmarks(&rig).joints,
+        frames: vec![frame],
+    };
+    let anim = convert_sequence(
+        &rig,
+        &Layout::rig_landmarks(&rig),
+        &seq,
+        ConvertOptions::default(),
+    )
+    .unwrap();
     let src_world = fk::forward(&rig, &anim.character, &anim.frames[0].pose, 1.0);
     let lowest = |c: &Character, w: &fk::WorldPose| {
-        ["r_heel", "r_toe", "r_big_toe", "r_small_toe"].iter().map(|n| fk::landmark_position(&rig, c, w, rig.landmark_index(n).unwrap()).z).fold(f64::INFINITY, f64::min)
+        ["r_heel", "r_toe", "r_big_toe", "r_small_toe"]
+            .iter()
+            .map(|n| fk::landmark_position(&rig, c, w, rig.landmark_index(n).unwrap()).z)
+            .fold(f64::INFINITY, f64::min)
     };
     let src_low = lowest(&anim.character, &src_world);
     for target in [
-        Character::with_proportions(&rig, Proportions { height_m: 0.8 * 1.75, ..Proportions::default() }),
-        Character::with_proportions(&rig, Proportions { height_m: 1.25 * 1.75, ..Proportions::default() }),
-        Character::with_proportions(&rig, Proportions { arm_scale: 1.2, leg_scale: 0.85, torso_scale: 1.1, ..Proportions::default() }),
+        Character::with_proportions(
+            &rig,
+            Proportions {
+                height_m: 0.8 * 1.75,
+                ..Proportions::default()
+            },
+        ),
+        Character::with_proportions(
+            &rig,
+            Proportions {
+                height_m: 1.25 * 1.75,
+                ..Proportions::default()
+            },
+        ),
+        Character::with_proportions(
+            &rig,
+            Proportions {
+                arm_scale: 1.2,
+                leg_scale: 0.85,
+                torso_scale: 1.1,
+                ..Proportions::default()
+            },
+        ),
     ] {
         let scale = anim.translation_scale_for(&rig, &target);
         let w = fk::forward(&rig, &target, &anim.frames[0].pose, scale);
@@ -323,11 +426,20 @@ fn retargeting_keeps_directions_and_feet_on_the_ground() {
             let d_src = src_world.heads_m[b] - src_world.heads_m[p];
             let d_tgt = w.heads_m[b] - w.heads_m[p];
             if d_src.norm() > 1e-6 {
-                assert!(angle_deg(&d_src, &d_tgt) < 1e-9, "{} direction changed", bone.name);
+                assert!(
+                    angle_deg(&d_src, &d_tgt) < 1e-9,
+                    "{} direction changed",
+                    bone.name
+                );
             }
         }
         // The standing foot is on the ground for every body (soles scale with the foot).
         let low = lowest(&target, &w);
-        assert!(low.abs() < 0.02 && (low - src_low * target.bone_scale[rig.bone_index("r_foot").unwrap()]).abs() < 1e-9, "lowest foot point at {low} m");
+        assert!(
+            low.abs() < 0.02
+                && (low - src_low * target.bone_scale[rig.bone_index("r_foot").unwrap()]).abs()
+                    < 1e-9,
+            "lowest foot point at {low} m"
+        );
     }
 }

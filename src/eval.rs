@@ -15,7 +15,7 @@ use std::collections::BTreeMap;
 
 use nalgebra::{Point3, Vector3};
 
-use crate::convert::{convert_sequence, Animation, ConvertError, ConvertOptions};
+use crate::convert::{Animation, ConvertError, ConvertOptions, convert_sequence};
 use crate::fk;
 use crate::layout::Layout;
 use crate::pose::PoseSequence;
@@ -43,7 +43,10 @@ impl Stats {
     /// Mean (0 when empty).
     #[must_use]
     pub fn mean(&self) -> f64 {
-        #[expect(clippy::cast_precision_loss, reason = "sample counts are far below 2^52")]
+        #[expect(
+            clippy::cast_precision_loss,
+            reason = "sample counts are far below 2^52"
+        )]
         let n = self.count.max(1) as f64;
         self.sum / n
     }
@@ -77,10 +80,23 @@ pub struct RoundTrip {
 ///
 /// # Errors
 /// [`ConvertError`] from the conversion.
-pub fn round_trip(rig: &Rig, layout: &Layout, seq: &PoseSequence, options: ConvertOptions) -> Result<RoundTrip, ConvertError> {
+pub fn round_trip(
+    rig: &Rig,
+    layout: &Layout,
+    seq: &PoseSequence,
+    options: ConvertOptions,
+) -> Result<RoundTrip, ConvertError> {
     let animation = convert_sequence(rig, layout, seq, options)?;
-    let binding = layout.bind(rig).map_err(|source| ConvertError::Layout { source_name: seq.source.clone(), source })?;
-    let order = layout.joint_order(&seq.joint_names).map_err(|source| ConvertError::Layout { source_name: seq.source.clone(), source })?;
+    let binding = layout.bind(rig).map_err(|source| ConvertError::Layout {
+        source_name: seq.source.clone(),
+        source,
+    })?;
+    let order = layout
+        .joint_order(&seq.joint_names)
+        .map_err(|source| ConvertError::Layout {
+            source_name: seq.source.clone(),
+            source,
+        })?;
     let mut per_class: BTreeMap<&'static str, ClassErrors> = BTreeMap::new();
     let mut per_landmark_mm: BTreeMap<String, Stats> = BTreeMap::new();
     let mut per_bone_deg: BTreeMap<String, Stats> = BTreeMap::new();
@@ -90,16 +106,22 @@ pub fn round_trip(rig: &Rig, layout: &Layout, seq: &PoseSequence, options: Conve
     let mut by_stamp = seq.frames.iter();
     for frame in &animation.frames {
         // Frames dropped for their stamps are absent from the animation: find the source frame.
-        let Some(src) = by_stamp.find(|f| f.stamp_nanos == frame.stamp_nanos) else { break };
+        let Some(src) = by_stamp.find(|f| f.stamp_nanos == frame.stamp_nanos) else {
+            break;
+        };
         let positions: Vec<Point3<f64>> = order.iter().map(|&i| src.positions_m[i]).collect();
         let confidence: Vec<f32> = order.iter().map(|&i| src.confidence[i]).collect();
-        let input = |l: usize| binding.landmark_point(l, &positions, &confidence, options.min_confidence);
+        let input =
+            |l: usize| binding.landmark_point(l, &positions, &confidence, options.min_confidence);
         let input_set = |set: &[usize]| -> Option<Point3<f64>> {
             let mut sum = Vector3::zeros();
             for &l in set {
                 sum += input(l)?.coords;
             }
-            #[expect(clippy::cast_precision_loss, reason = "landmark sets hold a handful of points")]
+            #[expect(
+                clippy::cast_precision_loss,
+                reason = "landmark sets hold a handful of points"
+            )]
             let n = set.len().max(1) as f64;
             Some(Point3::from(sum / n))
         };
@@ -109,29 +131,45 @@ pub fn round_trip(rig: &Rig, layout: &Layout, seq: &PoseSequence, options: Conve
             let q = fk::landmark_position(rig, character, &world, l);
             let err_mm = (p - q).norm() * 1000.0;
             overall_mm.push(err_mm);
-            per_landmark_mm.entry(rig.landmarks[l].name.clone()).or_default().push(err_mm);
+            per_landmark_mm
+                .entry(rig.landmarks[l].name.clone())
+                .or_default()
+                .push(err_mm);
             let class = rig.bones[rig.landmarks[l].bone].dof.label();
             per_class.entry(class).or_default().position_mm.push(err_mm);
         }
         for (recipe, source) in rig.recipes.iter().zip(&binding.bone_sources) {
             let Some(d) = source.direction else { continue };
             let dir = &recipe.directions[d];
-            let (Some(a), Some(b)) = (input_set(&dir.from), input_set(&dir.to)) else { continue };
+            let (Some(a), Some(b)) = (input_set(&dir.from), input_set(&dir.to)) else {
+                continue;
+            };
             // The solved bone's axis (its recipe's rest direction, carried by the bone's world
             // rotation) against the input direction: the solver's own error, independent of
             // where composite landmarks such as a head centre happen to ride.
             let want = b - a;
-            let got = world.rotations[recipe.bone] * (rig.rest_point(&dir.to) - rig.rest_point(&dir.from));
+            let got = world.rotations[recipe.bone]
+                * (rig.rest_point(&dir.to) - rig.rest_point(&dir.from));
             let deg = want.cross(&got).norm().atan2(want.dot(&got)).to_degrees();
             if !deg.is_finite() {
                 continue;
             }
             let bone = &rig.bones[recipe.bone];
             per_bone_deg.entry(bone.name.clone()).or_default().push(deg);
-            per_class.entry(bone.dof.label()).or_default().direction_deg.push(deg);
+            per_class
+                .entry(bone.dof.label())
+                .or_default()
+                .direction_deg
+                .push(deg);
         }
     }
-    Ok(RoundTrip { animation, per_class, per_landmark_mm, per_bone_deg, overall_mm })
+    Ok(RoundTrip {
+        animation,
+        per_class,
+        per_landmark_mm,
+        per_bone_deg,
+        overall_mm,
+    })
 }
 
 /// Spread of one measured segment over time.
@@ -151,8 +189,16 @@ pub struct LengthStability {
 ///
 /// # Errors
 /// [`ConvertError::Layout`] if the layout does not match the data.
-pub fn bone_length_stability(rig: &Rig, layout: &Layout, seq: &PoseSequence, min_confidence: f32) -> Result<Vec<LengthStability>, ConvertError> {
-    let err = |source| ConvertError::Layout { source_name: seq.source.clone(), source };
+pub fn bone_length_stability(
+    rig: &Rig,
+    layout: &Layout,
+    seq: &PoseSequence,
+    min_confidence: f32,
+) -> Result<Vec<LengthStability>, ConvertError> {
+    let err = |source| ConvertError::Layout {
+        source_name: seq.source.clone(),
+        source,
+    };
     let binding = layout.bind(rig).map_err(err)?;
     let order = layout.joint_order(&seq.joint_names).map_err(err)?;
     let mut out = Vec::new();
@@ -164,9 +210,14 @@ pub fn bone_length_stability(rig: &Rig, layout: &Layout, seq: &PoseSequence, min
             let pt = |set: &[usize]| -> Option<Vector3<f64>> {
                 let mut sum = Vector3::zeros();
                 for &l in set {
-                    sum += binding.landmark_point(l, &positions, &confidence, min_confidence)?.coords;
+                    sum += binding
+                        .landmark_point(l, &positions, &confidence, min_confidence)?
+                        .coords;
                 }
-                #[expect(clippy::cast_precision_loss, reason = "landmark sets hold a handful of points")]
+                #[expect(
+                    clippy::cast_precision_loss,
+                    reason = "landmark sets hold a handful of points"
+                )]
                 let n = set.len().max(1) as f64;
                 Some(sum / n)
             };
@@ -177,12 +228,20 @@ pub fn bone_length_stability(rig: &Rig, layout: &Layout, seq: &PoseSequence, min
         if lengths.len() < 2 {
             continue;
         }
-        #[expect(clippy::cast_precision_loss, reason = "frame counts are far below 2^52")]
+        #[expect(
+            clippy::cast_precision_loss,
+            reason = "frame counts are far below 2^52"
+        )]
         let n = lengths.len() as f64;
         let mean = lengths.iter().sum::<f64>() / n;
         let var = lengths.iter().map(|l| (l - mean).powi(2)).sum::<f64>() / n;
         lengths.sort_by(f64::total_cmp);
-        let name = |set: &[usize]| set.iter().map(|&l| rig.landmarks[l].name.as_str()).collect::<Vec<_>>().join("+");
+        let name = |set: &[usize]| {
+            set.iter()
+                .map(|&l| rig.landmarks[l].name.as_str())
+                .collect::<Vec<_>>()
+                .join("+")
+        };
         out.push(LengthStability {
             segment: format!("{}→{}", name(&m.from), name(&m.to)),
             median_m: lengths[lengths.len() / 2],

@@ -5,7 +5,7 @@
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 
 use crate::character::Character;
-use crate::rig::{Rig, ROOT};
+use crate::rig::{ROOT, Rig};
 
 /// A pose of the rig: what one animation frame stores.
 #[derive(Debug, Clone, PartialEq)]
@@ -20,7 +20,10 @@ impl BonePose {
     /// The rest pose: identity rotations, no translation.
     #[must_use]
     pub fn rest(rig: &Rig) -> BonePose {
-        BonePose { root_translation_m: Vector3::zeros(), local_rotations: vec![UnitQuaternion::identity(); rig.bones.len()] }
+        BonePose {
+            root_translation_m: Vector3::zeros(),
+            local_rotations: vec![UnitQuaternion::identity(); rig.bones.len()],
+        }
     }
 }
 
@@ -37,13 +40,22 @@ impl WorldPose {
     /// An empty pose sized for `rig`, to be filled by [`forward_into`].
     #[must_use]
     pub fn new(rig: &Rig) -> WorldPose {
-        WorldPose { rotations: vec![UnitQuaternion::identity(); rig.bones.len()], heads_m: vec![Point3::origin(); rig.bones.len()] }
+        WorldPose {
+            rotations: vec![UnitQuaternion::identity(); rig.bones.len()],
+            heads_m: vec![Point3::origin(); rig.bones.len()],
+        }
     }
 }
 
 /// Forward kinematics into a reusable buffer. `translation_scale` multiplies the root translation
 /// (1 for the body the animation was solved for; see [`crate::convert::Animation::translation_scale_for`]).
-pub fn forward_into(rig: &Rig, character: &Character, pose: &BonePose, translation_scale: f64, out: &mut WorldPose) {
+pub fn forward_into(
+    rig: &Rig,
+    character: &Character,
+    pose: &BonePose,
+    translation_scale: f64,
+    out: &mut WorldPose,
+) {
     for (i, bone) in rig.bones.iter().enumerate() {
         let local = pose.local_rotations[i];
         match bone.parent {
@@ -57,12 +69,20 @@ pub fn forward_into(rig: &Rig, character: &Character, pose: &BonePose, translati
             }
         }
     }
-    debug_assert_eq!(rig.bones[ROOT].parent, None, "internal bug: bone 0 must be the root");
+    debug_assert_eq!(
+        rig.bones[ROOT].parent, None,
+        "internal bug: bone 0 must be the root"
+    );
 }
 
 /// Forward kinematics, allocating the result.
 #[must_use]
-pub fn forward(rig: &Rig, character: &Character, pose: &BonePose, translation_scale: f64) -> WorldPose {
+pub fn forward(
+    rig: &Rig,
+    character: &Character,
+    pose: &BonePose,
+    translation_scale: f64,
+) -> WorldPose {
     let mut out = WorldPose::new(rig);
     forward_into(rig, character, pose, translation_scale, &mut out);
     out
@@ -70,19 +90,32 @@ pub fn forward(rig: &Rig, character: &Character, pose: &BonePose, translation_sc
 
 /// World position of landmark `landmark` in a posed body.
 #[must_use]
-pub fn landmark_position(rig: &Rig, character: &Character, world: &WorldPose, landmark: usize) -> Point3<f64> {
+pub fn landmark_position(
+    rig: &Rig,
+    character: &Character,
+    world: &WorldPose,
+    landmark: usize,
+) -> Point3<f64> {
     let b = rig.landmarks[landmark].bone;
     world.heads_m[b] + world.rotations[b] * character.landmark_offset_m[landmark]
 }
 
 /// World position of the mean of a landmark set.
 #[must_use]
-pub fn landmark_set_position(rig: &Rig, character: &Character, world: &WorldPose, set: &[usize]) -> Point3<f64> {
+pub fn landmark_set_position(
+    rig: &Rig,
+    character: &Character,
+    world: &WorldPose,
+    set: &[usize],
+) -> Point3<f64> {
     let mut sum = Vector3::zeros();
     for &l in set {
         sum += landmark_position(rig, character, world, l).coords;
     }
-    #[expect(clippy::cast_precision_loss, reason = "landmark sets hold a handful of points")]
+    #[expect(
+        clippy::cast_precision_loss,
+        reason = "landmark sets hold a handful of points"
+    )]
     let n = set.len().max(1) as f64;
     Point3::from(sum / n)
 }

@@ -81,7 +81,11 @@ mod tests {
     #[test]
     fn y_up_facing_plus_z_lands_facing_plus_y() {
         assert_eq!(SourceAxes::YUp.to_autoact(Vector3::z()), Vector3::y());
-        assert_eq!(SourceAxes::YUp.to_autoact(-Vector3::x()), Vector3::x(), "the right hand");
+        assert_eq!(
+            SourceAxes::YUp.to_autoact(-Vector3::x()),
+            Vector3::x(),
+            "the right hand"
+        );
     }
 
     #[test]

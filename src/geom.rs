@@ -31,7 +31,11 @@ pub fn shortest_arc(from: &Unit<Vector3<f64>>, to: &Unit<Vector3<f64>>) -> UnitQ
         let q = nalgebra::Quaternion::new(1.0 + d, axis.x, axis.y, axis.z);
         UnitQuaternion::from_quaternion(q)
     } else {
-        let helper = if from.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+        let helper = if from.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        };
         let axis = Unit::new_normalize(from.cross(&helper));
         UnitQuaternion::from_axis_angle(&axis, std::f64::consts::PI)
     }
@@ -87,7 +91,10 @@ pub fn signed_angle_about(a: &Vector3<f64>, b: &Vector3<f64>, axis: &Unit<Vector
 /// Splits `q` into `swing · twist`, where `twist` is a rotation about `axis` and `swing` moves
 /// `axis` exactly as `q` does. Returns `(swing, twist_angle_rad)`.
 #[must_use]
-pub fn swing_twist(q: &UnitQuaternion<f64>, axis: &Unit<Vector3<f64>>) -> (UnitQuaternion<f64>, f64) {
+pub fn swing_twist(
+    q: &UnitQuaternion<f64>,
+    axis: &Unit<Vector3<f64>>,
+) -> (UnitQuaternion<f64>, f64) {
     let moved = Unit::new_unchecked(q * axis.into_inner());
     let swing = shortest_arc(axis, &moved);
     let twist = swing.inverse() * q;
@@ -124,7 +131,10 @@ pub fn hinge_angle(
 /// Flips `q` to the hemisphere of `previous` (so that ⟨q, previous⟩ ≥ 0). The rotation is
 /// unchanged; only its sign is, which keeps sequences continuous for interpolation.
 #[must_use]
-pub fn align_hemisphere(q: UnitQuaternion<f64>, previous: &UnitQuaternion<f64>) -> UnitQuaternion<f64> {
+pub fn align_hemisphere(
+    q: UnitQuaternion<f64>,
+    previous: &UnitQuaternion<f64>,
+) -> UnitQuaternion<f64> {
     if q.as_ref().dot(previous.as_ref()) < 0.0 {
         UnitQuaternion::new_unchecked(-q.into_inner())
     } else {
@@ -177,7 +187,11 @@ mod tests {
         assert_relative_eq!(q * a.into_inner(), b.into_inner(), epsilon = 1e-12);
         for v in [unit(1.0, 0.0, 0.0), unit(0.3, -0.2, 0.9)] {
             let w = Unit::new_unchecked(-v.into_inner());
-            assert_relative_eq!(shortest_arc(&v, &w) * v.into_inner(), w.into_inner(), epsilon = 1e-12);
+            assert_relative_eq!(
+                shortest_arc(&v, &w) * v.into_inner(),
+                w.into_inner(),
+                epsilon = 1e-12
+            );
         }
     }
 

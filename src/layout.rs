@@ -49,7 +49,9 @@ pub enum LayoutError {
         message: String,
     },
     /// Not a built-in layout name, and no such file.
-    #[error("unknown layout `{name}` (built-in layouts: {known}; or give a path to a .toml layout file)")]
+    #[error(
+        "unknown layout `{name}` (built-in layouts: {known}; or give a path to a .toml layout file)"
+    )]
     Unknown {
         /// The name asked for.
         name: String,
@@ -57,7 +59,9 @@ pub enum LayoutError {
         known: String,
     },
     /// A landmark key is not one of the rig's landmarks.
-    #[error("layout `{layout}`: `{landmark}` is not a rig landmark (run `autoact rig --landmarks` for the list)")]
+    #[error(
+        "layout `{layout}`: `{landmark}` is not a rig landmark (run `autoact rig --landmarks` for the list)"
+    )]
     UnknownLandmark {
         /// Layout name.
         layout: String,
@@ -65,7 +69,9 @@ pub enum LayoutError {
         landmark: String,
     },
     /// A landmark expression names a joint the layout does not list.
-    #[error("layout `{layout}`: landmark `{landmark}` uses joint `{joint}`, which is not in `joints`")]
+    #[error(
+        "layout `{layout}`: landmark `{landmark}` uses joint `{joint}`, which is not in `joints`"
+    )]
     UnknownJoint {
         /// Layout name.
         layout: String,
@@ -142,12 +148,24 @@ pub struct Layout {
 
 /// The built-in layouts: (name, aliases, TOML text).
 const BUILTIN: [(&str, &[&str], &str); 6] = [
-    ("coco-wholebody-133", &["h3wb", "coco-wholebody"], include_str!("layouts/coco-wholebody-133.toml")),
+    (
+        "coco-wholebody-133",
+        &["h3wb", "coco-wholebody"],
+        include_str!("layouts/coco-wholebody-133.toml"),
+    ),
     ("coco-17", &["coco"], include_str!("layouts/coco-17.toml")),
-    ("ntu-25", &["ntu", "kinect-v2"], include_str!("layouts/ntu-25.toml")),
+    (
+        "ntu-25",
+        &["ntu", "kinect-v2"],
+        include_str!("layouts/ntu-25.toml"),
+    ),
     ("h36m-17", &["h36m"], include_str!("layouts/h36m-17.toml")),
     ("h36m-32", &[], include_str!("layouts/h36m-32.toml")),
-    ("zed-body-34", &["zed", "body-34"], include_str!("layouts/zed-body-34.toml")),
+    (
+        "zed-body-34",
+        &["zed", "body-34"],
+        include_str!("layouts/zed-body-34.toml"),
+    ),
 ];
 
 impl Layout {
@@ -156,8 +174,10 @@ impl Layout {
     /// # Errors
     /// [`LayoutError::Parse`] with the TOML parser's position, or a validation error.
     pub fn from_toml(text: &str, source_name: &str) -> Result<Layout, LayoutError> {
-        let layout: Layout =
-            toml::from_str(text).map_err(|e| LayoutError::Parse { source_name: source_name.to_string(), message: e.to_string() })?;
+        let layout: Layout = toml::from_str(text).map_err(|e| LayoutError::Parse {
+            source_name: source_name.to_string(),
+            message: e.to_string(),
+        })?;
         layout.validate()?;
         Ok(layout)
     }
@@ -167,7 +187,10 @@ impl Layout {
     #[must_use]
     pub fn rig_landmarks(rig: &Rig) -> Layout {
         let joints: Vec<String> = rig.landmarks.iter().map(|l| l.name.clone()).collect();
-        let landmarks = joints.iter().map(|j| (j.clone(), JointExpr::Joint(j.clone()))).collect();
+        let landmarks = joints
+            .iter()
+            .map(|j| (j.clone(), JointExpr::Joint(j.clone())))
+            .collect();
         Layout {
             name: "autoact-landmarks".to_string(),
             description: "the rig's own landmarks, one joint each".to_string(),
@@ -181,7 +204,12 @@ impl Layout {
     /// are reported as left at rest instead of as missing in every frame.
     #[must_use]
     pub fn restricted(&self, present: &[bool]) -> Layout {
-        let has = |j: &String| self.joints.iter().position(|n| n == j).is_some_and(|i| present.get(i).copied().unwrap_or(false));
+        let has = |j: &String| {
+            self.joints
+                .iter()
+                .position(|n| n == j)
+                .is_some_and(|i| present.get(i).copied().unwrap_or(false))
+        };
         let landmarks = self
             .landmarks
             .iter()
@@ -192,7 +220,10 @@ impl Layout {
             })
             .map(|(k, e)| (k.clone(), e.clone()))
             .collect();
-        Layout { landmarks, ..self.clone() }
+        Layout {
+            landmarks,
+            ..self.clone()
+        }
     }
 
     /// The names of the built-in layouts.
@@ -209,11 +240,16 @@ impl Layout {
     /// [`LayoutError::Unknown`] for a name that is not built in.
     pub fn builtin(name: &str) -> Result<Layout, LayoutError> {
         let want = name.to_ascii_lowercase().replace('_', "-");
-        let found = BUILTIN.iter().find(|(n, aliases, _)| *n == want || aliases.contains(&want.as_str()));
+        let found = BUILTIN
+            .iter()
+            .find(|(n, aliases, _)| *n == want || aliases.contains(&want.as_str()));
         match found {
             Some((n, _, text)) => Layout::from_toml(text, n),
             None if want == "autoact-landmarks" => Ok(Layout::rig_landmarks(&Rig::standard())),
-            None => Err(LayoutError::Unknown { name: name.to_string(), known: Layout::builtin_names().join(", ") }),
+            None => Err(LayoutError::Unknown {
+                name: name.to_string(),
+                known: Layout::builtin_names().join(", "),
+            }),
         }
     }
 
@@ -223,9 +259,13 @@ impl Layout {
     /// As [`Layout::builtin`] and [`Layout::from_toml`], or [`LayoutError::Io`].
     pub fn load(name_or_path: &str) -> Result<Layout, LayoutError> {
         let path = Path::new(name_or_path);
-        let looks_like_file = path.extension().is_some_and(|e| e == "toml") || name_or_path.contains('/');
+        let looks_like_file =
+            path.extension().is_some_and(|e| e == "toml") || name_or_path.contains('/');
         if looks_like_file {
-            let text = std::fs::read_to_string(path).map_err(|source| LayoutError::Io { path: path.to_path_buf(), source })?;
+            let text = std::fs::read_to_string(path).map_err(|source| LayoutError::Io {
+                path: path.to_path_buf(),
+                source,
+            })?;
             return Layout::from_toml(&text, name_or_path);
         }
         Layout::builtin(name_or_path)
@@ -235,11 +275,18 @@ impl Layout {
         let layout = || self.name.clone();
         for (i, j) in self.joints.iter().enumerate() {
             if self.joints[..i].contains(j) {
-                return Err(LayoutError::DuplicateJoint { layout: layout(), joint: j.clone() });
+                return Err(LayoutError::DuplicateJoint {
+                    layout: layout(),
+                    joint: j.clone(),
+                });
             }
         }
         for (landmark, expr) in &self.landmarks {
-            let bad = |why| LayoutError::BadExpression { layout: layout(), landmark: landmark.clone(), why };
+            let bad = |why| LayoutError::BadExpression {
+                layout: layout(),
+                landmark: landmark.clone(),
+                why,
+            };
             let names: Vec<&String> = match expr {
                 JointExpr::Joint(j) => vec![j],
                 JointExpr::Mean { mean } if mean.is_empty() => return Err(bad("empty mean")),
@@ -249,7 +296,11 @@ impl Layout {
             };
             for j in names {
                 if !self.joints.contains(j) {
-                    return Err(LayoutError::UnknownJoint { layout: layout(), landmark: landmark.clone(), joint: j.clone() });
+                    return Err(LayoutError::UnknownJoint {
+                        layout: layout(),
+                        landmark: landmark.clone(),
+                        joint: j.clone(),
+                    });
                 }
             }
         }
@@ -264,13 +315,19 @@ impl Layout {
         let mut landmark_terms = vec![None; rig.landmarks.len()];
         for (name, expr) in &self.landmarks {
             let Some(li) = rig.landmark_index(name) else {
-                return Err(LayoutError::UnknownLandmark { layout: self.name.clone(), landmark: name.clone() });
+                return Err(LayoutError::UnknownLandmark {
+                    layout: self.name.clone(),
+                    landmark: name.clone(),
+                });
             };
             let idx = |j: &String| self.joints.iter().position(|n| n == j).unwrap_or(0);
             #[expect(clippy::cast_precision_loss, reason = "a mean of a handful of joints")]
             let terms: Vec<(usize, f64)> = match expr {
                 JointExpr::Joint(j) => vec![(idx(j), 1.0)],
-                JointExpr::Mean { mean } => mean.iter().map(|j| (idx(j), 1.0 / mean.len() as f64)).collect(),
+                JointExpr::Mean { mean } => mean
+                    .iter()
+                    .map(|j| (idx(j), 1.0 / mean.len() as f64))
+                    .collect(),
                 JointExpr::Lerp { from, to, t } => vec![(idx(from), 1.0 - t), (idx(to), *t)],
             };
             landmark_terms[li] = Some(terms);
@@ -280,15 +337,27 @@ impl Layout {
             .iter()
             .map(|r| {
                 let bound = |set: &[usize]| set.iter().all(|&l| landmark_terms[l].is_some());
-                let direction = r.directions.iter().position(|d| bound(&d.from) && bound(&d.to));
+                let direction = r
+                    .directions
+                    .iter()
+                    .position(|d| bound(&d.from) && bound(&d.to));
                 let reference = r.references.iter().position(|refr| match refr {
                     Reference::Direction { from, to } => bound(from) && bound(to),
                     Reference::Normal { points, .. } => bound(points),
                 });
-                BoneSource { bone: r.bone, direction, reference }
+                BoneSource {
+                    bone: r.bone,
+                    direction,
+                    reference,
+                }
             })
             .collect();
-        Ok(Binding { layout_name: self.name.clone(), joint_count: self.joints.len(), landmark_terms, bone_sources })
+        Ok(Binding {
+            layout_name: self.name.clone(),
+            joint_count: self.joints.len(),
+            landmark_terms,
+            bone_sources,
+        })
     }
 
     /// Maps the joint order of some data onto this layout's order: `result[k]` is the index in
@@ -310,8 +379,15 @@ impl Layout {
         } else {
             let n = missing.len();
             missing.truncate(10);
-            let more = if n > 10 { format!(" and {} more", n - 10) } else { String::new() };
-            Err(LayoutError::JointMismatch { layout: self.name.clone(), missing: format!("{}{more}", missing.join(", ")) })
+            let more = if n > 10 {
+                format!(" and {} more", n - 10)
+            } else {
+                String::new()
+            };
+            Err(LayoutError::JointMismatch {
+                layout: self.name.clone(),
+                missing: format!("{}{more}", missing.join(", ")),
+            })
         }
     }
 }
@@ -356,13 +432,19 @@ impl Binding {
     /// Position of landmark `l` from one frame's joint positions, or `None` when the layout lacks
     /// it or a joint it needs is missing (non-finite or below `min_confidence`).
     #[must_use]
-    pub fn landmark_point(&self, l: usize, positions: &[Point3<f64>], confidence: &[f32], min_confidence: f32) -> Option<Point3<f64>> {
+    pub fn landmark_point(
+        &self,
+        l: usize,
+        positions: &[Point3<f64>],
+        confidence: &[f32],
+        min_confidence: f32,
+    ) -> Option<Point3<f64>> {
         let terms = self.landmark_terms[l].as_ref()?;
         let mut sum = Vector3::zeros();
         for &(j, w) in terms {
             let p = positions.get(j)?;
             let c = confidence.get(j).copied().unwrap_or(1.0);
-            if !(c >= min_confidence) || !p.coords.iter().all(|v| v.is_finite()) {
+            if c.is_nan() || c < min_confidence || !p.coords.iter().all(|v| v.is_finite()) {
                 return None;
             }
             sum += p.coords * w;
@@ -373,7 +455,11 @@ impl Binding {
     /// Which bones this layout drives.
     #[must_use]
     pub fn coverage(&self, rig: &Rig) -> Coverage {
-        let mut c = Coverage { driven: Vec::new(), twist_unobserved: Vec::new(), at_rest: Vec::new() };
+        let mut c = Coverage {
+            driven: Vec::new(),
+            twist_unobserved: Vec::new(),
+            at_rest: Vec::new(),
+        };
         for s in &self.bone_sources {
             let name = rig.bones[s.bone].name.clone();
             match (s.direction, s.reference, rig.bones[s.bone].dof) {
@@ -407,17 +493,33 @@ mod tests {
             assert_eq!(layout.name, name);
             let binding = layout.bind(&rig).unwrap();
             let cov = binding.coverage(&rig);
-            assert!(cov.driven.len() >= 10, "{name} drives only {:?}", cov.driven);
+            assert!(
+                cov.driven.len() >= 10,
+                "{name} drives only {:?}",
+                cov.driven
+            );
         }
     }
 
     #[test]
     fn coco_wholebody_drives_fingers_and_h36m_leaves_them_at_rest() {
         let rig = Rig::standard();
-        let coco = Layout::builtin("h3wb").unwrap().bind(&rig).unwrap().coverage(&rig);
-        assert!(coco.at_rest.is_empty(), "COCO-WholeBody leaves {:?} at rest", coco.at_rest);
+        let coco = Layout::builtin("h3wb")
+            .unwrap()
+            .bind(&rig)
+            .unwrap()
+            .coverage(&rig);
+        assert!(
+            coco.at_rest.is_empty(),
+            "COCO-WholeBody leaves {:?} at rest",
+            coco.at_rest
+        );
         assert!(coco.driven.iter().any(|b| b == "l_index2"));
-        let h36m = Layout::builtin("h36m-17").unwrap().bind(&rig).unwrap().coverage(&rig);
+        let h36m = Layout::builtin("h36m-17")
+            .unwrap()
+            .bind(&rig)
+            .unwrap()
+            .coverage(&rig);
         assert!(h36m.at_rest.iter().any(|b| b == "l_index2"));
         assert!(h36m.at_rest.iter().any(|b| b == "l_hand"));
         assert!(h36m.driven.iter().any(|b| b == "l_forearm"));
@@ -426,11 +528,25 @@ mod tests {
     #[test]
     fn user_layout_errors_name_the_problem() {
         let rig = Rig::standard();
-        let err = Layout::from_toml("name = \"x\"\njoints = [\"a\"]\n[landmarks]\nl_hip = \"b\"\n", "x.toml").unwrap_err();
+        let err = Layout::from_toml(
+            "name = \"x\"\njoints = [\"a\"]\n[landmarks]\nl_hip = \"b\"\n",
+            "x.toml",
+        )
+        .unwrap_err();
         assert!(err.to_string().contains("`b`"), "{err}");
-        let err = Layout::from_toml("name = \"x\"\njoints = [\"a\"]\n[landmarks]\nelbow = \"a\"\n", "x.toml").unwrap().bind(&rig).unwrap_err();
-        assert!(err.to_string().contains("`elbow` is not a rig landmark"), "{err}");
-        let err = Layout::from_toml("name = \"x\"\njoints = [\"a\", \"a\"]\n", "x.toml").unwrap_err();
+        let err = Layout::from_toml(
+            "name = \"x\"\njoints = [\"a\"]\n[landmarks]\nelbow = \"a\"\n",
+            "x.toml",
+        )
+        .unwrap()
+        .bind(&rig)
+        .unwrap_err();
+        assert!(
+            err.to_string().contains("`elbow` is not a rig landmark"),
+            "{err}"
+        );
+        let err =
+            Layout::from_toml("name = \"x\"\njoints = [\"a\", \"a\"]\n", "x.toml").unwrap_err();
         assert!(err.to_string().contains("listed twice"), "{err}");
         let err = Layout::from_toml("name = \"x\"\njoints = [\"a\"\n", "x.toml").unwrap_err();
         assert!(err.to_string().contains("x.toml"), "{err}");
@@ -450,8 +566,18 @@ mod tests {
         let pts = [Point3::new(0.0, 0.0, 0.0), Point3::new(4.0, 0.0, 0.0)];
         let pelvis = rig.landmark_index("pelvis").unwrap();
         let chest = rig.landmark_index("chest").unwrap();
-        assert_eq!(b.landmark_point(pelvis, &pts, &[1.0, 1.0], 0.5), Some(Point3::new(2.0, 0.0, 0.0)));
-        assert_eq!(b.landmark_point(chest, &pts, &[1.0, 1.0], 0.5), Some(Point3::new(1.0, 0.0, 0.0)));
-        assert_eq!(b.landmark_point(chest, &pts, &[1.0, 0.1], 0.5), None, "low confidence is missing");
+        assert_eq!(
+            b.landmark_point(pelvis, &pts, &[1.0, 1.0], 0.5),
+            Some(Point3::new(2.0, 0.0, 0.0))
+        );
+        assert_eq!(
+            b.landmark_point(chest, &pts, &[1.0, 1.0], 0.5),
+            Some(Point3::new(1.0, 0.0, 0.0))
+        );
+        assert_eq!(
+            b.landmark_point(chest, &pts, &[1.0, 0.1], 0.5),
+            None,
+            "low confidence is missing"
+        );
     }
 }

@@ -57,7 +57,12 @@ impl PoseSequence {
 /// The one place where a frame index and a rate become a time.
 #[must_use]
 pub fn stamp_nanos_at(index: usize, fps: f64) -> u64 {
-    #[expect(clippy::cast_precision_loss, clippy::cast_possible_truncation, clippy::cast_sign_loss, reason = "frame counts and rates are far inside f64's exact range")]
+    #[expect(
+        clippy::cast_precision_loss,
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        reason = "frame counts and rates are far inside f64's exact range"
+    )]
     let nanos = (index as f64 * 1e9 / fps).round() as u64;
     nanos
 }

@@ -180,7 +180,9 @@ impl Rig {
     /// Index of a bone by autoact name or GTA name.
     #[must_use]
     pub fn bone_index(&self, name: &str) -> Option<usize> {
-        self.bones.iter().position(|b| b.name == name || b.gta_name == name)
+        self.bones
+            .iter()
+            .position(|b| b.name == name || b.gta_name == name)
     }
 
     /// Index of a landmark by name.
@@ -260,27 +262,107 @@ const SHOULDER_Z: f64 = 1.44;
 
 /// Finger joints of the left hand at rest: (finger, [base, second, third, tip] positions).
 const LEFT_FINGERS: [(&str, [[f64; 3]; 4]); 5] = [
-    ("thumb", [[-0.735, 0.025, 1.435], [-0.765, 0.050, 1.430], [-0.790, 0.070, 1.430], [-0.810, 0.085, 1.430]]),
-    ("index", [[-0.800, 0.025, SHOULDER_Z], [-0.845, 0.025, SHOULDER_Z], [-0.870, 0.025, SHOULDER_Z], [-0.892, 0.025, SHOULDER_Z]]),
-    ("middle", [[-0.805, 0.000, SHOULDER_Z], [-0.855, 0.000, SHOULDER_Z], [-0.885, 0.000, SHOULDER_Z], [-0.909, 0.000, SHOULDER_Z]]),
-    ("ring", [[-0.800, -0.020, SHOULDER_Z], [-0.845, -0.020, SHOULDER_Z], [-0.873, -0.020, SHOULDER_Z], [-0.895, -0.020, SHOULDER_Z]]),
-    ("pinky", [[-0.790, -0.040, SHOULDER_Z], [-0.825, -0.040, SHOULDER_Z], [-0.845, -0.040, SHOULDER_Z], [-0.865, -0.040, SHOULDER_Z]]),
+    (
+        "thumb",
+        [
+            [-0.735, 0.025, 1.435],
+            [-0.765, 0.050, 1.430],
+            [-0.790, 0.070, 1.430],
+            [-0.810, 0.085, 1.430],
+        ],
+    ),
+    (
+        "index",
+        [
+            [-0.800, 0.025, SHOULDER_Z],
+            [-0.845, 0.025, SHOULDER_Z],
+            [-0.870, 0.025, SHOULDER_Z],
+            [-0.892, 0.025, SHOULDER_Z],
+        ],
+    ),
+    (
+        "middle",
+        [
+            [-0.805, 0.000, SHOULDER_Z],
+            [-0.855, 0.000, SHOULDER_Z],
+            [-0.885, 0.000, SHOULDER_Z],
+            [-0.909, 0.000, SHOULDER_Z],
+        ],
+    ),
+    (
+        "ring",
+        [
+            [-0.800, -0.020, SHOULDER_Z],
+            [-0.845, -0.020, SHOULDER_Z],
+            [-0.873, -0.020, SHOULDER_Z],
+            [-0.895, -0.020, SHOULDER_Z],
+        ],
+    ),
+    (
+        "pinky",
+        [
+            [-0.790, -0.040, SHOULDER_Z],
+            [-0.825, -0.040, SHOULDER_Z],
+            [-0.845, -0.040, SHOULDER_Z],
+            [-0.865, -0.040, SHOULDER_Z],
+        ],
+    ),
 ];
 
 /// GTA names and tags of the finger bones, left then right, per finger (thumb..pinky) × 3.
 const LEFT_FINGER_GTA: [[(&str, u16); 3]; 5] = [
-    [("SKEL_L_Finger00", 26610), ("SKEL_L_Finger01", 4089), ("SKEL_L_Finger02", 4090)],
-    [("SKEL_L_Finger10", 26611), ("SKEL_L_Finger11", 4169), ("SKEL_L_Finger12", 4170)],
-    [("SKEL_L_Finger20", 26612), ("SKEL_L_Finger21", 4185), ("SKEL_L_Finger22", 4186)],
-    [("SKEL_L_Finger30", 26613), ("SKEL_L_Finger31", 4137), ("SKEL_L_Finger32", 4138)],
-    [("SKEL_L_Finger40", 26614), ("SKEL_L_Finger41", 4153), ("SKEL_L_Finger42", 4154)],
+    [
+        ("SKEL_L_Finger00", 26610),
+        ("SKEL_L_Finger01", 4089),
+        ("SKEL_L_Finger02", 4090),
+    ],
+    [
+        ("SKEL_L_Finger10", 26611),
+        ("SKEL_L_Finger11", 4169),
+        ("SKEL_L_Finger12", 4170),
+    ],
+    [
+        ("SKEL_L_Finger20", 26612),
+        ("SKEL_L_Finger21", 4185),
+        ("SKEL_L_Finger22", 4186),
+    ],
+    [
+        ("SKEL_L_Finger30", 26613),
+        ("SKEL_L_Finger31", 4137),
+        ("SKEL_L_Finger32", 4138),
+    ],
+    [
+        ("SKEL_L_Finger40", 26614),
+        ("SKEL_L_Finger41", 4153),
+        ("SKEL_L_Finger42", 4154),
+    ],
 ];
 const RIGHT_FINGER_GTA: [[(&str, u16); 3]; 5] = [
-    [("SKEL_R_Finger00", 58866), ("SKEL_R_Finger01", 64016), ("SKEL_R_Finger02", 64017)],
-    [("SKEL_R_Finger10", 58867), ("SKEL_R_Finger11", 64096), ("SKEL_R_Finger12", 64097)],
-    [("SKEL_R_Finger20", 58868), ("SKEL_R_Finger21", 64112), ("SKEL_R_Finger22", 64113)],
-    [("SKEL_R_Finger30", 58869), ("SKEL_R_Finger31", 64064), ("SKEL_R_Finger32", 64065)],
-    [("SKEL_R_Finger40", 58870), ("SKEL_R_Finger41", 64080), ("SKEL_R_Finger42", 64081)],
+    [
+        ("SKEL_R_Finger00", 58866),
+        ("SKEL_R_Finger01", 64016),
+        ("SKEL_R_Finger02", 64017),
+    ],
+    [
+        ("SKEL_R_Finger10", 58867),
+        ("SKEL_R_Finger11", 64096),
+        ("SKEL_R_Finger12", 64097),
+    ],
+    [
+        ("SKEL_R_Finger20", 58868),
+        ("SKEL_R_Finger21", 64112),
+        ("SKEL_R_Finger22", 64113),
+    ],
+    [
+        ("SKEL_R_Finger30", 58869),
+        ("SKEL_R_Finger31", 64064),
+        ("SKEL_R_Finger32", 64065),
+    ],
+    [
+        ("SKEL_R_Finger40", 58870),
+        ("SKEL_R_Finger41", 64080),
+        ("SKEL_R_Finger42", 64081),
+    ],
 ];
 
 /// GTA names/tags of the right-side body bones, keyed by the left bone's autoact name.
@@ -296,29 +378,86 @@ const RIGHT_GTA: [(&str, (&str, u16)); 7] = [
 
 fn leg_defs() -> Vec<BoneDef> {
     vec![
-        BoneDef { name: "l_thigh", gta: ("SKEL_L_Thigh", 58271), parent: "pelvis", head: [-0.09, 0.0, HIP_Z], tail: [-0.09, 0.0, 0.49], dof: DofDef::D3 },
-        BoneDef { name: "l_calf", gta: ("SKEL_L_Calf", 63931), parent: "l_thigh", head: [-0.09, 0.0, 0.49], tail: [-0.09, 0.0, 0.08], dof: DofDef::Hinge([-1.0, 0.0, 0.0]) },
+        BoneDef {
+            name: "l_thigh",
+            gta: ("SKEL_L_Thigh", 58271),
+            parent: "pelvis",
+            head: [-0.09, 0.0, HIP_Z],
+            tail: [-0.09, 0.0, 0.49],
+            dof: DofDef::D3,
+        },
+        BoneDef {
+            name: "l_calf",
+            gta: ("SKEL_L_Calf", 63931),
+            parent: "l_thigh",
+            head: [-0.09, 0.0, 0.49],
+            tail: [-0.09, 0.0, 0.08],
+            dof: DofDef::Hinge([-1.0, 0.0, 0.0]),
+        },
         // The foot's axis runs from the ankle to the midpoint of the big and small toe tips.
-        BoneDef { name: "l_foot", gta: ("SKEL_L_Foot", 14201), parent: "l_calf", head: [-0.09, 0.0, 0.08], tail: [-0.095, 0.1775, 0.01], dof: DofDef::D2 },
+        BoneDef {
+            name: "l_foot",
+            gta: ("SKEL_L_Foot", 14201),
+            parent: "l_calf",
+            head: [-0.09, 0.0, 0.08],
+            tail: [-0.095, 0.1775, 0.01],
+            dof: DofDef::D2,
+        },
     ]
 }
 
 fn arm_defs() -> Vec<BoneDef> {
     let mut v = vec![
-        BoneDef { name: "l_clavicle", gta: ("SKEL_L_Clavicle", 64729), parent: "spine3", head: [-0.02, 0.0, 1.42], tail: [-0.18, 0.0, SHOULDER_Z], dof: DofDef::Static },
-        BoneDef { name: "l_upper_arm", gta: ("SKEL_L_UpperArm", 45509), parent: "l_clavicle", head: [-0.18, 0.0, SHOULDER_Z], tail: [-0.46, 0.0, SHOULDER_Z], dof: DofDef::D3 },
-        BoneDef { name: "l_forearm", gta: ("SKEL_L_Forearm", 61163), parent: "l_upper_arm", head: [-0.46, 0.0, SHOULDER_Z], tail: [-0.71, 0.0, SHOULDER_Z], dof: DofDef::Hinge([0.0, 0.0, -1.0]) },
-        BoneDef { name: "l_hand", gta: ("SKEL_L_Hand", 18905), parent: "l_forearm", head: [-0.71, 0.0, SHOULDER_Z], tail: LEFT_FINGERS[2].1[0], dof: DofDef::D3 },
+        BoneDef {
+            name: "l_clavicle",
+            gta: ("SKEL_L_Clavicle", 64729),
+            parent: "spine3",
+            head: [-0.02, 0.0, 1.42],
+            tail: [-0.18, 0.0, SHOULDER_Z],
+            dof: DofDef::Static,
+        },
+        BoneDef {
+            name: "l_upper_arm",
+            gta: ("SKEL_L_UpperArm", 45509),
+            parent: "l_clavicle",
+            head: [-0.18, 0.0, SHOULDER_Z],
+            tail: [-0.46, 0.0, SHOULDER_Z],
+            dof: DofDef::D3,
+        },
+        BoneDef {
+            name: "l_forearm",
+            gta: ("SKEL_L_Forearm", 61163),
+            parent: "l_upper_arm",
+            head: [-0.46, 0.0, SHOULDER_Z],
+            tail: [-0.71, 0.0, SHOULDER_Z],
+            dof: DofDef::Hinge([0.0, 0.0, -1.0]),
+        },
+        BoneDef {
+            name: "l_hand",
+            gta: ("SKEL_L_Hand", 18905),
+            parent: "l_forearm",
+            head: [-0.71, 0.0, SHOULDER_Z],
+            tail: LEFT_FINGERS[2].1[0],
+            dof: DofDef::D3,
+        },
     ];
     for (f, (finger, joints)) in LEFT_FINGERS.iter().enumerate() {
         for k in 0..3 {
             v.push(BoneDef {
                 name: FINGER_BONE_NAMES[f][k],
                 gta: LEFT_FINGER_GTA[f][k],
-                parent: if k == 0 { "l_hand" } else { FINGER_BONE_NAMES[f][k - 1] },
+                parent: if k == 0 {
+                    "l_hand"
+                } else {
+                    FINGER_BONE_NAMES[f][k - 1]
+                },
                 head: joints[k],
                 tail: joints[k + 1],
-                dof: if k == 0 { DofDef::D2 } else { DofDef::FingerHinge },
+                dof: if k == 0 {
+                    DofDef::D2
+                } else {
+                    DofDef::FingerHinge
+                },
             });
             let _ = finger;
         }
@@ -336,20 +475,83 @@ const FINGER_BONE_NAMES: [[&str; 3]; 5] = [
 
 fn centre_defs_before_legs() -> Vec<BoneDef> {
     vec![
-        BoneDef { name: "root", gta: ("SKEL_ROOT", 0), parent: "", head: [0.0, 0.0, 0.0], tail: [0.0, 0.15, 0.0], dof: DofDef::Root },
-        BoneDef { name: "pelvis", gta: ("SKEL_Pelvis", 11816), parent: "root", head: [0.0, 0.0, HIP_Z], tail: [0.0, 0.0, 0.80], dof: DofDef::Static },
+        BoneDef {
+            name: "root",
+            gta: ("SKEL_ROOT", 0),
+            parent: "",
+            head: [0.0, 0.0, 0.0],
+            tail: [0.0, 0.15, 0.0],
+            dof: DofDef::Root,
+        },
+        BoneDef {
+            name: "pelvis",
+            gta: ("SKEL_Pelvis", 11816),
+            parent: "root",
+            head: [0.0, 0.0, HIP_Z],
+            tail: [0.0, 0.0, 0.80],
+            dof: DofDef::Static,
+        },
     ]
 }
 
 fn spine_defs() -> Vec<BoneDef> {
     vec![
-        BoneDef { name: "spine_root", gta: ("SKEL_Spine_Root", 57597), parent: "root", head: [0.0, 0.0, HIP_Z], tail: [0.0, 0.0, 1.0], dof: DofDef::Static },
-        BoneDef { name: "spine0", gta: ("SKEL_Spine0", 23553), parent: "spine_root", head: [0.0, 0.0, HIP_Z], tail: [0.0, 0.0, 1.02], dof: DofDef::D3 },
-        BoneDef { name: "spine1", gta: ("SKEL_Spine1", 24816), parent: "spine0", head: [0.0, 0.0, 1.02], tail: [0.0, 0.0, 1.13], dof: DofDef::D3 },
-        BoneDef { name: "spine2", gta: ("SKEL_Spine2", 24817), parent: "spine1", head: [0.0, 0.0, 1.13], tail: [0.0, 0.0, 1.27], dof: DofDef::D3 },
-        BoneDef { name: "spine3", gta: ("SKEL_Spine3", 24818), parent: "spine2", head: [0.0, 0.0, 1.27], tail: [0.0, 0.0, SHOULDER_Z], dof: DofDef::D3 },
-        BoneDef { name: "neck", gta: ("SKEL_Neck_1", 39317), parent: "spine3", head: [0.0, 0.0, SHOULDER_Z], tail: [0.0, 0.0, 1.54], dof: DofDef::D3 },
-        BoneDef { name: "head", gta: ("SKEL_Head", 31086), parent: "neck", head: [0.0, 0.0, 1.54], tail: [0.0, 0.0, 1.75], dof: DofDef::D3 },
+        BoneDef {
+            name: "spine_root",
+            gta: ("SKEL_Spine_Root", 57597),
+            parent: "root",
+            head: [0.0, 0.0, HIP_Z],
+            tail: [0.0, 0.0, 1.0],
+            dof: DofDef::Static,
+        },
+        BoneDef {
+            name: "spine0",
+            gta: ("SKEL_Spine0", 23553),
+            parent: "spine_root",
+            head: [0.0, 0.0, HIP_Z],
+            tail: [0.0, 0.0, 1.02],
+            dof: DofDef::D3,
+        },
+        BoneDef {
+            name: "spine1",
+            gta: ("SKEL_Spine1", 24816),
+            parent: "spine0",
+            head: [0.0, 0.0, 1.02],
+            tail: [0.0, 0.0, 1.13],
+            dof: DofDef::D3,
+        },
+        BoneDef {
+            name: "spine2",
+            gta: ("SKEL_Spine2", 24817),
+            parent: "spine1",
+            head: [0.0, 0.0, 1.13],
+            tail: [0.0, 0.0, 1.27],
+            dof: DofDef::D3,
+        },
+        BoneDef {
+            name: "spine3",
+            gta: ("SKEL_Spine3", 24818),
+            parent: "spine2",
+            head: [0.0, 0.0, 1.27],
+            tail: [0.0, 0.0, SHOULDER_Z],
+            dof: DofDef::D3,
+        },
+        BoneDef {
+            name: "neck",
+            gta: ("SKEL_Neck_1", 39317),
+            parent: "spine3",
+            head: [0.0, 0.0, SHOULDER_Z],
+            tail: [0.0, 0.0, 1.54],
+            dof: DofDef::D3,
+        },
+        BoneDef {
+            name: "head",
+            gta: ("SKEL_Head", 31086),
+            parent: "neck",
+            head: [0.0, 0.0, 1.54],
+            tail: [0.0, 0.0, 1.75],
+            dof: DofDef::D3,
+        },
     ]
 }
 
@@ -380,7 +582,11 @@ fn landmark_defs() -> Vec<(&'static str, &'static str, [f64; 3])> {
     ];
     for (f, (finger, joints)) in LEFT_FINGERS.iter().enumerate() {
         for (k, p) in joints.iter().enumerate() {
-            let bone = if k == 0 { "l_hand" } else { FINGER_BONE_NAMES[f][k - 1] };
+            let bone = if k == 0 {
+                "l_hand"
+            } else {
+                FINGER_BONE_NAMES[f][k - 1]
+            };
             v.push((finger_landmark_name(finger, k), bone, *p));
         }
     }
@@ -396,12 +602,16 @@ fn finger_landmark_name(finger: &str, k: usize) -> &'static str {
         ["l_ring1", "l_ring2", "l_ring3", "l_ring4"],
         ["l_pinky1", "l_pinky2", "l_pinky3", "l_pinky4"],
     ];
-    let f = ["thumb", "index", "middle", "ring", "pinky"].iter().position(|n| *n == finger).unwrap_or(0);
+    let f = ["thumb", "index", "middle", "ring", "pinky"]
+        .iter()
+        .position(|n| *n == finger)
+        .unwrap_or(0);
     NAMES[f][k]
 }
 
 fn mirror_name(name: &str) -> String {
-    name.strip_prefix("l_").map_or_else(|| name.to_string(), |rest| format!("r_{rest}"))
+    name.strip_prefix("l_")
+        .map_or_else(|| name.to_string(), |rest| format!("r_{rest}"))
 }
 
 fn mirror_point(p: [f64; 3]) -> [f64; 3] {
@@ -437,8 +647,16 @@ impl Builder {
 
     fn push(&mut self, def: &BoneDef, mirrored: bool) {
         let map_p = |p: [f64; 3]| if mirrored { mirror_point(p) } else { p };
-        let name = if mirrored { mirror_name(def.name) } else { def.name.to_string() };
-        let parent_name = if mirrored { mirror_name(def.parent) } else { def.parent.to_string() };
+        let name = if mirrored {
+            mirror_name(def.name)
+        } else {
+            def.name.to_string()
+        };
+        let parent_name = if mirrored {
+            mirror_name(def.parent)
+        } else {
+            def.parent.to_string()
+        };
         let parent = self.index(&parent_name);
         let head = Point3::from(map_p(def.head));
         let tail = Point3::from(map_p(def.tail));
@@ -450,18 +668,26 @@ impl Builder {
             DofDef::Static => Dof::Static,
             DofDef::Hinge(a) => {
                 let a = if mirrored { mirror_axis(a) } else { a };
-                Dof::Hinge { axis: Unit::new_normalize(Vector3::from(a)) }
+                Dof::Hinge {
+                    axis: Unit::new_normalize(Vector3::from(a)),
+                }
             }
             DofDef::FingerHinge => {
                 let axis = dir.cross(&-Vector3::z());
-                Dof::Hinge { axis: Unit::new_normalize(axis) }
+                Dof::Hinge {
+                    axis: Unit::new_normalize(axis),
+                }
             }
         };
         let x_hint = match dof {
             Dof::Hinge { axis } => axis.into_inner(),
             _ => Vector3::x(),
         };
-        let (gta_name, gta_tag) = if mirrored { right_gta(def.name) } else { def.gta };
+        let (gta_name, gta_tag) = if mirrored {
+            right_gta(def.name)
+        } else {
+            def.gta
+        };
         self.bones.push(Bone {
             name,
             gta_name,
@@ -488,7 +714,9 @@ fn right_gta(left_name: &str) -> (&'static str, u16) {
 }
 
 fn build_standard() -> Rig {
-    let mut b = Builder { bones: Vec::with_capacity(BONE_COUNT) };
+    let mut b = Builder {
+        bones: Vec::with_capacity(BONE_COUNT),
+    };
     for d in centre_defs_before_legs() {
         b.push(&d, false);
     }
@@ -511,15 +739,29 @@ fn build_standard() -> Rig {
     for (name, bone, p) in landmark_defs() {
         let sided = name.starts_with("l_");
         let bi = bones.iter().position(|x| x.name == bone);
-        landmarks.push(Landmark { name: name.to_string(), bone: bi.unwrap_or(ROOT), rest_m: Point3::from(p) });
+        landmarks.push(Landmark {
+            name: name.to_string(),
+            bone: bi.unwrap_or(ROOT),
+            rest_m: Point3::from(p),
+        });
         if sided {
             let rname = mirror_name(name);
             let rbone = mirror_name(bone);
             let bi = bones.iter().position(|x| x.name == rbone);
-            landmarks.push(Landmark { name: rname, bone: bi.unwrap_or(ROOT), rest_m: Point3::from(mirror_point(p)) });
+            landmarks.push(Landmark {
+                name: rname,
+                bone: bi.unwrap_or(ROOT),
+                rest_m: Point3::from(mirror_point(p)),
+            });
         }
     }
-    let mut rig = Rig { name: "autoact53", bones, landmarks, recipes: Vec::new(), measures: Vec::new() };
+    let mut rig = Rig {
+        name: "autoact53",
+        bones,
+        landmarks,
+        recipes: Vec::new(),
+        measures: Vec::new(),
+    };
     rig.recipes = build_recipes(&rig);
     rig.measures = build_measures(&rig);
     rig
@@ -532,45 +774,104 @@ fn set(rig: &Rig, names: &[&str]) -> LandmarkSet {
 
 fn build_recipes(rig: &Rig) -> Vec<Recipe> {
     let mut recipes = Vec::new();
-    let dir = |from: &[&str], to: &[&str]| DirectionSource { from: set(rig, from), to: set(rig, to) };
-    let refdir = |from: &[&str], to: &[&str]| Reference::Direction { from: set(rig, from), to: set(rig, to) };
+    let dir = |from: &[&str], to: &[&str]| DirectionSource {
+        from: set(rig, from),
+        to: set(rig, to),
+    };
+    let refdir = |from: &[&str], to: &[&str]| Reference::Direction {
+        from: set(rig, from),
+        to: set(rig, to),
+    };
     let mut add = |bone: &str, directions: Vec<DirectionSource>, references: Vec<Reference>| {
         if let Some(bone) = rig.bone_index(bone) {
-            recipes.push(Recipe { bone, directions, references });
+            recipes.push(Recipe {
+                bone,
+                directions,
+                references,
+            });
         }
     };
     let hips = refdir(&["l_hip"], &["r_hip"]);
     let shoulders = refdir(&["l_shoulder"], &["r_shoulder"]);
     for s in ["spine0", "spine1"] {
-        add(s, vec![dir(&["pelvis"], &["spine_mid"]), dir(&["pelvis"], &["chest"])], vec![hips.clone()]);
+        add(
+            s,
+            vec![
+                dir(&["pelvis"], &["spine_mid"]),
+                dir(&["pelvis"], &["chest"]),
+            ],
+            vec![hips.clone()],
+        );
     }
     for s in ["spine2", "spine3"] {
-        add(s, vec![dir(&["spine_mid"], &["chest"]), dir(&["pelvis"], &["chest"])], vec![shoulders.clone()]);
+        add(
+            s,
+            vec![
+                dir(&["spine_mid"], &["chest"]),
+                dir(&["pelvis"], &["chest"]),
+            ],
+            vec![shoulders.clone()],
+        );
     }
-    add("neck", vec![dir(&["chest"], &["neck"]), dir(&["chest"], &["head_center"])], vec![shoulders.clone()]);
+    add(
+        "neck",
+        vec![
+            dir(&["chest"], &["neck"]),
+            dir(&["chest"], &["head_center"]),
+        ],
+        vec![shoulders.clone()],
+    );
     add(
         "head",
-        vec![dir(&["neck"], &["head_top"]), dir(&["neck"], &["head_center"]), dir(&["head_center"], &["nose"])],
-        vec![refdir(&["l_ear"], &["r_ear"]), refdir(&["l_eye"], &["r_eye"])],
+        vec![
+            dir(&["neck"], &["head_top"]),
+            dir(&["neck"], &["head_center"]),
+            dir(&["head_center"], &["nose"]),
+        ],
+        vec![
+            refdir(&["l_ear"], &["r_ear"]),
+            refdir(&["l_eye"], &["r_eye"]),
+        ],
     );
     for side in ["l", "r"] {
         let n = |s: &str| format!("{side}_{s}");
         let lm = |s: &str| -> usize { rig.landmark_index(&n(s)).unwrap_or(0) };
-        let sdir = |from: &str, to: &str| DirectionSource { from: vec![lm(from)], to: vec![lm(to)] };
-        let mirrored = |a: [f64; 3]| Unit::new_normalize(Vector3::from(if side == "l" { a } else { mirror_axis(a) }));
-        let (Some(calf), Some(forearm)) = (rig.bone_index(&n("calf")), rig.bone_index(&n("forearm"))) else { continue };
-        let knee_axis = match rig.bones[calf].dof { Dof::Hinge { axis } => axis, _ => mirrored([-1.0, 0.0, 0.0]) };
-        let elbow_axis = match rig.bones[forearm].dof { Dof::Hinge { axis } => axis, _ => mirrored([0.0, 0.0, -1.0]) };
+        let sdir = |from: &str, to: &str| DirectionSource {
+            from: vec![lm(from)],
+            to: vec![lm(to)],
+        };
+        let mirrored = |a: [f64; 3]| {
+            Unit::new_normalize(Vector3::from(if side == "l" { a } else { mirror_axis(a) }))
+        };
+        let (Some(calf), Some(forearm)) =
+            (rig.bone_index(&n("calf")), rig.bone_index(&n("forearm")))
+        else {
+            continue;
+        };
+        let knee_axis = match rig.bones[calf].dof {
+            Dof::Hinge { axis } => axis,
+            _ => mirrored([-1.0, 0.0, 0.0]),
+        };
+        let elbow_axis = match rig.bones[forearm].dof {
+            Dof::Hinge { axis } => axis,
+            _ => mirrored([0.0, 0.0, -1.0]),
+        };
         add(
             &n("thigh"),
             vec![sdir("hip", "knee")],
-            vec![Reference::Normal { points: [lm("hip"), lm("knee"), lm("ankle")], rest: knee_axis }],
+            vec![Reference::Normal {
+                points: [lm("hip"), lm("knee"), lm("ankle")],
+                rest: knee_axis,
+            }],
         );
         add(&n("calf"), vec![sdir("knee", "ankle")], vec![]);
         add(
             &n("foot"),
             vec![
-                DirectionSource { from: vec![lm("ankle")], to: vec![lm("big_toe"), lm("small_toe")] },
+                DirectionSource {
+                    from: vec![lm("ankle")],
+                    to: vec![lm("big_toe"), lm("small_toe")],
+                },
                 sdir("ankle", "toe"),
             ],
             vec![],
@@ -578,22 +879,48 @@ fn build_recipes(rig: &Rig) -> Vec<Recipe> {
         add(
             &n("upper_arm"),
             vec![sdir("shoulder", "elbow")],
-            vec![Reference::Normal { points: [lm("shoulder"), lm("elbow"), lm("wrist")], rest: elbow_axis }],
+            vec![Reference::Normal {
+                points: [lm("shoulder"), lm("elbow"), lm("wrist")],
+                rest: elbow_axis,
+            }],
         );
         add(&n("forearm"), vec![sdir("elbow", "wrist")], vec![]);
         add(
             &n("hand"),
             vec![sdir("wrist", "middle1")],
             vec![
-                Reference::Direction { from: vec![lm("index1")], to: vec![lm("pinky1")] },
-                Reference::Direction { from: vec![lm("index1")], to: vec![lm("ring1")] },
-                Reference::Direction { from: vec![lm("wrist")], to: vec![lm("thumb4")] },
+                Reference::Direction {
+                    from: vec![lm("index1")],
+                    to: vec![lm("pinky1")],
+                },
+                Reference::Direction {
+                    from: vec![lm("index1")],
+                    to: vec![lm("ring1")],
+                },
+                Reference::Direction {
+                    from: vec![lm("wrist")],
+                    to: vec![lm("thumb4")],
+                },
             ],
         );
-        for (f, finger) in ["thumb", "index", "middle", "ring", "pinky"].iter().enumerate() {
-            for k in 0..3 {
-                let bone = if side == "l" { FINGER_BONE_NAMES[f][k].to_string() } else { mirror_name(FINGER_BONE_NAMES[f][k]) };
-                add(&bone, vec![sdir(&format!("{finger}{}", k + 1), &format!("{finger}{}", k + 2))], vec![]);
+        for (f, finger) in ["thumb", "index", "middle", "ring", "pinky"]
+            .iter()
+            .enumerate()
+        {
+            for (k, left_bone) in FINGER_BONE_NAMES[f].iter().enumerate() {
+                let bone = if side == "l" {
+                    (*left_bone).to_string()
+                } else {
+                    mirror_name(left_bone)
+                };
+                add(
+                    &bone,
+                    vec![sdir(
+                        &format!("{finger}{}", k + 1),
+                        &format!("{finger}{}", k + 2),
+                    )],
+                    vec![],
+                );
             }
         }
     }
@@ -623,14 +950,21 @@ fn bones_between(rig: &Rig, from: usize, to: usize) -> Vec<usize> {
 fn build_measures(rig: &Rig) -> Vec<Measure> {
     let mut measures: Vec<Measure> = Vec::new();
     let mut push = |from: LandmarkSet, to: LandmarkSet, user: Option<(usize, usize)>| {
-        let (Some(&f), Some(&t)) = (from.first(), to.first()) else { return };
+        let (Some(&f), Some(&t)) = (from.first(), to.first()) else {
+            return;
+        };
         let bones = bones_between(rig, f, t);
         if bones.is_empty() {
             return;
         }
         match measures.iter_mut().find(|m| m.from == from && m.to == to) {
             Some(m) => m.used_by.extend(user),
-            None => measures.push(Measure { from, to, bones, used_by: user.into_iter().collect() }),
+            None => measures.push(Measure {
+                from,
+                to,
+                bones,
+                used_by: user.into_iter().collect(),
+            }),
         }
     };
     for (ri, r) in rig.recipes.iter().enumerate() {
@@ -639,7 +973,12 @@ fn build_measures(rig: &Rig) -> Vec<Measure> {
         }
     }
     // Static bones: shoulder and hip width.
-    for (from, to) in [("chest", "l_shoulder"), ("chest", "r_shoulder"), ("pelvis", "l_hip"), ("pelvis", "r_hip")] {
+    for (from, to) in [
+        ("chest", "l_shoulder"),
+        ("chest", "r_shoulder"),
+        ("pelvis", "l_hip"),
+        ("pelvis", "r_hip"),
+    ] {
         push(set(rig, &[from]), set(rig, &[to]), None);
     }
     measures
@@ -656,7 +995,11 @@ mod tests {
         let count = |label: &str| rig.bones.iter().filter(|b| b.dof.label() == label).count();
         assert_eq!(count("root"), 1);
         assert_eq!(count("static"), 4, "pelvis, spine root, clavicles");
-        assert_eq!(count("3-D"), 12, "spine0-3, neck, head, upper arms, thighs, hands");
+        assert_eq!(
+            count("3-D"),
+            12,
+            "spine0-3, neck, head, upper arms, thighs, hands"
+        );
         assert_eq!(count("2-D"), 12, "ten finger bases and two feet");
         assert_eq!(count("1-D"), 24, "forearms, calves and twenty phalanges");
     }
@@ -668,10 +1011,20 @@ mod tests {
             if i == ROOT {
                 assert!(b.parent.is_none());
             } else {
-                assert!(b.parent.is_some_and(|p| p < i), "{} has parent {:?}", b.name, b.parent);
+                assert!(
+                    b.parent.is_some_and(|p| p < i),
+                    "{} has parent {:?}",
+                    b.name,
+                    b.parent
+                );
             }
             assert_eq!(rig.bones.iter().filter(|o| o.name == b.name).count(), 1);
-            assert_eq!(rig.bones.iter().filter(|o| o.gta_tag == b.gta_tag).count(), 1, "{}", b.gta_name);
+            assert_eq!(
+                rig.bones.iter().filter(|o| o.gta_tag == b.gta_tag).count(),
+                1,
+                "{}",
+                b.gta_name
+            );
             assert!(b.gta_name.starts_with("SKEL_"), "{}", b.name);
         }
     }
@@ -682,7 +1035,11 @@ mod tests {
         for b in &rig.bones {
             if let Dof::Hinge { axis } = b.dof {
                 assert!(axis.dot(&b.rest_direction()).abs() < 1e-9, "{}", b.name);
-                assert!((b.rest_orientation * Vector3::x() - axis.into_inner()).norm() < 1e-9, "{}", b.name);
+                assert!(
+                    (b.rest_orientation * Vector3::x() - axis.into_inner()).norm() < 1e-9,
+                    "{}",
+                    b.name
+                );
             }
         }
     }
@@ -692,17 +1049,27 @@ mod tests {
         let rig = Rig::standard();
         for (i, b) in rig.bones.iter().enumerate() {
             let moving = !matches!(b.dof, Dof::Static | Dof::Root);
-            assert_eq!(rig.recipes.iter().any(|r| r.bone == i), moving, "{}", b.name);
+            assert_eq!(
+                rig.recipes.iter().any(|r| r.bone == i),
+                moving,
+                "{}",
+                b.name
+            );
         }
         for r in &rig.recipes {
             for d in &r.directions {
                 assert!(!d.from.is_empty() && !d.to.is_empty());
                 let v = rig.rest_point(&d.to) - rig.rest_point(&d.from);
-                assert!(v.norm() > 0.005, "{}: zero-length rest direction", rig.bones[r.bone].name);
+                assert!(
+                    v.norm() > 0.005,
+                    "{}: zero-length rest direction",
+                    rig.bones[r.bone].name
+                );
             }
         }
         assert!(rig.landmarks.iter().all(|l| l.bone < rig.bones.len()));
-        let names: std::collections::BTreeSet<_> = rig.landmarks.iter().map(|l| l.name.as_str()).collect();
+        let names: std::collections::BTreeSet<_> =
+            rig.landmarks.iter().map(|l| l.name.as_str()).collect();
         assert_eq!(names.len(), rig.landmarks.len());
     }
 

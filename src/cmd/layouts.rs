@@ -3,7 +3,7 @@
 use anyhow::{Context, Result};
 use serde_json::json;
 
-use super::{print_stdout, table, Outcome};
+use super::{Outcome, print_stdout, table};
 use crate::cli::Format;
 use crate::layout::{JointExpr, Layout};
 use crate::rig::Rig;
@@ -29,7 +29,8 @@ pub fn run(args: Args) -> Result<Outcome> {
     let text = match layout {
         None => list(&rig, format)?,
         Some(name) => {
-            let layout = Layout::load(&name).with_context(|| format!("cannot use layout `{name}`"))?;
+            let layout =
+                Layout::load(&name).with_context(|| format!("cannot use layout `{name}`"))?;
             show(&rig, &layout, format)?
         }
     };
@@ -62,7 +63,17 @@ fn list(rig: &Rig, format: Format) -> Result<String> {
             format!(
                 "Built-in keypoint layouts (a .toml file of the same form works anywhere a name does;\n\
                  `autoact layouts NAME` shows one). Bone counts are of the 48 bones that can move.\n\n{}",
-                table(&["layout", "joints", "driven", "twist unobserved", "at rest", "description"], &t)
+                table(
+                    &[
+                        "layout",
+                        "joints",
+                        "driven",
+                        "twist unobserved",
+                        "at rest",
+                        "description"
+                    ],
+                    &t
+                )
             )
         }
         Format::Json => {
@@ -105,11 +116,29 @@ fn show(rig: &Rig, layout: &Layout, format: Format) -> Result<String> {
                         })
                         .map(|(k, _)| k.as_str())
                         .collect();
-                    vec![i.to_string(), j.clone(), if used.is_empty() { "-".into() } else { used.join(", ") }]
+                    vec![
+                        i.to_string(),
+                        j.clone(),
+                        if used.is_empty() {
+                            "-".into()
+                        } else {
+                            used.join(", ")
+                        },
+                    ]
                 })
                 .collect();
-            let landmarks: Vec<Vec<String>> = layout.landmarks.iter().map(|(k, e)| vec![k.clone(), expr_text(e)]).collect();
-            let list = |v: &[String]| if v.is_empty() { "(none)".to_string() } else { v.join(", ") };
+            let landmarks: Vec<Vec<String>> = layout
+                .landmarks
+                .iter()
+                .map(|(k, e)| vec![k.clone(), expr_text(e)])
+                .collect();
+            let list = |v: &[String]| {
+                if v.is_empty() {
+                    "(none)".to_string()
+                } else {
+                    v.join(", ")
+                }
+            };
             format!(
                 "layout {}: {}\n\n{}\n{}\ndriven: {}\ndriven, twist unobserved: {}\nat rest (not in this layout): {}\n",
                 layout.name,
@@ -122,7 +151,11 @@ fn show(rig: &Rig, layout: &Layout, format: Format) -> Result<String> {
             )
         }
         Format::Json => {
-            let lm: serde_json::Map<String, serde_json::Value> = layout.landmarks.iter().map(|(k, e)| (k.clone(), json!(expr_text(e)))).collect();
+            let lm: serde_json::Map<String, serde_json::Value> = layout
+                .landmarks
+                .iter()
+                .map(|(k, e)| (k.clone(), json!(expr_text(e))))
+                .collect();
             format!(
                 "{:#}\n",
                 json!({"name": layout.name, "description": layout.description, "joints": layout.joints, "landmarks": lm,

@@ -3,7 +3,7 @@
 use anyhow::{Context, Result};
 use serde_json::json;
 
-use super::{print_stdout, table, Outcome};
+use super::{Outcome, print_stdout, table};
 use crate::cli::Format;
 use crate::layout::Layout;
 use crate::rig::{Dof, Reference, Rig};
@@ -31,11 +31,17 @@ pub struct Args {
 /// # Errors
 /// An unknown layout, or a write failure.
 pub fn run(args: Args) -> Result<Outcome> {
-    let Args { format, layout, landmarks, recipes } = args;
+    let Args {
+        format,
+        layout,
+        landmarks,
+        recipes,
+    } = args;
     let rig = Rig::standard();
     let status = match &layout {
         Some(name) => {
-            let layout = Layout::load(name).with_context(|| format!("cannot use layout `{name}`"))?;
+            let layout =
+                Layout::load(name).with_context(|| format!("cannot use layout `{name}`"))?;
             let coverage = layout.bind(&rig)?.coverage(&rig);
             Some(
                 rig.bones
@@ -70,13 +76,26 @@ pub fn run(args: Args) -> Result<Outcome> {
 }
 
 fn fmt3(v: &[f64]) -> String {
-    v.iter().map(|x| format!("{:+.3}", x + 0.0)).collect::<Vec<_>>().join(" ")
+    v.iter()
+        .map(|x| format!("{:+.3}", x + 0.0))
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 fn bones_output(rig: &Rig, format: Format, status: Option<&[&str]>) -> String {
     match format {
         Format::Table => {
-            let mut header = vec!["#", "bone", "gta_name", "gta_tag", "parent", "dof", "hinge_axis", "head_rest_m (x y z)", "length_m"];
+            let mut header = vec![
+                "#",
+                "bone",
+                "gta_name",
+                "gta_tag",
+                "parent",
+                "dof",
+                "hinge_axis",
+                "head_rest_m (x y z)",
+                "length_m",
+            ];
             if status.is_some() {
                 header.push("layout");
             }
@@ -90,7 +109,8 @@ fn bones_output(rig: &Rig, format: Format, status: Option<&[&str]>) -> String {
                         b.name.clone(),
                         b.gta_name.to_string(),
                         b.gta_tag.to_string(),
-                        b.parent.map_or_else(|| "-".to_string(), |p| rig.bones[p].name.clone()),
+                        b.parent
+                            .map_or_else(|| "-".to_string(), |p| rig.bones[p].name.clone()),
                         b.dof.label().to_string(),
                         match b.dof {
                             Dof::Hinge { axis } => fmt3(axis.as_slice()),
@@ -152,15 +172,29 @@ fn bones_output(rig: &Rig, format: Format, status: Option<&[&str]>) -> String {
 }
 
 fn set_name(rig: &Rig, set: &[usize]) -> String {
-    let names: Vec<&str> = set.iter().map(|&l| rig.landmarks[l].name.as_str()).collect();
-    if names.len() == 1 { names[0].to_string() } else { format!("mean({})", names.join(",")) }
+    let names: Vec<&str> = set
+        .iter()
+        .map(|&l| rig.landmarks[l].name.as_str())
+        .collect();
+    if names.len() == 1 {
+        names[0].to_string()
+    } else {
+        format!("mean({})", names.join(","))
+    }
 }
 
 fn reference_name(rig: &Rig, r: &Reference) -> String {
     match r {
-        Reference::Direction { from, to } => format!("{}→{}", set_name(rig, from), set_name(rig, to)),
-        Reference::Normal { points: [a, b, c], .. } => {
-            format!("normal({},{},{})", rig.landmarks[*a].name, rig.landmarks[*b].name, rig.landmarks[*c].name)
+        Reference::Direction { from, to } => {
+            format!("{}→{}", set_name(rig, from), set_name(rig, to))
+        }
+        Reference::Normal {
+            points: [a, b, c], ..
+        } => {
+            format!(
+                "normal({},{},{})",
+                rig.landmarks[*a].name, rig.landmarks[*b].name, rig.landmarks[*c].name
+            )
         }
     }
 }
@@ -174,14 +208,25 @@ fn recipes_output(rig: &Rig, format: Format) -> String {
             (
                 b.name.clone(),
                 b.dof.label().to_string(),
-                r.directions.iter().map(|d| format!("{}→{}", set_name(rig, &d.from), set_name(rig, &d.to))).collect(),
-                r.references.iter().map(|x| reference_name(rig, x)).collect(),
+                r.directions
+                    .iter()
+                    .map(|d| format!("{}→{}", set_name(rig, &d.from), set_name(rig, &d.to)))
+                    .collect(),
+                r.references
+                    .iter()
+                    .map(|x| reference_name(rig, x))
+                    .collect(),
             )
         })
         .collect();
     match format {
         Format::Table => {
-            let t: Vec<Vec<String>> = rows.iter().map(|(b, d, dirs, refs)| vec![b.clone(), d.clone(), dirs.join(" | "), refs.join(" | ")]).collect();
+            let t: Vec<Vec<String>> = rows
+                .iter()
+                .map(|(b, d, dirs, refs)| {
+                    vec![b.clone(), d.clone(), dirs.join(" | "), refs.join(" | ")]
+                })
+                .collect();
             format!(
                 "Which landmarks drive each bone: the first alternative a layout can complete is used.\n\
                  Static bones and the root (yaw from the hip line, translation from the pelvis) have no recipe.\n\n{}",
@@ -201,7 +246,13 @@ fn landmarks_output(rig: &Rig, format: Format) -> String {
             let t: Vec<Vec<String>> = rig
                 .landmarks
                 .iter()
-                .map(|l| vec![l.name.clone(), rig.bones[l.bone].name.clone(), fmt3(l.rest_m.coords.as_slice())])
+                .map(|l| {
+                    vec![
+                        l.name.clone(),
+                        rig.bones[l.bone].name.clone(),
+                        fmt3(l.rest_m.coords.as_slice()),
+                    ]
+                })
                 .collect();
             format!(
                 "Landmarks: the named body points a layout binds its joints to (see `autoact layouts`).\n\n{}",

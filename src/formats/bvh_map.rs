@@ -41,7 +41,9 @@ pub enum BvhMapError {
         message: String,
     },
     /// No built-in mapping fits the clip's joints.
-    #[error("{source_name}: no built-in BVH mapping fits this skeleton (known: {known}); its joints are: {joints}")]
+    #[error(
+        "{source_name}: no built-in BVH mapping fits this skeleton (known: {known}); its joints are: {joints}"
+    )]
     NoMapping {
         /// The BVH file.
         source_name: String,
@@ -61,7 +63,9 @@ pub enum BvhMapError {
         available: String,
     },
     /// An expression names something that is neither a BVH joint nor a virtual point.
-    #[error("{source_name}: BVH mapping `{mapping}` uses `{name}`, which is neither a joint of the clip nor a virtual point")]
+    #[error(
+        "{source_name}: BVH mapping `{mapping}` uses `{name}`, which is neither a joint of the clip nor a virtual point"
+    )]
     UnknownName {
         /// The BVH file.
         source_name: String,
@@ -71,7 +75,9 @@ pub enum BvhMapError {
         name: String,
     },
     /// The clip's units cannot be guessed and the mapping does not state them.
-    #[error("{source_name}: cannot tell the units of this BVH (rest skeleton {extent:.1} units tall); give metres per unit")]
+    #[error(
+        "{source_name}: cannot tell the units of this BVH (rest skeleton {extent:.1} units tall); give metres per unit"
+    )]
     UnknownUnits {
         /// The BVH file.
         source_name: String,
@@ -111,7 +117,10 @@ pub struct BvhMapping {
 }
 
 const BUILTIN: [(&str, &str); 2] = [
-    ("bandai-namco", include_str!("../layouts/bvh/bandai-namco.toml")),
+    (
+        "bandai-namco",
+        include_str!("../layouts/bvh/bandai-namco.toml"),
+    ),
     ("cmu", include_str!("../layouts/bvh/cmu.toml")),
 ];
 
@@ -121,7 +130,10 @@ impl BvhMapping {
     /// # Errors
     /// [`BvhMapError::Parse`].
     pub fn from_toml(text: &str, name: &str) -> Result<BvhMapping, BvhMapError> {
-        toml::from_str(text).map_err(|e| BvhMapError::Parse { name: name.to_string(), message: e.to_string() })
+        toml::from_str(text).map_err(|e| BvhMapError::Parse {
+            name: name.to_string(),
+            message: e.to_string(),
+        })
     }
 
     /// The built-in mappings.
@@ -129,7 +141,10 @@ impl BvhMapping {
     /// # Errors
     /// [`BvhMapError::Parse`] if a built-in table is broken (a test guards against that).
     pub fn builtins() -> Result<Vec<BvhMapping>, BvhMapError> {
-        BUILTIN.iter().map(|(n, t)| BvhMapping::from_toml(t, n)).collect()
+        BUILTIN
+            .iter()
+            .map(|(n, t)| BvhMapping::from_toml(t, n))
+            .collect()
     }
 
     /// The built-in mapping whose required joints the clip has.
@@ -139,12 +154,23 @@ impl BvhMapping {
     pub fn detect(bvh: &Bvh) -> Result<BvhMapping, BvhMapError> {
         let all = BvhMapping::builtins()?;
         let names = bvh.joint_names();
-        let known = all.iter().map(|m| m.skeleton.clone()).collect::<Vec<_>>().join(", ");
-        all.into_iter().find(|m| m.required.iter().all(|r| names.contains(r))).ok_or_else(|| BvhMapError::NoMapping {
-            source_name: bvh.source.clone(),
-            known,
-            joints: names.iter().take(12).cloned().collect::<Vec<_>>().join(", "),
-        })
+        let known = all
+            .iter()
+            .map(|m| m.skeleton.clone())
+            .collect::<Vec<_>>()
+            .join(", ");
+        all.into_iter()
+            .find(|m| m.required.iter().all(|r| names.contains(r)))
+            .ok_or_else(|| BvhMapError::NoMapping {
+                source_name: bvh.source.clone(),
+                known,
+                joints: names
+                    .iter()
+                    .take(12)
+                    .cloned()
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            })
     }
 
     /// Keypoints of `layout` for every frame of `bvh`, in metres in the autoact frame (BVH is
@@ -154,14 +180,22 @@ impl BvhMapping {
     /// [`BvhMapError`] when the mapping has no table for the layout, names an unknown joint, or
     /// the units are unknown.
     pub fn keypoints(&self, bvh: &Bvh, layout: &Layout) -> Result<PoseSequence, BvhMapError> {
-        let table = self.layouts.get(&layout.name).ok_or_else(|| BvhMapError::NoLayoutTable {
-            mapping: self.skeleton.clone(),
-            layout: layout.name.clone(),
-            available: self.layouts.keys().cloned().collect::<Vec<_>>().join(", "),
-        })?;
+        let table = self
+            .layouts
+            .get(&layout.name)
+            .ok_or_else(|| BvhMapError::NoLayoutTable {
+                mapping: self.skeleton.clone(),
+                layout: layout.name.clone(),
+                available: self.layouts.keys().cloned().collect::<Vec<_>>().join(", "),
+            })?;
         let metres_per_unit = match self.metres_per_unit.or_else(|| bvh.guess_metres_per_unit()) {
             Some(m) => m,
-            None => return Err(BvhMapError::UnknownUnits { source_name: bvh.source.clone(), extent: bvh.rest_extent().max() }),
+            None => {
+                return Err(BvhMapError::UnknownUnits {
+                    source_name: bvh.source.clone(),
+                    extent: bvh.rest_extent().max(),
+                });
+            }
         };
         // Resolve every name to (joint index, offset in the joint's frame).
         let resolve = |name: &String| -> Result<(usize, Vector3<f64>), BvhMapError> {
@@ -171,9 +205,15 @@ impl BvhMapping {
             self.points
                 .get(name)
                 .and_then(|p| Some((bvh.joint_index(&p.joint)?, Vector3::from(p.offset))))
-                .ok_or_else(|| BvhMapError::UnknownName { source_name: bvh.source.clone(), mapping: self.skeleton.clone(), name: name.clone() })
+                .ok_or_else(|| BvhMapError::UnknownName {
+                    source_name: bvh.source.clone(),
+                    mapping: self.skeleton.clone(),
+                    name: name.clone(),
+                })
         };
-        let mut terms: Vec<Option<Vec<(usize, Vector3<f64>, f64)>>> = Vec::with_capacity(layout.joints.len());
+        // Per layout joint: (BVH joint, offset in its frame, weight) terms, or None if unmapped.
+        type Terms = Vec<(usize, Vector3<f64>, f64)>;
+        let mut terms: Vec<Option<Terms>> = Vec::with_capacity(layout.joints.len());
         for joint in &layout.joints {
             let Some(expr) = table.get(joint) else {
                 terms.push(None);
@@ -187,7 +227,9 @@ impl BvhMapping {
                 }
                 JointExpr::Mean { mean } => {
                     let w = 1.0 / mean.len().max(1) as f64;
-                    mean.iter().map(|n| resolve(n).map(|(j, o)| (j, o, w))).collect::<Result<_, _>>()?
+                    mean.iter()
+                        .map(|n| resolve(n).map(|(j, o)| (j, o, w)))
+                        .collect::<Result<_, _>>()?
                 }
                 JointExpr::Lerp { from, to, t } => {
                     let (a, oa) = resolve(from)?;
@@ -209,13 +251,19 @@ impl BvhMapping {
                         let (p, q) = world[j];
                         sum += (p.coords + q * offset) * w;
                     }
-                    frame.positions_m[k] = SourceAxes::YUp.point_to_autoact(Point3::from(sum * metres_per_unit));
+                    frame.positions_m[k] =
+                        SourceAxes::YUp.point_to_autoact(Point3::from(sum * metres_per_unit));
                     frame.confidence[k] = 1.0;
                 }
                 frame
             })
             .collect();
-        Ok(PoseSequence { source: bvh.source.clone(), track_id: 0, joint_names: layout.joints.clone(), frames })
+        Ok(PoseSequence {
+            source: bvh.source.clone(),
+            track_id: 0,
+            joint_names: layout.joints.clone(),
+            frames,
+        })
     }
 }
 
@@ -229,7 +277,11 @@ mod tests {
             for (layout_name, table) in &m.layouts {
                 let layout = Layout::builtin(layout_name).unwrap();
                 for joint in table.keys() {
-                    assert!(layout.joints.contains(joint), "{}: {layout_name} has no joint {joint}", m.skeleton);
+                    assert!(
+                        layout.joints.contains(joint),
+                        "{}: {layout_name} has no joint {joint}",
+                        m.skeleton
+                    );
                 }
             }
         }
@@ -251,7 +303,11 @@ mod tests {
         // Head at (0, 100, 0) cm, turned 90° about Z: its +Y offset of 20 points along file −X,
         // which is autoact +X; up is autoact +Z.
         let expected = SourceAxes::YUp.point_to_autoact(Point3::new(-0.2, 1.0, 0.0));
-        assert!((f.positions_m[head] - expected).norm() < 1e-9, "{:?}", f.positions_m[head]);
+        assert!(
+            (f.positions_m[head] - expected).norm() < 1e-9,
+            "{:?}",
+            f.positions_m[head]
+        );
         assert_eq!(f.confidence[1], 0.0, "right_hip is not mapped: missing");
         assert!(f.positions_m[1].x.is_nan());
     }
