@@ -1,0 +1,139 @@
+//! The `autoact` binary, run as a user would: outputs, formats, errors and exit codes.
+
+use std::process::{Command, Output};
+
+fn autoact(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_autoact"))
+        .args(args)
+        .output()
+        .expect("run autoact")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn rig_prints_53_bones_with_gta_names() {
+    let o = autoact(&["rig"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    let rows = out
+        .lines()
+        .filter(|l| {
+            l.split_whitespace()
+                .next()
+                .is_some_and(|c| c.parse::<usize>().is_ok())
+        })
+        .count();
+    assert_eq!(rows, 53, "{out}");
+    assert!(out.contains("SKEL_L_UpperArm") && out.contains("45509"));
+    assert!(
+        stderr(&o).is_empty(),
+        "diagnostics on a clean run: {}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn rig_json_is_valid_and_complete() {
+    let o = autoact(&["rig", "--format", "json"]);
+    assert!(o.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let bones = v["bones"].as_array().unwrap();
+    assert_eq!(bones.len(), 53);
+    assert_eq!(bones[0]["dof"], "root");
+    let calf = bones.iter().find(|b| b["name"] == "l_calf").unwrap();
+    assert_eq!(calf["dof"], "1-D");
+    assert_eq!(calf["hinge_axis"].as_array().unwrap().len(), 3);
+    assert_eq!(calf["rest_orientation_xyzw"].as_array().unwrap().len(), 4);
+}
+
+#[test]
+fn rig_with_a_layout_says_which_bones_stay_at_rest() {
+    let o = autoact(&["rig", "--layout", "h36m-17", "--format", "json"]);
+    assert!(o.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let status = |name: &str| {
+        v["bones"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|b| b["name"] == name)
+            .unwrap()["layout"]
+            .clone()
+    };
+    assert_eq!(status("l_forearm"), "driven");
+    assert_eq!(status("l_index1"), "at rest (not in layout)");
+    assert_eq!(status("head"), "driven, twist unobserved");
+    assert_eq!(status("pelvis"), "static");
+}
+
+#[test]
+fn user_layout_file_works_and_bad_ones_are_named() {
+    let dir = std::env::temp_dir().join(format!("autoact-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let good = dir.join("mine.toml");
+    std::fs::write(&good, "name = \"mine\"\njoints = [\"hl\", \"hr\", \"kl\"]\n[landmarks]\nl_hip = \"hl\"\nr_hip = \"hr\"\nl_knee = \"kl\"\npelvis = { mean = [\"hl\", \"hr\"] }\n").unwrap();
+    let o = autoact(&["layouts", good.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("layout mine"));
+    let bad = dir.join("bad.toml");
+    std::fs::write(
+        &bad,
+        "name = \"bad\"\njoints = [\"a\"]\n[landmarks]\nl_hip = \"nope\"\n",
+    )
+    .unwrap();
+    let o = autoact(&["rig", "--layout", bad.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("`nope`") && stderr(&o).contains("bad.toml"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(stdout(&o).is_empty());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn unknown_layout_lists_the_built_in_ones() {
+    let o = autoact(&["layouts", "openpose"]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(
+        err.contains("unknown layout `openpose`") && err.contains("coco-wholebody-133"),
+        "{err}"
+    );
+}
+
+#[test]
+fn usage_errors_exit_2_and_help_lists_exit_codes() {
+    assert_eq!(autoact(&["rig", "--format", "xml"]).status.code(), Some(2));
+    assert_eq!(autoact(&["frobnicate"]).status.code(), Some(2));
+    let help = stdout(&autoact(&["--help"]));
+    assert!(help.contains("Exit codes:") && help.contains("3  finished, but some input was lost"));
+    let version = stdout(&autoact(&["--version"]));
+    assert!(version.starts_with("autoact "), "{version}");
+}
+
+#[test]
+fn layouts_list_shows_every_builtin() {
+    let o = autoact(&["layouts"]);
+    assert!(o.status.success());
+    let out = stdout(&o);
+    for name in [
+        "coco-wholebody-133",
+        "coco-17",
+        "ntu-25",
+        "h36m-17",
+        "h36m-32",
+        "zed-body-34",
+        "autoact-landmarks",
+    ] {
+        assert!(out.contains(name), "{name} missing from:\n{out}");
+    }
+}
