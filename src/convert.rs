@@ -248,8 +248,14 @@ pub struct Converter<'r> {
     /// Recipe index per bone (`usize::MAX` for none).
     solve_of_bone: Vec<usize>,
     landmark_buf: Vec<Lm>,
+    /// Landmarks the layout binds (the only ones worth computing per frame).
+    bound_landmarks: Vec<usize>,
+    /// Bones that are solved per frame; every other one stays at rest relative to its parent.
+    solved_bones: Vec<bool>,
     world: Vec<UnitQuaternion<f64>>,
-    previous: Option<BonePose>,
+    /// The previous frame's solution (valid when `has_previous`).
+    previous: BonePose,
+    has_previous: bool,
     previous_world: Vec<UnitQuaternion<f64>>,
     report: ConversionReport,
     frame_flags: bool,
@@ -342,6 +348,16 @@ impl<'r> Converter<'r> {
             })
         };
         let pelvis_lm = lm("pelvis");
+        let bound_landmarks: Vec<usize> = (0..rig.landmarks.len())
+            .filter(|&l| binding.landmark_terms[l].is_some())
+            .collect();
+        let solved_bones: Vec<bool> = (0..rig.bones.len())
+            .map(|b| {
+                solves
+                    .get(solve_of_bone[b])
+                    .is_some_and(|s| s.dir.is_some())
+            })
+            .collect();
         let pelvis_offset_m =
             pelvis_lm.map_or_else(Vector3::zeros, |p| character.landmark_from_root_m(rig, p));
         Converter {
@@ -351,8 +367,11 @@ impl<'r> Converter<'r> {
             solves,
             solve_of_bone,
             landmark_buf: vec![Lm::Unbound; rig.landmarks.len()],
+            bound_landmarks,
+            solved_bones,
             world: vec![UnitQuaternion::identity(); rig.bones.len()],
-            previous: None,
+            previous: BonePose::rest(rig),
+            has_previous: false,
             previous_world: vec![UnitQuaternion::identity(); rig.bones.len()],
             report: ConversionReport {
                 frames: 0,
@@ -388,7 +407,15 @@ impl<'r> Converter<'r> {
         self.frame_flags = true;
     }
 
+    #[inline]
     fn point(&self, set: &[usize]) -> Result<Point3<f64>, Degeneracy> {
+        if let [l] = set {
+            return match self.landmark_buf[*l] {
+                Lm::At(p) => Ok(p),
+                Lm::LowConfidence => Err(Degeneracy::LowConfidence),
+                Lm::Missing | Lm::Unbound => Err(Degeneracy::MissingJoint),
+            };
+        }
         let mut sum = Vector3::zeros();
         for &l in set {
             match self.landmark_buf[l] {
@@ -405,15 +432,19 @@ impl<'r> Converter<'r> {
         Ok(Point3::from(sum / n))
     }
 
-    fn direction_between(
-        &self,
-        from: &[usize],
-        to: &[usize],
-    ) -> Result<Unit<Vector3<f64>>, Degeneracy> {
+    #[inline]
+    /// The vector `from → to`, checked to be finite and not (nearly) zero.
+    fn vector_between(&self, from: &[usize], to: &[usize]) -> Result<Vector3<f64>, Degeneracy> {
         let v = self.point(to)? - self.point(from)?;
-        geom::direction(v).ok_or(Degeneracy::ZeroLengthBone)
+        let n2 = v.norm_squared();
+        if n2.is_finite() && n2 > geom::EPS_NORM * geom::EPS_NORM {
+            Ok(v)
+        } else {
+            Err(Degeneracy::ZeroLengthBone)
+        }
     }
 
+    #[inline]
     fn current_reference(
         &self,
         r: &RefSolve,
@@ -431,7 +462,7 @@ impl<'r> Converter<'r> {
                 let scale = u.norm() * w.norm();
                 if scale.is_nan()
                     || scale <= 0.0
-                    || n.norm() < scale * self.options.min_reference_angle_rad.sin()
+                    || n.norm() < scale * self.options.min_reference_angle_rad
                 {
                     return Err(Degeneracy::ParallelReference);
                 }
@@ -464,14 +495,19 @@ impl<'r> Converter<'r> {
         }
         self.frame_flags = false;
         self.fill_landmarks(frame);
-        let prev_pose = self.previous.take();
-        self.solve_root(prev_pose.as_ref(), out);
+        self.solve_root(out);
         for b in 1..self.rig.bones.len() {
             let Some(parent) = self.rig.bones[b].parent else {
                 continue;
             };
             let parent_world = self.world[parent];
-            let prev_local = prev_pose.as_ref().map(|p| p.local_rotations[b]);
+            if !self.solved_bones[b] {
+                // Static, or not driven by this layout: at rest relative to its parent.
+                out.local_rotations[b] = UnitQuaternion::identity();
+                self.world[b] = parent_world;
+                continue;
+            }
+            let prev_local = self.has_previous.then(|| self.previous.local_rotations[b]);
             let local = self.solve_bone(b, &parent_world, prev_local);
             let local = match prev_local {
                 Some(p) => geom::align_hemisphere(local, &p),
@@ -481,7 +517,11 @@ impl<'r> Converter<'r> {
             self.world[b] = parent_world * local;
         }
         self.previous_world.copy_from_slice(&self.world);
-        self.previous = Some(out.clone());
+        self.previous
+            .local_rotations
+            .copy_from_slice(&out.local_rotations);
+        self.previous.root_translation_m = out.root_translation_m;
+        self.has_previous = true;
         self.report.frames += 1;
         if self.frame_flags {
             self.report.degenerate_frames += 1;
@@ -491,12 +531,25 @@ impl<'r> Converter<'r> {
 
     fn fill_landmarks(&mut self, frame: &PoseFrame) {
         let min_c = self.options.min_confidence;
-        for l in 0..self.landmark_buf.len() {
+        for &l in &self.bound_landmarks {
             self.landmark_buf[l] = match &self.binding.landmark_terms[l] {
                 None => Lm::Unbound,
                 Some(terms) => {
                     let mut state = Lm::At(Point3::origin());
                     let mut sum = Vector3::zeros();
+                    if let [(j, _)] = terms[..] {
+                        // One joint: a copy, no weighting.
+                        let p = frame.positions_m[j];
+                        let c = frame.confidence[j];
+                        self.landmark_buf[l] = if !p.coords.iter().all(|v| v.is_finite()) {
+                            Lm::Missing
+                        } else if c.is_nan() || c < min_c {
+                            Lm::LowConfidence
+                        } else {
+                            Lm::At(p)
+                        };
+                        continue;
+                    }
                     for &(j, w) in terms {
                         let p = frame.positions_m[j];
                         if !p.coords.iter().all(|v| v.is_finite()) {
@@ -517,7 +570,13 @@ impl<'r> Converter<'r> {
         }
     }
 
-    fn solve_root(&mut self, prev: Option<&BonePose>, out: &mut BonePose) {
+    fn solve_root(&mut self, out: &mut BonePose) {
+        let prev_pose = self.has_previous.then(|| {
+            (
+                self.previous.local_rotations[ROOT],
+                self.previous.root_translation_m,
+            )
+        });
         let horizontal = |pair: Option<(usize, usize)>, this: &Self| -> Option<Vector3<f64>> {
             let (a, b) = pair?;
             let v = this.point(&[b]).ok()? - this.point(&[a]).ok()?;
@@ -527,11 +586,11 @@ impl<'r> Converter<'r> {
         let yaw = horizontal(self.hip_lms, self)
             .or_else(|| horizontal(self.shoulder_lms, self))
             .map(|h| h.y.atan2(h.x));
-        let root_rot = match (yaw, prev) {
+        let root_rot = match (yaw, prev_pose) {
             (Some(y), _) => geom::yaw_rotation(y),
-            (None, Some(p)) => {
+            (None, Some((rot, _))) => {
                 self.count(ROOT, Degeneracy::MissingJoint);
-                p.local_rotations[ROOT]
+                rot
             }
             (None, None) => {
                 if self.hip_lms.is_some() || self.shoulder_lms.is_some() {
@@ -540,17 +599,16 @@ impl<'r> Converter<'r> {
                 UnitQuaternion::identity()
             }
         };
-        let root_rot = prev.map_or(root_rot, |p| {
-            geom::align_hemisphere(root_rot, &p.local_rotations[ROOT])
-        });
+        let root_rot =
+            prev_pose.map_or(root_rot, |(rot, _)| geom::align_hemisphere(root_rot, &rot));
         let pelvis = self.pelvis_lm.and_then(|p| self.point(&[p]).ok());
-        let translation = match (pelvis, prev) {
+        let translation = match (pelvis, prev_pose) {
             (Some(p), _) => p.coords - root_rot * self.pelvis_offset_m,
-            (None, Some(prev)) => {
+            (None, Some((_, t))) => {
                 if self.pelvis_lm.is_some() {
                     self.count(ROOT, Degeneracy::MissingJoint);
                 }
-                prev.root_translation_m
+                t
             }
             (None, None) => Vector3::zeros(),
         };
@@ -563,6 +621,7 @@ impl<'r> Converter<'r> {
         self.world[ROOT] = root_rot;
     }
 
+    #[inline]
     fn solve_bone(
         &mut self,
         b: usize,
@@ -577,6 +636,7 @@ impl<'r> Converter<'r> {
     }
 
     /// The local rotation of bone `b`, and the degenerate-input path it took, if any.
+    #[inline]
     fn bone_rotation(
         &self,
         b: usize,
@@ -591,20 +651,26 @@ impl<'r> Converter<'r> {
             return (UnitQuaternion::identity(), None); // the layout cannot drive it: rest
         };
         let hold = prev_local.unwrap_or_else(UnitQuaternion::identity);
-        let cur_dir = match self.direction_between(from, to) {
-            Ok(d) => d,
+        let v = match self.vector_between(from, to) {
+            Ok(v) => v,
             Err(kind) => return (hold, Some(kind)),
         };
         let rest_dir = s.rest_dir;
-        let dir_in_parent = Unit::new_unchecked(parent_world.inverse() * cur_dir.into_inner());
+        // Rotations preserve length: the parent-frame vector needs no normalising for 2-D and
+        // hinge bones, whose geometry functions take unnormalised directions.
+        let v_in_parent = parent_world.inverse() * v;
         match s.dof {
             Dof::Static | Dof::Root => (UnitQuaternion::identity(), None),
-            Dof::TwoD => (geom::shortest_arc(&rest_dir, &dir_in_parent), None),
-            Dof::Hinge { axis } => match geom::hinge_angle(&rest_dir, &dir_in_parent, &axis) {
-                Some(angle) => (UnitQuaternion::from_axis_angle(&axis, angle), None),
+            Dof::TwoD => match geom::shortest_arc_to(&rest_dir, &v_in_parent) {
+                Some(q) => (q, None),
+                None => (hold, Some(Degeneracy::ZeroLengthBone)),
+            },
+            Dof::Hinge { axis } => match geom::hinge_rotation(&rest_dir, &v_in_parent, &axis) {
+                Some(q) => (q, None),
                 None => (hold, Some(Degeneracy::AlongHingeAxis)),
             },
             Dof::ThreeD => {
+                let cur_dir = Unit::new_normalize(v);
                 let observed = s
                     .reference
                     .as_ref()

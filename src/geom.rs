@@ -12,6 +12,7 @@ use nalgebra::{Unit, UnitQuaternion, Vector3};
 pub const EPS_NORM: f64 = 1e-9;
 
 /// Normalises `v`, or `None` when it is zero, tiny or not finite.
+#[inline]
 #[must_use]
 pub fn direction(v: Vector3<f64>) -> Option<Unit<Vector3<f64>>> {
     let n = v.norm();
@@ -22,6 +23,7 @@ pub fn direction(v: Vector3<f64>) -> Option<Unit<Vector3<f64>>> {
 ///
 /// Antiparallel input has no unique shortest arc; the half-turn is then taken about an axis
 /// perpendicular to `from` (the one nearest to global X, else Y), which is still exact.
+#[inline]
 #[must_use]
 pub fn shortest_arc(from: &Unit<Vector3<f64>>, to: &Unit<Vector3<f64>>) -> UnitQuaternion<f64> {
     let d = from.dot(to);
@@ -41,9 +43,34 @@ pub fn shortest_arc(from: &Unit<Vector3<f64>>, to: &Unit<Vector3<f64>>) -> UnitQ
     }
 }
 
+/// The shortest rotation taking unit `from` onto the direction of `to`, which need not be
+/// normalised (one square root fewer than normalising first). `None` when `to` is zero.
+#[inline]
+#[must_use]
+pub fn shortest_arc_to(
+    from: &Unit<Vector3<f64>>,
+    to: &Vector3<f64>,
+) -> Option<UnitQuaternion<f64>> {
+    let len = to.norm();
+    if !(len.is_finite() && len > EPS_NORM) {
+        return None;
+    }
+    let w = len + from.dot(to);
+    if w > len * 1e-12 {
+        // (|to| + from·to, from × to) is the half-angle quaternion scaled by |to|.
+        let axis = from.cross(to);
+        Some(UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+            w, axis.x, axis.y, axis.z,
+        )))
+    } else {
+        Some(shortest_arc(from, &Unit::new_unchecked(to / len)))
+    }
+}
+
 /// The component of `v` perpendicular to `axis`, normalised; `None` when `v` is (nearly)
-/// parallel to `axis`, i.e. when the perpendicular part is shorter than `sin(min_angle_rad)`
-/// times the length of `v`.
+/// parallel to `axis`, i.e. when the perpendicular part is shorter than `min_angle_rad` (a small
+/// angle, taken as its own sine) times the length of `v`.
+#[inline]
 #[must_use]
 pub fn perpendicular_direction(
     v: &Vector3<f64>,
@@ -56,7 +83,8 @@ pub fn perpendicular_direction(
     }
     let perp = v - axis.into_inner() * axis.dot(v);
     let pn = perp.norm();
-    (pn > len * min_angle_rad.sin().max(1e-12)).then(|| Unit::new_unchecked(perp / pn))
+    // sin θ ≈ θ below the angles this is called with (≤ a few degrees); no trig in the hot path.
+    (pn > len * min_angle_rad.max(1e-12)).then(|| Unit::new_unchecked(perp / pn))
 }
 
 /// The rotation that maps the rest frame (`rest_dir`, reference `rest_ref_perp`) onto the current
@@ -66,6 +94,7 @@ pub fn perpendicular_direction(
 ///
 /// `rest_ref_perp` must be perpendicular to `rest_dir` and `cur_ref_perp` to `cur_dir`
 /// (see [`perpendicular_direction`]).
+#[inline]
 #[must_use]
 pub fn frame_rotation(
     rest_dir: &Unit<Vector3<f64>>,
@@ -74,18 +103,30 @@ pub fn frame_rotation(
     cur_ref_perp: &Unit<Vector3<f64>>,
 ) -> UnitQuaternion<f64> {
     let swing = shortest_arc(rest_dir, cur_dir);
-    let swung_ref = swing * rest_ref_perp.into_inner();
-    let angle = signed_angle_about(&swung_ref, &cur_ref_perp.into_inner(), cur_dir);
-    UnitQuaternion::from_axis_angle(cur_dir, angle) * swing
+    // The swing carries the rest reference perpendicular to the current direction, so the twist
+    // is the rotation about the bone between the two references.
+    let swung_ref = Unit::new_normalize(swing * rest_ref_perp.into_inner());
+    rotation_about(&swung_ref, cur_ref_perp, cur_dir) * swing
 }
 
-/// Signed angle (radians, in (−π, π]) from `a` to `b` about `axis`, using only their components
-/// perpendicular to `axis`.
+/// The rotation about `axis` taking `from` onto `to`, both unit and perpendicular to `axis`:
+/// built from the half-angle identity, with no trigonometry. A half turn is taken about `axis`.
+#[inline]
 #[must_use]
-pub fn signed_angle_about(a: &Vector3<f64>, b: &Vector3<f64>, axis: &Unit<Vector3<f64>>) -> f64 {
-    let y = axis.dot(&a.cross(b));
-    let x = a.dot(b) - axis.dot(a) * axis.dot(b);
-    y.atan2(x)
+pub fn rotation_about(
+    from: &Unit<Vector3<f64>>,
+    to: &Unit<Vector3<f64>>,
+    axis: &Unit<Vector3<f64>>,
+) -> UnitQuaternion<f64> {
+    let d = from.dot(to);
+    if d > -1.0 + 1e-12 {
+        // The cross product is along ±axis; projecting onto it keeps the result exactly about it.
+        let s = axis.dot(&from.cross(to));
+        let q = nalgebra::Quaternion::from_parts(1.0 + d, axis.into_inner() * s);
+        UnitQuaternion::from_quaternion(q)
+    } else {
+        UnitQuaternion::from_quaternion(nalgebra::Quaternion::from_parts(0.0, axis.into_inner()))
+    }
 }
 
 /// Splits `q` into `swing · twist`, where `twist` is a rotation about `axis` and `swing` moves
@@ -115,21 +156,41 @@ pub fn wrap_angle(a: f64) -> f64 {
     r
 }
 
-/// The hinge angle about `hinge_axis` that best reproduces a bone whose rest direction is
-/// `rest_dir` (perpendicular to the hinge) and whose current direction is `cur_dir`: the angle of
-/// `cur_dir` projected onto the hinge plane. `None` when `cur_dir` lies along the hinge axis.
+/// The rotation about `hinge_axis` that best reproduces a bone whose rest direction is
+/// `rest_dir` (perpendicular to the hinge) and whose current direction is `cur_dir`: it takes
+/// `rest_dir` onto `cur_dir` projected onto the hinge plane. `None` when `cur_dir` lies along the
+/// hinge axis.
+#[inline]
 #[must_use]
-pub fn hinge_angle(
+pub fn hinge_rotation(
     rest_dir: &Unit<Vector3<f64>>,
     cur_dir: &Vector3<f64>,
     hinge_axis: &Unit<Vector3<f64>>,
-) -> Option<f64> {
-    perpendicular_direction(cur_dir, hinge_axis, 1e-6)
-        .map(|p| signed_angle_about(&rest_dir.into_inner(), &p.into_inner(), hinge_axis))
+) -> Option<UnitQuaternion<f64>> {
+    // Project onto the hinge plane; `cur_dir` need not be normalised.
+    let p = cur_dir - hinge_axis.into_inner() * hinge_axis.dot(cur_dir);
+    let p_len = p.norm();
+    if !(p_len.is_finite() && p_len > 1e-6 * cur_dir.norm().max(EPS_NORM)) {
+        return None;
+    }
+    let w = p_len + rest_dir.dot(&p);
+    if w > p_len * 1e-12 {
+        // Half-angle quaternion scaled by |p|, its axis projected onto the hinge so the result is
+        // exactly a hinge rotation.
+        let s = hinge_axis.dot(&rest_dir.cross(&p));
+        Some(UnitQuaternion::from_quaternion(
+            nalgebra::Quaternion::from_parts(w, hinge_axis.into_inner() * s),
+        ))
+    } else {
+        Some(UnitQuaternion::from_quaternion(
+            nalgebra::Quaternion::from_parts(0.0, hinge_axis.into_inner()),
+        ))
+    }
 }
 
 /// Flips `q` to the hemisphere of `previous` (so that ⟨q, previous⟩ ≥ 0). The rotation is
 /// unchanged; only its sign is, which keeps sequences continuous for interpolation.
+#[inline]
 #[must_use]
 pub fn align_hemisphere(
     q: UnitQuaternion<f64>,
@@ -196,6 +257,22 @@ mod tests {
     }
 
     #[test]
+    fn hinge_rotation_keeps_full_range_and_its_axis() {
+        let axis = unit(-1.0, 0.0, 0.0);
+        let rest = unit(0.0, 0.0, -1.0);
+        for deg in [1.0f64, 45.0, 90.0, 150.0, 179.9, -30.0] {
+            let truth = UnitQuaternion::from_axis_angle(&axis, deg.to_radians());
+            let q = hinge_rotation(&rest, &(truth * rest.into_inner()), &axis).unwrap();
+            assert!(rotation_distance(&q, &truth) < 1e-9, "{deg}°");
+        }
+        // Straight along the hinge axis: no hinge angle can be read.
+        assert!(hinge_rotation(&rest, &axis.into_inner(), &axis).is_none());
+        // A half turn is taken about the hinge itself.
+        let q = hinge_rotation(&rest, &-rest.into_inner(), &axis).unwrap();
+        assert!((q * Vector3::x() - Vector3::x()).norm() < 1e-12);
+    }
+
+    #[test]
     fn twist_is_not_folded_at_ninety_degrees() {
         // The reference code folded twist into (−90°, 90°]; a 150° twist must survive.
         let axis = unit(0.0, 0.0, 1.0);
@@ -242,6 +319,13 @@ mod tests {
             let back = swing * UnitQuaternion::from_axis_angle(&a, twist);
             prop_assert!(rotation_distance(&back, &q) < 1e-9);
             prop_assert!((swing * a.into_inner() - q * a.into_inner()).norm() < 1e-9);
+        }
+
+        /// Law: the shortest arc to an unnormalised target equals the one to its direction.
+        #[test]
+        fn shortest_arc_to_ignores_length(a in arb_dir(), b in arb_dir(), len in 1e-3..1e3f64) {
+            let q = shortest_arc_to(&a, &(b.into_inner() * len)).unwrap();
+            prop_assert!(rotation_distance(&q, &shortest_arc(&a, &b)) < 1e-9);
         }
 
         /// Law: q and −q rotate every vector identically.

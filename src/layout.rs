@@ -226,6 +226,30 @@ impl Layout {
         }
     }
 
+    /// This layout's keypoints read off a posed body: each joint that a landmark names on its own
+    /// gets that landmark's position; joints only used inside means, or not at all (face points),
+    /// are missing (NaN, confidence 0). For synthetic test data and benchmarks.
+    #[must_use]
+    pub fn keypoints_from_rig(
+        &self,
+        rig: &Rig,
+        character: &crate::character::Character,
+        world: &crate::fk::WorldPose,
+        stamp_nanos: u64,
+    ) -> crate::pose::PoseFrame {
+        let mut frame = crate::pose::PoseFrame::missing(stamp_nanos, self.joints.len());
+        for (landmark, expr) in &self.landmarks {
+            let (JointExpr::Joint(j), Some(l)) = (expr, rig.landmark_index(landmark)) else {
+                continue;
+            };
+            if let Some(k) = self.joints.iter().position(|n| n == j) {
+                frame.positions_m[k] = crate::fk::landmark_position(rig, character, world, l);
+                frame.confidence[k] = 1.0;
+            }
+        }
+        frame
+    }
+
     /// The names of the built-in layouts.
     #[must_use]
     pub fn builtin_names() -> Vec<&'static str> {

@@ -4,7 +4,11 @@
 //! Targets (issue "Core"): 3-D bones reproduce their direction to ≤ 0.01°; the mean per-joint
 //! position error after the DoF projection is ≤ 15 mm on the Bandai-Namco clips.
 
-#![expect(clippy::unwrap_used, clippy::print_stdout, reason = "test helpers fail loudly on bad data; measurements go to the test log")]
+#![expect(
+    clippy::unwrap_used,
+    clippy::print_stdout,
+    reason = "test helpers fail loudly on bad data; measurements go to the test log"
+)]
 
 use std::path::{Path, PathBuf};
 
