@@ -13,7 +13,7 @@
 
 use nalgebra::{Point3, Vector3};
 
-use crate::rig::{ROOT, Rig};
+use crate::rig::{Measure, ROOT, Rig};
 
 /// Proportions relative to the rig's default adult (1.0 = unchanged).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -110,17 +110,16 @@ impl Character {
         Character::from_scales(rig, bone_scale)
     }
 
-    /// Fits per-bone scales to a subject: `observed[m]` is the measured length (metres) of the
-    /// rig's measure `m` (see [`Rig::measures`]), `None` where the layout cannot see it. Bones no
-    /// measure covers take the median ratio of all measured ones.
+    /// Fits per-bone scales to a subject from measured segments: `(measure, length in metres)`
+    /// pairs. Bones no measure covers take the median ratio of all measured ones.
     #[must_use]
-    pub fn fitted(rig: &Rig, observed: &[Option<f64>]) -> Character {
+    pub fn fitted(rig: &Rig, observed: &[(&Measure, f64)]) -> Character {
         let mut per_bone: Vec<Vec<f64>> = vec![Vec::new(); rig.bones.len()];
         let mut all = Vec::new();
-        for (m, obs) in rig.measures.iter().zip(observed) {
-            let Some(obs) = obs.filter(|v| v.is_finite() && *v > 0.0) else {
+        for &(m, obs) in observed {
+            if !(obs.is_finite() && obs > 0.0) {
                 continue;
-            };
+            }
             let rest = (rig.rest_point(&m.to) - rig.rest_point(&m.from)).norm();
             if rest <= 1e-6 {
                 continue;

@@ -306,20 +306,17 @@ impl<'r> Converter<'r> {
         let coverage = binding.coverage(rig);
         let mut solves = Vec::with_capacity(rig.recipes.len());
         let mut solve_of_bone = vec![usize::MAX; rig.bones.len()];
-        for (recipe, src) in rig.recipes.iter().zip(&binding.bone_sources) {
-            let bone = &rig.bones[recipe.bone];
-            let dir = src.direction.map(|d| {
-                (
-                    recipe.directions[d].from.clone(),
-                    recipe.directions[d].to.clone(),
-                )
-            });
+        for src in &binding.bone_sources {
+            let bone = &rig.bones[src.bone];
+            let dir = src
+                .direction
+                .as_ref()
+                .map(|d| (d.from.clone(), d.to.clone()));
             let rest_dir = dir
                 .as_ref()
                 .and_then(|(f, t)| geom::direction(rig.rest_point(t) - rig.rest_point(f)))
                 .unwrap_or_else(|| bone.rest_direction());
-            let reference = src.reference.map(|r| {
-                let refr = &recipe.references[r];
+            let reference = src.reference.as_ref().map(|refr| {
                 let rest_perp = perp_of(&rest_reference(rig, refr), &rest_dir);
                 match refr {
                     Reference::Direction { from, to } => RefSolve::Direction {
@@ -333,7 +330,7 @@ impl<'r> Converter<'r> {
                     },
                 }
             });
-            solve_of_bone[recipe.bone] = solves.len();
+            solve_of_bone[src.bone] = solves.len();
             solves.push(BoneSolve {
                 dof: bone.dof,
                 dir,
@@ -736,30 +733,17 @@ pub fn fit_character(
         let n = set.len().max(1) as f64;
         Some(Point3::from(sum / n))
     };
-    // A segment counts only if this layout drives a bone along it (or it is a static width): an
-    // alternative the layout does not use would pull the median towards a different segment.
-    let in_use = |m: &crate::rig::Measure| {
-        m.used_by.is_empty()
-            || m.used_by.iter().any(|&(r, a)| {
-                binding
-                    .bone_sources
-                    .get(r)
-                    .is_some_and(|s| s.direction == Some(a))
-            })
-    };
-    let observed: Vec<Option<f64>> = rig
-        .measures
+    // The segments this layout drives bones along, and the static widths.
+    let measures = binding.measures(rig);
+    let observed: Vec<(&crate::rig::Measure, f64)> = measures
         .iter()
-        .map(|m| {
-            if !in_use(m) {
-                return None;
-            }
+        .filter_map(|m| {
             let mut d: Vec<f64> = sample
                 .iter()
                 .filter_map(|f| Some((point(f, &m.to)? - point(f, &m.from)?).norm()))
                 .filter(|d| d.is_finite() && *d > 1e-6)
                 .collect();
-            median(&mut d)
+            Some((m, median(&mut d)?))
         })
         .collect();
     let mut character = Character::fitted(rig, &observed);

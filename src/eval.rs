@@ -138,9 +138,10 @@ pub fn round_trip(
             let class = rig.bones[rig.landmarks[l].bone].dof.label();
             per_class.entry(class).or_default().position_mm.push(err_mm);
         }
-        for (recipe, source) in rig.recipes.iter().zip(&binding.bone_sources) {
-            let Some(d) = source.direction else { continue };
-            let dir = &recipe.directions[d];
+        for source in &binding.bone_sources {
+            let Some(dir) = &source.direction else {
+                continue;
+            };
             let (Some(a), Some(b)) = (input_set(&dir.from), input_set(&dir.to)) else {
                 continue;
             };
@@ -148,13 +149,13 @@ pub fn round_trip(
             // rotation) against the input direction: the solver's own error, independent of
             // where composite landmarks such as a head centre happen to ride.
             let want = b - a;
-            let got = world.rotations[recipe.bone]
+            let got = world.rotations[source.bone]
                 * (rig.rest_point(&dir.to) - rig.rest_point(&dir.from));
             let deg = want.cross(&got).norm().atan2(want.dot(&got)).to_degrees();
             if !deg.is_finite() {
                 continue;
             }
-            let bone = &rig.bones[recipe.bone];
+            let bone = &rig.bones[source.bone];
             per_bone_deg.entry(bone.name.clone()).or_default().push(deg);
             per_class
                 .entry(bone.dof.label())
@@ -202,7 +203,7 @@ pub fn bone_length_stability(
     let binding = layout.bind(rig).map_err(err)?;
     let order = layout.joint_order(&seq.joint_names).map_err(err)?;
     let mut out = Vec::new();
-    for m in &rig.measures {
+    for m in &binding.measures(rig) {
         let mut lengths = Vec::new();
         for f in &seq.frames {
             let positions: Vec<Point3<f64>> = order.iter().map(|&i| f.positions_m[i]).collect();

@@ -25,7 +25,7 @@ use std::path::{Path, PathBuf};
 use nalgebra::{Point3, Unit, Vector3};
 use serde::Deserialize;
 
-use crate::rig::{Dof, Reference, Rig};
+use crate::rig::{DirectionSource, Dof, Measure, Reference, Rig};
 
 /// Errors loading or binding a layout.
 #[derive(Debug, thiserror::Error)]
@@ -98,6 +98,16 @@ pub enum LayoutError {
         /// What is wrong.
         why: &'static str,
     },
+    /// A `[bones.NAME]` entry is wrong.
+    #[error("layout `{layout}`: [bones.{bone}] {why}")]
+    BadBoneOverride {
+        /// Layout name.
+        layout: String,
+        /// The bone key.
+        bone: String,
+        /// What is wrong.
+        why: String,
+    },
     /// The pose data's joints do not match the layout's.
     #[error("the data has joints the layout `{layout}` does not list: {missing}")]
     JointMismatch {
@@ -144,6 +154,21 @@ pub struct Layout {
     /// Rig landmark → joint expression.
     #[serde(default)]
     pub landmarks: BTreeMap<String, JointExpr>,
+    /// Per bone, landmarks that drive it instead of the rig's recipe (for estimators whose points
+    /// sit differently from the rig's usual choice).
+    #[serde(default)]
+    pub bones: BTreeMap<String, BoneOverride>,
+}
+
+/// Which landmarks drive one bone, overriding the rig's recipe for a layout.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoneOverride {
+    /// The bone points from the first landmark to the second.
+    pub direction: [String; 2],
+    /// Twist reference: the direction from the first landmark to the second, projected
+    /// perpendicular to the bone (3-D bones only; others have no twist).
+    pub reference: Option<[String; 2]>,
 }
 
 /// The built-in layouts: (name, aliases, TOML text).
@@ -196,6 +221,7 @@ impl Layout {
             description: "the rig's own landmarks, one joint each".to_string(),
             joints,
             landmarks,
+            bones: BTreeMap::new(),
         }
     }
 
@@ -356,26 +382,76 @@ impl Layout {
             };
             landmark_terms[li] = Some(terms);
         }
-        let bone_sources = rig
+        let bound = |set: &[usize]| set.iter().all(|&l| landmark_terms[l].is_some());
+        let mut bone_sources: Vec<BoneSource> = rig
             .recipes
             .iter()
-            .map(|r| {
-                let bound = |set: &[usize]| set.iter().all(|&l| landmark_terms[l].is_some());
-                let direction = r
+            .map(|r| BoneSource {
+                bone: r.bone,
+                direction: r
                     .directions
                     .iter()
-                    .position(|d| bound(&d.from) && bound(&d.to));
-                let reference = r.references.iter().position(|refr| match refr {
-                    Reference::Direction { from, to } => bound(from) && bound(to),
-                    Reference::Normal { points, .. } => bound(points),
-                });
-                BoneSource {
-                    bone: r.bone,
-                    direction,
-                    reference,
-                }
+                    .find(|d| bound(&d.from) && bound(&d.to))
+                    .cloned(),
+                reference: r
+                    .references
+                    .iter()
+                    .find(|refr| match refr {
+                        Reference::Direction { from, to } => bound(from) && bound(to),
+                        Reference::Normal { points, .. } => bound(points),
+                    })
+                    .cloned(),
             })
             .collect();
+        for (bone_name, o) in &self.bones {
+            let bad = |why: String| LayoutError::BadBoneOverride {
+                layout: self.name.clone(),
+                bone: bone_name.clone(),
+                why,
+            };
+            let Some(source) = rig
+                .bone_index(bone_name)
+                .and_then(|b| bone_sources.iter_mut().find(|s| s.bone == b))
+            else {
+                return Err(bad(
+                    "is not a bone that can move (see `autoact rig`)".to_string()
+                ));
+            };
+            let landmark = |name: &String| -> Result<usize, LayoutError> {
+                match rig.landmark_index(name) {
+                    Some(l) if landmark_terms[l].is_some() => Ok(l),
+                    Some(_) => Err(bad(format!(
+                        "uses landmark `{name}`, which this layout does not bind"
+                    ))),
+                    None => Err(bad(format!("uses `{name}`, which is not a rig landmark"))),
+                }
+            };
+            let (from, to) = (landmark(&o.direction[0])?, landmark(&o.direction[1])?);
+            let rest_dir = rig.landmarks[to].rest_m - rig.landmarks[from].rest_m;
+            if rest_dir.norm() < 1e-3 {
+                return Err(bad(
+                    "direction: the two landmarks coincide at rest".to_string()
+                ));
+            }
+            source.direction = Some(DirectionSource {
+                from: vec![from],
+                to: vec![to],
+            });
+            if let Some([a, b]) = &o.reference {
+                let (a, b) = (landmark(a)?, landmark(b)?);
+                let rest_ref = rig.landmarks[b].rest_m - rig.landmarks[a].rest_m;
+                if rest_ref.cross(&rest_dir).norm() < 0.05 * rest_ref.norm() * rest_dir.norm() {
+                    return Err(bad(
+                        "reference: parallel to the bone at rest, so it cannot give a twist"
+                            .to_string(),
+                    ));
+                }
+                source.reference = Some(Reference::Direction {
+                    from: vec![a],
+                    to: vec![b],
+                });
+            }
+        }
         Ok(Binding {
             layout_name: self.name.clone(),
             joint_count: self.joints.len(),
@@ -416,15 +492,15 @@ impl Layout {
     }
 }
 
-/// Which recipe alternatives a layout can use for one bone.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// What drives one bone for a layout: the recipe alternative (or the layout's override) it uses.
+#[derive(Debug, Clone, PartialEq)]
 pub struct BoneSource {
     /// Bone index.
     pub bone: usize,
-    /// Index into the recipe's `directions`, or `None`: the bone stays at rest.
-    pub direction: Option<usize>,
-    /// Index into the recipe's `references`, or `None`: the twist is not observed.
-    pub reference: Option<usize>,
+    /// The direction's landmarks, or `None`: the bone stays at rest.
+    pub direction: Option<DirectionSource>,
+    /// The twist reference, or `None`: the twist is not observed.
+    pub reference: Option<Reference>,
 }
 
 /// A layout bound to a rig: precomputed landmark expressions and recipe choices.
@@ -476,6 +552,30 @@ impl Binding {
         Some(Point3::from(sum))
     }
 
+    /// The segments to measure when fitting a body to data in this layout: every direction this
+    /// layout drives a bone along (once each), and the rig's static widths.
+    #[must_use]
+    pub fn measures(&self, rig: &Rig) -> Vec<Measure> {
+        let mut out: Vec<Measure> = Vec::new();
+        for d in self
+            .bone_sources
+            .iter()
+            .filter_map(|s| s.direction.as_ref())
+        {
+            if !out.iter().any(|m| m.from == d.from && m.to == d.to) {
+                out.extend(rig.measure(&d.from, &d.to));
+            }
+        }
+        let bound = |set: &[usize]| set.iter().all(|&l| self.landmark_terms[l].is_some());
+        out.extend(
+            rig.width_measures
+                .iter()
+                .filter(|m| bound(&m.from) && bound(&m.to))
+                .cloned(),
+        );
+        out
+    }
+
     /// Which bones this layout drives.
     #[must_use]
     pub fn coverage(&self, rig: &Rig) -> Coverage {
@@ -486,7 +586,7 @@ impl Binding {
         };
         for s in &self.bone_sources {
             let name = rig.bones[s.bone].name.clone();
-            match (s.direction, s.reference, rig.bones[s.bone].dof) {
+            match (&s.direction, &s.reference, rig.bones[s.bone].dof) {
                 (None, _, _) => c.at_rest.push(name),
                 (Some(_), None, Dof::ThreeD) => c.twist_unobserved.push(name),
                 _ => c.driven.push(name),
@@ -576,6 +676,54 @@ mod tests {
         assert!(err.to_string().contains("x.toml"), "{err}");
         let err = Layout::load("no-such-layout").unwrap_err();
         assert!(err.to_string().contains("h36m-17"), "{err}");
+    }
+
+    #[test]
+    fn bone_overrides_drive_a_bone_from_other_landmarks() {
+        let rig = Rig::standard();
+        let text = "name = \"feet\"\njoints = [\"a\", \"h\", \"t\"]\n[landmarks]\nl_ankle = \"a\"\nl_heel = \"h\"\nl_big_toe = \"t\"\n\
+                    [bones.l_foot]\ndirection = [\"l_heel\", \"l_big_toe\"]\n";
+        let layout = Layout::from_toml(text, "feet.toml").unwrap();
+        let binding = layout.bind(&rig).unwrap();
+        let foot = rig.bone_index("l_foot").unwrap();
+        let src = binding
+            .bone_sources
+            .iter()
+            .find(|s| s.bone == foot)
+            .unwrap();
+        let heel = rig.landmark_index("l_heel").unwrap();
+        assert_eq!(src.direction.as_ref().unwrap().from, vec![heel]);
+        assert!(
+            binding
+                .coverage(&rig)
+                .driven
+                .contains(&"l_foot".to_string())
+        );
+        // Errors name the bone and the problem.
+        let bad = |extra: &str| {
+            Layout::from_toml(
+                &format!("name = \"x\"\njoints = [\"a\"]\n[landmarks]\nl_ankle = \"a\"\n{extra}"),
+                "x",
+            )
+            .unwrap()
+            .bind(&rig)
+            .unwrap_err()
+            .to_string()
+        };
+        assert!(
+            bad("[bones.pelvis]\ndirection = [\"l_ankle\", \"l_ankle\"]\n")
+                .contains("[bones.pelvis] is not a bone that can move")
+        );
+        assert!(
+            bad("[bones.l_foot]\ndirection = [\"l_ankle\", \"l_toe\"]\n").contains("does not bind")
+        );
+        assert!(
+            bad("[bones.l_foot]\ndirection = [\"l_ankle\", \"toe\"]\n")
+                .contains("not a rig landmark")
+        );
+        assert!(
+            bad("[bones.l_foot]\ndirection = [\"l_ankle\", \"l_ankle\"]\n").contains("coincide")
+        );
     }
 
     #[test]

@@ -150,9 +150,6 @@ pub struct Measure {
     pub to: LandmarkSet,
     /// Bones whose length scale this distance sets.
     pub bones: Vec<usize>,
-    /// The (recipe index, direction alternative) pairs that drive a bone along this segment;
-    /// empty for the width measures of static bones, which always count.
-    pub used_by: Vec<(usize, usize)>,
 }
 
 /// The rig: bones in parent-before-child order, landmarks, recipes and measures.
@@ -166,8 +163,9 @@ pub struct Rig {
     pub landmarks: Vec<Landmark>,
     /// Driving recipes for every bone that is not static or root.
     pub recipes: Vec<Recipe>,
-    /// Segment measures for fitting body proportions.
-    pub measures: Vec<Measure>,
+    /// Widths of the static bones (shoulders on the chest, hips on the pelvis), measured to fit
+    /// body proportions along with the segments a layout drives.
+    pub width_measures: Vec<Measure>,
 }
 
 /// Index of the root bone.
@@ -260,111 +258,35 @@ enum DofDef {
 const HIP_Z: f64 = 0.90;
 const SHOULDER_Z: f64 = 1.44;
 
+#[rustfmt::skip]
 /// Finger joints of the left hand at rest: (finger, [base, second, third, tip] positions).
 const LEFT_FINGERS: [(&str, [[f64; 3]; 4]); 5] = [
-    (
-        "thumb",
-        [
-            [-0.735, 0.025, 1.435],
-            [-0.765, 0.050, 1.430],
-            [-0.790, 0.070, 1.430],
-            [-0.810, 0.085, 1.430],
-        ],
-    ),
-    (
-        "index",
-        [
-            [-0.800, 0.025, SHOULDER_Z],
-            [-0.845, 0.025, SHOULDER_Z],
-            [-0.870, 0.025, SHOULDER_Z],
-            [-0.892, 0.025, SHOULDER_Z],
-        ],
-    ),
-    (
-        "middle",
-        [
-            [-0.805, 0.000, SHOULDER_Z],
-            [-0.855, 0.000, SHOULDER_Z],
-            [-0.885, 0.000, SHOULDER_Z],
-            [-0.909, 0.000, SHOULDER_Z],
-        ],
-    ),
-    (
-        "ring",
-        [
-            [-0.800, -0.020, SHOULDER_Z],
-            [-0.845, -0.020, SHOULDER_Z],
-            [-0.873, -0.020, SHOULDER_Z],
-            [-0.895, -0.020, SHOULDER_Z],
-        ],
-    ),
-    (
-        "pinky",
-        [
-            [-0.790, -0.040, SHOULDER_Z],
-            [-0.825, -0.040, SHOULDER_Z],
-            [-0.845, -0.040, SHOULDER_Z],
-            [-0.865, -0.040, SHOULDER_Z],
-        ],
-    ),
+    ("thumb", [[-0.735, 0.025, 1.435], [-0.765, 0.050, 1.430], [-0.790, 0.070, 1.430], [-0.810, 0.085, 1.430]]),
+    ("index", [[-0.800, 0.025, SHOULDER_Z], [-0.845, 0.025, SHOULDER_Z], [-0.870, 0.025, SHOULDER_Z], [-0.892, 0.025, SHOULDER_Z]]),
+    ("middle", [[-0.805, 0.000, SHOULDER_Z], [-0.855, 0.000, SHOULDER_Z], [-0.885, 0.000, SHOULDER_Z], [-0.909, 0.000, SHOULDER_Z]]),
+    ("ring", [[-0.800, -0.020, SHOULDER_Z], [-0.845, -0.020, SHOULDER_Z], [-0.873, -0.020, SHOULDER_Z], [-0.895, -0.020, SHOULDER_Z]]),
+    ("pinky", [[-0.790, -0.040, SHOULDER_Z], [-0.825, -0.040, SHOULDER_Z], [-0.845, -0.040, SHOULDER_Z], [-0.865, -0.040, SHOULDER_Z]]),
 ];
 
+#[rustfmt::skip]
 /// GTA names and tags of the finger bones, left then right, per finger (thumb..pinky) × 3.
 const LEFT_FINGER_GTA: [[(&str, u16); 3]; 5] = [
-    [
-        ("SKEL_L_Finger00", 26610),
-        ("SKEL_L_Finger01", 4089),
-        ("SKEL_L_Finger02", 4090),
-    ],
-    [
-        ("SKEL_L_Finger10", 26611),
-        ("SKEL_L_Finger11", 4169),
-        ("SKEL_L_Finger12", 4170),
-    ],
-    [
-        ("SKEL_L_Finger20", 26612),
-        ("SKEL_L_Finger21", 4185),
-        ("SKEL_L_Finger22", 4186),
-    ],
-    [
-        ("SKEL_L_Finger30", 26613),
-        ("SKEL_L_Finger31", 4137),
-        ("SKEL_L_Finger32", 4138),
-    ],
-    [
-        ("SKEL_L_Finger40", 26614),
-        ("SKEL_L_Finger41", 4153),
-        ("SKEL_L_Finger42", 4154),
-    ],
+    [("SKEL_L_Finger00", 26610), ("SKEL_L_Finger01", 4089), ("SKEL_L_Finger02", 4090)],
+    [("SKEL_L_Finger10", 26611), ("SKEL_L_Finger11", 4169), ("SKEL_L_Finger12", 4170)],
+    [("SKEL_L_Finger20", 26612), ("SKEL_L_Finger21", 4185), ("SKEL_L_Finger22", 4186)],
+    [("SKEL_L_Finger30", 26613), ("SKEL_L_Finger31", 4137), ("SKEL_L_Finger32", 4138)],
+    [("SKEL_L_Finger40", 26614), ("SKEL_L_Finger41", 4153), ("SKEL_L_Finger42", 4154)],
 ];
+#[rustfmt::skip]
 const RIGHT_FINGER_GTA: [[(&str, u16); 3]; 5] = [
-    [
-        ("SKEL_R_Finger00", 58866),
-        ("SKEL_R_Finger01", 64016),
-        ("SKEL_R_Finger02", 64017),
-    ],
-    [
-        ("SKEL_R_Finger10", 58867),
-        ("SKEL_R_Finger11", 64096),
-        ("SKEL_R_Finger12", 64097),
-    ],
-    [
-        ("SKEL_R_Finger20", 58868),
-        ("SKEL_R_Finger21", 64112),
-        ("SKEL_R_Finger22", 64113),
-    ],
-    [
-        ("SKEL_R_Finger30", 58869),
-        ("SKEL_R_Finger31", 64064),
-        ("SKEL_R_Finger32", 64065),
-    ],
-    [
-        ("SKEL_R_Finger40", 58870),
-        ("SKEL_R_Finger41", 64080),
-        ("SKEL_R_Finger42", 64081),
-    ],
+    [("SKEL_R_Finger00", 58866), ("SKEL_R_Finger01", 64016), ("SKEL_R_Finger02", 64017)],
+    [("SKEL_R_Finger10", 58867), ("SKEL_R_Finger11", 64096), ("SKEL_R_Finger12", 64097)],
+    [("SKEL_R_Finger20", 58868), ("SKEL_R_Finger21", 64112), ("SKEL_R_Finger22", 64113)],
+    [("SKEL_R_Finger30", 58869), ("SKEL_R_Finger31", 64064), ("SKEL_R_Finger32", 64065)],
+    [("SKEL_R_Finger40", 58870), ("SKEL_R_Finger41", 64080), ("SKEL_R_Finger42", 64081)],
 ];
 
+#[rustfmt::skip]
 /// GTA names/tags of the right-side body bones, keyed by the left bone's autoact name.
 const RIGHT_GTA: [(&str, (&str, u16)); 7] = [
     ("l_thigh", ("SKEL_R_Thigh", 51826)),
@@ -376,70 +298,23 @@ const RIGHT_GTA: [(&str, (&str, u16)); 7] = [
     ("l_hand", ("SKEL_R_Hand", 57005)),
 ];
 
+#[rustfmt::skip]
 fn leg_defs() -> Vec<BoneDef> {
     vec![
-        BoneDef {
-            name: "l_thigh",
-            gta: ("SKEL_L_Thigh", 58271),
-            parent: "pelvis",
-            head: [-0.09, 0.0, HIP_Z],
-            tail: [-0.09, 0.0, 0.49],
-            dof: DofDef::D3,
-        },
-        BoneDef {
-            name: "l_calf",
-            gta: ("SKEL_L_Calf", 63931),
-            parent: "l_thigh",
-            head: [-0.09, 0.0, 0.49],
-            tail: [-0.09, 0.0, 0.08],
-            dof: DofDef::Hinge([-1.0, 0.0, 0.0]),
-        },
+        BoneDef { name: "l_thigh", gta: ("SKEL_L_Thigh", 58271), parent: "pelvis", head: [-0.09, 0.0, HIP_Z], tail: [-0.09, 0.0, 0.49], dof: DofDef::D3 },
+        BoneDef { name: "l_calf", gta: ("SKEL_L_Calf", 63931), parent: "l_thigh", head: [-0.09, 0.0, 0.49], tail: [-0.09, 0.0, 0.08], dof: DofDef::Hinge([-1.0, 0.0, 0.0]) },
         // The foot's axis runs from the ankle to the midpoint of the big and small toe tips.
-        BoneDef {
-            name: "l_foot",
-            gta: ("SKEL_L_Foot", 14201),
-            parent: "l_calf",
-            head: [-0.09, 0.0, 0.08],
-            tail: [-0.095, 0.1775, 0.01],
-            dof: DofDef::D2,
-        },
+        BoneDef { name: "l_foot", gta: ("SKEL_L_Foot", 14201), parent: "l_calf", head: [-0.09, 0.0, 0.08], tail: [-0.095, 0.1775, 0.01], dof: DofDef::D2 },
     ]
 }
 
+#[rustfmt::skip]
 fn arm_defs() -> Vec<BoneDef> {
     let mut v = vec![
-        BoneDef {
-            name: "l_clavicle",
-            gta: ("SKEL_L_Clavicle", 64729),
-            parent: "spine3",
-            head: [-0.02, 0.0, 1.42],
-            tail: [-0.18, 0.0, SHOULDER_Z],
-            dof: DofDef::Static,
-        },
-        BoneDef {
-            name: "l_upper_arm",
-            gta: ("SKEL_L_UpperArm", 45509),
-            parent: "l_clavicle",
-            head: [-0.18, 0.0, SHOULDER_Z],
-            tail: [-0.46, 0.0, SHOULDER_Z],
-            dof: DofDef::D3,
-        },
-        BoneDef {
-            name: "l_forearm",
-            gta: ("SKEL_L_Forearm", 61163),
-            parent: "l_upper_arm",
-            head: [-0.46, 0.0, SHOULDER_Z],
-            tail: [-0.71, 0.0, SHOULDER_Z],
-            dof: DofDef::Hinge([0.0, 0.0, -1.0]),
-        },
-        BoneDef {
-            name: "l_hand",
-            gta: ("SKEL_L_Hand", 18905),
-            parent: "l_forearm",
-            head: [-0.71, 0.0, SHOULDER_Z],
-            tail: LEFT_FINGERS[2].1[0],
-            dof: DofDef::D3,
-        },
+        BoneDef { name: "l_clavicle", gta: ("SKEL_L_Clavicle", 64729), parent: "spine3", head: [-0.02, 0.0, 1.42], tail: [-0.18, 0.0, SHOULDER_Z], dof: DofDef::Static },
+        BoneDef { name: "l_upper_arm", gta: ("SKEL_L_UpperArm", 45509), parent: "l_clavicle", head: [-0.18, 0.0, SHOULDER_Z], tail: [-0.46, 0.0, SHOULDER_Z], dof: DofDef::D3 },
+        BoneDef { name: "l_forearm", gta: ("SKEL_L_Forearm", 61163), parent: "l_upper_arm", head: [-0.46, 0.0, SHOULDER_Z], tail: [-0.71, 0.0, SHOULDER_Z], dof: DofDef::Hinge([0.0, 0.0, -1.0]) },
+        BoneDef { name: "l_hand", gta: ("SKEL_L_Hand", 18905), parent: "l_forearm", head: [-0.71, 0.0, SHOULDER_Z], tail: LEFT_FINGERS[2].1[0], dof: DofDef::D3 },
     ];
     for (f, (finger, joints)) in LEFT_FINGERS.iter().enumerate() {
         for k in 0..3 {
@@ -473,88 +348,28 @@ const FINGER_BONE_NAMES: [[&str; 3]; 5] = [
     ["l_pinky0", "l_pinky1", "l_pinky2"],
 ];
 
+#[rustfmt::skip]
 fn centre_defs_before_legs() -> Vec<BoneDef> {
     vec![
-        BoneDef {
-            name: "root",
-            gta: ("SKEL_ROOT", 0),
-            parent: "",
-            head: [0.0, 0.0, 0.0],
-            tail: [0.0, 0.15, 0.0],
-            dof: DofDef::Root,
-        },
-        BoneDef {
-            name: "pelvis",
-            gta: ("SKEL_Pelvis", 11816),
-            parent: "root",
-            head: [0.0, 0.0, HIP_Z],
-            tail: [0.0, 0.0, 0.80],
-            dof: DofDef::Static,
-        },
+        BoneDef { name: "root", gta: ("SKEL_ROOT", 0), parent: "", head: [0.0, 0.0, 0.0], tail: [0.0, 0.15, 0.0], dof: DofDef::Root },
+        BoneDef { name: "pelvis", gta: ("SKEL_Pelvis", 11816), parent: "root", head: [0.0, 0.0, HIP_Z], tail: [0.0, 0.0, 0.80], dof: DofDef::Static },
     ]
 }
 
+#[rustfmt::skip]
 fn spine_defs() -> Vec<BoneDef> {
     vec![
-        BoneDef {
-            name: "spine_root",
-            gta: ("SKEL_Spine_Root", 57597),
-            parent: "root",
-            head: [0.0, 0.0, HIP_Z],
-            tail: [0.0, 0.0, 1.0],
-            dof: DofDef::Static,
-        },
-        BoneDef {
-            name: "spine0",
-            gta: ("SKEL_Spine0", 23553),
-            parent: "spine_root",
-            head: [0.0, 0.0, HIP_Z],
-            tail: [0.0, 0.0, 1.02],
-            dof: DofDef::D3,
-        },
-        BoneDef {
-            name: "spine1",
-            gta: ("SKEL_Spine1", 24816),
-            parent: "spine0",
-            head: [0.0, 0.0, 1.02],
-            tail: [0.0, 0.0, 1.13],
-            dof: DofDef::D3,
-        },
-        BoneDef {
-            name: "spine2",
-            gta: ("SKEL_Spine2", 24817),
-            parent: "spine1",
-            head: [0.0, 0.0, 1.13],
-            tail: [0.0, 0.0, 1.27],
-            dof: DofDef::D3,
-        },
-        BoneDef {
-            name: "spine3",
-            gta: ("SKEL_Spine3", 24818),
-            parent: "spine2",
-            head: [0.0, 0.0, 1.27],
-            tail: [0.0, 0.0, SHOULDER_Z],
-            dof: DofDef::D3,
-        },
-        BoneDef {
-            name: "neck",
-            gta: ("SKEL_Neck_1", 39317),
-            parent: "spine3",
-            head: [0.0, 0.0, SHOULDER_Z],
-            tail: [0.0, 0.0, 1.54],
-            dof: DofDef::D3,
-        },
-        BoneDef {
-            name: "head",
-            gta: ("SKEL_Head", 31086),
-            parent: "neck",
-            head: [0.0, 0.0, 1.54],
-            tail: [0.0, 0.0, 1.75],
-            dof: DofDef::D3,
-        },
+        BoneDef { name: "spine_root", gta: ("SKEL_Spine_Root", 57597), parent: "root", head: [0.0, 0.0, HIP_Z], tail: [0.0, 0.0, 1.0], dof: DofDef::Static },
+        BoneDef { name: "spine0", gta: ("SKEL_Spine0", 23553), parent: "spine_root", head: [0.0, 0.0, HIP_Z], tail: [0.0, 0.0, 1.02], dof: DofDef::D3 },
+        BoneDef { name: "spine1", gta: ("SKEL_Spine1", 24816), parent: "spine0", head: [0.0, 0.0, 1.02], tail: [0.0, 0.0, 1.13], dof: DofDef::D3 },
+        BoneDef { name: "spine2", gta: ("SKEL_Spine2", 24817), parent: "spine1", head: [0.0, 0.0, 1.13], tail: [0.0, 0.0, 1.27], dof: DofDef::D3 },
+        BoneDef { name: "spine3", gta: ("SKEL_Spine3", 24818), parent: "spine2", head: [0.0, 0.0, 1.27], tail: [0.0, 0.0, SHOULDER_Z], dof: DofDef::D3 },
+        BoneDef { name: "neck", gta: ("SKEL_Neck_1", 39317), parent: "spine3", head: [0.0, 0.0, SHOULDER_Z], tail: [0.0, 0.0, 1.54], dof: DofDef::D3 },
+        BoneDef { name: "head", gta: ("SKEL_Head", 31086), parent: "neck", head: [0.0, 0.0, 1.54], tail: [0.0, 0.0, 1.75], dof: DofDef::D3 },
     ]
 }
 
+#[rustfmt::skip]
 /// Landmarks: (name, bone, rest position) for the centre and the left side; the right side is
 /// mirrored (`l_` → `r_`, x → −x).
 fn landmark_defs() -> Vec<(&'static str, &'static str, [f64; 3])> {
@@ -760,10 +575,10 @@ fn build_standard() -> Rig {
         bones,
         landmarks,
         recipes: Vec::new(),
-        measures: Vec::new(),
+        width_measures: Vec::new(),
     };
     rig.recipes = build_recipes(&rig);
-    rig.measures = build_measures(&rig);
+    rig.width_measures = build_width_measures(&rig);
     rig
 }
 
@@ -927,61 +742,45 @@ fn build_recipes(rig: &Rig) -> Vec<Recipe> {
     recipes
 }
 
-/// Bones between two landmarks: the bones on the path from `to`'s bone up to (not including)
-/// the lowest common ancestor with `from`'s bone; both on one bone → that bone.
-fn bones_between(rig: &Rig, from: usize, to: usize) -> Vec<usize> {
-    let a = rig.landmarks[from].bone;
-    let b = rig.landmarks[to].bone;
-    if a == b {
-        return vec![a];
-    }
-    let mut out = Vec::new();
-    let mut cur = b;
-    while !rig.is_ancestor(cur, a) {
-        out.push(cur);
-        match rig.bones[cur].parent {
-            Some(p) => cur = p,
-            None => break,
+impl Rig {
+    /// The measure of the segment `from → to` (landmark sets): the bones on the path from the
+    /// bone `to` rides on up to (not including) the lowest common ancestor with the bone `from`
+    /// rides on; both on one bone → that bone. `None` for an empty set or an empty path.
+    #[must_use]
+    pub fn measure(&self, from: &[usize], to: &[usize]) -> Option<Measure> {
+        let a = self.landmarks[*from.first()?].bone;
+        let b = self.landmarks[*to.first()?].bone;
+        let mut bones = Vec::new();
+        if a == b {
+            bones.push(a);
+        } else {
+            let mut cur = b;
+            while !self.is_ancestor(cur, a) {
+                bones.push(cur);
+                match self.bones[cur].parent {
+                    Some(p) => cur = p,
+                    None => break,
+                }
+            }
         }
+        (!bones.is_empty()).then(|| Measure {
+            from: from.to_vec(),
+            to: to.to_vec(),
+            bones,
+        })
     }
-    out
 }
 
-fn build_measures(rig: &Rig) -> Vec<Measure> {
-    let mut measures: Vec<Measure> = Vec::new();
-    let mut push = |from: LandmarkSet, to: LandmarkSet, user: Option<(usize, usize)>| {
-        let (Some(&f), Some(&t)) = (from.first(), to.first()) else {
-            return;
-        };
-        let bones = bones_between(rig, f, t);
-        if bones.is_empty() {
-            return;
-        }
-        match measures.iter_mut().find(|m| m.from == from && m.to == to) {
-            Some(m) => m.used_by.extend(user),
-            None => measures.push(Measure {
-                from,
-                to,
-                bones,
-                used_by: user.into_iter().collect(),
-            }),
-        }
-    };
-    for (ri, r) in rig.recipes.iter().enumerate() {
-        for (ai, d) in r.directions.iter().enumerate() {
-            push(d.from.clone(), d.to.clone(), Some((ri, ai)));
-        }
-    }
-    // Static bones: shoulder and hip width.
-    for (from, to) in [
+fn build_width_measures(rig: &Rig) -> Vec<Measure> {
+    [
         ("chest", "l_shoulder"),
         ("chest", "r_shoulder"),
         ("pelvis", "l_hip"),
         ("pelvis", "r_hip"),
-    ] {
-        push(set(rig, &[from]), set(rig, &[to]), None);
-    }
-    measures
+    ]
+    .iter()
+    .filter_map(|(from, to)| rig.measure(&set(rig, &[from]), &set(rig, &[to])))
+    .collect()
 }
 
 #[cfg(test)]

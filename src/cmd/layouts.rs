@@ -139,8 +139,22 @@ fn show(rig: &Rig, layout: &Layout, format: Format) -> Result<String> {
                     v.join(", ")
                 }
             };
+            let overrides: String = layout
+                .bones
+                .iter()
+                .map(|(b, o)| {
+                    let reference = o
+                        .reference
+                        .as_ref()
+                        .map_or(String::new(), |[a, c]| format!(", twist from {a}→{c}"));
+                    format!(
+                        "bone {b}: driven by {}→{}{reference}\n",
+                        o.direction[0], o.direction[1]
+                    )
+                })
+                .collect();
             format!(
-                "layout {}: {}\n\n{}\n{}\ndriven: {}\ndriven, twist unobserved: {}\nat rest (not in this layout): {}\n",
+                "layout {}: {}\n\n{}\n{}\n{overrides}driven: {}\ndriven, twist unobserved: {}\nat rest (not in this layout): {}\n",
                 layout.name,
                 layout.description,
                 table(&["#", "joint", "feeds landmarks"], &joints),
