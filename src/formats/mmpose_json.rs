@@ -197,26 +197,15 @@ pub enum JsonError {
 pub fn read(path: impl AsRef<Path>, options: &JsonOptions) -> Result<Vec<PoseSequence>, JsonError> {
     let path = path.as_ref();
     let file = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|error| JsonError::Io {
-        file: file.clone(),
-        error,
-    })?;
-    match String::from_utf8(bytes) {
+    match super::read_text(path) {
         Ok(text) => parse(&text, &file, options),
-        Err(e) => {
-            let valid = e
-                .as_bytes()
-                .get(..e.utf8_error().valid_up_to())
-                .unwrap_or_default();
-            let line = 1 + valid.iter().filter(|b| **b == b'\n').count();
-            let column = 1 + valid.iter().rev().take_while(|b| **b != b'\n').count();
-            Err(JsonError::Syntax {
-                file,
-                line,
-                column,
-                message: "not utf-8 text".to_owned(),
-            })
-        }
+        Err(super::TextError::Io(error)) => Err(JsonError::Io { file, error }),
+        Err(super::TextError::NotUtf8 { line, column }) => Err(JsonError::Syntax {
+            file,
+            line,
+            column,
+            message: "not utf-8 text".to_owned(),
+        }),
     }
 }
 

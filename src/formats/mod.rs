@@ -10,3 +10,28 @@ pub mod h36m_expmap;
 pub mod mmpose_json;
 pub mod ntu;
 pub mod zed_mat;
+
+/// Why a text file could not be read.
+#[derive(Debug)]
+pub(crate) enum TextError {
+    /// The file could not be read.
+    Io(std::io::Error),
+    /// It is not UTF-8: the first bad byte is at this 1-based line and column.
+    NotUtf8 { line: usize, column: usize },
+}
+
+/// Reads a whole file as UTF-8 text, locating the first invalid byte (one place for every
+/// text reader).
+pub(crate) fn read_text(path: &std::path::Path) -> Result<String, TextError> {
+    let bytes = std::fs::read(path).map_err(TextError::Io)?;
+    String::from_utf8(bytes).map_err(|e| {
+        let valid = e
+            .as_bytes()
+            .get(..e.utf8_error().valid_up_to())
+            .unwrap_or_default();
+        TextError::NotUtf8 {
+            line: 1 + valid.iter().filter(|b| **b == b'\n').count(),
+            column: 1 + valid.iter().rev().take_while(|b| **b != b'\n').count(),
+        }
+    })
+}

@@ -408,20 +408,10 @@ impl NtuSkeleton {
 pub fn read(path: impl AsRef<Path>) -> Result<NtuSkeleton, NtuError> {
     let path = path.as_ref();
     let file = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|error| NtuError::Io {
-        file: file.clone(),
-        error,
-    })?;
-    match String::from_utf8(bytes) {
+    match super::read_text(path) {
         Ok(text) => parse(&text, &file),
-        Err(e) => {
-            let valid = e
-                .as_bytes()
-                .get(..e.utf8_error().valid_up_to())
-                .unwrap_or_default();
-            let line = 1 + valid.iter().filter(|b| **b == b'\n').count();
-            Err(NtuError::Encoding { file, line })
-        }
+        Err(super::TextError::Io(error)) => Err(NtuError::Io { file, error }),
+        Err(super::TextError::NotUtf8 { line, .. }) => Err(NtuError::Encoding { file, line }),
     }
 }
 
