@@ -61,10 +61,6 @@ fn main() -> Result<()> {
             for layout_name in ["h36m-17", "coco-wholebody-133", "ntu-25"] {
                 let layout = Layout::builtin(layout_name)?;
                 let seq = mapping.keypoints(&clip, &layout)?;
-                let present: Vec<bool> = (0..layout.joints.len())
-                    .map(|j| seq.frames.iter().any(|f| f.confidence[j] > 0.0))
-                    .collect();
-                let layout = layout.restricted(&present);
                 let rt = eval::round_trip(&rig, &layout, &seq, options)?;
                 row(&file_name(&path), layout_name, &rt);
                 worst.push((format!("{} / {layout_name}", file_name(&path)), rt));

@@ -813,7 +813,8 @@ fn median(v: &mut [f64]) -> Option<f64> {
 /// Converts a whole sequence: fits the subject's proportions, then solves every frame.
 ///
 /// Frames whose stamp is not after the previous kept frame are dropped and listed in the report
-/// (`lost_data()` is then true); everything else is converted.
+/// (`lost_data()` is then true); everything else is converted. Joints absent from every frame
+/// are treated as not in the layout, so the bones they would drive are reported at rest.
 ///
 /// # Errors
 /// [`ConvertError`] when the layout does not match the data or no frame is usable.
@@ -856,6 +857,25 @@ pub fn convert_sequence(
             })
             .collect();
         &reordered
+    };
+    // Joints the source never provides (face points from mocap, hands from a body-only tracker)
+    // are not in this data: their bones are reported at rest, not missing in every frame.
+    let present: Vec<bool> = (0..layout.joints.len())
+        .map(|j| {
+            frames.iter().any(|f| {
+                f.confidence.get(j).is_some_and(|&c| c > 0.0)
+                    && f.positions_m
+                        .get(j)
+                        .is_some_and(|p| p.coords.iter().all(|v| v.is_finite()))
+            })
+        })
+        .collect();
+    let restricted;
+    let layout = if present.iter().all(|&p| p) {
+        layout
+    } else {
+        restricted = layout.restricted(&present);
+        &restricted
     };
     let binding = layout.bind(rig).map_err(layout_err)?;
     let character = fit_character(rig, &binding, frames, options);

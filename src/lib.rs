@@ -11,6 +11,7 @@
 //! # let _ = (&layout, &rest);
 //! ```
 
+pub mod animation_bag;
 pub mod character;
 pub mod cli;
 pub mod cmd;
@@ -21,5 +22,9 @@ pub mod formats;
 pub mod frames;
 pub mod geom;
 pub mod layout;
+pub mod mcap_io;
 pub mod pose;
+pub mod pose_bag;
+pub mod resample;
 pub mod rig;
+pub mod ros;

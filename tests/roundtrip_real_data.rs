@@ -38,16 +38,7 @@ fn bvh_round_trip(path: &Path, layout_name: &str) -> RoundTrip {
     let mapping = BvhMapping::detect(&clip).unwrap();
     let layout = Layout::builtin(layout_name).unwrap();
     let seq = mapping.keypoints(&clip, &layout).unwrap();
-    let present: Vec<bool> = (0..layout.joints.len())
-        .map(|j| seq.frames.iter().any(|f| f.confidence[j] > 0.0))
-        .collect();
-    eval::round_trip(
-        &Rig::standard(),
-        &layout.restricted(&present),
-        &seq,
-        ConvertOptions::default(),
-    )
-    .unwrap()
+    eval::round_trip(&Rig::standard(), &layout, &seq, ConvertOptions::default()).unwrap()
 }
 
 fn assert_exact_directions(name: &str, rt: &RoundTrip) {

@@ -1,0 +1,693 @@
+//! MCAP files: the one writer preset and the one streaming reader.
+//!
+//! **Writing** ([`BagWriter`]): profile `ros2`, schema encoding `ros2msg` (definitions from
+//! [`crate::ros::definition`]), message encoding `cdr`, chunked (zstd by default; lz4 or none),
+//! with message indexes, chunk indexes, statistics and summary, and `library` stamped
+//! `autoact <version>`. Compression runs single-threaded so the same input gives byte-identical
+//! files on any machine. Schemas and channels are registered on first use, in that order.
+//!
+//! **Reading** ([`BagReader`]): the file is memory-mapped, never loaded; records are streamed in
+//! file order and each chunk is decompressed and CRC-checked on its own, so a corrupt chunk costs
+//! only its own messages: the stream reports it ([`ReadIssue::CorruptChunk`]) and goes on with
+//! the next chunk. A file that ends mid-record yields everything before the cut, then
+//! [`ReadIssue::Truncated`].
+
+use std::collections::{BTreeMap, VecDeque};
+use std::fs::File;
+use std::io::{BufWriter, Seek, Write};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use crate::ros::{self, RosMessage};
+
+/// The `library` field of files autoact writes.
+pub const LIBRARY: &str = concat!("autoact ", env!("CARGO_PKG_VERSION"));
+
+/// Chunk compression.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum Compression {
+    /// zstd (the default): small files, fast enough.
+    #[default]
+    Zstd,
+    /// lz4: faster, larger.
+    Lz4,
+    /// Uncompressed chunks.
+    None,
+}
+
+/// Errors writing or opening MCAP files.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum McapIoError {
+    /// A file system error.
+    #[error("{action} {path}")]
+    Io {
+        /// What was being done.
+        action: &'static str,
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The MCAP library refused.
+    #[error("{action} {path}")]
+    Mcap {
+        /// What was being done.
+        action: &'static str,
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: mcap::McapError,
+    },
+    /// A message could not be encoded.
+    #[error("cannot encode a {type_name} for {topic} in {path}")]
+    Encode {
+        /// The file.
+        path: PathBuf,
+        /// The topic.
+        topic: String,
+        /// The message type.
+        type_name: &'static str,
+        /// The cause.
+        #[source]
+        source: ros::cdr::CdrError,
+    },
+    /// The file is empty.
+    #[error("{0} is empty (0 bytes): not an MCAP file")]
+    Empty(PathBuf),
+    /// The file does not start with the MCAP magic.
+    #[error("{0} is not an MCAP file (it does not start with the MCAP magic bytes)")]
+    NotMcap(PathBuf),
+}
+
+/// Writes ROS 2 messages to an MCAP file.
+pub struct BagWriter<W: Write + Seek> {
+    path: PathBuf,
+    writer: mcap::Writer<W>,
+    schemas: BTreeMap<&'static str, u16>,
+    channels: BTreeMap<String, u16>,
+    sequences: BTreeMap<u16, u32>,
+}
+
+impl std::fmt::Debug for BagWriter<BufWriter<File>> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("BagWriter")
+            .field("path", &self.path)
+            .field("channels", &self.channels)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Channel metadata rosbag2 expects on `/tf_static`: latched (transient local), so that a late
+/// subscriber during `ros2 bag play` still gets the static transforms.
+const TF_STATIC_QOS: &str = "- history: 3\n  depth: 0\n  reliability: 1\n  durability: 1\n  deadline:\n    sec: 2147483647\n    nsec: 4294967295\n  lifespan:\n    sec: 2147483647\n    nsec: 4294967295\n  liveliness: 1\n  liveliness_lease_duration:\n    sec: 2147483647\n    nsec: 4294967295\n  avoid_ros_namespace_conventions: false\n";
+
+/// How a [`BagWriter`] lays out its file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct WriteConfig {
+    /// Chunk compression.
+    pub compression: Compression,
+    /// Target uncompressed chunk size, bytes.
+    pub chunk_size_bytes: u64,
+}
+
+impl Default for WriteConfig {
+    fn default() -> Self {
+        WriteConfig {
+            compression: Compression::Zstd,
+            chunk_size_bytes: 256 * 1024,
+        }
+    }
+}
+
+impl BagWriter<BufWriter<File>> {
+    /// Creates (or truncates) `path`.
+    ///
+    /// # Errors
+    /// [`McapIoError`] naming the file.
+    pub fn create(path: &Path, config: WriteConfig) -> Result<Self, McapIoError> {
+        let file = File::create(path).map_err(|source| McapIoError::Io {
+            action: "cannot create",
+            path: path.to_path_buf(),
+            source,
+        })?;
+        BagWriter::new(BufWriter::new(file), path, config)
+    }
+}
+
+impl<W: Write + Seek> BagWriter<W> {
+    /// Wraps a writer; `path` names it in errors.
+    ///
+    /// # Errors
+    /// [`McapIoError::Mcap`] if the header cannot be written.
+    pub fn new(w: W, path: &Path, config: WriteConfig) -> Result<Self, McapIoError> {
+        let compression = match config.compression {
+            Compression::Zstd => Some(mcap::Compression::Zstd),
+            Compression::Lz4 => Some(mcap::Compression::Lz4),
+            Compression::None => None,
+        };
+        let writer = mcap::WriteOptions::new()
+            .profile("ros2")
+            .library(LIBRARY)
+            .compression(compression)
+            .chunk_size(Some(config.chunk_size_bytes))
+            .compression_threads(0)
+            .create(w)
+            .map_err(|source| McapIoError::Mcap {
+                action: "cannot start MCAP file",
+                path: path.to_path_buf(),
+                source,
+            })?;
+        Ok(BagWriter {
+            path: path.to_path_buf(),
+            writer,
+            schemas: BTreeMap::new(),
+            channels: BTreeMap::new(),
+            sequences: BTreeMap::new(),
+        })
+    }
+
+    fn channel_for<M: RosMessage>(&mut self, topic: &str) -> Result<u16, McapIoError> {
+        if let Some(&id) = self.channels.get(topic) {
+            return Ok(id);
+        }
+        let schema_id = match self.schemas.get(M::TYPE_NAME) {
+            Some(&id) => id,
+            None => {
+                let definition = ros::definition_of::<M>();
+                let id = self
+                    .writer
+                    .add_schema(M::TYPE_NAME, "ros2msg", definition.as_bytes())
+                    .map_err(|source| McapIoError::Mcap {
+                        action: "cannot add a schema to",
+                        path: self.path.clone(),
+                        source,
+                    })?;
+                self.schemas.insert(M::TYPE_NAME, id);
+                id
+            }
+        };
+        let mut metadata = BTreeMap::new();
+        let qos = if topic == "/tf_static" {
+            TF_STATIC_QOS
+        } else {
+            ""
+        };
+        metadata.insert("offered_qos_profiles".to_string(), qos.to_string());
+        let id = self
+            .writer
+            .add_channel(schema_id, topic, "cdr", &metadata)
+            .map_err(|source| McapIoError::Mcap {
+                action: "cannot add a channel to",
+                path: self.path.clone(),
+                source,
+            })?;
+        self.channels.insert(topic.to_string(), id);
+        Ok(id)
+    }
+
+    /// Writes one message on `topic` at `log_time_nanos` (also its publish time).
+    ///
+    /// # Errors
+    /// [`McapIoError`] naming the file and topic.
+    pub fn write<M: RosMessage>(
+        &mut self,
+        topic: &str,
+        log_time_nanos: u64,
+        msg: &M,
+    ) -> Result<(), McapIoError> {
+        let channel_id = self.channel_for::<M>(topic)?;
+        let payload = ros::cdr::encode(msg).map_err(|source| McapIoError::Encode {
+            path: self.path.clone(),
+            topic: topic.to_string(),
+            type_name: M::TYPE_NAME,
+            source,
+        })?;
+        let sequence = self.sequences.entry(channel_id).or_insert(0);
+        *sequence += 1;
+        let header = mcap::records::MessageHeader {
+            channel_id,
+            sequence: *sequence,
+            log_time: log_time_nanos,
+            publish_time: log_time_nanos,
+        };
+        let path = self.path.clone();
+        self.writer
+            .write_to_known_channel(&header, &payload)
+            .map_err(|source| McapIoError::Mcap {
+                action: "cannot write a message to",
+                path,
+                source,
+            })
+    }
+
+    /// Writes a metadata record (e.g. the dataset label).
+    ///
+    /// # Errors
+    /// [`McapIoError::Mcap`].
+    pub fn write_metadata(
+        &mut self,
+        name: &str,
+        metadata: BTreeMap<String, String>,
+    ) -> Result<(), McapIoError> {
+        let record = mcap::records::Metadata {
+            name: name.to_string(),
+            metadata,
+        };
+        let path = self.path.clone();
+        self.writer
+            .write_metadata(&record)
+            .map_err(|source| McapIoError::Mcap {
+                action: "cannot write metadata to",
+                path,
+                source,
+            })
+    }
+
+    /// Writes the summary and footer. Always call it: dropping a writer hides its errors.
+    ///
+    /// # Errors
+    /// [`McapIoError::Mcap`] (e.g. a full disk).
+    pub fn finish(mut self) -> Result<(), McapIoError> {
+        let path = self.path.clone();
+        self.writer.finish().map_err(|source| McapIoError::Mcap {
+            action: "cannot finish",
+            path,
+            source,
+        })?;
+        Ok(())
+    }
+}
+
+/// A schema as read from a file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SchemaInfo {
+    /// Type name, e.g. `autoact_msgs/msg/Skeleton3D`.
+    pub name: String,
+    /// Schema encoding, e.g. `ros2msg`.
+    pub encoding: String,
+    /// The definition text (or bytes).
+    pub data: Vec<u8>,
+}
+
+/// A channel as read from a file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ChannelInfo {
+    /// Channel id in the file.
+    pub id: u16,
+    /// Topic.
+    pub topic: String,
+    /// Message encoding, e.g. `cdr`.
+    pub message_encoding: String,
+    /// Its schema, if any.
+    pub schema: Option<Arc<SchemaInfo>>,
+}
+
+impl ChannelInfo {
+    /// The schema's type name, or `""`.
+    #[must_use]
+    pub fn schema_name(&self) -> &str {
+        self.schema.as_ref().map_or("", |s| s.name.as_str())
+    }
+}
+
+/// One message as read from a file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct BagMessage {
+    /// Its channel.
+    pub channel: Arc<ChannelInfo>,
+    /// Index of this message on its channel, counting from 0 in file order.
+    pub index_on_channel: u64,
+    /// Log time, nanoseconds.
+    pub log_time: u64,
+    /// Publish time, nanoseconds.
+    pub publish_time: u64,
+    /// The serialised payload.
+    pub data: Vec<u8>,
+}
+
+/// Something that cost data while reading.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ReadIssue {
+    /// A chunk could not be used; reading goes on with the next one.
+    #[error(
+        "{path}: chunk {chunk} (messages logged {start_nanos}..={end_nanos} ns) is unreadable and was skipped: {reason}"
+    )]
+    CorruptChunk {
+        /// The file.
+        path: PathBuf,
+        /// Chunk number, from 1.
+        chunk: usize,
+        /// First message time in the chunk.
+        start_nanos: u64,
+        /// Last message time in the chunk.
+        end_nanos: u64,
+        /// What was wrong.
+        reason: String,
+    },
+    /// A message names a channel the file never defined.
+    #[error(
+        "{path}: a message at {log_time} ns is on channel id {channel_id}, which is not defined; skipped"
+    )]
+    UnknownChannel {
+        /// The file.
+        path: PathBuf,
+        /// The channel id.
+        channel_id: u16,
+        /// The message's log time.
+        log_time: u64,
+    },
+    /// The file ends early (or a record is damaged beyond recovery); nothing after it is read.
+    #[error(
+        "{path}: the file is cut short or damaged after {messages_read} messages ({reason}); nothing after that point could be read"
+    )]
+    Truncated {
+        /// The file.
+        path: PathBuf,
+        /// Messages read before the cut.
+        messages_read: u64,
+        /// What the MCAP reader said.
+        reason: String,
+    },
+}
+
+/// A memory-mapped MCAP file.
+pub struct BagReader {
+    path: PathBuf,
+    map: memmap2::Mmap,
+}
+
+impl std::fmt::Debug for BagReader {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("BagReader")
+            .field("path", &self.path)
+            .field("bytes", &self.map.len())
+            .finish()
+    }
+}
+
+impl BagReader {
+    /// Opens and maps `path`.
+    ///
+    /// # Errors
+    /// [`McapIoError`] for a missing, empty or non-MCAP file.
+    pub fn open(path: &Path) -> Result<BagReader, McapIoError> {
+        let file = File::open(path).map_err(|source| McapIoError::Io {
+            action: "cannot open",
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let len = file
+            .metadata()
+            .map_err(|source| McapIoError::Io {
+                action: "cannot stat",
+                path: path.to_path_buf(),
+                source,
+            })?
+            .len();
+        if len == 0 {
+            return Err(McapIoError::Empty(path.to_path_buf()));
+        }
+        // SAFETY-free: memmap2's map is `unsafe` because another process could change the file
+        // while mapped; autoact only reads, and a concurrently rewritten input is a user error
+        // that at worst produces decode errors, which every caller handles.
+        let map = map_file(&file).map_err(|source| McapIoError::Io {
+            action: "cannot map",
+            path: path.to_path_buf(),
+            source,
+        })?;
+        if !map.starts_with(mcap::MAGIC) {
+            return Err(McapIoError::NotMcap(path.to_path_buf()));
+        }
+        Ok(BagReader {
+            path: path.to_path_buf(),
+            map,
+        })
+    }
+
+    /// The file's path.
+    #[must_use]
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The mapped bytes.
+    #[must_use]
+    pub fn bytes(&self) -> &[u8] {
+        &self.map
+    }
+
+    /// The header's profile and library, if the header record is readable.
+    #[must_use]
+    pub fn header(&self) -> Option<(String, String)> {
+        let mut records = mcap::read::LinearReader::new_with_options(
+            &self.map,
+            mcap::read::Options::IgnoreEndMagic.into(),
+        )
+        .ok()?;
+        match records.next()? {
+            Ok(mcap::records::Record::Header(h)) => Some((h.profile, h.library)),
+            _ => None,
+        }
+    }
+
+    /// Every metadata record, in file order (a pass over the top-level records that skips chunks
+    /// undecompressed).
+    #[must_use]
+    pub fn metadata(&self) -> Vec<(String, BTreeMap<String, String>)> {
+        let Ok(records) = mcap::read::LinearReader::new_with_options(
+            &self.map,
+            mcap::read::Options::IgnoreEndMagic.into(),
+        ) else {
+            return Vec::new();
+        };
+        let mut out = Vec::new();
+        for record in records {
+            match record {
+                Ok(mcap::records::Record::Metadata(m)) => out.push((m.name, m.metadata)),
+                Ok(mcap::records::Record::DataEnd(_)) | Err(_) => break,
+                Ok(_) => {}
+            }
+        }
+        out
+    }
+
+    /// Streams the messages in file order, with issues in place of what could not be read.
+    #[must_use]
+    pub fn messages(&self) -> Messages<'_> {
+        let top = mcap::read::LinearReader::new_with_options(
+            &self.map,
+            mcap::read::Options::IgnoreEndMagic.into(),
+        )
+        .ok();
+        Messages {
+            path: &self.path,
+            top,
+            pending: VecDeque::new(),
+            schemas: BTreeMap::new(),
+            channels: BTreeMap::new(),
+            counts: BTreeMap::new(),
+            chunk: 0,
+            read: 0,
+            done: false,
+        }
+    }
+}
+
+#[expect(
+    unsafe_code,
+    reason = "memory-mapping is the documented way to read MCAP without loading it; see BagReader::open"
+)]
+fn map_file(file: &File) -> std::io::Result<memmap2::Mmap> {
+    // SAFETY: the map is read-only and only ever read through bounds-checked slices; a file
+    // truncated underneath us is the one hazard, accepted as for every mmap-based reader.
+    unsafe { memmap2::Mmap::map(file) }
+}
+
+/// The message stream of a [`BagReader`].
+pub struct Messages<'a> {
+    path: &'a Path,
+    top: Option<mcap::read::LinearReader<'a>>,
+    pending: VecDeque<Result<BagMessage, ReadIssue>>,
+    schemas: BTreeMap<u16, Arc<SchemaInfo>>,
+    channels: BTreeMap<u16, Arc<ChannelInfo>>,
+    counts: BTreeMap<u16, u64>,
+    chunk: usize,
+    read: u64,
+    done: bool,
+}
+
+impl std::fmt::Debug for Messages<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Messages")
+            .field("path", &self.path)
+            .field("read", &self.read)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Largest chunk autoact will decompress (a guard against a corrupt size field).
+const MAX_CHUNK_BYTES: u64 = 1 << 30;
+
+impl Messages<'_> {
+    fn take_record(&mut self, record: mcap::records::Record<'_>) {
+        use mcap::records::Record;
+        match record {
+            Record::Schema { header, data } => {
+                let info = SchemaInfo {
+                    name: header.name,
+                    encoding: header.encoding,
+                    data: data.into_owned(),
+                };
+                self.schemas.insert(header.id, Arc::new(info));
+            }
+            Record::Channel(c) => {
+                let info = ChannelInfo {
+                    id: c.id,
+                    topic: c.topic,
+                    message_encoding: c.message_encoding,
+                    schema: self.schemas.get(&c.schema_id).cloned(),
+                };
+                self.channels.insert(c.id, Arc::new(info));
+            }
+            Record::Message { header, data } => {
+                let item = match self.channels.get(&header.channel_id) {
+                    Some(channel) => {
+                        let count = self.counts.entry(header.channel_id).or_insert(0);
+                        let index_on_channel = *count;
+                        *count += 1;
+                        self.read += 1;
+                        Ok(BagMessage {
+                            channel: Arc::clone(channel),
+                            index_on_channel,
+                            log_time: header.log_time,
+                            publish_time: header.publish_time,
+                            data: data.into_owned(),
+                        })
+                    }
+                    None => Err(ReadIssue::UnknownChannel {
+                        path: self.path.to_path_buf(),
+                        channel_id: header.channel_id,
+                        log_time: header.log_time,
+                    }),
+                };
+                self.pending.push_back(item);
+            }
+            _ => {}
+        }
+    }
+
+    fn take_chunk(&mut self, header: &mcap::records::ChunkHeader, data: &[u8]) {
+        self.chunk += 1;
+        let corrupt = |reason: String| ReadIssue::CorruptChunk {
+            path: self.path.to_path_buf(),
+            chunk: self.chunk,
+            start_nanos: header.message_start_time,
+            end_nanos: header.message_end_time,
+            reason,
+        };
+        if header.uncompressed_size > MAX_CHUNK_BYTES {
+            self.pending.push_back(Err(corrupt(format!(
+                "declared size {} bytes is implausible",
+                header.uncompressed_size
+            ))));
+            return;
+        }
+        let decompressed = match decompress(&header.compression, data, header.uncompressed_size) {
+            Ok(d) => d,
+            Err(reason) => {
+                self.pending.push_back(Err(corrupt(reason)));
+                return;
+            }
+        };
+        if header.uncompressed_crc != 0 {
+            let crc = crc32fast::hash(&decompressed);
+            if crc != header.uncompressed_crc {
+                self.pending.push_back(Err(corrupt(format!(
+                    "CRC mismatch (stored {:08x}, computed {crc:08x})",
+                    header.uncompressed_crc
+                ))));
+                return;
+            }
+        }
+        // Parse everything first, so a damaged record inside a CRC-less chunk drops the whole
+        // chunk rather than half of it silently.
+        let records: Result<Vec<_>, _> =
+            mcap::read::LinearReader::sans_magic(&decompressed).collect();
+        match records {
+            Ok(records) => {
+                for r in records {
+                    self.take_record(r);
+                }
+            }
+            Err(e) => self.pending.push_back(Err(corrupt(e.to_string()))),
+        }
+    }
+}
+
+fn decompress(compression: &str, data: &[u8], size: u64) -> Result<Vec<u8>, String> {
+    let size = usize::try_from(size).map_err(|e| e.to_string())?;
+    let out = match compression {
+        "" => data.to_vec(),
+        "zstd" => zstd::bulk::decompress(data, size).map_err(|e| format!("zstd: {e}"))?,
+        "lz4" => {
+            let mut out = Vec::with_capacity(size);
+            let mut decoder = lz4::Decoder::new(data).map_err(|e| format!("lz4: {e}"))?;
+            std::io::copy(&mut decoder, &mut out).map_err(|e| format!("lz4: {e}"))?;
+            out
+        }
+        other => return Err(format!("unsupported compression `{other}`")),
+    };
+    if out.len() == size {
+        Ok(out)
+    } else {
+        Err(format!(
+            "decompressed to {} bytes, the chunk says {size}",
+            out.len()
+        ))
+    }
+}
+
+impl Iterator for Messages<'_> {
+    type Item = Result<BagMessage, ReadIssue>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        use mcap::records::Record;
+        loop {
+            if let Some(item) = self.pending.pop_front() {
+                return Some(item);
+            }
+            if self.done {
+                return None;
+            }
+            let Some(top) = self.top.as_mut() else {
+                self.done = true;
+                return Some(Err(ReadIssue::Truncated {
+                    path: self.path.to_path_buf(),
+                    messages_read: 0,
+                    reason: "no readable header".into(),
+                }));
+            };
+            match top.next() {
+                None | Some(Ok(Record::DataEnd(_) | Record::Footer(_))) => self.done = true,
+                Some(Ok(Record::Chunk { header, data })) => self.take_chunk(&header, &data),
+                Some(Ok(record)) => self.take_record(record),
+                Some(Err(e)) => {
+                    self.done = true;
+                    return Some(Err(ReadIssue::Truncated {
+                        path: self.path.to_path_buf(),
+                        messages_read: self.read,
+                        reason: e.to_string(),
+                    }));
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+#[path = "mcap_io_tests.rs"]
+mod tests;

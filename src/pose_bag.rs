@@ -1,0 +1,493 @@
+//! Pose bags: skeletons in MCAP. Writing one (`autoact import`) and reading pose topics back
+//! (`autoact convert`), whatever publishes them:
+//!
+//! - `autoact_msgs/msg/Skeleton3D` — one person per message, joints named, layout named;
+//! - `visualization_msgs/msg/MarkerArray` — pose-estimator debug output: each marker namespace is
+//!   one person (its id, `track_id`), and the joints are either one `SPHERE` marker per joint
+//!   (joint = marker id) or the points of one `SPHERE_LIST`/`POINTS` marker (joint = point index);
+//! - `geometry_msgs/msg/PoseArray` — one person per message, joint `k` = pose `k`.
+//!
+//! Markers and pose arrays carry no joint names: the layout (`--layout`) gives them, in order.
+//! A message that cannot be used (undecodable, wrong array lengths, joint count not the
+//! layout's) is skipped and reported with its file, channel and index; so is one whose stamp is
+//! not after the previous one of the same person. Positions stay in the message's frame.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use nalgebra::Point3;
+
+use crate::mcap_io::{BagMessage, BagReader, BagWriter, McapIoError, ReadIssue};
+use crate::pose::{PoseFrame, PoseSequence};
+use crate::ros::autoact_msgs::Skeleton3D;
+use crate::ros::builtin_interfaces::Time;
+use crate::ros::geometry_msgs::{Point, PoseArray};
+use crate::ros::std_msgs::Header;
+use crate::ros::visualization_msgs::{Marker, MarkerArray};
+use crate::ros::{self, RosMessage};
+
+/// Topic autoact writes skeletons on.
+pub const SKELETON_TOPIC: &str = "/skeleton";
+/// Frame id of imported skeletons.
+pub const WORLD_FRAME: &str = "world";
+/// Name of the metadata record that carries the dataset label and provenance.
+pub const METADATA_NAME: &str = "autoact";
+
+/// The pose message types a pose topic can carry.
+pub const POSE_TYPES: [&str; 3] = [
+    Skeleton3D::TYPE_NAME,
+    MarkerArray::TYPE_NAME,
+    PoseArray::TYPE_NAME,
+];
+
+/// Writes pose sequences as a pose bag: one `Skeleton3D` per person per frame on
+/// [`SKELETON_TOPIC`], in stamp order (ties by track id), and a metadata record.
+///
+/// # Errors
+/// [`McapIoError`] from the writer.
+pub fn write_pose_bag<W: std::io::Write + std::io::Seek>(
+    writer: &mut BagWriter<W>,
+    sequences: &[PoseSequence],
+    layout: &str,
+    metadata: BTreeMap<String, String>,
+) -> Result<u64, McapIoError> {
+    writer.write_metadata(METADATA_NAME, metadata)?;
+    let mut order: Vec<(u64, u64, usize, usize)> = Vec::new();
+    for (s, seq) in sequences.iter().enumerate() {
+        for (f, frame) in seq.frames.iter().enumerate() {
+            order.push((frame.stamp_nanos, seq.track_id, s, f));
+        }
+    }
+    order.sort_unstable();
+    for &(stamp, _, s, f) in &order {
+        let seq = &sequences[s];
+        writer.write(
+            SKELETON_TOPIC,
+            stamp,
+            &skeleton_message(seq, &seq.frames[f], layout),
+        )?;
+    }
+    Ok(order.len() as u64)
+}
+
+/// The `Skeleton3D` message of one frame.
+#[must_use]
+pub fn skeleton_message(seq: &PoseSequence, frame: &PoseFrame, layout: &str) -> Skeleton3D {
+    Skeleton3D {
+        header: Header {
+            stamp: Time::from_nanos(frame.stamp_nanos),
+            frame_id: WORLD_FRAME.to_string(),
+        },
+        layout: layout.to_string(),
+        track_id: seq.track_id,
+        joint_names: seq.joint_names.clone(),
+        positions: frame.positions_m.iter().map(|p| Point::from(*p)).collect(),
+        confidence: frame.confidence.clone(),
+    }
+}
+
+/// A message that could not be used, and why.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{path}: {topic} message {index} ({log_time} ns): {reason}")]
+pub struct SkippedMessage {
+    /// The file.
+    pub path: String,
+    /// The channel's topic.
+    pub topic: String,
+    /// Index of the message on its channel, from 0.
+    pub index: u64,
+    /// Its log time.
+    pub log_time: u64,
+    /// What was wrong.
+    pub reason: String,
+}
+
+/// Errors that stop reading pose topics.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum PoseBagError {
+    /// The file could not be opened.
+    #[error(transparent)]
+    Open(#[from] McapIoError),
+    /// No channel carries a pose type (or the asked topic does not exist / is not a pose type).
+    #[error("{path}: {why}")]
+    NoPoseTopic {
+        /// The file.
+        path: String,
+        /// What was found instead.
+        why: String,
+    },
+    /// Markers or pose arrays need a layout to name their joints.
+    #[error("{path}: {topic} carries {type_name}, which has no joint names: give --layout")]
+    LayoutNeeded {
+        /// The file.
+        path: String,
+        /// The topic.
+        topic: String,
+        /// The type.
+        type_name: String,
+    },
+}
+
+/// What reading pose topics produced.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoseTopics {
+    /// One sequence per (topic, track id), ordered by topic then track id.
+    pub sequences: Vec<(String, PoseSequence)>,
+    /// Layout name per sequence (from the messages, or the one given).
+    pub layouts: Vec<String>,
+    /// Messages that could not be used.
+    pub skipped: Vec<SkippedMessage>,
+    /// Chunks or tails of the file that could not be read.
+    pub issues: Vec<ReadIssue>,
+    /// Messages whose positions held NaN (joints not seen): (topic, index) of the first few, and the total.
+    pub nan_messages: (Vec<(String, u64)>, u64),
+    /// Metadata records of the file.
+    pub metadata: Vec<(String, BTreeMap<String, String>)>,
+}
+
+impl PoseTopics {
+    /// Whether any input was lost.
+    #[must_use]
+    pub fn lost_data(&self) -> bool {
+        !self.skipped.is_empty() || !self.issues.is_empty()
+    }
+}
+
+/// Reads the pose topics of a bag. `topic` selects one (else every channel of a pose type);
+/// `layout` names the joints of markers and pose arrays (and must match the joint names of
+/// skeleton messages when given).
+///
+/// # Errors
+/// [`PoseBagError`] when nothing can be read; per-message problems are in [`PoseTopics::skipped`].
+pub fn read_pose_topics(
+    path: &Path,
+    topic: Option<&str>,
+    layout: Option<&crate::layout::Layout>,
+) -> Result<PoseTopics, PoseBagError> {
+    let reader = BagReader::open(path)?;
+    let path_s = path.display().to_string();
+    let mut tracks: BTreeMap<(String, u64), (PoseSequence, String)> = BTreeMap::new();
+    let mut skipped = Vec::new();
+    let mut issues = Vec::new();
+    let mut nan_first = Vec::new();
+    let mut nan_total = 0u64;
+    let mut seen_topics: BTreeMap<String, String> = BTreeMap::new();
+    for item in reader.messages() {
+        let msg = match item {
+            Ok(m) => m,
+            Err(issue) => {
+                issues.push(issue);
+                continue;
+            }
+        };
+        let type_name = msg.channel.schema_name().to_string();
+        seen_topics
+            .entry(msg.channel.topic.clone())
+            .or_insert_with(|| type_name.clone());
+        let wanted = match topic {
+            Some(t) => msg.channel.topic == t,
+            None => POSE_TYPES.contains(&type_name.as_str()),
+        };
+        if !wanted {
+            continue;
+        }
+        let skip = |reason: String| SkippedMessage {
+            path: path_s.clone(),
+            topic: msg.channel.topic.clone(),
+            index: msg.index_on_channel,
+            log_time: msg.log_time,
+            reason,
+        };
+        if msg.channel.message_encoding != "cdr" {
+            skipped.push(skip(format!(
+                "message encoding `{}` is not cdr",
+                msg.channel.message_encoding
+            )));
+            continue;
+        }
+        let people = match decode_people(&msg, &type_name, layout) {
+            Ok(p) => p,
+            Err(DecodeProblem::Skip(reason)) => {
+                skipped.push(skip(reason));
+                continue;
+            }
+            Err(DecodeProblem::NeedsLayout) => {
+                return Err(PoseBagError::LayoutNeeded {
+                    path: path_s,
+                    topic: msg.channel.topic.clone(),
+                    type_name,
+                });
+            }
+            Err(DecodeProblem::NotPose) => {
+                return Err(PoseBagError::NoPoseTopic {
+                    path: path_s,
+                    why: format!(
+                        "{} carries {type_name}, not a pose type ({})",
+                        msg.channel.topic,
+                        POSE_TYPES.join(", ")
+                    ),
+                });
+            }
+        };
+        for person in people {
+            if person
+                .frame
+                .positions_m
+                .iter()
+                .any(|p| p.coords.iter().any(|v| v.is_nan()))
+            {
+                nan_total += 1;
+                if nan_first.len() < 5 {
+                    nan_first.push((msg.channel.topic.clone(), msg.index_on_channel));
+                }
+            }
+            let key = (msg.channel.topic.clone(), person.track_id);
+            let entry = tracks.entry(key).or_insert_with(|| {
+                (
+                    PoseSequence {
+                        source: path_s.clone(),
+                        track_id: person.track_id,
+                        joint_names: person.joint_names.clone(),
+                        frames: Vec::new(),
+                    },
+                    person.layout.clone(),
+                )
+            });
+            if entry.0.joint_names != person.joint_names {
+                skipped.push(skip(format!(
+                    "track {}: joint names differ from the track's earlier messages",
+                    person.track_id
+                )));
+                continue;
+            }
+            if let Some(last) = entry.0.frames.last()
+                && person.frame.stamp_nanos <= last.stamp_nanos
+            {
+                skipped.push(skip(format!(
+                    "track {}: stamp {} ns is not after the previous {} ns (non-monotonic)",
+                    person.track_id, person.frame.stamp_nanos, last.stamp_nanos
+                )));
+                continue;
+            }
+            entry.0.frames.push(person.frame);
+        }
+    }
+    if tracks.is_empty() && skipped.is_empty() {
+        let why = match topic {
+            Some(t) if !seen_topics.contains_key(t) => format!(
+                "no topic {t} (topics: {})",
+                if seen_topics.is_empty() {
+                    "none".to_string()
+                } else {
+                    seen_topics.keys().cloned().collect::<Vec<_>>().join(", ")
+                }
+            ),
+            _ if seen_topics.is_empty() => "no readable messages".to_string(),
+            _ => format!(
+                "no pose topic: autoact reads {}; the file has {}",
+                POSE_TYPES.join(", "),
+                seen_topics
+                    .iter()
+                    .map(|(t, ty)| format!("{t} ({ty})"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        };
+        if issues.is_empty() {
+            return Err(PoseBagError::NoPoseTopic { path: path_s, why });
+        }
+    }
+    let mut sequences = Vec::new();
+    let mut layouts = Vec::new();
+    for ((topic, _), (seq, layout)) in tracks {
+        sequences.push((topic, seq));
+        layouts.push(layout);
+    }
+    Ok(PoseTopics {
+        sequences,
+        layouts,
+        skipped,
+        issues,
+        nan_messages: (nan_first, nan_total),
+        metadata: reader.metadata(),
+    })
+}
+
+struct Person {
+    track_id: u64,
+    layout: String,
+    joint_names: Vec<String>,
+    frame: PoseFrame,
+}
+
+enum DecodeProblem {
+    Skip(String),
+    NeedsLayout,
+    NotPose,
+}
+
+fn stamp_of(header: &Header, log_time: u64) -> u64 {
+    // A zero header stamp means the publisher did not stamp: use the log time.
+    header
+        .stamp
+        .to_nanos()
+        .filter(|&n| n != 0)
+        .unwrap_or(log_time)
+}
+
+fn decode_people(
+    msg: &BagMessage,
+    type_name: &str,
+    layout: Option<&crate::layout::Layout>,
+) -> Result<Vec<Person>, DecodeProblem> {
+    let bad =
+        |e: ros::cdr::CdrError| DecodeProblem::Skip(format!("does not decode as {type_name}: {e}"));
+    match type_name {
+        t if t == Skeleton3D::TYPE_NAME => {
+            let s: Skeleton3D = ros::cdr::decode(&msg.data).map_err(bad)?;
+            let n = s.joint_names.len();
+            if s.positions.len() != n || s.confidence.len() != n {
+                return Err(DecodeProblem::Skip(format!(
+                    "{} joint names, {} positions and {} confidences: the arrays must have equal lengths",
+                    n,
+                    s.positions.len(),
+                    s.confidence.len()
+                )));
+            }
+            if let Some(l) = layout
+                && let Err(e) = l.joint_order(&s.joint_names)
+            {
+                return Err(DecodeProblem::Skip(e.to_string()));
+            }
+            let layout_name = layout.map_or_else(|| s.layout.clone(), |l| l.name.clone());
+            Ok(vec![Person {
+                track_id: s.track_id,
+                layout: layout_name,
+                frame: PoseFrame {
+                    stamp_nanos: stamp_of(&s.header, msg.log_time),
+                    positions_m: s.positions.iter().map(|p| Point3::from(*p)).collect(),
+                    confidence: s
+                        .confidence
+                        .iter()
+                        .map(|c| {
+                            if c.is_finite() {
+                                c.clamp(0.0, 1.0)
+                            } else {
+                                0.0
+                            }
+                        })
+                        .collect(),
+                },
+                joint_names: s.joint_names,
+            }])
+        }
+        t if t == MarkerArray::TYPE_NAME => {
+            let layout = layout.ok_or(DecodeProblem::NeedsLayout)?;
+            let m: MarkerArray = ros::cdr::decode(&msg.data).map_err(bad)?;
+            markers_to_people(&m, layout, msg.log_time)
+        }
+        t if t == PoseArray::TYPE_NAME => {
+            let layout = layout.ok_or(DecodeProblem::NeedsLayout)?;
+            let p: PoseArray = ros::cdr::decode(&msg.data).map_err(bad)?;
+            if p.poses.len() != layout.joints.len() {
+                return Err(DecodeProblem::Skip(format!(
+                    "{} poses, the layout `{}` has {} joints",
+                    p.poses.len(),
+                    layout.name,
+                    layout.joints.len()
+                )));
+            }
+            Ok(vec![Person {
+                track_id: 0,
+                layout: layout.name.clone(),
+                joint_names: layout.joints.clone(),
+                frame: PoseFrame {
+                    stamp_nanos: stamp_of(&p.header, msg.log_time),
+                    positions_m: p
+                        .poses
+                        .iter()
+                        .map(|pose| Point3::from(pose.position))
+                        .collect(),
+                    confidence: p
+                        .poses
+                        .iter()
+                        .map(|pose| {
+                            if pose.position.x.is_finite() {
+                                1.0
+                            } else {
+                                0.0
+                            }
+                        })
+                        .collect(),
+                },
+            }])
+        }
+        _ => Err(DecodeProblem::NotPose),
+    }
+}
+
+/// Markers → people: one person per namespace, in namespace order; track id = its index.
+fn markers_to_people(
+    m: &MarkerArray,
+    layout: &crate::layout::Layout,
+    log_time: u64,
+) -> Result<Vec<Person>, DecodeProblem> {
+    let n = layout.joints.len();
+    let mut by_ns: BTreeMap<&str, Vec<&Marker>> = BTreeMap::new();
+    for marker in m.markers.iter().filter(|mk| mk.action == Marker::ADD) {
+        by_ns.entry(marker.ns.as_str()).or_default().push(marker);
+    }
+    let mut people = Vec::new();
+    for (track, (ns, markers)) in by_ns.into_iter().enumerate() {
+        let stamp = markers
+            .first()
+            .map_or(log_time, |mk| stamp_of(&mk.header, log_time));
+        let mut positions = vec![Point3::new(f64::NAN, f64::NAN, f64::NAN); n];
+        let mut confidence = vec![0.0f32; n];
+        let lists: Vec<&&Marker> = markers
+            .iter()
+            .filter(|mk| mk.type_ == Marker::SPHERE_LIST || mk.type_ == Marker::POINTS)
+            .collect();
+        if let [list] = lists.as_slice() {
+            if list.points.len() != n {
+                return Err(DecodeProblem::Skip(format!(
+                    "namespace `{ns}`: {} points, the layout `{}` has {n} joints",
+                    list.points.len(),
+                    layout.name
+                )));
+            }
+            for (k, p) in list.points.iter().enumerate() {
+                positions[k] = Point3::new(
+                    list.pose.position.x + p.x,
+                    list.pose.position.y + p.y,
+                    list.pose.position.z + p.z,
+                );
+                confidence[k] = 1.0;
+            }
+        } else {
+            for mk in markers.iter().filter(|mk| mk.type_ == Marker::SPHERE) {
+                let Some(k) = usize::try_from(mk.id).ok().filter(|&k| k < n) else {
+                    return Err(DecodeProblem::Skip(format!(
+                        "namespace `{ns}`: sphere id {} is not a joint index of the layout `{}` (0..{n})",
+                        mk.id, layout.name
+                    )));
+                };
+                positions[k] = Point3::from(mk.pose.position);
+                confidence[k] = 1.0;
+            }
+        }
+        let track_id = u64::try_from(track).unwrap_or(u64::MAX);
+        people.push(Person {
+            track_id,
+            layout: layout.name.clone(),
+            joint_names: layout.joints.clone(),
+            frame: PoseFrame {
+                stamp_nanos: stamp,
+                positions_m: positions,
+                confidence,
+            },
+        });
+    }
+    Ok(people)
+}
