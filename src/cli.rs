@@ -51,6 +51,25 @@ pub enum Command {
     Rig(crate::cmd::rig::Args),
     /// List the built-in keypoint layouts, or show one (or a layout file) joint by joint.
     Layouts(crate::cmd::layouts::Args),
+    /// Turn a dataset file into a pose bag: skeleton messages at the source's own stamps.
+    ///
+    /// Reads BVH (through a built-in mapping of its skeleton onto a layout), NTU RGB+D
+    /// `.skeleton`, Human3.6M exponential-map `.txt`, ZED BODY_34 `.mat` and MMPose-style
+    /// whole-body `.json`. The label (`--category`, `--action`) and the provenance go into the
+    /// bag's `autoact` metadata record.
+    Import(crate::cmd::import::Args),
+    /// Turn a pose bag into an animation bag: bone rotations on the 53-bone rig, TF and a
+    /// marker skeleton, at an explicit frame rate.
+    ///
+    /// Reads `autoact_msgs/Skeleton3D`, `visualization_msgs/MarkerArray` (sphere or points
+    /// markers, one namespace per person) and `geometry_msgs/PoseArray` topics; markers and pose
+    /// arrays need `--layout`. Writes `/animation` (BoneFrame), `/tf`, `/tf_static` and
+    /// `/skeleton/markers`. Unreadable chunks or messages are skipped, reported, and end the run
+    /// with exit code 3.
+    Convert(crate::cmd::convert::Args),
+    /// Describe an MCAP file: channels, schemas, counts, time range, rate, layouts, labels, and
+    /// whether ROS 2 tools and autoact can read all of it.
+    Info(crate::cmd::info::Args),
 }
 
 /// Output format of listing commands.

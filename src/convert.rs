@@ -829,8 +829,8 @@ pub fn convert_sequence(
         source,
     };
     let order = layout.joint_order(&seq.joint_names).map_err(layout_err)?;
-    let identity_order =
-        order.iter().enumerate().all(|(k, &i)| k == i) && order.len() == seq.joint_names.len();
+    let identity_order = seq.joint_names.len() == layout.joints.len()
+        && order.iter().enumerate().all(|(k, i)| *i == Some(k));
     let reordered: Vec<PoseFrame>;
     let frames: &[PoseFrame] = if identity_order {
         &seq.frames
@@ -838,23 +838,7 @@ pub fn convert_sequence(
         reordered = seq
             .frames
             .iter()
-            .map(|f| PoseFrame {
-                stamp_nanos: f.stamp_nanos,
-                positions_m: order
-                    .iter()
-                    .map(|&i| {
-                        f.positions_m.get(i).copied().unwrap_or(Point3::new(
-                            f64::NAN,
-                            f64::NAN,
-                            f64::NAN,
-                        ))
-                    })
-                    .collect(),
-                confidence: order
-                    .iter()
-                    .map(|&i| f.confidence.get(i).copied().unwrap_or(0.0))
-                    .collect(),
-            })
+            .map(|f| Layout::reorder(&order, f))
             .collect();
         &reordered
     };

@@ -109,10 +109,10 @@ pub fn round_trip(
         let Some(src) = by_stamp.find(|f| f.stamp_nanos == frame.stamp_nanos) else {
             break;
         };
-        let positions: Vec<Point3<f64>> = order.iter().map(|&i| src.positions_m[i]).collect();
-        let confidence: Vec<f32> = order.iter().map(|&i| src.confidence[i]).collect();
+        let input_frame = Layout::reorder(&order, src);
+        let (positions, confidence) = (&input_frame.positions_m, &input_frame.confidence);
         let input =
-            |l: usize| binding.landmark_point(l, &positions, &confidence, options.min_confidence);
+            |l: usize| binding.landmark_point(l, positions, confidence, options.min_confidence);
         let input_set = |set: &[usize]| -> Option<Point3<f64>> {
             let mut sum = Vector3::zeros();
             for &l in set {
@@ -206,13 +206,13 @@ pub fn bone_length_stability(
     for m in &binding.measures(rig) {
         let mut lengths = Vec::new();
         for f in &seq.frames {
-            let positions: Vec<Point3<f64>> = order.iter().map(|&i| f.positions_m[i]).collect();
-            let confidence: Vec<f32> = order.iter().map(|&i| f.confidence[i]).collect();
+            let frame = Layout::reorder(&order, f);
+            let (positions, confidence) = (&frame.positions_m, &frame.confidence);
             let pt = |set: &[usize]| -> Option<Vector3<f64>> {
                 let mut sum = Vector3::zeros();
                 for &l in set {
                     sum += binding
-                        .landmark_point(l, &positions, &confidence, min_confidence)?
+                        .landmark_point(l, positions, confidence, min_confidence)?
                         .coords;
                 }
                 #[expect(

@@ -461,33 +461,67 @@ impl Layout {
     }
 
     /// Maps the joint order of some data onto this layout's order: `result[k]` is the index in
-    /// `data_joints` of this layout's joint `k`.
+    /// `data_joints` of this layout's joint `k`, or `None` when the data does not have it (a
+    /// source may carry only the joints it observes).
     ///
     /// # Errors
-    /// [`LayoutError::JointMismatch`] naming the layout joints the data lacks.
-    pub fn joint_order(&self, data_joints: &[String]) -> Result<Vec<usize>, LayoutError> {
-        let mut order = Vec::with_capacity(self.joints.len());
-        let mut missing = Vec::new();
-        for j in &self.joints {
-            match data_joints.iter().position(|d| d == j) {
-                Some(i) => order.push(i),
-                None => missing.push(j.as_str()),
-            }
-        }
-        if missing.is_empty() {
-            Ok(order)
-        } else {
-            let n = missing.len();
-            missing.truncate(10);
+    /// [`LayoutError::JointMismatch`] when the data has joints the layout does not list (it is
+    /// in another layout), naming them.
+    pub fn joint_order(&self, data_joints: &[String]) -> Result<Vec<Option<usize>>, LayoutError> {
+        let mut foreign: Vec<&str> = data_joints
+            .iter()
+            .filter(|d| !self.joints.contains(d))
+            .map(String::as_str)
+            .collect();
+        if !foreign.is_empty() || data_joints.is_empty() {
+            let n = foreign.len();
+            foreign.truncate(10);
             let more = if n > 10 {
                 format!(" and {} more", n - 10)
             } else {
                 String::new()
             };
-            Err(LayoutError::JointMismatch {
+            let listed = if foreign.is_empty() {
+                "(no joints at all)".to_string()
+            } else {
+                format!("{}{more}", foreign.join(", "))
+            };
+            return Err(LayoutError::JointMismatch {
                 layout: self.name.clone(),
-                missing: format!("{}{more}", missing.join(", ")),
-            })
+                missing: listed,
+            });
+        }
+        Ok(self
+            .joints
+            .iter()
+            .map(|j| data_joints.iter().position(|d| d == j))
+            .collect())
+    }
+
+    /// Reorders one frame of data (joints `data_joints` order, see [`Layout::joint_order`]) into
+    /// this layout's order; joints the data lacks are missing (NaN, confidence 0).
+    #[must_use]
+    pub fn reorder(
+        order: &[Option<usize>],
+        frame: &crate::pose::PoseFrame,
+    ) -> crate::pose::PoseFrame {
+        let missing = nalgebra::Point3::new(f64::NAN, f64::NAN, f64::NAN);
+        crate::pose::PoseFrame {
+            stamp_nanos: frame.stamp_nanos,
+            positions_m: order
+                .iter()
+                .map(|i| {
+                    i.and_then(|i| frame.positions_m.get(i).copied())
+                        .unwrap_or(missing)
+                })
+                .collect(),
+            confidence: order
+                .iter()
+                .map(|i| {
+                    i.and_then(|i| frame.confidence.get(i).copied())
+                        .unwrap_or(0.0)
+                })
+                .collect(),
         }
     }
 }

@@ -89,6 +89,34 @@ pub struct BagWriter<W: Write + Seek> {
     schemas: BTreeMap<&'static str, u16>,
     channels: BTreeMap<String, u16>,
     sequences: BTreeMap<u16, u32>,
+    stats: BagStats,
+    journal: Option<Journal>,
+}
+
+/// What a finished bag holds, per topic (for `metadata.yaml` and reports).
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct BagStats {
+    /// Per topic: (type name, message count).
+    pub topics: BTreeMap<String, (&'static str, u64)>,
+    /// Earliest and latest log time, nanoseconds.
+    pub time_range: Option<(u64, u64)>,
+}
+
+impl BagStats {
+    /// Total messages.
+    #[must_use]
+    pub fn message_count(&self) -> u64 {
+        self.topics.values().map(|(_, n)| n).sum()
+    }
+}
+
+/// Every message and metadata record as the writer meant it, as JSON: the contract of the
+/// interoperability checks (`tools/interop`), which decode the file with independent readers
+/// and compare field by field.
+#[derive(Debug, Clone, Default)]
+struct Journal {
+    messages: Vec<serde_json::Value>,
+    metadata: Vec<serde_json::Value>,
 }
 
 impl std::fmt::Debug for BagWriter<BufWriter<File>> {
@@ -99,10 +127,6 @@ impl std::fmt::Debug for BagWriter<BufWriter<File>> {
             .finish_non_exhaustive()
     }
 }
-
-/// Channel metadata rosbag2 expects on `/tf_static`: latched (transient local), so that a late
-/// subscriber during `ros2 bag play` still gets the static transforms.
-const TF_STATIC_QOS: &str = "- history: 3\n  depth: 0\n  reliability: 1\n  durability: 1\n  deadline:\n    sec: 2147483647\n    nsec: 4294967295\n  lifespan:\n    sec: 2147483647\n    nsec: 4294967295\n  liveliness: 1\n  liveliness_lease_duration:\n    sec: 2147483647\n    nsec: 4294967295\n  avoid_ros_namespace_conventions: false\n";
 
 /// How a [`BagWriter`] lays out its file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -166,7 +190,14 @@ impl<W: Write + Seek> BagWriter<W> {
             schemas: BTreeMap::new(),
             channels: BTreeMap::new(),
             sequences: BTreeMap::new(),
+            stats: BagStats::default(),
+            journal: None,
         })
+    }
+
+    /// Keeps a JSON journal of everything written, for [`BagWriter::finish_with_journal`].
+    pub fn keep_journal(&mut self) {
+        self.journal = Some(Journal::default());
     }
 
     fn channel_for<M: RosMessage>(&mut self, topic: &str) -> Result<u16, McapIoError> {
@@ -190,12 +221,9 @@ impl<W: Write + Seek> BagWriter<W> {
             }
         };
         let mut metadata = BTreeMap::new();
-        let qos = if topic == "/tf_static" {
-            TF_STATIC_QOS
-        } else {
-            ""
-        };
-        metadata.insert("offered_qos_profiles".to_string(), qos.to_string());
+        // Empty, as rosbags writes it: a QoS list here that differs from a rosbag2 directory's
+        // metadata.yaml makes rosbags drop the channel.
+        metadata.insert("offered_qos_profiles".to_string(), String::new());
         let id = self
             .writer
             .add_channel(schema_id, topic, "cdr", &metadata)
@@ -227,6 +255,25 @@ impl<W: Write + Seek> BagWriter<W> {
         })?;
         let sequence = self.sequences.entry(channel_id).or_insert(0);
         *sequence += 1;
+        let entry = self
+            .stats
+            .topics
+            .entry(topic.to_string())
+            .or_insert((M::TYPE_NAME, 0));
+        entry.1 += 1;
+        self.stats.time_range = Some(match self.stats.time_range {
+            Some((a, b)) => (a.min(log_time_nanos), b.max(log_time_nanos)),
+            None => (log_time_nanos, log_time_nanos),
+        });
+        if let Some(journal) = self.journal.as_mut() {
+            journal.messages.push(serde_json::json!({
+                "topic": topic,
+                "schema": M::TYPE_NAME,
+                "log_time": log_time_nanos,
+                "publish_time": log_time_nanos,
+                "message": serde_json::to_value(msg).unwrap_or(serde_json::Value::Null),
+            }));
+        }
         let header = mcap::records::MessageHeader {
             channel_id,
             sequence: *sequence,
@@ -252,6 +299,11 @@ impl<W: Write + Seek> BagWriter<W> {
         name: &str,
         metadata: BTreeMap<String, String>,
     ) -> Result<(), McapIoError> {
+        if let Some(journal) = self.journal.as_mut() {
+            journal
+                .metadata
+                .push(serde_json::json!({ "name": name, "metadata": metadata }));
+        }
         let record = mcap::records::Metadata {
             name: name.to_string(),
             metadata,
@@ -266,19 +318,67 @@ impl<W: Write + Seek> BagWriter<W> {
             })
     }
 
-    /// Writes the summary and footer. Always call it: dropping a writer hides its errors.
+    /// Writes the summary and footer, and returns what the file holds. Always call it: dropping
+    /// a writer hides its errors.
     ///
     /// # Errors
     /// [`McapIoError::Mcap`] (e.g. a full disk).
-    pub fn finish(mut self) -> Result<(), McapIoError> {
+    pub fn finish(mut self) -> Result<BagStats, McapIoError> {
         let path = self.path.clone();
         self.writer.finish().map_err(|source| McapIoError::Mcap {
             action: "cannot finish",
             path,
             source,
         })?;
-        Ok(())
+        Ok(std::mem::take(&mut self.stats))
     }
+
+    /// Finishes the file and writes the journal (see [`BagWriter::keep_journal`]) to
+    /// `journal_path` as `{"messages": [...], "metadata": [...]}`.
+    ///
+    /// # Errors
+    /// As [`BagWriter::finish`], or [`McapIoError::Io`] for the journal.
+    pub fn finish_with_journal(mut self, journal_path: &Path) -> Result<BagStats, McapIoError> {
+        let journal = self.journal.take().unwrap_or_default();
+        let stats = self.finish()?;
+        let doc = serde_json::json!({ "messages": journal.messages, "metadata": journal.metadata });
+        std::fs::write(journal_path, doc.to_string()).map_err(|source| McapIoError::Io {
+            action: "cannot write",
+            path: journal_path.to_path_buf(),
+            source,
+        })?;
+        Ok(stats)
+    }
+}
+
+/// Writes the `metadata.yaml` of a rosbag2 directory (format version 9, MCAP storage) whose one
+/// file is `dir/file_name`, for ROS distributions whose `ros2 bag play` wants a directory.
+///
+/// # Errors
+/// [`McapIoError::Io`].
+pub fn write_rosbag2_metadata(
+    dir: &Path,
+    file_name: &str,
+    stats: &BagStats,
+) -> Result<(), McapIoError> {
+    let (start, end) = stats.time_range.unwrap_or((0, 0));
+    let duration = end - start;
+    let count = stats.message_count();
+    let mut topics = String::new();
+    for (topic, (type_name, n)) in &stats.topics {
+        topics.push_str(&format!(
+            "  - message_count: {n}\n    topic_metadata:\n      name: {topic}\n      offered_qos_profiles: []\n      serialization_format: cdr\n      type: {type_name}\n      type_description_hash: ''\n"
+        ));
+    }
+    let yaml = format!(
+        "rosbag2_bagfile_information:\n  version: 9\n  storage_identifier: mcap\n  duration:\n    nanoseconds: {duration}\n  starting_time:\n    nanoseconds_since_epoch: {start}\n  message_count: {count}\n  topics_with_message_count:\n{topics}  compression_format: ''\n  compression_mode: ''\n  relative_file_paths:\n  - {file_name}\n  files:\n  - path: {file_name}\n    starting_time:\n      nanoseconds_since_epoch: {start}\n    duration:\n      nanoseconds: {duration}\n    message_count: {count}\n  custom_data: {{}}\n  ros_distro: autoact\n"
+    );
+    let path = dir.join("metadata.yaml");
+    std::fs::write(&path, yaml).map_err(|source| McapIoError::Io {
+        action: "cannot write",
+        path,
+        source,
+    })
 }
 
 /// A schema as read from a file.

@@ -1,8 +1,9 @@
 //! Resampling an animation to an explicit frame rate from its own stamps, on the rotation group:
 //! slerp between the bracketing frames' local rotations (their hemispheres are already
 //! continuous), lerp between root translations. Output stamps are `first + k·(1 s / fps)` up to
-//! the last input stamp: never extrapolated, and gaps in the input (dropped frames) are bridged
-//! by the same interpolation instead of being assumed away.
+//! the last input stamp: never extrapolated (an output time within a thousandth of a frame past
+//! the last input — stamp rounding — is that input), and gaps in the input (dropped frames) are
+//! bridged by the same interpolation instead of being assumed away.
 
 use nalgebra::UnitQuaternion;
 
@@ -84,9 +85,19 @@ pub fn resample(frames: &[AnimationFrame], fps: f64) -> Vec<AnimationFrame> {
     };
     let mut out = Vec::new();
     let mut hint = 0;
+    // Stamps written at a nominal rate carry rounding (1/30 s is not a whole number of ns, a BVH
+    // frame time has 7 digits): an output time this close past the last input is that input.
+    let tolerance = stamp_nanos_at(1, fps * 1000.0);
     for k in 0.. {
-        let t = first.stamp_nanos + stamp_nanos_at(k, fps);
-        if t > last.stamp_nanos {
+        let mut t = first.stamp_nanos + stamp_nanos_at(k, fps);
+        if t > last.stamp_nanos && t - last.stamp_nanos <= tolerance {
+            t = last.stamp_nanos;
+        }
+        if t > last.stamp_nanos
+            || out
+                .last()
+                .is_some_and(|f: &AnimationFrame| f.stamp_nanos >= t)
+        {
             break;
         }
         let pose = match locate(frames, t, hint) {
@@ -154,6 +165,15 @@ mod tests {
         let mid = &out[2].pose.local_rotations[0];
         assert!((mid.angle() - std::f64::consts::FRAC_PI_4).abs() < 1e-12);
         assert!((out[2].pose.root_translation_m.x - std::f64::consts::FRAC_PI_4).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_nominal_rate_with_rounded_stamps_keeps_its_last_frame() {
+        // 60 frames stamped at round(k · 1e9 / 30) − a little: 60 out at 30 fps, not 59.
+        let frames: Vec<_> = (0..60u64).map(|k| frame(k * 33_333_333, 0.0)).collect();
+        let out = resample(&frames, 30.0);
+        assert_eq!(out.len(), 60);
+        assert_eq!(out.last().unwrap().stamp_nanos, 59 * 33_333_333);
     }
 
     #[test]

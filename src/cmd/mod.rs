@@ -1,11 +1,20 @@
 //! One module per command; the only layer that prints. Each has its `Args` next to its `run`.
 
+pub mod convert;
+pub mod import;
+pub mod info;
 pub mod layouts;
 pub mod rig;
 
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+use anyhow::Context;
+
 use crate::cli::{Command, EXIT_DATA_LOST};
+use crate::mcap_io::{BagStats, BagWriter, Compression, WriteConfig};
 
 /// How a command ended, when it did not fail.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -35,6 +44,9 @@ pub fn dispatch(command: Command) -> anyhow::Result<Outcome> {
     match command {
         Command::Rig(args) => rig::run(args),
         Command::Layouts(args) => layouts::run(args),
+        Command::Import(args) => import::run(args),
+        Command::Convert(args) => convert::run(args),
+        Command::Info(args) => info::run(args),
     }
 }
 
@@ -79,4 +91,114 @@ pub(crate) fn table(header: &[&str], rows: &[Vec<String>]) -> String {
         out.push_str(&line(r.iter().map(String::as_str).collect()));
     }
     out
+}
+
+/// Where and how a command writes its bag.
+#[derive(Debug, Clone, clap::Args)]
+pub struct OutputArgs {
+    /// Output file (`.mcap`), or directory with `--rosbag2`.
+    #[arg(short, long, value_name = "PATH")]
+    pub output: PathBuf,
+    /// Chunk compression.
+    #[arg(long, value_enum, default_value_t = Compression::Zstd)]
+    pub compression: Compression,
+    /// Write a rosbag2 directory (`metadata.yaml` + one `.mcap`) instead of a bare `.mcap`,
+    /// for ROS distributions whose `ros2 bag play` wants one.
+    #[arg(long)]
+    pub rosbag2: bool,
+    /// Test hook: also write `<output>.expected.json`, every message as autoact meant it, for the
+    /// interoperability checks in `tools/interop`.
+    #[arg(long, hide = true)]
+    pub write_expected_json: bool,
+}
+
+/// An open output bag and how to finish it.
+pub(crate) struct BagOutput {
+    pub writer: BagWriter<BufWriter<File>>,
+    mcap_path: PathBuf,
+    args: OutputArgs,
+}
+
+impl BagOutput {
+    /// Creates the output (and the rosbag2 directory if asked).
+    pub fn create(args: &OutputArgs) -> anyhow::Result<BagOutput> {
+        let mcap_path = if args.rosbag2 {
+            std::fs::create_dir_all(&args.output).with_context(|| {
+                format!(
+                    "cannot create the rosbag2 directory {}",
+                    args.output.display()
+                )
+            })?;
+            let name = args
+                .output
+                .file_name()
+                .map_or_else(|| "bag".to_string(), |n| n.to_string_lossy().into_owned());
+            args.output.join(format!("{name}_0.mcap"))
+        } else {
+            args.output.clone()
+        };
+        let mut writer = BagWriter::create(
+            &mcap_path,
+            WriteConfig {
+                compression: args.compression,
+                ..WriteConfig::default()
+            },
+        )?;
+        if args.write_expected_json {
+            writer.keep_journal();
+        }
+        Ok(BagOutput {
+            writer,
+            mcap_path,
+            args: args.clone(),
+        })
+    }
+
+    /// Finishes the file (and `metadata.yaml`, and the journal); returns what was written.
+    pub fn finish(self) -> anyhow::Result<BagStats> {
+        let BagOutput {
+            writer,
+            mcap_path,
+            args,
+        } = self;
+        let stats = if args.write_expected_json {
+            // The interop contract: `X.mcap` ↔ `X.expected.json`, directory `D` ↔ `D.expected.json`.
+            let journal = if args.rosbag2 {
+                let mut p = args.output.clone().into_os_string();
+                p.push(".expected.json");
+                PathBuf::from(p)
+            } else {
+                args.output.with_extension("expected.json")
+            };
+            writer.finish_with_journal(&journal)?
+        } else {
+            writer.finish()?
+        };
+        if args.rosbag2 {
+            let name = mcap_path
+                .file_name()
+                .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+            crate::mcap_io::write_rosbag2_metadata(&args.output, &name, &stats)?;
+        }
+        Ok(stats)
+    }
+}
+
+/// The file name of a path, for metadata (never the full path: outputs must not depend on where
+/// the input happened to live).
+pub(crate) fn file_name(path: &Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
+}
+
+/// Prints warnings, at most `limit` in full, then a count of the rest.
+pub(crate) fn warn_list<T: std::fmt::Display>(what: &str, items: &[T], limit: usize) {
+    for item in items.iter().take(limit) {
+        tracing::warn!("{item}");
+    }
+    if items.len() > limit {
+        tracing::warn!("... and {} more {what}", items.len() - limit);
+    }
 }

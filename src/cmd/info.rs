@@ -1,0 +1,259 @@
+//! `autoact info`: what an MCAP file holds, and whether all of it can be read.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::PathBuf;
+
+use anyhow::Result;
+use serde_json::json;
+
+use super::{Outcome, print_stdout, table};
+use crate::cli::Format;
+use crate::mcap_io::BagReader;
+use crate::ros::autoact_msgs::{BoneFrame, Skeleton3D};
+use crate::ros::geometry_msgs::PoseArray;
+use crate::ros::tf2_msgs::TFMessage;
+use crate::ros::visualization_msgs::MarkerArray;
+use crate::ros::{self, RosMessage};
+
+/// Arguments of `autoact info`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The MCAP file.
+    pub input: PathBuf,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = Format::Table)]
+    pub format: Format,
+}
+
+#[derive(Debug, Default)]
+struct ChannelStats {
+    schema: String,
+    schema_encoding: String,
+    message_encoding: String,
+    count: u64,
+    first: Option<u64>,
+    last: u64,
+    undecodable: u64,
+    first_undecodable: Option<(u64, String)>,
+    non_monotonic: u64,
+    layouts: BTreeSet<String>,
+    tracks: BTreeSet<u64>,
+}
+
+/// Decodes one message of a type autoact knows, returning what it learnt; `None` for other types.
+fn check_message(
+    schema: &str,
+    data: &[u8],
+    stats: &mut ChannelStats,
+) -> Option<Result<(), ros::cdr::CdrError>> {
+    let result = match schema {
+        s if s == Skeleton3D::TYPE_NAME => ros::cdr::decode::<Skeleton3D>(data).map(|m| {
+            stats.layouts.insert(m.layout);
+            stats.tracks.insert(m.track_id);
+        }),
+        s if s == BoneFrame::TYPE_NAME => ros::cdr::decode::<BoneFrame>(data).map(|m| {
+            stats.layouts.insert(format!("rig {}", m.rig));
+            stats.tracks.insert(m.track_id);
+        }),
+        s if s == TFMessage::TYPE_NAME => ros::cdr::decode::<TFMessage>(data).map(drop),
+        s if s == MarkerArray::TYPE_NAME => ros::cdr::decode::<MarkerArray>(data).map(drop),
+        s if s == PoseArray::TYPE_NAME => ros::cdr::decode::<PoseArray>(data).map(drop),
+        _ => return None,
+    };
+    Some(result)
+}
+
+/// Runs `autoact info`.
+///
+/// # Errors
+/// A file that cannot be opened or is not MCAP.
+pub fn run(args: Args) -> Result<Outcome> {
+    let Args { input, format } = args;
+    let reader = BagReader::open(&input)?;
+    let (profile, library) = reader.header().unwrap_or_default();
+    let mut channels: BTreeMap<String, ChannelStats> = BTreeMap::new();
+    let mut issues = Vec::new();
+    for item in reader.messages() {
+        let msg = match item {
+            Ok(m) => m,
+            Err(e) => {
+                issues.push(e.to_string());
+                continue;
+            }
+        };
+        let stats = channels.entry(msg.channel.topic.clone()).or_default();
+        if stats.count == 0 {
+            stats.schema = msg.channel.schema_name().to_string();
+            stats.schema_encoding = msg
+                .channel
+                .schema
+                .as_ref()
+                .map(|s| s.encoding.clone())
+                .unwrap_or_default();
+            stats.message_encoding = msg.channel.message_encoding.clone();
+        }
+        if stats.first.is_some() && msg.log_time < stats.last {
+            stats.non_monotonic += 1;
+        }
+        stats.first.get_or_insert(msg.log_time);
+        stats.last = stats.last.max(msg.log_time);
+        stats.count += 1;
+        let schema = stats.schema.clone();
+        if let Some(Err(e)) = check_message(&schema, &msg.data, stats) {
+            stats.undecodable += 1;
+            stats
+                .first_undecodable
+                .get_or_insert((msg.index_on_channel, e.to_string()));
+        }
+    }
+    let metadata = reader.metadata();
+    let summary = mcap::Summary::read(reader.bytes()).ok().flatten();
+    let indexed = summary
+        .as_ref()
+        .is_some_and(|s| !s.chunk_indexes.is_empty());
+
+    let mut problems: Vec<String> = Vec::new();
+    if profile != "ros2" {
+        problems.push(format!(
+            "header profile is `{profile}`, not `ros2` (rosbags refuses such files)"
+        ));
+    }
+    if !indexed {
+        problems.push(
+            "no summary with chunk indexes (indexed readers, e.g. Foxglove's, may show nothing)"
+                .into(),
+        );
+    }
+    for (topic, c) in &channels {
+        if c.schema_encoding != "ros2msg" {
+            problems.push(format!(
+                "{topic}: schema encoding `{}`, not `ros2msg`",
+                c.schema_encoding
+            ));
+        }
+        if c.message_encoding != "cdr" {
+            problems.push(format!(
+                "{topic}: message encoding `{}`, not `cdr`",
+                c.message_encoding
+            ));
+        }
+        if let Some((index, why)) = &c.first_undecodable {
+            problems.push(format!(
+                "{topic}: {} messages do not decode as {} (first: message {index}: {why})",
+                c.undecodable, c.schema
+            ));
+        }
+        if c.non_monotonic > 0 {
+            problems.push(format!(
+                "{topic}: {} messages are logged earlier than the one before",
+                c.non_monotonic
+            ));
+        }
+    }
+    problems.extend(issues.iter().cloned());
+    let verdict = if problems.is_empty() {
+        "valid: every message is readable by ROS 2 tools and autoact"
+    } else {
+        "problems found"
+    };
+
+    let rate = |c: &ChannelStats| -> Option<f64> {
+        let first = c.first?;
+        #[expect(clippy::cast_precision_loss, reason = "display only")]
+        let span = (c.last - first) as f64 / 1e9;
+        #[expect(clippy::cast_precision_loss, reason = "display only")]
+        let n = c.count.saturating_sub(1) as f64;
+        (span > 0.0).then(|| n / span)
+    };
+    let text = match format {
+        Format::Table => {
+            let rows: Vec<Vec<String>> = channels
+                .iter()
+                .map(|(t, c)| {
+                    vec![
+                        t.clone(),
+                        c.schema.clone(),
+                        c.count.to_string(),
+                        rate(c).map_or_else(|| "-".into(), |r| format!("{r:.2}")),
+                        c.layouts.iter().cloned().collect::<Vec<_>>().join(", "),
+                        c.tracks
+                            .iter()
+                            .map(ToString::to_string)
+                            .collect::<Vec<_>>()
+                            .join(","),
+                    ]
+                })
+                .collect();
+            let start = channels.values().filter_map(|c| c.first).min();
+            let end = channels.values().map(|c| c.last).max();
+            let mut s = format!(
+                "file: {}\nprofile: {profile}\nlibrary: {library}\n",
+                input.display()
+            );
+            if let (Some(a), Some(b)) = (start, end) {
+                #[expect(clippy::cast_precision_loss, reason = "display only")]
+                let span = (b - a) as f64 / 1e9;
+                s.push_str(&format!("time: {a} .. {b} ns ({span:.3} s)\n"));
+            }
+            s.push_str(&format!(
+                "messages: {}\n\n",
+                channels.values().map(|c| c.count).sum::<u64>()
+            ));
+            s.push_str(&table(
+                &[
+                    "topic",
+                    "schema",
+                    "messages",
+                    "rate_hz",
+                    "layout/rig",
+                    "tracks",
+                ],
+                &rows,
+            ));
+            for (name, m) in &metadata {
+                let kv: Vec<String> = m
+                    .iter()
+                    .filter(|(_, v)| !v.is_empty())
+                    .map(|(k, v)| {
+                        if v.contains('\n') {
+                            format!("{k}=({} lines)", v.lines().count())
+                        } else {
+                            format!("{k}={v}")
+                        }
+                    })
+                    .collect();
+                s.push_str(&format!("\nmetadata {name}: {}", kv.join(" ")));
+            }
+            s.push_str(&format!("\n\nverdict: {verdict}\n"));
+            for p in &problems {
+                s.push_str(&format!("  - {p}\n"));
+            }
+            s
+        }
+        Format::Json => {
+            let ch: Vec<_> = channels
+                .iter()
+                .map(|(t, c)| {
+                    json!({"topic": t, "schema": c.schema, "schema_encoding": c.schema_encoding, "message_encoding": c.message_encoding,
+                           "messages": c.count, "first_log_time": c.first, "last_log_time": c.last, "rate_hz": rate(c),
+                           "layouts": c.layouts, "tracks": c.tracks, "undecodable": c.undecodable})
+                })
+                .collect();
+            let md: Vec<_> = metadata
+                .iter()
+                .map(|(n, m)| json!({"name": n, "metadata": m}))
+                .collect();
+            format!(
+                "{:#}\n",
+                json!({"file": input.display().to_string(), "profile": profile, "library": library, "channels": ch,
+                       "metadata": md, "valid": problems.is_empty(), "problems": problems})
+            )
+        }
+    };
+    print_stdout(&text)?;
+    Ok(if issues.is_empty() {
+        Outcome::Success
+    } else {
+        Outcome::DataLost
+    })
+}
