@@ -1,0 +1,504 @@
+//! `autoact import`, `convert` and `info` on bags synthesised here: the round trip, determinism,
+//! every kind of bad input, marker and pose-array topics, several people.
+
+#![expect(clippy::unwrap_used, reason = "test helpers fail loudly")]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use autoact::character::Character;
+use autoact::fk::{self, BonePose};
+use autoact::layout::Layout;
+use autoact::mcap_io::{BagReader, BagWriter, Compression, WriteConfig};
+use autoact::pose::{PoseFrame, stamp_nanos_at};
+use autoact::rig::{Dof, Rig};
+use autoact::ros::autoact_msgs::{BoneFrame, Skeleton3D};
+use autoact::ros::geometry_msgs::{Point, Pose, PoseArray};
+use autoact::ros::std_msgs::Header;
+use autoact::ros::visualization_msgs::{Marker, MarkerArray};
+use autoact::ros::{builtin_interfaces::Time, cdr};
+use nalgebra::{UnitQuaternion, Vector3};
+
+fn autoact(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_autoact"))
+        .args(args)
+        .output()
+        .expect("run autoact")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn arg(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// H36M-17 keypoints of the rig walking and waving: frame `k` at 30 fps.
+fn h36m_frame(k: usize) -> PoseFrame {
+    let rig = Rig::standard();
+    let layout = Layout::builtin("h36m-17").unwrap();
+    let character = Character::standard(&rig);
+    #[expect(clippy::cast_precision_loss, reason = "small frame numbers")]
+    let t = k as f64 / 30.0;
+    let mut pose = BonePose::rest(&rig);
+    for (b, bone) in rig.bones.iter().enumerate() {
+        if let Dof::Hinge { axis } = bone.dof {
+            pose.local_rotations[b] =
+                UnitQuaternion::from_axis_angle(&axis, 0.4 + 0.3 * (2.0 * t).sin());
+        }
+    }
+    let arm = rig.bone_index("r_upper_arm").unwrap();
+    pose.local_rotations[arm] =
+        UnitQuaternion::from_axis_angle(&Vector3::y_axis(), -1.0 + 0.5 * (3.0 * t).sin());
+    pose.local_rotations[0] = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 0.2 * t);
+    pose.root_translation_m = Vector3::new(0.0, 0.8 * t, 0.0);
+    let world = fk::forward(&rig, &character, &pose, 1.0);
+    layout.keypoints_from_rig(&rig, &character, &world, stamp_nanos_at(k, 30.0))
+}
+
+fn skeleton(k: usize, track_id: u64) -> Skeleton3D {
+    let layout = Layout::builtin("h36m-17").unwrap();
+    let f = h36m_frame(k);
+    Skeleton3D {
+        header: Header {
+            stamp: Time::from_nanos(f.stamp_nanos),
+            frame_id: "world".into(),
+        },
+        layout: "h36m-17".into(),
+        track_id,
+        joint_names: layout.joints.clone(),
+        #[expect(clippy::cast_precision_loss, reason = "small ids")]
+        positions: f
+            .positions_m
+            .iter()
+            .map(|p| Point {
+                x: p.x + track_id as f64,
+                y: p.y,
+                z: p.z,
+            })
+            .collect(),
+        confidence: f.confidence,
+    }
+}
+
+/// A pose bag of `n` skeleton messages (small chunks, so damage can hit one), after `edit`.
+fn pose_bag(dir: &Path, name: &str, n: usize, edit: impl Fn(usize, &mut Skeleton3D)) -> PathBuf {
+    let path = dir.join(name);
+    let mut w = BagWriter::create(
+        &path,
+        WriteConfig {
+            compression: Compression::Zstd,
+            chunk_size_bytes: 4096,
+        },
+    )
+    .unwrap();
+    for k in 0..n {
+        let mut s = skeleton(k, 0);
+        edit(k, &mut s);
+        let stamp = s.header.stamp.to_nanos().unwrap();
+        w.write("/skeleton", stamp, &s).unwrap();
+    }
+    w.finish().unwrap();
+    path
+}
+
+fn bone_frames(path: &Path) -> Vec<(u64, BoneFrame)> {
+    BagReader::open(path)
+        .unwrap()
+        .messages()
+        .map(Result::unwrap)
+        .filter(|m| m.channel.topic == "/animation")
+        .map(|m| (m.log_time, cdr::decode::<BoneFrame>(&m.data).unwrap()))
+        .collect()
+}
+
+fn chunk_ranges(bytes: &[u8]) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    let mut at = 8;
+    while at + 9 <= bytes.len() && bytes[at] != 0x02 {
+        let len = usize::try_from(u64::from_le_bytes(
+            bytes[at + 1..at + 9].try_into().unwrap(),
+        ))
+        .unwrap();
+        if bytes[at] == 0x06 {
+            out.push((at, at + 9 + len));
+        }
+        at += 9 + len;
+    }
+    out
+}
+
+#[test]
+fn convert_writes_bone_frames_tf_and_markers_that_info_calls_valid() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = pose_bag(dir.path(), "in.mcap", 90, |_, _| {});
+    let out = dir.path().join("out.mcap");
+    let o = autoact(&["convert", arg(&input), "-o", arg(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let frames = bone_frames(&out);
+    assert_eq!(frames.len(), 90);
+    for (t, f) in &frames {
+        assert_eq!(f.bone_names.len(), 53);
+        assert_eq!(f.header.stamp.to_nanos(), Some(*t));
+        for q in &f.local_rotations {
+            let n = (q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w).sqrt();
+            assert!((n - 1.0).abs() < 1e-9);
+        }
+    }
+    // Walking moves the root forward (0.8 m/s for 3 s).
+    let dy = frames.last().unwrap().1.root_translation.y - frames[0].1.root_translation.y;
+    assert!((dy - 0.8 * 89.0 / 30.0).abs() < 0.01, "{dy}");
+    let info = autoact(&["info", arg(&out), "--format", "json"]);
+    assert!(info.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    assert_eq!(v["valid"], true, "{v:#}");
+    let topics: Vec<&str> = v["channels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["topic"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        topics,
+        ["/animation", "/skeleton/markers", "/tf", "/tf_static"]
+    );
+}
+
+#[test]
+fn the_output_rate_is_explicit() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = pose_bag(dir.path(), "in.mcap", 91, |_, _| {});
+    let out = dir.path().join("out.mcap");
+    assert!(
+        autoact(&["convert", arg(&input), "-o", arg(&out), "--fps", "60"])
+            .status
+            .success()
+    );
+    assert_eq!(bone_frames(&out).len(), 181, "3 s at 60 fps, both ends");
+}
+
+#[test]
+fn same_input_gives_byte_identical_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = pose_bag(dir.path(), "in.mcap", 60, |_, _| {});
+    let (a, b) = (dir.path().join("a.mcap"), dir.path().join("b.mcap"));
+    assert!(
+        autoact(&["convert", arg(&input), "-o", arg(&a)])
+            .status
+            .success()
+    );
+    assert!(
+        autoact(&["convert", arg(&input), "-o", arg(&b)])
+            .status
+            .success()
+    );
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    // And import: an MMPose-style JSON, twice.
+    let json = dir.path().join("clip.json");
+    let frames: Vec<serde_json::Value> = (0..20)
+        .map(|k| {
+            let f = h36m_frame(k);
+            let kp: Vec<[f64; 3]> = f.positions_m.iter().map(|p| [p.x, -p.z, p.y]).collect();
+            serde_json::json!({"frame_id": k, "instances": [{"keypoints": kp}]})
+        })
+        .collect();
+    std::fs::write(&json, serde_json::to_string(&frames).unwrap()).unwrap();
+    let (c, d) = (dir.path().join("c.mcap"), dir.path().join("d.mcap"));
+    for out in [&c, &d] {
+        let o = autoact(&[
+            "import",
+            arg(&json),
+            "--layout",
+            "h36m-17",
+            "--fps",
+            "25",
+            "--action",
+            "walk",
+            "-o",
+            arg(out),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    assert_eq!(std::fs::read(&c).unwrap(), std::fs::read(&d).unwrap());
+    let info = autoact(&["info", arg(&c)]);
+    let text = String::from_utf8_lossy(&info.stdout);
+    assert!(
+        text.contains("action=walk") && text.contains("h36m-17") && text.contains("25.00"),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_corrupt_chunk_loses_only_its_frames_and_exits_3() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = pose_bag(dir.path(), "bad_crc.mcap", 300, |_, _| {});
+    let mut bytes = std::fs::read(&input).unwrap();
+    let chunks = chunk_ranges(&bytes);
+    assert!(chunks.len() >= 4);
+    let (_, end) = chunks[1];
+    bytes[end - 30] ^= 0xff;
+    std::fs::write(&input, &bytes).unwrap();
+    let out = dir.path().join("out.mcap");
+    let o = autoact(&["convert", arg(&input), "-o", arg(&out)]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("bad_crc.mcap") && err.contains("chunk 2"),
+        "{err}"
+    );
+    // Fewer input frames survive; the output rate bridges the hole, and the frames after the bad
+    // chunk are still converted.
+    let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+    let frames_in: usize = stdout
+        .split("track 0: ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap();
+    assert!(frames_in > 200 && frames_in < 300, "{stdout}");
+    let frames = bone_frames(&out);
+    assert_eq!(
+        frames.last().unwrap().0,
+        stamp_nanos_at(299, 30.0),
+        "frames after the bad chunk survive"
+    );
+}
+
+#[test]
+fn a_truncated_bag_converts_what_it_has_and_exits_3() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = pose_bag(dir.path(), "cut.mcap", 300, |_, _| {});
+    let bytes = std::fs::read(&input).unwrap();
+    let chunks = chunk_ranges(&bytes);
+    let (start, end) = chunks[2];
+    std::fs::write(&input, &bytes[..(start + end) / 2]).unwrap();
+    let out = dir.path().join("out.mcap");
+    let o = autoact(&["convert", arg(&input), "-o", arg(&out)]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("cut.mcap") && stderr(&o).contains("cut short"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!bone_frames(&out).is_empty());
+    assert_eq!(autoact(&["info", arg(&input)]).status.code(), Some(3));
+}
+
+#[test]
+fn bad_messages_are_named_and_skipped() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = pose_bag(dir.path(), "lengths.mcap", 30, |k, s| {
+        if k == 5 {
+            s.positions.pop();
+        }
+    });
+    let out = dir.path().join("out.mcap");
+    let o = autoact(&["convert", arg(&input), "-o", arg(&out)]);
+    assert_eq!(o.status.code(), Some(3));
+    let err = stderr(&o);
+    assert!(
+        err.contains("lengths.mcap: /skeleton message 5") && err.contains("equal lengths"),
+        "{err}"
+    );
+    assert_eq!(
+        bone_frames(&out).len(),
+        30,
+        "the gap is bridged at the output rate"
+    );
+
+    let input = pose_bag(dir.path(), "order.mcap", 30, |k, s| {
+        if k == 10 {
+            s.header.stamp = Time::from_nanos(stamp_nanos_at(3, 30.0));
+        }
+    });
+    let o = autoact(&["convert", arg(&input), "-o", arg(&out)]);
+    assert_eq!(o.status.code(), Some(3));
+    assert!(
+        stderr(&o).contains("/skeleton message 10") && stderr(&o).contains("non-monotonic"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn nan_positions_are_missing_joints_not_lost_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = pose_bag(dir.path(), "nan.mcap", 30, |k, s| {
+        if (10..15).contains(&k) {
+            s.positions[13].x = f64::NAN; // left wrist lost for a few frames
+        }
+    });
+    let out = dir.path().join("out.mcap");
+    let o = autoact(&["convert", arg(&input), "-o", arg(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("NaN positions") && stderr(&o).contains("/skeleton message 10"),
+        "{}",
+        stderr(&o)
+    );
+    for (_, f) in bone_frames(&out) {
+        assert!(
+            f.local_rotations
+                .iter()
+                .all(|q| q.x.is_finite() && q.w.is_finite())
+        );
+    }
+    assert!(
+        String::from_utf8_lossy(&o.stdout).contains("5 frames needed the degenerate-input path")
+    );
+}
+
+#[test]
+fn foreign_and_empty_files_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let other = dir.path().join("points.mcap");
+    let mut w = BagWriter::create(&other, WriteConfig::default()).unwrap();
+    w.write("/odom", 1, &Point::default()).unwrap();
+    w.finish().unwrap();
+    let out = dir.path().join("out.mcap");
+    let o = autoact(&["convert", arg(&other), "-o", arg(&out)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("no pose topic")
+            && stderr(&o).contains("/odom (geometry_msgs/msg/Point)"),
+        "{}",
+        stderr(&o)
+    );
+    let o = autoact(&["convert", arg(&other), "--topic", "/odom", "-o", arg(&out)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("not a pose type"), "{}", stderr(&o));
+
+    let empty = dir.path().join("empty.mcap");
+    std::fs::write(&empty, b"").unwrap();
+    for cmd in ["convert", "info"] {
+        let o = autoact(&[cmd, arg(&empty), "-o", arg(&out)][..if cmd == "info" { 2 } else { 4 }]);
+        assert_eq!(o.status.code(), Some(1));
+        assert!(stderr(&o).contains("empty.mcap is empty"), "{}", stderr(&o));
+    }
+    let o = autoact(&["import", arg(&empty), "-o", arg(&out)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("--format"), "{}", stderr(&o));
+}
+
+#[test]
+fn marker_and_pose_array_topics_need_and_use_a_layout() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("markers.mcap");
+    let mut w = BagWriter::create(&path, WriteConfig::default()).unwrap();
+    for k in 0..40 {
+        let f = h36m_frame(k);
+        let header = Header {
+            stamp: Time::from_nanos(f.stamp_nanos),
+            frame_id: "world".into(),
+        };
+        let spheres: Vec<Marker> = f
+            .positions_m
+            .iter()
+            .enumerate()
+            .map(|(j, p)| Marker {
+                header: header.clone(),
+                ns: "person".into(),
+                id: i32::try_from(j).unwrap(),
+                type_: Marker::SPHERE,
+                pose: Pose {
+                    position: Point::from(*p),
+                    ..Pose::default()
+                },
+                ..Marker::default()
+            })
+            .collect();
+        w.write("/markers", f.stamp_nanos, &MarkerArray { markers: spheres })
+            .unwrap();
+        let poses = f
+            .positions_m
+            .iter()
+            .map(|p| Pose {
+                position: Point::from(*p),
+                ..Pose::default()
+            })
+            .collect();
+        w.write("/poses", f.stamp_nanos, &PoseArray { header, poses })
+            .unwrap();
+    }
+    w.finish().unwrap();
+    let out = dir.path().join("out.mcap");
+    let o = autoact(&[
+        "convert",
+        arg(&path),
+        "--topic",
+        "/markers",
+        "-o",
+        arg(&out),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("give --layout"), "{}", stderr(&o));
+    for topic in ["/markers", "/poses"] {
+        let o = autoact(&[
+            "convert",
+            arg(&path),
+            "--topic",
+            topic,
+            "--layout",
+            "h36m-17",
+            "-o",
+            arg(&out),
+        ]);
+        assert!(o.status.success(), "{topic}: {}", stderr(&o));
+        assert_eq!(bone_frames(&out).len(), 40, "{topic}");
+    }
+}
+
+#[test]
+fn several_people_on_one_topic_become_several_tracks() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("two.mcap");
+    let mut w = BagWriter::create(&path, WriteConfig::default()).unwrap();
+    for k in 0..30 {
+        for track in [3, 8] {
+            let s = skeleton(k, track);
+            w.write("/skeleton", s.header.stamp.to_nanos().unwrap(), &s)
+                .unwrap();
+        }
+    }
+    w.finish().unwrap();
+    let out = dir.path().join("out.mcap");
+    let o = autoact(&["convert", arg(&path), "-o", arg(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let frames = bone_frames(&out);
+    assert_eq!(frames.len(), 60);
+    assert_eq!(frames.iter().filter(|(_, f)| f.track_id == 8).count(), 30);
+    let tf_frames: Vec<String> = BagReader::open(&out)
+        .unwrap()
+        .messages()
+        .map(Result::unwrap)
+        .filter(|m| m.channel.topic == "/tf")
+        .flat_map(|m| {
+            cdr::decode::<autoact::ros::tf2_msgs::TFMessage>(&m.data)
+                .unwrap()
+                .transforms
+        })
+        .map(|t| t.child_frame_id)
+        .collect();
+    assert!(
+        tf_frames.contains(&"track3/l_forearm".to_string())
+            && tf_frames.contains(&"track8/root".to_string())
+    );
+}
+
+#[test]
+fn rosbag2_directories_carry_metadata_yaml() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = pose_bag(dir.path(), "in.mcap", 30, |_, _| {});
+    let out = dir.path().join("anim");
+    let o = autoact(&["convert", arg(&input), "-o", arg(&out), "--rosbag2"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let yaml = std::fs::read_to_string(out.join("metadata.yaml")).unwrap();
+    assert!(
+        yaml.contains("storage_identifier: mcap")
+            && yaml.contains("- anim_0.mcap")
+            && yaml.contains("type: autoact_msgs/msg/BoneFrame"),
+        "{yaml}"
+    );
+    assert_eq!(bone_frames(&out.join("anim_0.mcap")).len(), 30);
+}
