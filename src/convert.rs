@@ -810,11 +810,162 @@ fn median(v: &mut [f64]) -> Option<f64> {
     Some(v[v.len() / 2])
 }
 
-/// Converts a whole sequence: fits the subject's proportions, then solves every frame.
+/// Converts a sequence one frame at a time: fits the subject's proportions on construction, then
+/// solves each frame on demand, so a caller can stream the result out without holding it.
 ///
 /// Frames whose stamp is not after the previous kept frame are dropped and listed in the report
-/// (`lost_data()` is then true); everything else is converted. Joints absent from every frame
-/// are treated as not in the layout, so the bones they would drive are reported at rest.
+/// (`lost_data()` is then true). Joints absent from every frame are treated as not in the layout,
+/// so the bones they would drive are reported at rest.
+#[derive(Debug)]
+pub struct SequenceConverter<'a> {
+    converter: Converter<'a>,
+    frames: std::borrow::Cow<'a, [PoseFrame]>,
+    next: usize,
+    last_stamp: Option<u64>,
+    dropped: Vec<(usize, u64)>,
+    pose: BonePose,
+    character: Character,
+    layout_name: String,
+    source: String,
+}
+
+impl<'a> SequenceConverter<'a> {
+    /// Prepares the conversion of `seq` (joints named as in `layout`).
+    ///
+    /// # Errors
+    /// [`ConvertError::Layout`] when the data's joints are not the layout's.
+    pub fn new(
+        rig: &'a Rig,
+        layout: &Layout,
+        seq: &'a PoseSequence,
+        options: ConvertOptions,
+    ) -> Result<Self, ConvertError> {
+        let layout_err = |source| ConvertError::Layout {
+            source_name: seq.source.clone(),
+            source,
+        };
+        let order = layout.joint_order(&seq.joint_names).map_err(layout_err)?;
+        let identity_order = seq.joint_names.len() == layout.joints.len()
+            && order.iter().enumerate().all(|(k, i)| *i == Some(k));
+        let frames: std::borrow::Cow<'a, [PoseFrame]> = if identity_order {
+            std::borrow::Cow::Borrowed(&seq.frames)
+        } else {
+            std::borrow::Cow::Owned(
+                seq.frames
+                    .iter()
+                    .map(|f| Layout::reorder(&order, f))
+                    .collect(),
+            )
+        };
+        // Joints the source never provides (face points from mocap, hands from a body-only
+        // tracker) are not in this data: their bones are reported at rest, not missing in every
+        // frame.
+        let present: Vec<bool> = (0..layout.joints.len())
+            .map(|j| {
+                frames.iter().any(|f| {
+                    f.confidence.get(j).is_some_and(|&c| c > 0.0)
+                        && f.positions_m
+                            .get(j)
+                            .is_some_and(|p| p.coords.iter().all(|v| v.is_finite()))
+                })
+            })
+            .collect();
+        let restricted;
+        let layout = if present.iter().all(|&p| p) {
+            layout
+        } else {
+            restricted = layout.restricted(&present);
+            &restricted
+        };
+        let binding = layout.bind(rig).map_err(layout_err)?;
+        let character = fit_character(rig, &binding, &frames, options);
+        let converter = Converter::with_binding(rig, binding, &character, options);
+        Ok(SequenceConverter {
+            converter,
+            frames,
+            next: 0,
+            last_stamp: None,
+            dropped: Vec::new(),
+            pose: BonePose::rest(rig),
+            character,
+            layout_name: layout.name.clone(),
+            source: seq.source.clone(),
+        })
+    }
+
+    /// The body fitted to the subject; root translations are in its metres.
+    #[must_use]
+    pub fn character(&self) -> &Character {
+        &self.character
+    }
+
+    /// Name of the layout the data is in.
+    #[must_use]
+    pub fn layout_name(&self) -> &str {
+        &self.layout_name
+    }
+
+    /// Which bones the data drives (the report's coverage, known before any frame is solved).
+    #[must_use]
+    pub fn coverage(&self) -> &Coverage {
+        &self.converter.report().coverage
+    }
+
+    /// Stamp of the next input frame, if any.
+    #[must_use]
+    pub fn peek_stamp(&self) -> Option<u64> {
+        self.frames.get(self.next).map(|f| f.stamp_nanos)
+    }
+
+    /// Solves the next frame: its stamp and pose (valid until the next call).
+    ///
+    /// # Errors
+    /// [`ConvertError::WrongJointCount`] for a frame whose arrays do not match the layout.
+    pub fn next_frame(&mut self) -> Option<Result<(u64, &BonePose), ConvertError>> {
+        loop {
+            let i = self.next;
+            let f = self.frames.get(i)?;
+            self.next += 1;
+            if self.last_stamp.is_some_and(|s| f.stamp_nanos <= s) {
+                self.dropped.push((i, f.stamp_nanos));
+                continue;
+            }
+            let stamp = f.stamp_nanos;
+            if let Err(e) = self.converter.convert_frame(f, &mut self.pose) {
+                let e = match e {
+                    ConvertError::WrongJointCount {
+                        found,
+                        confidences,
+                        expected,
+                        layout,
+                        ..
+                    } => ConvertError::WrongJointCount {
+                        source_name: self.source.clone(),
+                        frame: i,
+                        found,
+                        confidences,
+                        expected,
+                        layout,
+                    },
+                    other => other,
+                };
+                return Some(Err(e));
+            }
+            self.last_stamp = Some(stamp);
+            return Some(Ok((stamp, &self.pose)));
+        }
+    }
+
+    /// Ends the conversion: the fitted body and the report.
+    #[must_use]
+    pub fn finish(self) -> (Character, ConversionReport) {
+        let mut report = self.converter.into_report();
+        report.dropped_non_monotonic = self.dropped;
+        (self.character, report)
+    }
+}
+
+/// Converts a whole sequence into memory (see [`SequenceConverter`] to stream instead).
 ///
 /// # Errors
 /// [`ConvertError`] when the layout does not match the data or no frame is usable.
@@ -824,75 +975,13 @@ pub fn convert_sequence(
     seq: &PoseSequence,
     options: ConvertOptions,
 ) -> Result<Animation, ConvertError> {
-    let layout_err = |source| ConvertError::Layout {
-        source_name: seq.source.clone(),
-        source,
-    };
-    let order = layout.joint_order(&seq.joint_names).map_err(layout_err)?;
-    let identity_order = seq.joint_names.len() == layout.joints.len()
-        && order.iter().enumerate().all(|(k, i)| *i == Some(k));
-    let reordered: Vec<PoseFrame>;
-    let frames: &[PoseFrame] = if identity_order {
-        &seq.frames
-    } else {
-        reordered = seq
-            .frames
-            .iter()
-            .map(|f| Layout::reorder(&order, f))
-            .collect();
-        &reordered
-    };
-    // Joints the source never provides (face points from mocap, hands from a body-only tracker)
-    // are not in this data: their bones are reported at rest, not missing in every frame.
-    let present: Vec<bool> = (0..layout.joints.len())
-        .map(|j| {
-            frames.iter().any(|f| {
-                f.confidence.get(j).is_some_and(|&c| c > 0.0)
-                    && f.positions_m
-                        .get(j)
-                        .is_some_and(|p| p.coords.iter().all(|v| v.is_finite()))
-            })
-        })
-        .collect();
-    let restricted;
-    let layout = if present.iter().all(|&p| p) {
-        layout
-    } else {
-        restricted = layout.restricted(&present);
-        &restricted
-    };
-    let binding = layout.bind(rig).map_err(layout_err)?;
-    let character = fit_character(rig, &binding, frames, options);
-    let mut converter = Converter::with_binding(rig, binding, &character, options);
-    let mut out_frames = Vec::with_capacity(frames.len());
-    let mut dropped = Vec::new();
-    let mut pose = BonePose::rest(rig);
-    let mut last_stamp: Option<u64> = None;
-    for (i, f) in frames.iter().enumerate() {
-        if last_stamp.is_some_and(|s| f.stamp_nanos <= s) {
-            dropped.push((i, f.stamp_nanos));
-            continue;
-        }
-        converter.convert_frame(f, &mut pose).map_err(|e| match e {
-            ConvertError::WrongJointCount {
-                found,
-                confidences,
-                expected,
-                layout,
-                ..
-            } => ConvertError::WrongJointCount {
-                source_name: seq.source.clone(),
-                frame: i,
-                found,
-                confidences,
-                expected,
-                layout,
-            },
-            other => other,
-        })?;
-        last_stamp = Some(f.stamp_nanos);
+    let mut sc = SequenceConverter::new(rig, layout, seq, options)?;
+    let layout_name = sc.layout_name().to_string();
+    let mut out_frames = Vec::with_capacity(seq.frames.len());
+    while let Some(step) = sc.next_frame() {
+        let (stamp_nanos, pose) = step?;
         out_frames.push(AnimationFrame {
-            stamp_nanos: f.stamp_nanos,
+            stamp_nanos,
             pose: pose.clone(),
         });
     }
@@ -901,11 +990,10 @@ pub fn convert_sequence(
             source_name: seq.source.clone(),
         });
     }
-    let mut report = converter.into_report();
-    report.dropped_non_monotonic = dropped;
+    let (character, report) = sc.finish();
     Ok(Animation {
         rig_name: rig.name.to_string(),
-        layout_name: layout.name.clone(),
+        layout_name,
         source: seq.source.clone(),
         character,
         frames: out_frames,

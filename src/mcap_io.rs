@@ -91,6 +91,8 @@ pub struct BagWriter<W: Write + Seek> {
     sequences: BTreeMap<u16, u32>,
     stats: BagStats,
     journal: Option<Journal>,
+    /// Reused encoding buffer.
+    payload: Vec<u8>,
 }
 
 /// What a finished bag holds, per topic (for `metadata.yaml` and reports).
@@ -178,6 +180,9 @@ impl<W: Write + Seek> BagWriter<W> {
             .compression(compression)
             .chunk_size(Some(config.chunk_size_bytes))
             .compression_threads(0)
+            // Level 1: about twice as fast as zstd's default for ~10% more bytes; conversion
+            // throughput is bounded by compression otherwise.
+            .compression_level(1)
             .create(w)
             .map_err(|source| McapIoError::Mcap {
                 action: "cannot start MCAP file",
@@ -192,6 +197,7 @@ impl<W: Write + Seek> BagWriter<W> {
             sequences: BTreeMap::new(),
             stats: BagStats::default(),
             journal: None,
+            payload: Vec::with_capacity(4096),
         })
     }
 
@@ -247,7 +253,8 @@ impl<W: Write + Seek> BagWriter<W> {
         msg: &M,
     ) -> Result<(), McapIoError> {
         let channel_id = self.channel_for::<M>(topic)?;
-        let payload = ros::cdr::encode(msg).map_err(|source| McapIoError::Encode {
+        let mut payload = std::mem::take(&mut self.payload);
+        ros::cdr::encode_into(msg, &mut payload).map_err(|source| McapIoError::Encode {
             path: self.path.clone(),
             topic: topic.to_string(),
             type_name: M::TYPE_NAME,
@@ -280,14 +287,13 @@ impl<W: Write + Seek> BagWriter<W> {
             log_time: log_time_nanos,
             publish_time: log_time_nanos,
         };
-        let path = self.path.clone();
-        self.writer
-            .write_to_known_channel(&header, &payload)
-            .map_err(|source| McapIoError::Mcap {
-                action: "cannot write a message to",
-                path,
-                source,
-            })
+        let result = self.writer.write_to_known_channel(&header, &payload);
+        self.payload = payload;
+        result.map_err(|source| McapIoError::Mcap {
+            action: "cannot write a message to",
+            path: self.path.clone(),
+            source,
+        })
     }
 
     /// Writes a metadata record (e.g. the dataset label).

@@ -2,7 +2,6 @@
 
 use super::*;
 use crate::ros::geometry_msgs::Point;
-use crate::ros::std_msgs::Header;
 use crate::ros::tf2_msgs::TFMessage;
 
 fn point(i: u64) -> Point {
@@ -128,7 +127,7 @@ fn a_corrupt_chunk_costs_only_its_own_messages() {
         let (good, _) = read_all(&path);
         let mut bytes = std::fs::read(&path).unwrap();
         let chunks = chunk_ranges(&bytes);
-        let (start, end) = chunks[1];
+        let (_, end) = chunks[1];
         // Flip bytes near the end of the chunk's record data.
         bytes[end - 20] ^= 0x5a;
         bytes[end - 21] ^= 0x33;
@@ -151,7 +150,6 @@ fn a_corrupt_chunk_costs_only_its_own_messages() {
             msgs.last().map(|m| m.log_time),
             good.last().map(|m| m.log_time)
         );
-        let _ = start;
     }
 }
 
@@ -208,5 +206,4 @@ fn header_only_garbage_never_panics() {
         let (msgs, _) = read_all(&path);
         assert!(msgs.len() <= 55);
     }
-    let _ = Header::default();
 }

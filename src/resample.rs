@@ -11,51 +11,6 @@ use crate::convert::AnimationFrame;
 use crate::fk::BonePose;
 use crate::pose::stamp_nanos_at;
 
-/// Where a time falls in a sorted list of frames.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Sample {
-    /// Exactly on frame `i`.
-    Exact(usize),
-    /// Before the first frame.
-    Before,
-    /// After the last frame.
-    After,
-    /// Between frames `i` and `i + 1`, a fraction `s` in (0, 1) of the way.
-    Between(usize, f64),
-}
-
-/// Locates `t` among frames with strictly increasing stamps, starting the search at `hint`
-/// (monotone queries walk forward in O(1) amortised).
-#[must_use]
-pub fn locate(frames: &[AnimationFrame], t: u64, hint: usize) -> Sample {
-    let (Some(first), Some(last)) = (frames.first(), frames.last()) else {
-        return Sample::After;
-    };
-    if t < first.stamp_nanos {
-        return Sample::Before;
-    }
-    if t > last.stamp_nanos {
-        return Sample::After;
-    }
-    let mut i = hint.min(frames.len() - 1);
-    if frames[i].stamp_nanos > t {
-        i = 0;
-    }
-    while i + 1 < frames.len() && frames[i + 1].stamp_nanos <= t {
-        i += 1;
-    }
-    if frames[i].stamp_nanos == t {
-        return Sample::Exact(i);
-    }
-    let (a, b) = (frames[i].stamp_nanos, frames[i + 1].stamp_nanos);
-    #[expect(
-        clippy::cast_precision_loss,
-        reason = "stamp differences within a clip are far below 2^52 ns"
-    )]
-    let s = (t - a) as f64 / (b - a) as f64;
-    Sample::Between(i, s)
-}
-
 /// Interpolates two poses: slerp per bone, lerp for the root translation.
 #[must_use]
 pub fn interpolate(a: &BonePose, b: &BonePose, s: f64) -> BonePose {
@@ -77,45 +32,114 @@ pub fn slerp(a: &UnitQuaternion<f64>, b: &UnitQuaternion<f64>, s: f64) -> UnitQu
     a.try_slerp(&b, s, 1e-12).unwrap_or_else(|| a.nlerp(&b, s))
 }
 
-/// Resamples `frames` (strictly increasing stamps) at `fps`.
+/// Resamples a stream of frames at a fixed rate as they arrive: push each input frame (strictly
+/// increasing stamps); every output frame whose time is reached is handed to the callback, in
+/// order. Memory is two poses, whatever the length.
+#[derive(Debug, Clone)]
+pub struct Resampler {
+    fps: f64,
+    first: Option<u64>,
+    /// Index of the next output frame.
+    k: usize,
+    previous: Option<(u64, BonePose)>,
+    scratch: Option<BonePose>,
+    tolerance: u64,
+}
+
+impl Resampler {
+    /// A resampler to `fps` frames per second (positive).
+    #[must_use]
+    pub fn new(fps: f64) -> Resampler {
+        // Stamps written at a nominal rate carry rounding (1/30 s is not a whole number of ns, a
+        // BVH frame time has 7 digits): an output time this close past the last input is it.
+        Resampler {
+            fps,
+            first: None,
+            k: 0,
+            previous: None,
+            scratch: None,
+            tolerance: stamp_nanos_at(1, fps * 1000.0),
+        }
+    }
+
+    fn next_time(&self) -> Option<u64> {
+        self.first.map(|f| f + stamp_nanos_at(self.k, self.fps))
+    }
+
+    /// Takes the next input frame and emits the output frames up to its time.
+    pub fn push(&mut self, stamp: u64, pose: &BonePose, emit: &mut impl FnMut(u64, &BonePose)) {
+        if self.first.is_none() {
+            self.first = Some(stamp);
+        }
+        while let Some(t) = self.next_time() {
+            if t == stamp {
+                emit(t, pose);
+            } else if t < stamp {
+                let Some((t0, p0)) = &self.previous else {
+                    break;
+                };
+                #[expect(
+                    clippy::cast_precision_loss,
+                    reason = "stamp differences within a clip are far below 2^52 ns"
+                )]
+                let s = (t - t0) as f64 / (stamp - t0) as f64;
+                let scratch = self.scratch.get_or_insert_with(|| pose.clone());
+                interpolate_into(p0, pose, s, scratch);
+                emit(t, scratch);
+            } else {
+                break;
+            }
+            self.k += 1;
+        }
+        match &mut self.previous {
+            Some((t, p)) => {
+                *t = stamp;
+                p.root_translation_m = pose.root_translation_m;
+                p.local_rotations.clone_from(&pose.local_rotations);
+            }
+            None => self.previous = Some((stamp, pose.clone())),
+        }
+    }
+
+    /// Ends the stream: an output time within rounding of the last input is emitted as it.
+    pub fn finish(mut self, emit: &mut impl FnMut(u64, &BonePose)) {
+        if let (Some(t), Some((last, pose))) = (self.next_time(), self.previous.take())
+            && t > last
+            && t - last <= self.tolerance
+        {
+            emit(last, &pose);
+        }
+    }
+}
+
+/// [`interpolate`] into an existing pose (no allocation).
+pub fn interpolate_into(a: &BonePose, b: &BonePose, s: f64, out: &mut BonePose) {
+    out.root_translation_m = a.root_translation_m.lerp(&b.root_translation_m, s);
+    for ((o, qa), qb) in out
+        .local_rotations
+        .iter_mut()
+        .zip(&a.local_rotations)
+        .zip(&b.local_rotations)
+    {
+        *o = slerp(qa, qb, s);
+    }
+}
+
+/// Resamples `frames` (strictly increasing stamps) at `fps` (see [`Resampler`]).
 #[must_use]
 pub fn resample(frames: &[AnimationFrame], fps: f64) -> Vec<AnimationFrame> {
-    let (Some(first), Some(last)) = (frames.first(), frames.last()) else {
-        return Vec::new();
-    };
     let mut out = Vec::new();
-    let mut hint = 0;
-    // Stamps written at a nominal rate carry rounding (1/30 s is not a whole number of ns, a BVH
-    // frame time has 7 digits): an output time this close past the last input is that input.
-    let tolerance = stamp_nanos_at(1, fps * 1000.0);
-    for k in 0.. {
-        let mut t = first.stamp_nanos + stamp_nanos_at(k, fps);
-        if t > last.stamp_nanos && t - last.stamp_nanos <= tolerance {
-            t = last.stamp_nanos;
-        }
-        if t > last.stamp_nanos
-            || out
-                .last()
-                .is_some_and(|f: &AnimationFrame| f.stamp_nanos >= t)
-        {
-            break;
-        }
-        let pose = match locate(frames, t, hint) {
-            Sample::Exact(i) => {
-                hint = i;
-                frames[i].pose.clone()
-            }
-            Sample::Between(i, s) => {
-                hint = i;
-                interpolate(&frames[i].pose, &frames[i + 1].pose, s)
-            }
-            Sample::Before | Sample::After => break,
-        };
+    let mut r = Resampler::new(fps);
+    let mut emit = |stamp_nanos: u64, pose: &BonePose| {
         out.push(AnimationFrame {
-            stamp_nanos: t,
-            pose,
-        });
+            stamp_nanos,
+            pose: pose.clone(),
+        })
+    };
+    for f in frames {
+        r.push(f.stamp_nanos, &f.pose, &mut emit);
     }
+    r.finish(&mut emit);
     out
 }
 
@@ -174,16 +198,6 @@ mod tests {
         let out = resample(&frames, 30.0);
         assert_eq!(out.len(), 60);
         assert_eq!(out.last().unwrap().stamp_nanos, 59 * 33_333_333);
-    }
-
-    #[test]
-    fn locate_reports_every_case() {
-        let frames = vec![frame(10, 0.0), frame(20, 0.0)];
-        assert_eq!(locate(&frames, 5, 0), Sample::Before);
-        assert_eq!(locate(&frames, 25, 0), Sample::After);
-        assert_eq!(locate(&frames, 20, 0), Sample::Exact(1));
-        assert_eq!(locate(&frames, 15, 1), Sample::Between(0, 0.5));
-        assert_eq!(locate(&[], 15, 0), Sample::After);
     }
 
     proptest! {

@@ -1,16 +1,18 @@
 //! `autoact convert`: a pose bag → an animation bag.
 
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 
 use super::{BagOutput, Outcome, OutputArgs, file_name, print_stdout, warn_list};
-use crate::animation_bag::{self, Track};
-use crate::convert::{Animation, ConvertOptions, RootMotion, convert_sequence};
+use crate::animation_bag::{TF_STATIC_TOPIC, TrackWriter};
+use crate::convert::{ConvertOptions, RootMotion, SequenceConverter};
 use crate::layout::Layout;
 use crate::pose_bag::{self, METADATA_NAME};
-use crate::resample::resample;
+use crate::resample::Resampler;
 use crate::rig::Rig;
+use crate::ros::tf2_msgs::TFMessage;
 
 /// Arguments of `autoact convert`.
 #[derive(Debug, clap::Args)]
@@ -82,7 +84,15 @@ pub fn run(args: Args) -> Result<Outcome> {
         root_motion,
         ..ConvertOptions::default()
     };
-    let mut animations: Vec<Animation> = Vec::new();
+    // Prepare every person (fit the body, bind the layout), then stream all of them out in time
+    // order: each input frame is solved, resampled and written at once.
+    let mut people: Vec<Person<'_>> = Vec::new();
+    let prefixed = topics
+        .sequences
+        .iter()
+        .filter(|(_, s)| !s.frames.is_empty())
+        .count()
+        > 1;
     for ((topic, seq), layout_name) in topics.sequences.iter().zip(&topics.layouts) {
         if seq.frames.is_empty() {
             continue;
@@ -93,63 +103,126 @@ pub fn run(args: Args) -> Result<Outcome> {
                 format!("{topic}: its messages name the layout `{layout_name}`; give --layout")
             })?,
         };
-        let animation = convert_sequence(&rig, &layout, seq, options)
+        let converter = SequenceConverter::new(&rig, &layout, seq, options)
             .with_context(|| format!("converting {topic} track {}", seq.track_id))?;
-        animations.push(animation);
-    }
-    if animations.is_empty() {
-        bail!("{}: no frames could be converted", input.display());
-    }
-    let resampled: Vec<_> = animations
-        .iter()
-        .map(|a| resample(&a.frames, fps))
-        .collect();
-    let tracks: Vec<Track<'_>> = topics
-        .sequences
-        .iter()
-        .filter(|(_, s)| !s.frames.is_empty())
-        .zip(&animations)
-        .zip(&resampled)
-        .map(|(((_, seq), animation), frames)| Track {
-            animation,
-            frames,
+        let writer = TrackWriter::new(
+            &rig,
+            converter.character().clone(),
+            converter.coverage(),
+            seq.track_id,
+            prefixed,
+        );
+        people.push(Person {
             track_id: seq.track_id,
-        })
-        .collect();
+            converter,
+            resampler: Resampler::new(fps),
+            writer,
+            frames_out: 0,
+        });
+    }
+    let Some(first) = people.iter().filter_map(|p| p.converter.peek_stamp()).min() else {
+        bail!("{}: no frames could be converted", input.display());
+    };
 
     let mut out = BagOutput::create(&output)?;
     for (name, record) in &topics.metadata {
         out.writer.write_metadata(name, record.clone())?;
     }
-    let mut meta = animation_bag::convert_metadata(&rig, &tracks, fps, &file_name(&input));
-    meta.insert("root_motion".into(), format!("{root_motion:?}"));
+    let mut meta = BTreeMap::new();
+    meta.insert("rig".to_string(), rig.name.to_string());
+    meta.insert("source".to_string(), file_name(&input));
+    meta.insert("fps".to_string(), format!("{fps}"));
+    meta.insert("root_motion".to_string(), format!("{root_motion:?}"));
+    meta.insert(
+        "tracks".to_string(),
+        people
+            .iter()
+            .map(|p| p.track_id.to_string())
+            .collect::<Vec<_>>()
+            .join(","),
+    );
+    meta.insert(
+        "layouts".to_string(),
+        people
+            .iter()
+            .map(|p| p.converter.layout_name().to_string())
+            .collect::<Vec<_>>()
+            .join(","),
+    );
     out.writer
         .write_metadata(&format!("{METADATA_NAME}.convert"), meta)?;
-    animation_bag::write_animation(&mut out.writer, &rig, &tracks)?;
-    out.finish()?;
+    let statics = people
+        .iter()
+        .flat_map(|p| p.writer.static_transforms(first))
+        .collect();
+    out.writer.write(
+        TF_STATIC_TOPIC,
+        first,
+        &TFMessage {
+            transforms: statics,
+        },
+    )?;
 
+    // Always advance the person whose next input frame is earliest.
+    while let Some(k) = (0..people.len())
+        .filter(|&k| people[k].converter.peek_stamp().is_some())
+        .min_by_key(|&k| people[k].converter.peek_stamp())
+    {
+        let Person {
+            converter,
+            resampler,
+            writer,
+            frames_out,
+            ..
+        } = &mut people[k];
+        let Some(step) = converter.next_frame() else {
+            continue;
+        };
+        let (stamp, pose) = step?;
+        let mut result = Ok(());
+        resampler.push(stamp, pose, &mut |t, p| {
+            if result.is_ok() {
+                result = writer.write_frame(&mut out.writer, t, p);
+                *frames_out += 1;
+            }
+        });
+        result?;
+    }
     let mut text = format!("wrote {}\n", output.output.display());
     let mut lost = topics.lost_data();
-    for t in &tracks {
-        let r = &t.animation.report;
-        lost |= r.lost_data();
+    for person in people {
+        let Person {
+            track_id,
+            converter,
+            resampler,
+            mut writer,
+            mut frames_out,
+        } = person;
+        let mut result = Ok(());
+        resampler.finish(&mut |t, p| {
+            if result.is_ok() {
+                result = writer.write_frame(&mut out.writer, t, p);
+                frames_out += 1;
+            }
+        });
+        result?;
+        let layout_name = converter.layout_name().to_string();
+        let (_, report) = converter.finish();
+        lost |= report.lost_data();
         text.push_str(&format!(
-            "  track {}: {} frames in, {} out at {fps} fps; {} frames needed the degenerate-input path; {} bones at rest ({})\n",
-            t.track_id,
-            r.frames,
-            t.frames.len(),
-            r.degenerate_frames,
-            r.coverage.at_rest.len(),
-            t.animation.layout_name,
+            "  track {track_id}: {} frames in, {frames_out} out at {fps} fps; {} frames needed the degenerate-input path; {} bones at rest ({layout_name})\n",
+            report.frames,
+            report.degenerate_frames,
+            report.coverage.at_rest.len(),
         ));
-        if !r.dropped_non_monotonic.is_empty() {
+        if !report.dropped_non_monotonic.is_empty() {
             tracing::warn!(
-                "track {}: {} frames dropped for non-monotonic stamps",
-                t.track_id,
-                r.dropped_non_monotonic.len()
+                "track {track_id}: {} frames dropped for non-monotonic stamps",
+                report.dropped_non_monotonic.len()
             );
         }
     }
+    out.finish()?;
     print_stdout(&text)?;
     if lost {
         tracing::error!(
@@ -161,4 +234,13 @@ pub fn run(args: Args) -> Result<Outcome> {
         return Ok(Outcome::DataLost);
     }
     Ok(Outcome::Success)
+}
+
+/// One person being converted.
+struct Person<'a> {
+    track_id: u64,
+    converter: SequenceConverter<'a>,
+    resampler: Resampler,
+    writer: TrackWriter<'a>,
+    frames_out: u64,
 }

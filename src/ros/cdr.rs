@@ -30,10 +30,19 @@ pub enum CdrError {
 /// [`crate::ros`]).
 pub fn encode<M: Serialize>(msg: &M) -> Result<Vec<u8>, CdrError> {
     let mut out = Vec::with_capacity(256);
-    out.extend_from_slice(&HEADER_LE);
-    cdr_encoding::to_writer::<_, byteorder::LittleEndian, _>(&mut out, msg)
-        .map_err(|e| CdrError::Body(e.to_string()))?;
+    encode_into(msg, &mut out)?;
     Ok(out)
+}
+
+/// Encodes a message into `out`, replacing its contents (a reusable buffer).
+///
+/// # Errors
+/// As [`encode`].
+pub fn encode_into<M: Serialize>(msg: &M, out: &mut Vec<u8>) -> Result<(), CdrError> {
+    out.clear();
+    out.extend_from_slice(&HEADER_LE);
+    cdr_encoding::to_writer::<_, byteorder::LittleEndian, _>(&mut *out, msg)
+        .map_err(|e| CdrError::Body(e.to_string()))
 }
 
 /// Decodes a message with its encapsulation header (little- or big-endian plain CDR).

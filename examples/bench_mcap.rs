@@ -1,0 +1,140 @@
+//! MCAP throughput of autoact's writer and reader on H36M-17 skeleton messages, for
+//! `tools/bench_mcap.py` (which runs the Python `mcap` writer and reader on the same messages in
+//! the same run and prints the ratios).
+//!
+//! Usage:
+//!   `bench_mcap write FRAMES OUT.mcap [FPS]` — synthesise FRAMES skeletons at FPS (default 30;
+//!                                        a walking, waving body) and write them; prints
+//!                                        `write_s BYTES PAYLOAD_BYTES`
+//!   `bench_mcap read IN.mcap`           — read and CDR-decode every message; prints `read_s BYTES`
+//!   `bench_mcap json FRAMES OUT.json [FPS]` — the same skeletons as JSON lines, for Python
+//!
+//! Timing is the best of three runs (the machine is shared); the printed seconds are wall time.
+
+#![expect(
+    clippy::print_stdout,
+    clippy::print_stderr,
+    reason = "a benchmark tool prints its measurements"
+)]
+
+use std::io::Write;
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use autoact::character::Character;
+use autoact::fk::{self, BonePose};
+use autoact::layout::Layout;
+use autoact::mcap_io::{BagReader, BagWriter, WriteConfig};
+use autoact::pose::{PoseSequence, stamp_nanos_at};
+use autoact::pose_bag::skeleton_message;
+use autoact::rig::{Dof, Rig};
+use autoact::ros::autoact_msgs::Skeleton3D;
+use autoact::ros::cdr;
+use nalgebra::{UnitQuaternion, Vector3};
+
+fn synthesize(frames: usize, fps: f64) -> PoseSequence {
+    let rig = Rig::standard();
+    let layout = Layout::builtin("h36m-17").expect("built-in layout");
+    let character = Character::standard(&rig);
+    let mut pose = BonePose::rest(&rig);
+    let arm = rig.bone_index("r_upper_arm").expect("bone");
+    let frames = (0..frames)
+        .map(|k| {
+            #[expect(clippy::cast_precision_loss, reason = "frame counts are small")]
+            let t = k as f64 / fps;
+            for (b, bone) in rig.bones.iter().enumerate() {
+                if let Dof::Hinge { axis } = bone.dof {
+                    pose.local_rotations[b] =
+                        UnitQuaternion::from_axis_angle(&axis, 0.5 + 0.3 * (2.0 * t).sin());
+                }
+            }
+            pose.local_rotations[arm] =
+                UnitQuaternion::from_axis_angle(&Vector3::y_axis(), -1.0 + 0.5 * (3.0 * t).sin());
+            pose.local_rotations[0] = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 0.1 * t);
+            pose.root_translation_m = Vector3::new(0.0, 0.8 * t, 0.0);
+            let world = fk::forward(&rig, &character, &pose, 1.0);
+            layout.keypoints_from_rig(&rig, &character, &world, stamp_nanos_at(k, fps))
+        })
+        .collect();
+    PoseSequence {
+        source: "synthetic".into(),
+        track_id: 0,
+        joint_names: layout.joints.clone(),
+        frames,
+    }
+}
+
+fn best_of_three(mut f: impl FnMut() -> Result<()>) -> Result<f64> {
+    let mut best = f64::INFINITY;
+    for _ in 0..3 {
+        let t = Instant::now();
+        f()?;
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    Ok(best)
+}
+
+fn main() -> Result<()> {
+    let args: Vec<String> = std::env::args().collect();
+    match args.get(1).map(String::as_str) {
+        Some("write") => {
+            let n: usize = args.get(2).context("FRAMES")?.parse()?;
+            let out = Path::new(args.get(3).context("OUT")?);
+            let fps: f64 = args.get(4).map_or(Ok(30.0), |f| f.parse())?;
+            let seq = synthesize(n, fps);
+            let messages: Vec<Skeleton3D> = seq
+                .frames
+                .iter()
+                .map(|f| skeleton_message(&seq, f, "h36m-17"))
+                .collect();
+            let payload: usize = messages
+                .iter()
+                .map(|m| cdr::encode(m).map(|b| b.len()).unwrap_or(0))
+                .sum();
+            let seconds = best_of_three(|| {
+                let mut w = BagWriter::create(out, WriteConfig::default())?;
+                for (m, f) in messages.iter().zip(&seq.frames) {
+                    w.write("/skeleton", f.stamp_nanos, m)?;
+                }
+                w.finish()?;
+                Ok(())
+            })?;
+            let bytes = std::fs::metadata(out)?.len();
+            println!("write_s {seconds:.6} {bytes} {payload}");
+        }
+        Some("read") => {
+            let input = Path::new(args.get(2).context("IN")?);
+            let mut count = 0usize;
+            let seconds = best_of_three(|| {
+                count = 0;
+                let reader = BagReader::open(input)?;
+                for m in reader.messages() {
+                    let m = m?;
+                    let s: Skeleton3D = cdr::decode(&m.data)?;
+                    count += s.positions.len();
+                }
+                Ok(())
+            })?;
+            let bytes = std::fs::metadata(input)?.len();
+            println!("read_s {seconds:.6} {bytes} {count}");
+        }
+        Some("json") => {
+            let n: usize = args.get(2).context("FRAMES")?.parse()?;
+            let out = args.get(3).context("OUT")?;
+            let fps: f64 = args.get(4).map_or(Ok(30.0), |f| f.parse())?;
+            let seq = synthesize(n, fps);
+            let mut w = std::io::BufWriter::new(std::fs::File::create(out)?);
+            for f in &seq.frames {
+                let p: Vec<[f64; 3]> = f.positions_m.iter().map(|p| [p.x, p.y, p.z]).collect();
+                writeln!(
+                    w,
+                    "{}",
+                    serde_json::json!({"stamp": f.stamp_nanos, "positions": p, "confidence": f.confidence})
+                )?;
+            }
+        }
+        _ => bail!("usage: bench_mcap write FRAMES OUT.mcap | read IN.mcap | json FRAMES OUT.json"),
+    }
+    Ok(())
+}
