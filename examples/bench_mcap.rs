@@ -11,7 +11,10 @@
 //!
 //! Timing is the best of three runs (the machine is shared); the printed seconds are wall time.
 
-#![expect(clippy::print_stdout, reason = "a benchmark tool prints its measurements")]
+#![expect(
+    clippy::print_stdout,
+    reason = "a benchmark tool prints its measurements"
+)]
 
 use std::io::Write;
 use std::path::Path;
