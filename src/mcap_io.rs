@@ -77,6 +77,11 @@ pub enum McapIoError {
     /// The file is empty.
     #[error("{0} is empty (0 bytes): not an MCAP file")]
     Empty(PathBuf),
+    /// A directory given as a bag holds no `.mcap` file.
+    #[error(
+        "{0} is a directory with no .mcap file in it (a rosbag2 directory holds metadata.yaml and .mcap files)"
+    )]
+    NoMcapInDirectory(PathBuf),
     /// The file does not start with the MCAP magic.
     #[error("{0} is not an MCAP file (it does not start with the MCAP magic bytes)")]
     NotMcap(PathBuf),
@@ -532,6 +537,31 @@ impl BagReader {
             path: path.to_path_buf(),
             map,
         })
+    }
+
+    /// Opens a bag given as a file, or as a rosbag2 directory: its `.mcap` files in name order
+    /// (rosbag2 splits long recordings into several).
+    ///
+    /// # Errors
+    /// As [`BagReader::open`], or [`McapIoError::NoMcapInDirectory`].
+    pub fn open_all(path: &Path) -> Result<Vec<BagReader>, McapIoError> {
+        if !path.is_dir() {
+            return Ok(vec![BagReader::open(path)?]);
+        }
+        let entries = std::fs::read_dir(path).map_err(|source| McapIoError::Io {
+            action: "cannot list",
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let mut files: Vec<PathBuf> = entries
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|e| e == "mcap"))
+            .collect();
+        files.sort();
+        if files.is_empty() {
+            return Err(McapIoError::NoMcapInDirectory(path.to_path_buf()));
+        }
+        files.iter().map(|f| BagReader::open(f)).collect()
     }
 
     /// The file's path.

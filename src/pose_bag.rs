@@ -165,15 +165,18 @@ pub fn read_pose_topics(
     topic: Option<&str>,
     layout: Option<&crate::layout::Layout>,
 ) -> Result<PoseTopics, PoseBagError> {
-    let reader = BagReader::open(path)?;
-    let path_s = path.display().to_string();
+    let readers = BagReader::open_all(path)?;
     let mut tracks: BTreeMap<(String, u64), (PoseSequence, String)> = BTreeMap::new();
     let mut skipped = Vec::new();
     let mut issues = Vec::new();
     let mut nan_first = Vec::new();
     let mut nan_total = 0u64;
     let mut seen_topics: BTreeMap<String, String> = BTreeMap::new();
-    for item in reader.messages() {
+    for (reader, item) in readers
+        .iter()
+        .flat_map(|r| r.messages().map(move |m| (r, m)))
+    {
+        let path_s = reader.path().display().to_string();
         let msg = match item {
             Ok(m) => m,
             Err(issue) => {
@@ -295,7 +298,10 @@ pub fn read_pose_topics(
             ),
         };
         if issues.is_empty() {
-            return Err(PoseBagError::NoPoseTopic { path: path_s, why });
+            return Err(PoseBagError::NoPoseTopic {
+                path: path.display().to_string(),
+                why,
+            });
         }
     }
     let mut sequences = Vec::new();
@@ -310,7 +316,7 @@ pub fn read_pose_topics(
         skipped,
         issues,
         nan_messages: (nan_first, nan_total),
-        metadata: reader.metadata(),
+        metadata: readers.iter().flat_map(BagReader::metadata).collect(),
     })
 }
 

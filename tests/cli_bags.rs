@@ -501,4 +501,16 @@ fn rosbag2_directories_carry_metadata_yaml() {
         "{yaml}"
     );
     assert_eq!(bone_frames(&out.join("anim_0.mcap")).len(), 30);
+    // A rosbag2 directory is a bag too, as input.
+    let info = autoact(&["info", arg(&out)]);
+    assert!(
+        info.status.success() && String::from_utf8_lossy(&info.stdout).contains("/animation"),
+        "{}",
+        stderr(&info)
+    );
+    let none = dir.path().join("none");
+    std::fs::create_dir(&none).unwrap();
+    let o = autoact(&["info", arg(&none)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("no .mcap file"), "{}", stderr(&o));
 }

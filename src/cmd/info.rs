@@ -69,11 +69,14 @@ fn check_message(
 /// A file that cannot be opened or is not MCAP.
 pub fn run(args: Args) -> Result<Outcome> {
     let Args { input, format } = args;
-    let reader = BagReader::open(&input)?;
-    let (profile, library) = reader.header().unwrap_or_default();
+    let readers = BagReader::open_all(&input)?;
+    let (profile, library) = readers
+        .first()
+        .and_then(BagReader::header)
+        .unwrap_or_default();
     let mut channels: BTreeMap<String, ChannelStats> = BTreeMap::new();
     let mut issues = Vec::new();
-    for item in reader.messages() {
+    for item in readers.iter().flat_map(BagReader::messages) {
         let msg = match item {
             Ok(m) => m,
             Err(e) => {
@@ -106,11 +109,13 @@ pub fn run(args: Args) -> Result<Outcome> {
                 .get_or_insert((msg.index_on_channel, e.to_string()));
         }
     }
-    let metadata = reader.metadata();
-    let summary = mcap::Summary::read(reader.bytes()).ok().flatten();
-    let indexed = summary
-        .as_ref()
-        .is_some_and(|s| !s.chunk_indexes.is_empty());
+    let metadata: Vec<_> = readers.iter().flat_map(BagReader::metadata).collect();
+    let indexed = readers.iter().all(|r| {
+        mcap::Summary::read(r.bytes())
+            .ok()
+            .flatten()
+            .is_some_and(|s| !s.chunk_indexes.is_empty())
+    });
 
     let mut problems: Vec<String> = Vec::new();
     if profile != "ros2" {
