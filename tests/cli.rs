@@ -1,21 +1,8 @@
 //! The `autoact` binary, run as a user would: outputs, formats, errors and exit codes.
 
-use std::process::{Command, Output};
+mod common;
 
-fn autoact(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_autoact"))
-        .args(args)
-        .output()
-        .expect("run autoact")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use common::{autoact, stderr, stdout};
 
 #[test]
 fn rig_prints_53_bones_with_gta_names() {

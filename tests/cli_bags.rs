@@ -4,7 +4,9 @@
 #![expect(clippy::unwrap_used, reason = "test helpers fail loudly")]
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
+
+use common::{autoact, stderr};
 
 use autoact::character::Character;
 use autoact::fk::{self, BonePose};
@@ -18,17 +20,6 @@ use autoact::ros::std_msgs::Header;
 use autoact::ros::visualization_msgs::{Marker, MarkerArray};
 use autoact::ros::{builtin_interfaces::Time, cdr};
 use nalgebra::{UnitQuaternion, Vector3};
-
-fn autoact(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_autoact"))
-        .args(args)
-        .output()
-        .expect("run autoact")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 fn arg(p: &Path) -> &str {
     p.to_str().unwrap()
