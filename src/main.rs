@@ -11,7 +11,6 @@ fn main() -> ExitCode {
         Ok(outcome) => outcome.exit_code(),
         Err(err) if autoact::cli::is_broken_pipe(&err) => ExitCode::SUCCESS,
         Err(err) => {
-            tracing::error!("{err:#}");
             autoact::cli::report_error(&err);
             ExitCode::from(autoact::cli::EXIT_FAILURE)
         }
