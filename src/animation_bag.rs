@@ -17,6 +17,7 @@
 
 use crate::character::Character;
 use crate::fk::{self, BonePose};
+use crate::frames::WORLD_FRAME;
 use crate::layout::Coverage;
 use crate::mcap_io::{BagWriter, McapIoError};
 use crate::rig::{Dof, ROOT, Rig};
@@ -35,8 +36,6 @@ pub const TF_TOPIC: &str = "/tf";
 pub const TF_STATIC_TOPIC: &str = "/tf_static";
 /// Topic of the skeleton markers.
 pub const MARKERS_TOPIC: &str = "/skeleton/markers";
-/// The world frame.
-pub const WORLD_FRAME: &str = "world";
 
 /// Writes one person's frames.
 #[derive(Debug)]

@@ -719,20 +719,7 @@ pub fn fit_character(
     // A few hundred evenly spread frames are plenty for a median.
     let step = (frames.len() / 256).max(1);
     let sample: Vec<&PoseFrame> = frames.iter().step_by(step).collect();
-    let point = |f: &PoseFrame, set: &[usize]| -> Option<Point3<f64>> {
-        let mut sum = Vector3::zeros();
-        for &l in set {
-            sum += binding
-                .landmark_point(l, &f.positions_m, &f.confidence, options.min_confidence)?
-                .coords;
-        }
-        #[expect(
-            clippy::cast_precision_loss,
-            reason = "landmark sets hold a handful of points"
-        )]
-        let n = set.len().max(1) as f64;
-        Some(Point3::from(sum / n))
-    };
+    let point = |f: &PoseFrame, set: &[usize]| binding.set_point(set, f, options.min_confidence);
     // The segments this layout drives bones along, and the static widths.
     let measures = binding.measures(rig);
     let observed: Vec<(&crate::rig::Measure, f64)> = measures
@@ -743,7 +730,7 @@ pub fn fit_character(
                 .filter_map(|f| Some((point(f, &m.to)? - point(f, &m.from)?).norm()))
                 .filter(|d| d.is_finite() && *d > 1e-6)
                 .collect();
-            Some((m, median(&mut d)?))
+            Some((m, crate::character::median(&mut d)?))
         })
         .collect();
     let mut character = Character::fitted(rig, &observed);
@@ -794,20 +781,16 @@ pub fn fit_character(
         }
         for (k, &l) in riders.iter().enumerate() {
             let [x, y, z] = &mut samples[k];
-            if let (Some(x), Some(y), Some(z)) = (median(x), median(y), median(z)) {
+            if let (Some(x), Some(y), Some(z)) = (
+                crate::character::median(x),
+                crate::character::median(y),
+                crate::character::median(z),
+            ) {
                 character.set_landmark_offset(rig, l, Vector3::new(x, y, z));
             }
         }
     }
     character
-}
-
-fn median(v: &mut [f64]) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    Some(v[v.len() / 2])
 }
 
 /// Converts a sequence one frame at a time: fits the subject's proportions on construction, then
@@ -860,16 +843,7 @@ impl<'a> SequenceConverter<'a> {
         // Joints the source never provides (face points from mocap, hands from a body-only
         // tracker) are not in this data: their bones are reported at rest, not missing in every
         // frame.
-        let present: Vec<bool> = (0..layout.joints.len())
-            .map(|j| {
-                frames.iter().any(|f| {
-                    f.confidence.get(j).is_some_and(|&c| c > 0.0)
-                        && f.positions_m
-                            .get(j)
-                            .is_some_and(|p| p.coords.iter().all(|v| v.is_finite()))
-                })
-            })
-            .collect();
+        let present = crate::pose::observed_joints(&frames, layout.joints.len());
         let restricted;
         let layout = if present.iter().all(|&p| p) {
             layout

@@ -13,8 +13,6 @@
 
 use std::collections::BTreeMap;
 
-use nalgebra::{Point3, Vector3};
-
 use crate::convert::{Animation, ConvertError, ConvertOptions, convert_sequence};
 use crate::fk;
 use crate::layout::Layout;
@@ -110,21 +108,9 @@ pub fn round_trip(
             break;
         };
         let input_frame = Layout::reorder(&order, src);
-        let (positions, confidence) = (&input_frame.positions_m, &input_frame.confidence);
-        let input =
-            |l: usize| binding.landmark_point(l, positions, confidence, options.min_confidence);
-        let input_set = |set: &[usize]| -> Option<Point3<f64>> {
-            let mut sum = Vector3::zeros();
-            for &l in set {
-                sum += input(l)?.coords;
-            }
-            #[expect(
-                clippy::cast_precision_loss,
-                reason = "landmark sets hold a handful of points"
-            )]
-            let n = set.len().max(1) as f64;
-            Some(Point3::from(sum / n))
-        };
+        let input = |l: usize| binding.landmark_point(l, &input_frame, options.min_confidence);
+        let input_set =
+            |set: &[usize]| binding.set_point(set, &input_frame, options.min_confidence);
         fk::forward_into(rig, character, &frame.pose, 1.0, &mut world);
         for l in 0..rig.landmarks.len() {
             let Some(p) = input(l) else { continue };
@@ -207,21 +193,7 @@ pub fn bone_length_stability(
         let mut lengths = Vec::new();
         for f in &seq.frames {
             let frame = Layout::reorder(&order, f);
-            let (positions, confidence) = (&frame.positions_m, &frame.confidence);
-            let pt = |set: &[usize]| -> Option<Vector3<f64>> {
-                let mut sum = Vector3::zeros();
-                for &l in set {
-                    sum += binding
-                        .landmark_point(l, positions, confidence, min_confidence)?
-                        .coords;
-                }
-                #[expect(
-                    clippy::cast_precision_loss,
-                    reason = "landmark sets hold a handful of points"
-                )]
-                let n = set.len().max(1) as f64;
-                Some(sum / n)
-            };
+            let pt = |set: &[usize]| binding.set_point(set, &frame, min_confidence);
             if let (Some(a), Some(b)) = (pt(&m.from), pt(&m.to)) {
                 lengths.push((b - a).norm());
             }

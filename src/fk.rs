@@ -99,23 +99,3 @@ pub fn landmark_position(
     let b = rig.landmarks[landmark].bone;
     world.heads_m[b] + world.rotations[b] * character.landmark_offset_m[landmark]
 }
-
-/// World position of the mean of a landmark set.
-#[must_use]
-pub fn landmark_set_position(
-    rig: &Rig,
-    character: &Character,
-    world: &WorldPose,
-    set: &[usize],
-) -> Point3<f64> {
-    let mut sum = Vector3::zeros();
-    for &l in set {
-        sum += landmark_position(rig, character, world, l).coords;
-    }
-    #[expect(
-        clippy::cast_precision_loss,
-        reason = "landmark sets hold a handful of points"
-    )]
-    let n = set.len().max(1) as f64;
-    Point3::from(sum / n)
-}

@@ -60,6 +60,9 @@ impl SourceAxes {
     }
 }
 
+/// Name of the world frame in ROS messages (`header.frame_id`, the TF root).
+pub const WORLD_FRAME: &str = "world";
+
 /// The world up axis of the autoact frame.
 #[must_use]
 pub fn up() -> Vector3<f64> {

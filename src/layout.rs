@@ -25,6 +25,7 @@ use std::path::{Path, PathBuf};
 use nalgebra::{Point3, Unit, Vector3};
 use serde::Deserialize;
 
+use crate::pose::PoseFrame;
 use crate::rig::{DirectionSource, Dof, Measure, Reference, Rig};
 
 /// Errors loading or binding a layout.
@@ -569,21 +570,41 @@ impl Binding {
     pub fn landmark_point(
         &self,
         l: usize,
-        positions: &[Point3<f64>],
-        confidence: &[f32],
+        frame: &PoseFrame,
         min_confidence: f32,
     ) -> Option<Point3<f64>> {
         let terms = self.landmark_terms[l].as_ref()?;
         let mut sum = Vector3::zeros();
         for &(j, w) in terms {
-            let p = positions.get(j)?;
-            let c = confidence.get(j).copied().unwrap_or(1.0);
+            let p = frame.positions_m.get(j)?;
+            let c = frame.confidence.get(j).copied().unwrap_or(1.0);
             if c.is_nan() || c < min_confidence || !p.coords.iter().all(|v| v.is_finite()) {
                 return None;
             }
             sum += p.coords * w;
         }
         Some(Point3::from(sum))
+    }
+
+    /// The mean of a landmark set in one frame (see [`Binding::landmark_point`]), or `None` if
+    /// any of them is missing.
+    #[must_use]
+    pub fn set_point(
+        &self,
+        set: &[usize],
+        frame: &PoseFrame,
+        min_confidence: f32,
+    ) -> Option<Point3<f64>> {
+        let mut sum = Vector3::zeros();
+        for &l in set {
+            sum += self.landmark_point(l, frame, min_confidence)?.coords;
+        }
+        #[expect(
+            clippy::cast_precision_loss,
+            reason = "landmark sets hold a handful of points"
+        )]
+        let n = set.len().max(1) as f64;
+        Some(Point3::from(sum / n))
     }
 
     /// The segments to measure when fitting a body to data in this layout: every direction this
@@ -769,19 +790,23 @@ mod tests {
         )
         .unwrap();
         let b = layout.bind(&rig).unwrap();
-        let pts = [Point3::new(0.0, 0.0, 0.0), Point3::new(4.0, 0.0, 0.0)];
+        let frame = |c: [f32; 2]| PoseFrame {
+            stamp_nanos: 0,
+            positions_m: vec![Point3::new(0.0, 0.0, 0.0), Point3::new(4.0, 0.0, 0.0)],
+            confidence: c.to_vec(),
+        };
         let pelvis = rig.landmark_index("pelvis").unwrap();
         let chest = rig.landmark_index("chest").unwrap();
         assert_eq!(
-            b.landmark_point(pelvis, &pts, &[1.0, 1.0], 0.5),
+            b.landmark_point(pelvis, &frame([1.0, 1.0]), 0.5),
             Some(Point3::new(2.0, 0.0, 0.0))
         );
         assert_eq!(
-            b.landmark_point(chest, &pts, &[1.0, 1.0], 0.5),
+            b.landmark_point(chest, &frame([1.0, 1.0]), 0.5),
             Some(Point3::new(1.0, 0.0, 0.0))
         );
         assert_eq!(
-            b.landmark_point(chest, &pts, &[1.0, 0.1], 0.5),
+            b.landmark_point(chest, &frame([1.0, 0.1]), 0.5),
             None,
             "low confidence is missing"
         );

@@ -52,6 +52,49 @@ impl PoseSequence {
     }
 }
 
+/// Which of `joint_count` joints some frame observes (finite position, confidence above 0):
+/// joints a source never provides are not in its data at all.
+#[must_use]
+pub fn observed_joints(frames: &[PoseFrame], joint_count: usize) -> Vec<bool> {
+    (0..joint_count)
+        .map(|j| {
+            frames.iter().any(|f| {
+                f.confidence.get(j).is_some_and(|&c| c > 0.0)
+                    && f.positions_m
+                        .get(j)
+                        .is_some_and(|p| p.coords.iter().all(|v| v.is_finite()))
+            })
+        })
+        .collect()
+}
+
+impl PoseSequence {
+    /// This sequence without the joints no frame observes (see [`observed_joints`]): a skeleton
+    /// message names its joints, so a source carries only what it has.
+    #[must_use]
+    pub fn without_unobserved_joints(self) -> PoseSequence {
+        let keep: Vec<usize> = observed_joints(&self.frames, self.joint_names.len())
+            .iter()
+            .enumerate()
+            .filter(|(_, o)| **o)
+            .map(|(j, _)| j)
+            .collect();
+        if keep.len() == self.joint_names.len() {
+            return self;
+        }
+        let pick = |f: &PoseFrame| PoseFrame {
+            stamp_nanos: f.stamp_nanos,
+            positions_m: keep.iter().map(|&j| f.positions_m[j]).collect(),
+            confidence: keep.iter().map(|&j| f.confidence[j]).collect(),
+        };
+        PoseSequence {
+            joint_names: keep.iter().map(|&j| self.joint_names[j].clone()).collect(),
+            frames: self.frames.iter().map(pick).collect(),
+            ..self
+        }
+    }
+}
+
 /// The stamp of frame `index` of a clip sampled at a constant `fps`, in nanoseconds.
 ///
 /// The one place where a frame index and a rate become a time.

@@ -17,6 +17,7 @@ use std::path::Path;
 
 use nalgebra::Point3;
 
+use crate::frames::WORLD_FRAME;
 use crate::mcap_io::{BagMessage, BagReader, BagWriter, McapIoError, ReadIssue};
 use crate::pose::{PoseFrame, PoseSequence};
 use crate::ros::autoact_msgs::Skeleton3D;
@@ -28,8 +29,6 @@ use crate::ros::{self, RosMessage};
 
 /// Topic autoact writes skeletons on.
 pub const SKELETON_TOPIC: &str = "/skeleton";
-/// Frame id of imported skeletons.
-pub const WORLD_FRAME: &str = "world";
 /// Name of the metadata record that carries the dataset label and provenance.
 pub const METADATA_NAME: &str = "autoact";
 
@@ -463,12 +462,14 @@ fn markers_to_people(
                     layout.name
                 )));
             }
+            // The points are in the marker's own frame: header frame ← marker pose ← point.
+            let rotation =
+                nalgebra::UnitQuaternion::try_from(list.pose.orientation).map_err(|e| {
+                    DecodeProblem::Skip(format!("namespace `{ns}`: marker orientation: {e}"))
+                })?;
+            let origin = Point3::from(list.pose.position);
             for (k, p) in list.points.iter().enumerate() {
-                positions[k] = Point3::new(
-                    list.pose.position.x + p.x,
-                    list.pose.position.y + p.y,
-                    list.pose.position.z + p.z,
-                );
+                positions[k] = origin + rotation * Point3::from(*p).coords;
                 confidence[k] = 1.0;
             }
         } else {

@@ -189,7 +189,9 @@ fn read_input(
             if fps.is_some() {
                 bail!("BVH files state their own frame time; drop --fps");
             }
-            let seq = without_absent_joints(mapping.keypoints(&clip, &layout)?);
+            let seq = mapping
+                .keypoints(&clip, &layout)?
+                .without_unobserved_joints();
             (
                 vec![seq],
                 layout.name,
@@ -251,30 +253,6 @@ fn read_input(
             (seqs, layout.name, format!("{fps} fps"))
         }
     })
-}
-
-/// Drops the joints a sequence never observes: a skeleton message names its joints, so a source
-/// carries only what it has (mocap mapped onto COCO-WholeBody has no face or fingers).
-fn without_absent_joints(seq: PoseSequence) -> PoseSequence {
-    let keep: Vec<usize> = (0..seq.joint_names.len())
-        .filter(|&j| seq.frames.iter().any(|f| f.confidence[j] > 0.0))
-        .collect();
-    if keep.len() == seq.joint_names.len() {
-        return seq;
-    }
-    PoseSequence {
-        joint_names: keep.iter().map(|&j| seq.joint_names[j].clone()).collect(),
-        frames: seq
-            .frames
-            .iter()
-            .map(|f| crate::pose::PoseFrame {
-                stamp_nanos: f.stamp_nanos,
-                positions_m: keep.iter().map(|&j| f.positions_m[j]).collect(),
-                confidence: keep.iter().map(|&j| f.confidence[j]).collect(),
-            })
-            .collect(),
-        ..seq
-    }
 }
 
 /// A body that spans more than 3 m or less than 0.3 m is almost always a unit mistake.
