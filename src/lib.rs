@@ -16,6 +16,7 @@ pub mod character;
 pub mod cli;
 pub mod cmd;
 pub mod convert;
+pub mod dsi;
 pub mod eval;
 pub mod fk;
 pub mod formats;

@@ -1,0 +1,3 @@
+//! Dynamic Skeletal Interpolation (DSI): smoothing and interpolating joint-angle curves.
+
+pub mod supersmoother;
