@@ -35,6 +35,12 @@
 //!   factor is 1 when `e_3 ≤ 0` (nothing beats the woofer: take it) and otherwise the ratio
 //!   clamped into `[0, 1]` to the power.
 //!
+//! The bass factor is unbounded (the package's smoothed residuals dip below zero at the ends of
+//! many real curves, and `e_3` near zero makes the ratio huge), so chosen spans far outside
+//! `[p1, p3]` are normal there; they are smoothed apart from the rest (see step 3 in the code)
+//! to keep their rounding out of the distant windows, which the package's direct window sums
+//! never see.
+//!
 //! Cost: O(n) per series whatever the spans. Each local line fit is evaluated from prefix sums
 //! of `y` and `j·y` in coordinates local to the evaluated sample (`u = j − i`), so the window
 //! geometry — counts, `Σu`, `Σu²` and the fit's denominator, exact in integers — depends on the
@@ -572,9 +578,10 @@ impl SmoothPlan {
 
         // 3. The best span at each sample (first least smoothed residual), with bass, summed.
         let tie = TIE_TOLERANCE * mean_residual(residual_sums);
+        let mut outliers = false;
         {
             let [e1, e2, e3] = &*errors;
-            let best = (0..n).map(|i| {
+            let choose = |i: usize| {
                 let (e1, e2, e3) = (e1[i], e2[i], e3[i]);
                 let least = e1.min(e2).min(e3);
                 let best = if e1 <= least + tie {
@@ -584,16 +591,52 @@ impl SmoothPlan {
                 } else {
                     p3
                 };
-                match self.bass_exponent {
-                    Some(exponent) => best + bass_factor(least, e3, exponent) * (p3 - best),
-                    None => best,
+                (best, least, e3)
+            };
+            match self.bass_exponent {
+                None => prefix_sums((0..n).map(|i| choose(i).0), x, sums, moments),
+                Some(exponent) => {
+                    // Bass can throw a span far outside [p1, p3] (a negative or tiny woofer
+                    // residual, taken as the package takes it). Such a value would drown every
+                    // later window's prefix-sum difference in its rounding, so the excess over
+                    // [p1, p3] is summed apart: away from it its sums are exactly constant.
+                    let excess_sums = &mut residual_sums[0];
+                    let excess_moments = &mut residual_moments[0];
+                    let (mut s, mut m, mut es, mut em) = (0.0, 0.0, 0.0, 0.0);
+                    sums[0] = 0.0;
+                    moments[0] = 0.0;
+                    excess_sums[0] = 0.0;
+                    excess_moments[0] = 0.0;
+                    for i in 0..n {
+                        let (best, least, woofer) = choose(i);
+                        let best = best + bass_factor(least, woofer, exponent) * (p3 - best);
+                        let base = best.max(p1).min(p3);
+                        let excess = best - base;
+                        outliers |= excess != 0.0;
+                        s += base;
+                        m += x[i] * base;
+                        es += excess;
+                        em += x[i] * excess;
+                        sums[i + 1] = s;
+                        moments[i + 1] = m;
+                        excess_sums[i + 1] = es;
+                        excess_moments[i + 1] = em;
+                    }
                 }
-            });
-            prefix_sums(best, x, sums, moments);
+            }
         }
 
         // 4. The best spans smoothed with the middle span.
         self.middle.apply(sums, moments, shifted, x, 0.0, spans);
+        if outliers {
+            let excess = &mut errors[0];
+            let (excess_sums, excess_moments) = (&residual_sums[0], &residual_moments[0]);
+            self.middle
+                .apply(excess_sums, excess_moments, shifted, x, 0.0, excess);
+            for (span, excess) in spans.iter_mut().zip(excess.iter()) {
+                *span += excess;
+            }
+        }
 
         // 5. Interpolate between the primary smooths at the (clamped) smoothed span.
         {
@@ -833,6 +876,28 @@ mod tests {
                     assert!(d <= tol, "n {n} bass {bass:?}: off by {d}");
                 }
             }
+        }
+    }
+
+    #[test]
+    fn bass_beyond_the_woofer_matches_naive() {
+        // Noise that stops 20 samples before the end of a line: there the smoothed residuals,
+        // the woofer's too, extrapolate below zero and the package's bass factor reaches ~4e4.
+        let n = 200;
+        let y: Vec<f64> = (0..n)
+            .map(|i| {
+                let noise = ((i * 37) % 11) as f64 / 5.0 - 1.0;
+                0.01 * i as f64 + if i < n - 20 { noise } else { 0.0 }
+            })
+            .collect();
+        for bass in [0.0, 3.0, 8.0, 2.5] {
+            let sm = SuperSmoother {
+                bass: Some(bass),
+                ..SuperSmoother::default()
+            };
+            let (ours, naive) = (sm.smooth(&y), naive_super(&sm, &y));
+            let d = max_diff(&ours, &naive);
+            assert!(d <= 1e-9 * max_abs(&naive), "bass {bass}: off by {d}");
         }
     }
 
