@@ -218,6 +218,42 @@ pub fn rotation_distance(a: &UnitQuaternion<f64>, b: &UnitQuaternion<f64>) -> f6
     2.0 * rel.as_ref().vector().norm().atan2(rel.as_ref().w.abs())
 }
 
+/// The rotation vector (axis · angle, radians, angle in [0, π]) of `q`: the logarithm map at the
+/// identity, on the shorter side whatever the quaternion's sign. Exact near the identity (the
+/// angle comes from `atan2`, not `acos`).
+#[inline]
+#[must_use]
+pub fn log_rotation(q: &UnitQuaternion<f64>) -> Vector3<f64> {
+    let q = q.as_ref();
+    let (w, v) = if q.w < 0.0 {
+        (-q.w, -q.vector())
+    } else {
+        (q.w, q.vector().into_owned())
+    };
+    let s = v.norm();
+    if s < 1e-8 {
+        // θ/s → 2/w as s → 0 (first-order exact: θ = 2·atan2(s, w) = 2s/w + O(s³)).
+        return v * (2.0 / w);
+    }
+    v * (2.0 * s.atan2(w) / s)
+}
+
+/// The rotation by the rotation vector `r` (axis · angle, radians): the exponential map at the
+/// identity, inverse of [`log_rotation`]. Unit to rounding for any finite `r`.
+#[inline]
+#[must_use]
+pub fn exp_rotation(r: &Vector3<f64>) -> UnitQuaternion<f64> {
+    let theta = r.norm();
+    let half = 0.5 * theta;
+    // sin(θ/2)/θ, with its series below 1e-4 rad (error < 1e-17).
+    let k = if theta < 1e-4 {
+        0.5 - theta * theta / 48.0
+    } else {
+        half.sin() / theta
+    };
+    UnitQuaternion::new_unchecked(nalgebra::Quaternion::from_parts(half.cos(), r * k))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -326,6 +362,21 @@ mod tests {
         fn shortest_arc_to_ignores_length(a in arb_dir(), b in arb_dir(), len in 1e-3..1e3f64) {
             let q = shortest_arc_to(&a, &(b.into_inner() * len)).unwrap();
             prop_assert!(rotation_distance(&q, &shortest_arc(&a, &b)) < 1e-9);
+        }
+
+        /// Law: exp ∘ log is the identity on rotations, log lands in the ball of radius π, and
+        /// exp(log q) is unit.
+        #[test]
+        fn log_exp_round_trip(q in arb_rotation(), tiny in -1e-7..1e-7f64) {
+            let r = log_rotation(&q);
+            prop_assert!(r.norm() <= std::f64::consts::PI + 1e-12);
+            let back = exp_rotation(&r);
+            prop_assert!(rotation_distance(&back, &q) < 1e-12);
+            prop_assert!((back.norm() - 1.0).abs() < 1e-15);
+            let m = UnitQuaternion::new_unchecked(-q.into_inner());
+            prop_assert!((log_rotation(&m) - r).norm() < 1e-12);
+            let small = Vector3::new(tiny, -0.5 * tiny, 2.0 * tiny);
+            prop_assert!((log_rotation(&exp_rotation(&small)) - small).norm() < 1e-20);
         }
 
         /// Law: q and −q rotate every vector identically.

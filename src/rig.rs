@@ -73,6 +73,34 @@ pub struct Bone {
 }
 
 impl Bone {
+    /// The rotation of this bone's class nearest to `q` (a local rotation): a 3-D bone keeps it;
+    /// a 2-D bone keeps its swing (drops the twist about the bone); a hinge keeps the part about
+    /// its axis; the root keeps its yaw; a static bone is at rest. The quaternion's hemisphere
+    /// follows `q`'s, so a continuous track stays continuous.
+    #[must_use]
+    pub fn constrain(&self, q: &UnitQuaternion<f64>) -> UnitQuaternion<f64> {
+        let about = |axis: &Vector3<f64>| {
+            let part = nalgebra::Quaternion::from_parts(q.w, axis * axis.dot(&q.as_ref().vector()));
+            let n = part.norm();
+            if n > 1e-12 {
+                UnitQuaternion::new_unchecked(part / n)
+            } else {
+                UnitQuaternion::identity()
+            }
+        };
+        match &self.dof {
+            Dof::ThreeD => *q,
+            Dof::Static => UnitQuaternion::identity(),
+            Dof::Root => about(&Vector3::z()),
+            Dof::Hinge { axis } => about(axis),
+            Dof::TwoD => {
+                let axis = self.rest_direction();
+                let moved = Unit::new_unchecked(q * axis.into_inner());
+                crate::geom::align_hemisphere(crate::geom::shortest_arc(&axis, &moved), q)
+            }
+        }
+    }
+
     /// Unit direction head → tail at rest.
     #[must_use]
     pub fn rest_direction(&self) -> Unit<Vector3<f64>> {
