@@ -1,3 +1,395 @@
-//! Dynamic Skeletal Interpolation (DSI): smoothing and interpolating joint-angle curves.
+//! Dynamic Skeletal Interpolation (the paper's Algorithm 1), done on the rotation group.
+//!
+//! `A' = interpolate(A)` → `𝒱(A', V)` → `S(·)`, per clip:
+//!
+//! 1. [`plan`]: per-interval weighted angular distance `d_f`, cuts into unit motions where it
+//!    exceeds the threshold, and the time map: unit motions at the source's real speed (× an
+//!    optional speed factor) at the output frame rate, transitions given `⌈η·d_f/δ⌉` frames;
+//! 2. [`interp`]: every output frame interpolated on the rotation group (a local cubic in the
+//!    tangent space inside unit motions, the geodesic across transitions);
+//! 3. [`variants`]: `V` seeded variants, smooth perturbations bounded per DoF class;
+//! 4. [`smoothing`]: Friedman's [`supersmoother`] in the tangent space around a running mean.
+//!
+//! Every output quaternion is unit (to 1e-9, checked), sign-continuous per bone, and inside its
+//! bone's DoF class.
 
+pub mod eval;
+pub mod interp;
+pub mod plan;
+pub mod reference;
+pub mod smoothing;
 pub mod supersmoother;
+pub mod variants;
+
+use crate::convert::AnimationFrame;
+use crate::fk::BonePose;
+use crate::pose::stamp_nanos_at;
+use crate::rig::{Dof, Rig};
+use interp::Method;
+use plan::{Plan, Threshold};
+use smoothing::Smoothing;
+use variants::VariationBounds;
+
+/// What DSI cannot do.
+#[derive(Debug, thiserror::Error)]
+pub enum DsiError {
+    /// A parameter out of its range.
+    #[error("{0}")]
+    Parameter(String),
+    /// Input stamps that do not increase.
+    #[error("frame {index}: stamps must increase strictly")]
+    NonMonotonic {
+        /// Index of the offending frame.
+        index: usize,
+    },
+}
+
+/// How fast the unit motions play.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Pace {
+    /// A factor of the source's real speed (1: real time).
+    Speed(f64),
+    /// The paper's interpolation rate δ: source frames per output frame.
+    Delta(f64),
+}
+
+impl Pace {
+    /// The speed factor for a source with frames every `source_period_s` seconds played at
+    /// `out_fps`.
+    #[must_use]
+    pub fn speed(self, source_period_s: f64, out_fps: f64) -> f64 {
+        match self {
+            Pace::Speed(s) => s,
+            Pace::Delta(d) => d * source_period_s * out_fps,
+        }
+    }
+}
+
+/// Everything DSI does to one clip.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DsiOptions {
+    /// Output frame rate, frames per second.
+    pub out_fps: f64,
+    /// How fast the unit motions play.
+    pub pace: Pace,
+    /// Interpolator inside unit motions.
+    pub method: Method,
+    /// Where to cut into unit motions.
+    pub threshold: Threshold,
+    /// Interpolation coefficient η (`None`: `1 / threshold`).
+    pub eta: Option<f64>,
+    /// Bone weights of the angular distance, one per rig bone.
+    pub weights: Vec<f64>,
+    /// SuperSmoother, or none.
+    pub smoothing: Option<Smoothing>,
+    /// Number of random variants besides the animation itself.
+    pub variants: u64,
+    /// Bounds of the variants' perturbations.
+    pub bounds: VariationBounds,
+    /// Seed of the variants.
+    pub seed: u64,
+}
+
+impl DsiOptions {
+    /// The defaults for `rig`: 30 fps, real speed, cubic, threshold `3x`, η = 1/threshold,
+    /// [`default_weights`], default smoothing, no variants, seed 0.
+    #[must_use]
+    pub fn new(rig: &Rig) -> DsiOptions {
+        DsiOptions {
+            out_fps: 30.0,
+            pace: Pace::Speed(1.0),
+            method: Method::Cubic,
+            threshold: Threshold::default(),
+            eta: None,
+            weights: default_weights(rig),
+            smoothing: Some(Smoothing::default()),
+            variants: 0,
+            bounds: VariationBounds::default(),
+            seed: 0,
+        }
+    }
+}
+
+/// The default bone weights of the angular distance: the bones that carry a movement count
+/// most — upper arms and thighs 3, forearms and calves 2, the root (whole-body turns) 2, spine
+/// 1.5, neck, head, hands and feet 1, finger and thumb bones 0.2, static bones 0.
+#[must_use]
+pub fn default_weights(rig: &Rig) -> Vec<f64> {
+    rig.bones
+        .iter()
+        .map(|bone| {
+            let name = bone.name.as_str();
+            let base = name.trim_start_matches("l_").trim_start_matches("r_");
+            match (&bone.dof, base) {
+                (Dof::Static, _) => 0.0,
+                (Dof::Root, _) | (_, "forearm" | "calf") => 2.0,
+                (_, "upper_arm" | "thigh") => 3.0,
+                (_, b) if b.starts_with("spine") => 1.5,
+                (_, "neck" | "head" | "hand" | "foot") => 1.0,
+                _ => 0.2,
+            }
+        })
+        .collect()
+}
+
+/// Sets weights from `name=weight` pairs (bone names of `rig`).
+///
+/// # Errors
+/// An unknown bone or a weight that is negative or not a number.
+pub fn apply_weight_overrides(
+    rig: &Rig,
+    weights: &mut [f64],
+    pairs: &[String],
+) -> Result<(), DsiError> {
+    for pair in pairs {
+        let (name, value) = pair.split_once('=').ok_or_else(|| {
+            DsiError::Parameter(format!(
+                "`{pair}`: a bone weight is BONE=WEIGHT, e.g. l_hand=2"
+            ))
+        })?;
+        let b = rig.bone_index(name.trim()).ok_or_else(|| {
+            DsiError::Parameter(format!(
+                "`{name}` is not a bone of {} (see `autoact rig`)",
+                rig.name
+            ))
+        })?;
+        weights[b] = match value.trim().parse::<f64>() {
+            Ok(w) if w.is_finite() && w >= 0.0 => w,
+            _ => {
+                return Err(DsiError::Parameter(format!(
+                    "`{pair}`: a bone weight is a number ≥ 0"
+                )));
+            }
+        };
+    }
+    Ok(())
+}
+
+/// DSI's output for one clip.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DsiOutput {
+    /// The time map.
+    pub plan: Plan,
+    /// Animation `v` is variant `v`; variant 0 is the animation itself.
+    pub animations: Vec<Vec<AnimationFrame>>,
+}
+
+/// Runs DSI on one clip's key frames (strictly increasing stamps).
+///
+/// # Errors
+/// [`DsiError`] for bad parameters or stamps.
+pub fn run(
+    rig: &Rig,
+    keys: &[AnimationFrame],
+    options: &DsiOptions,
+) -> Result<DsiOutput, DsiError> {
+    if let Some(s) = &options.smoothing {
+        s.validate().map_err(DsiError::Parameter)?;
+    }
+    if options.weights.len() != rig.bones.len() {
+        return Err(DsiError::Parameter(format!(
+            "{} bone weights for a rig of {} bones",
+            options.weights.len(),
+            rig.bones.len()
+        )));
+    }
+    let Some(first) = keys.first() else {
+        return Err(DsiError::Parameter("no frames to interpolate".to_string()));
+    };
+    if let Some(index) = keys
+        .windows(2)
+        .position(|w| w[1].stamp_nanos <= w[0].stamp_nanos)
+    {
+        return Err(DsiError::NonMonotonic { index: index + 1 });
+    }
+    #[expect(
+        clippy::cast_precision_loss,
+        reason = "stamp differences within a clip are far below 2^52 ns"
+    )]
+    let times_s: Vec<f64> = keys
+        .iter()
+        .map(|k| (k.stamp_nanos - first.stamp_nanos) as f64 * 1e-9)
+        .collect();
+    let poses: Vec<BonePose> = keys.iter().map(|k| k.pose.clone()).collect();
+    let speed = options
+        .pace
+        .speed(plan::source_period_s(&times_s), options.out_fps);
+    let plan = plan::plan(
+        &poses,
+        &times_s,
+        &options.weights,
+        options.threshold,
+        options.eta,
+        options.out_fps,
+        speed,
+    )?;
+    let base = interp::interpolate(
+        &poses,
+        &times_s,
+        &plan.transitions,
+        &plan.samples,
+        options.method,
+    );
+    let mut animations = Vec::new();
+    let mut base = Some(base);
+    for v in 0..=options.variants {
+        let mut out = match &base {
+            Some(b) if v > 0 => {
+                variants::variant(rig, b, options.out_fps, &options.bounds, options.seed, v)
+            }
+            _ if v == options.variants => base.take().unwrap_or_default(),
+            Some(b) => b.clone(),
+            None => Vec::new(),
+        };
+        if let Some(s) = &options.smoothing {
+            s.apply(rig, &mut out, options.out_fps);
+        }
+        finish(rig, &mut out);
+        animations.push(
+            out.into_iter()
+                .enumerate()
+                .map(|(k, pose)| AnimationFrame {
+                    stamp_nanos: first.stamp_nanos + stamp_nanos_at(k, options.out_fps),
+                    pose,
+                })
+                .collect(),
+        );
+    }
+    Ok(DsiOutput { plan, animations })
+}
+
+/// Puts every rotation in its bone's class, renormalises, and makes each track sign-continuous.
+fn finish(rig: &Rig, poses: &mut [BonePose]) {
+    let moving = variants::moving_bones(poses);
+    for (b, bone) in rig.bones.iter().enumerate() {
+        if !moving[b] {
+            continue;
+        }
+        let mut previous: Option<nalgebra::UnitQuaternion<f64>> = None;
+        for pose in poses.iter_mut() {
+            let q = &mut pose.local_rotations[b];
+            let c = bone.constrain(q);
+            let c = nalgebra::UnitQuaternion::new_normalize(c.into_inner());
+            *q = previous.map_or(c, |p| crate::geom::align_hemisphere(c, &p));
+            previous = Some(*q);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::rotation_distance;
+    use nalgebra::{UnitQuaternion, Vector3};
+
+    /// Every bone moving in its class with jitter, 4 s at 30 fps, with a fast swing in the middle.
+    fn keys(rig: &Rig) -> Vec<AnimationFrame> {
+        (0..120u32)
+            .map(|k| {
+                let t = f64::from(k) / 30.0;
+                let burst = if (55..65).contains(&k) {
+                    2.5 * (t - 55.0 / 30.0)
+                } else if k >= 65 {
+                    2.5 / 3.0
+                } else {
+                    0.0
+                };
+                let jitter = |b: usize| {
+                    let x = f64::from(k) * 0.618 + f64::from(u32::try_from(b).unwrap()) * 0.31;
+                    0.02 * (x - x.floor() - 0.5)
+                };
+                AnimationFrame {
+                    stamp_nanos: stamp_nanos_at(k as usize, 30.0),
+                    pose: BonePose {
+                        root_translation_m: Vector3::new(t, 0.0, 0.0),
+                        local_rotations: rig
+                            .bones
+                            .iter()
+                            .enumerate()
+                            .map(|(b, bone)| {
+                                bone.constrain(&UnitQuaternion::from_euler_angles(
+                                    0.5 * t.sin() + burst + jitter(b),
+                                    0.3 * (1.7 * t).cos() + jitter(b + 7),
+                                    // The root spins through ±180°.
+                                    if b == 0 { 1.5 * t } else { 0.2 * t } + jitter(b + 3),
+                                ))
+                            })
+                            .collect(),
+                    },
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn every_output_is_unit_in_its_class_and_sign_continuous() {
+        let rig = Rig::standard();
+        let mut options = DsiOptions::new(&rig);
+        options.variants = 2;
+        options.out_fps = 60.0;
+        let out = run(&rig, &keys(&rig), &options).unwrap();
+        assert!(out.plan.transition_count() > 0, "the burst is cut");
+        assert!(out.plan.frames_added() > 0);
+        assert_eq!(out.animations.len(), 3);
+        for animation in &out.animations {
+            assert_eq!(animation.len(), out.plan.samples.len());
+            for (k, frame) in animation.iter().enumerate() {
+                for (b, (q, bone)) in frame
+                    .pose
+                    .local_rotations
+                    .iter()
+                    .zip(&rig.bones)
+                    .enumerate()
+                {
+                    assert!(
+                        (q.norm() - 1.0).abs() < 1e-9,
+                        "{}: |q| = {}",
+                        bone.name,
+                        q.norm()
+                    );
+                    assert!(
+                        rotation_distance(&bone.constrain(q), q) < 1e-9,
+                        "{} left its class",
+                        bone.name
+                    );
+                    if k > 0 {
+                        let previous = &animation[k - 1].pose.local_rotations[b];
+                        assert!(
+                            q.as_ref().dot(previous.as_ref()) >= 0.0,
+                            "{} flips at {k}",
+                            bone.name
+                        );
+                    }
+                }
+            }
+            // Output stamps: the output clock, from the first key.
+            assert_eq!(animation[1].stamp_nanos, stamp_nanos_at(1, 60.0));
+        }
+    }
+
+    #[test]
+    fn weights_and_bad_input() {
+        let rig = Rig::standard();
+        let mut w = default_weights(&rig);
+        let hand = rig.bone_index("l_hand").unwrap();
+        assert_eq!(w[hand], 1.0);
+        assert_eq!(w[rig.bone_index("l_index1").unwrap()], 0.2);
+        assert_eq!(w[rig.bone_index("pelvis").unwrap()], 0.0);
+        apply_weight_overrides(&rig, &mut w, &["l_hand=2.5".to_string()]).unwrap();
+        assert_eq!(w[hand], 2.5);
+        for bad in ["l_hand", "knee=1", "l_hand=-1", "l_hand=x"] {
+            assert!(
+                apply_weight_overrides(&rig, &mut w, &[bad.to_string()]).is_err(),
+                "{bad}"
+            );
+        }
+        let options = DsiOptions::new(&rig);
+        assert!(run(&rig, &[], &options).is_err());
+        let mut k = keys(&rig);
+        k[5].stamp_nanos = k[4].stamp_nanos;
+        assert!(matches!(
+            run(&rig, &k, &options),
+            Err(DsiError::NonMonotonic { index: 5 })
+        ));
+    }
+}

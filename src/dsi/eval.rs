@@ -1,0 +1,182 @@
+//! Measures of rotation tracks, for comparing interpolators and smoothers: geodesic error, range
+//! of motion, peak angular velocity, jerk, sign flips and norm violations. Tracks are raw
+//! quaternions (the reference method's output is not unit); every angle is measured on the
+//! normalised rotation, so a sign never counts as an error — only as a flip.
+
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+
+use crate::geom::{log_rotation, rotation_distance};
+
+/// A norm further than this from 1 is a violation.
+pub const NORM_TOLERANCE: f64 = 1e-9;
+
+fn unit(q: &Quaternion<f64>) -> UnitQuaternion<f64> {
+    let n = q.norm();
+    if n > 0.0 && n.is_finite() {
+        UnitQuaternion::new_unchecked(q / n)
+    } else {
+        UnitQuaternion::identity()
+    }
+}
+
+/// Angle between a true rotation and an estimate (normalised first), radians.
+#[must_use]
+pub fn geodesic_error(truth: &UnitQuaternion<f64>, estimate: &Quaternion<f64>) -> f64 {
+    rotation_distance(truth, &unit(estimate))
+}
+
+/// Range of motion of a track: the 95th percentile of the angle between its rotations and their
+/// mean (the normalised sum of the sign-continuous quaternions), radians. A percentile, not the
+/// maximum, so that a single jittery frame of estimator output does not count as motion.
+#[must_use]
+pub fn range_of_motion(track: &[Quaternion<f64>]) -> f64 {
+    let mut sum = Quaternion::from_parts(0.0, Vector3::zeros());
+    let mut previous: Option<Quaternion<f64>> = None;
+    for q in track {
+        let u = unit(q).into_inner();
+        let u = match previous {
+            Some(p) if p.dot(&u) < 0.0 => -u,
+            _ => u,
+        };
+        sum += u;
+        previous = Some(u);
+    }
+    let mean = unit(&sum);
+    let mut angles: Vec<f64> = track
+        .iter()
+        .map(|q| rotation_distance(&mean, &unit(q)))
+        .collect();
+    percentile(&mut angles, 0.95)
+}
+
+/// Angular velocity between consecutive samples (`times_s` per sample), radians per second.
+fn velocities(track: &[Quaternion<f64>], times_s: &[f64]) -> Vec<Vector3<f64>> {
+    track
+        .windows(2)
+        .zip(times_s.windows(2))
+        .map(|(q, t)| log_rotation(&(unit(&q[0]).inverse() * unit(&q[1]))) / (t[1] - t[0]))
+        .collect()
+}
+
+/// The peak angular speed of a track: the 95th percentile of its speeds between samples (robust
+/// to a single jittery frame), radians per second.
+#[must_use]
+pub fn peak_angular_speed(track: &[Quaternion<f64>], times_s: &[f64]) -> f64 {
+    let mut speeds: Vec<f64> = velocities(track, times_s)
+        .iter()
+        .map(Vector3::norm)
+        .collect();
+    if speeds.is_empty() {
+        return 0.0;
+    }
+    percentile(&mut speeds, 0.95)
+}
+
+/// Mean magnitude of the angular jerk (the third time derivative of the rotation, by finite
+/// differences on the real sample times), radians per second³. `None` below four samples.
+#[must_use]
+pub fn mean_jerk(track: &[Quaternion<f64>], times_s: &[f64]) -> Option<f64> {
+    let v = velocities(track, times_s);
+    // Velocity k sits at the middle of samples k and k + 1.
+    let mid: Vec<f64> = times_s.windows(2).map(|t| 0.5 * (t[0] + t[1])).collect();
+    let acc: Vec<Vector3<f64>> = v
+        .windows(2)
+        .zip(mid.windows(2))
+        .map(|(w, t)| (w[1] - w[0]) / (t[1] - t[0]))
+        .collect();
+    let mid2: Vec<f64> = mid.windows(2).map(|t| 0.5 * (t[0] + t[1])).collect();
+    let jerks: Vec<f64> = acc
+        .windows(2)
+        .zip(mid2.windows(2))
+        .map(|(a, t)| ((a[1] - a[0]) / (t[1] - t[0])).norm())
+        .collect();
+    #[expect(
+        clippy::cast_precision_loss,
+        reason = "sample counts are far below 2^52"
+    )]
+    let n = jerks.len() as f64;
+    (!jerks.is_empty()).then(|| jerks.iter().sum::<f64>() / n)
+}
+
+/// Consecutive quaternions with a negative dot product: places where a component-wise method
+/// passes through the wrong hemisphere (and, smoothed or not, shrinks towards zero).
+#[must_use]
+pub fn sign_flips(track: &[Quaternion<f64>]) -> usize {
+    track.windows(2).filter(|w| w[0].dot(&w[1]) < 0.0).count()
+}
+
+/// Quaternions whose norm is further than [`NORM_TOLERANCE`] from 1.
+#[must_use]
+pub fn norm_violations(track: &[Quaternion<f64>]) -> usize {
+    track
+        .iter()
+        .filter(|q| (q.norm() - 1.0).abs() > NORM_TOLERANCE || !q.norm().is_finite())
+        .count()
+}
+
+/// The value below which `p` (in [0, 1]) of `samples` fall (nearest rank; `samples` is sorted).
+#[must_use]
+pub fn percentile(samples: &mut [f64], p: f64) -> f64 {
+    if samples.is_empty() {
+        return f64::NAN;
+    }
+    samples.sort_by(f64::total_cmp);
+    #[expect(
+        clippy::cast_precision_loss,
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        reason = "an index within a short vector"
+    )]
+    let rank = ((p * samples.len() as f64).ceil() as usize).clamp(1, samples.len());
+    samples[rank - 1]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn yaw(a: f64) -> Quaternion<f64> {
+        UnitQuaternion::from_axis_angle(&Vector3::z_axis(), a).into_inner()
+    }
+
+    #[test]
+    fn measures_on_known_tracks() {
+        let times: Vec<f64> = (0..50).map(|k| f64::from(k) * 0.1).collect();
+        // Constant angular speed 0.5 rad/s about z: no jerk, peak 0.5 rad/s; the deviations from
+        // the mean are spread evenly up to half the sweep, their 95th percentile just below it.
+        let track: Vec<Quaternion<f64>> = times.iter().map(|t| yaw(0.5 * t)).collect();
+        assert!((peak_angular_speed(&track, &times) - 0.5).abs() < 1e-9);
+        assert!(mean_jerk(&track, &times).unwrap() < 1e-9);
+        assert!(
+            (range_of_motion(&track) - 0.5 * 2.35).abs() < 1e-9,
+            "{}",
+            range_of_motion(&track)
+        );
+        assert_eq!(sign_flips(&track), 0);
+        assert_eq!(norm_violations(&track), 0);
+        // The same rotations with alternating signs: flips, but the same measures.
+        let flipped: Vec<Quaternion<f64>> = track
+            .iter()
+            .enumerate()
+            .map(|(k, q)| if k % 2 == 1 { -q } else { *q })
+            .collect();
+        assert_eq!(sign_flips(&flipped), 49);
+        assert!((range_of_motion(&flipped) - range_of_motion(&track)).abs() < 1e-9);
+        assert!(geodesic_error(&UnitQuaternion::new_unchecked(track[3]), &flipped[3]) < 1e-12);
+        // A shrunken quaternion is a norm violation, but the same rotation.
+        assert_eq!(norm_violations(&[track[0] * 0.9]), 1);
+        // Jerk: a cubic angle a(t) = t³ has constant third derivative 6.
+        let cubic: Vec<Quaternion<f64>> = times.iter().map(|t| yaw(t * t * t / 10.0)).collect();
+        let j = mean_jerk(&cubic, &times).unwrap();
+        assert!((j - 0.6).abs() < 1e-6, "{j}");
+        assert!(mean_jerk(&cubic[..3], &times[..3]).is_none());
+    }
+
+    #[test]
+    fn percentiles() {
+        let mut v: Vec<f64> = (1..=100).map(f64::from).collect();
+        assert_eq!(percentile(&mut v, 0.95), 95.0);
+        assert_eq!(percentile(&mut v, 1.0), 100.0);
+        assert!(percentile(&mut [], 0.5).is_nan());
+    }
+}

@@ -1,0 +1,497 @@
+//! DSI's segmentation and time map: where the sequence is cut into unit motions, and which
+//! instant of the source every output frame shows.
+//!
+//! The per-interval angular distance is the paper's
+//! `d_f = Σ_b w_b · 2·acos(|⟨q_b^f, q_b^(f−1)⟩|) / Σ_b w_b`, a weighted mean over the bones that
+//! move in the clip, in radians per source frame: an interval that spans a dropped frame is
+//! divided by its length in frames, so a gap is not mistaken for a fast movement.
+//!
+//! Where `d_f` exceeds the threshold the interval `[f−1, f]` is a *transition*. Inside unit
+//! motions the output clock runs at the source's real speed (times `speed`): an interval of
+//! `Δt` seconds lasts `Δt · out_fps / speed` output frames, which is `1/δ` per source frame, δ
+//! being the paper's interpolation rate. A transition lasts `⌈η · d_f · n / δ⌉` output frames
+//! (`n` its length in source frames), never fewer than at real speed: fast movements are
+//! slowed down so they are not lost, slow ones are never stretched. With the default
+//! `η = 1 / threshold` the stretch is continuous: an interval exactly at the threshold keeps its
+//! real duration, one at twice the threshold lasts twice as long.
+
+use std::fmt;
+use std::str::FromStr;
+
+use super::DsiError;
+use super::interp::Sample;
+use crate::character::median;
+use crate::fk::BonePose;
+
+/// With a relative threshold, the cut never falls below this angular speed (radians per second
+/// of the weighted mean bone), so an almost still clip is not cut at its noise.
+pub const RELATIVE_FLOOR_RAD_PER_S: f64 = 0.5;
+
+/// Output times within this fraction of a frame past the last key show the last key (stamp
+/// rounding, as in [`crate::resample::Resampler`]).
+const END_TOLERANCE_FRAMES: f64 = 1e-3;
+
+/// Fraction of an interval within which an output time is its key's.
+const SNAP_TO_KEY: f64 = 1e-6;
+
+/// Where DSI cuts a sequence into unit motions.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Threshold {
+    /// No cut: one unit motion, resampled at real speed.
+    Off,
+    /// `k ×` the median `d_f` of the sequence, never below [`RELATIVE_FLOOR_RAD_PER_S`].
+    TimesMedian(f64),
+    /// Radians per source frame (the paper's unit).
+    RadPerFrame(f64),
+    /// Radians per second (independent of the source's frame rate).
+    RadPerSecond(f64),
+}
+
+impl Default for Threshold {
+    fn default() -> Threshold {
+        Threshold::TimesMedian(3.0)
+    }
+}
+
+impl fmt::Display for Threshold {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Threshold::Off => write!(f, "off"),
+            Threshold::TimesMedian(k) => write!(f, "{k}x"),
+            Threshold::RadPerFrame(r) => write!(f, "{r}rad"),
+            Threshold::RadPerSecond(r) => write!(f, "{r}rad/s"),
+        }
+    }
+}
+
+impl FromStr for Threshold {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Threshold, String> {
+        let s = s.trim();
+        if s == "off" {
+            return Ok(Threshold::Off);
+        }
+        let (number, make): (&str, fn(f64) -> Threshold) = if let Some(n) = s.strip_suffix("rad/s")
+        {
+            (n, Threshold::RadPerSecond)
+        } else if let Some(n) = s.strip_suffix("deg/s") {
+            (n, |d: f64| Threshold::RadPerSecond(d.to_radians()))
+        } else if let Some(n) = s.strip_suffix("rad") {
+            (n, Threshold::RadPerFrame)
+        } else if let Some(n) = s.strip_suffix('x') {
+            (n, Threshold::TimesMedian)
+        } else {
+            return Err(format!(
+                "`{s}`: give `off`, a multiple of the median distance (`3x`), radians per source frame (`0.05rad`), or an angular speed (`1.5rad/s`, `90deg/s`)"
+            ));
+        };
+        match number.trim().parse::<f64>() {
+            Ok(v) if v.is_finite() && v > 0.0 => Ok(make(v)),
+            _ => Err(format!("`{s}`: the number must be positive")),
+        }
+    }
+}
+
+/// The time map DSI found for one clip.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    /// Where every output frame falls between the keys.
+    pub samples: Vec<Sample>,
+    /// Per interval (keys `i → i + 1`): a transition.
+    pub transitions: Vec<bool>,
+    /// `d_f` per interval, radians per source frame.
+    pub distances_rad: Vec<f64>,
+    /// The threshold in radians per source frame (`None`: no segmentation).
+    pub threshold_rad: Option<f64>,
+    /// The interpolation coefficient used, output frames per radian·δ.
+    pub eta: f64,
+    /// The interpolation rate δ: source frames per output frame.
+    pub delta: f64,
+    /// Unit motions (segments between transitions).
+    pub segments: usize,
+    /// Frames the clip would have at real speed.
+    pub frames_real_speed: usize,
+}
+
+impl Plan {
+    /// Output frames added by slowing the transitions down.
+    #[must_use]
+    pub fn frames_added(&self) -> usize {
+        self.samples.len().saturating_sub(self.frames_real_speed)
+    }
+
+    /// Number of transition intervals.
+    #[must_use]
+    pub fn transition_count(&self) -> usize {
+        self.transitions.iter().filter(|&&t| t).count()
+    }
+}
+
+/// The weighted mean angular distance per interval, radians per source frame (see the module
+/// docs). `weights` has one entry per bone; bones that never move in the clip do not count.
+#[must_use]
+pub fn angular_distances(keys: &[BonePose], times_s: &[f64], weights: &[f64]) -> Vec<f64> {
+    let Some(first) = keys.first() else {
+        return Vec::new();
+    };
+    let period_s = source_period_s(times_s);
+    let moving: Vec<usize> = (0..first.local_rotations.len())
+        .filter(|&b| {
+            weights.get(b).copied().unwrap_or(0.0) > 0.0
+                && keys
+                    .iter()
+                    .any(|k| k.local_rotations[b] != first.local_rotations[b])
+        })
+        .collect();
+    let total: f64 = moving.iter().map(|&b| weights[b]).sum();
+    keys.windows(2)
+        .zip(times_s.windows(2))
+        .map(|(pair, t)| {
+            if total <= 0.0 {
+                return 0.0;
+            }
+            let sum: f64 = moving
+                .iter()
+                .map(|&b| {
+                    // The paper's 2·acos(|⟨q, q'⟩|): precise enough for a threshold, and cheap.
+                    let dot = pair[0].local_rotations[b]
+                        .as_ref()
+                        .dot(pair[1].local_rotations[b].as_ref())
+                        .abs()
+                        .min(1.0);
+                    weights[b] * 2.0 * dot.acos()
+                })
+                .sum();
+            let frames = ((t[1] - t[0]) / period_s).max(1.0);
+            sum / total / frames
+        })
+        .collect()
+}
+
+/// The source's frame period: the median interval between keys (robust to dropped frames).
+#[must_use]
+pub fn source_period_s(times_s: &[f64]) -> f64 {
+    let mut dts: Vec<f64> = times_s.windows(2).map(|t| t[1] - t[0]).collect();
+    median(&mut dts).unwrap_or(1.0)
+}
+
+/// Plans the output of one clip: keys at `times_s` (seconds, strictly increasing), played at
+/// `out_fps` frames per second and `speed` × real time, cut at `threshold`, transitions
+/// stretched by `eta` (default `1 / threshold`).
+///
+/// # Errors
+/// [`DsiError::Parameter`] for a non-positive rate, speed or η.
+pub fn plan(
+    keys: &[BonePose],
+    times_s: &[f64],
+    weights: &[f64],
+    threshold: Threshold,
+    eta: Option<f64>,
+    out_fps: f64,
+    speed: f64,
+) -> Result<Plan, DsiError> {
+    let positive = |name: &str, v: f64| {
+        if v.is_finite() && v > 0.0 {
+            Ok(())
+        } else {
+            Err(DsiError::Parameter(format!(
+                "{name} must be a positive number, not {v}"
+            )))
+        }
+    };
+    positive("the output frame rate", out_fps)?;
+    positive("the speed", speed)?;
+    if let Some(e) = eta {
+        positive("η", e)?;
+    }
+    let period_s = source_period_s(times_s);
+    let delta = speed / (period_s * out_fps);
+    let distances_rad = angular_distances(keys, times_s, weights);
+    let threshold_rad = match threshold {
+        Threshold::Off => None,
+        Threshold::RadPerFrame(r) => Some(r),
+        Threshold::RadPerSecond(r) => Some(r * period_s),
+        Threshold::TimesMedian(k) => {
+            let mut d = distances_rad.clone();
+            let m = median(&mut d).unwrap_or(0.0);
+            Some((k * m).max(RELATIVE_FLOOR_RAD_PER_S * period_s))
+        }
+    };
+    let eta = eta.or(threshold_rad.map(|t| 1.0 / t)).unwrap_or(1.0);
+    let transitions: Vec<bool> = distances_rad
+        .iter()
+        .map(|&d| threshold_rad.is_some_and(|t| d > t))
+        .collect();
+
+    // Output frames per interval, and their running sum (the time map's knots).
+    let mut real_total = 0.0;
+    let mut knots = Vec::with_capacity(transitions.len() + 1);
+    knots.push(0.0);
+    for (i, t) in times_s.windows(2).enumerate() {
+        let real = (t[1] - t[0]) * out_fps / speed;
+        real_total += real;
+        let frames = if transitions[i] {
+            let n_source = ((t[1] - t[0]) / period_s).max(1.0);
+            // A hair below a whole number is that number (rounding in d_f must not add a frame).
+            real.max((eta * distances_rad[i] * n_source / delta - 1e-9).ceil())
+        } else {
+            real
+        };
+        knots.push(knots[i] + frames);
+    }
+    let total = knots.last().copied().unwrap_or(0.0);
+    let mut samples = Vec::new();
+    let mut interval = 0;
+    let mut k = 0u32;
+    loop {
+        let u = f64::from(k);
+        if u > total + END_TOLERANCE_FRAMES {
+            break;
+        }
+        if u >= total - END_TOLERANCE_FRAMES || keys.len() < 2 {
+            samples.push(Sample {
+                interval: keys.len().saturating_sub(1),
+                s: 0.0,
+            });
+            break;
+        }
+        while knots[interval + 1] <= u {
+            interval += 1;
+        }
+        let s = (u - knots[interval]) / (knots[interval + 1] - knots[interval]);
+        // Stamps written at a nominal rate carry rounding (1/30 s is not a whole number of ns):
+        // an output time within a millionth of an interval of a key is that key.
+        let sample = if s < SNAP_TO_KEY {
+            Sample { interval, s: 0.0 }
+        } else if s > 1.0 - SNAP_TO_KEY {
+            Sample {
+                interval: interval + 1,
+                s: 0.0,
+            }
+        } else {
+            Sample { interval, s }
+        };
+        samples.push(sample);
+        k += 1;
+    }
+    let segments = 1 + transitions
+        .iter()
+        .enumerate()
+        // A transition at either end does not open a new unit motion.
+        .filter(|&(i, &t)| t && i > 0 && i + 1 < transitions.len())
+        .count();
+    #[expect(
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        reason = "a frame count, non-negative and far below 2^52"
+    )]
+    let frames_real_speed = (real_total + END_TOLERANCE_FRAMES).floor() as usize + 1;
+    Ok(Plan {
+        samples,
+        transitions,
+        distances_rad,
+        threshold_rad,
+        eta,
+        delta,
+        segments,
+        frames_real_speed,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{UnitQuaternion, Vector3};
+
+    fn keys_from(angles: &[f64]) -> Vec<BonePose> {
+        angles
+            .iter()
+            .map(|&a| BonePose {
+                root_translation_m: Vector3::zeros(),
+                local_rotations: vec![
+                    UnitQuaternion::from_axis_angle(&Vector3::z_axis(), a),
+                    UnitQuaternion::identity(),
+                ],
+            })
+            .collect()
+    }
+
+    fn times(n: usize, fps: f64) -> Vec<f64> {
+        (0..n)
+            .map(|k| f64::from(u32::try_from(k).unwrap()) / fps)
+            .collect()
+    }
+
+    #[test]
+    fn thresholds_parse_and_print() {
+        for s in ["off", "3x", "0.05rad", "1.5rad/s"] {
+            assert_eq!(s.parse::<Threshold>().unwrap().to_string(), s);
+        }
+        assert_eq!(
+            "90deg/s".parse::<Threshold>().unwrap(),
+            Threshold::RadPerSecond(std::f64::consts::FRAC_PI_2)
+        );
+        for bad in ["", "3", "-1x", "0rad", "NaNrad/s", "fast"] {
+            assert!(bad.parse::<Threshold>().is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn distance_is_the_weighted_mean_and_ignores_still_bones_and_gaps() {
+        let keys = keys_from(&[0.0, 0.1, 0.3, 0.7]);
+        // Bone 1 never moves: with weight it still does not dilute the mean.
+        let d = angular_distances(&keys, &times(4, 30.0), &[2.0, 5.0]);
+        for (got, want) in d.iter().zip([0.1, 0.2, 0.4]) {
+            assert!((got - want).abs() < 1e-12);
+        }
+        // The third key arrives after a dropped frame: its interval counts per frame.
+        let t = [0.0, 1.0 / 30.0, 3.0 / 30.0, 4.0 / 30.0];
+        let d = angular_distances(&keys, &t, &[1.0, 1.0]);
+        assert!((d[1] - 0.1).abs() < 1e-12, "{d:?}");
+    }
+
+    #[test]
+    fn without_cuts_the_clip_keeps_its_real_duration() {
+        let keys = keys_from(&[0.0; 31]);
+        let p = plan(
+            &keys,
+            &times(31, 30.0),
+            &[1.0, 1.0],
+            Threshold::Off,
+            None,
+            60.0,
+            1.0,
+        )
+        .unwrap();
+        // 1 s at 60 fps: 61 frames, the last on the last key.
+        assert_eq!(p.samples.len(), 61);
+        assert_eq!(p.frames_added(), 0);
+        assert_eq!(
+            p.samples[60],
+            Sample {
+                interval: 30,
+                s: 0.0
+            }
+        );
+        assert!((p.samples[1].s - 0.5).abs() < 1e-12);
+        assert!((p.delta - 0.5).abs() < 1e-12);
+        // Twice the speed: half the frames.
+        let p = plan(
+            &keys,
+            &times(31, 30.0),
+            &[1.0, 1.0],
+            Threshold::Off,
+            None,
+            30.0,
+            2.0,
+        )
+        .unwrap();
+        assert_eq!(p.samples.len(), 16);
+    }
+
+    #[test]
+    fn a_fast_interval_is_a_transition_and_gets_frames_in_proportion() {
+        // Slow steady motion, one jump of ten times the step.
+        let mut angles = vec![0.0];
+        for k in 1..20 {
+            let step = if k == 10 { 0.2 } else { 0.02 };
+            angles.push(angles[k - 1] + step);
+        }
+        let keys = keys_from(&angles);
+        let t = times(20, 30.0);
+        let p = plan(
+            &keys,
+            &t,
+            &[1.0, 0.0],
+            Threshold::RadPerFrame(0.05),
+            None,
+            30.0,
+            1.0,
+        )
+        .unwrap();
+        assert_eq!(p.transition_count(), 1);
+        assert!(p.transitions[9]);
+        assert_eq!(p.segments, 2);
+        // η = 1/0.05 → ⌈20 · 0.2⌉ = 4 frames for that interval instead of 1.
+        assert_eq!(p.frames_added(), 3);
+        assert_eq!(p.samples.len(), 23);
+        let inside: Vec<f64> = p
+            .samples
+            .iter()
+            .filter(|s| s.interval == 9)
+            .map(|s| s.s)
+            .collect();
+        assert_eq!(inside, vec![0.0, 0.25, 0.5, 0.75]);
+        // The relative threshold finds the same cut (3 × median 0.02 < 0.2), but the floor
+        // (0.5 rad/s = 0.0167 rad/frame) stays below it.
+        let p = plan(
+            &keys,
+            &t,
+            &[1.0, 0.0],
+            Threshold::default(),
+            None,
+            30.0,
+            1.0,
+        )
+        .unwrap();
+        assert_eq!(p.transition_count(), 1);
+        assert!((p.threshold_rad.unwrap() - 0.06).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_still_clip_is_not_cut_at_its_noise() {
+        let angles: Vec<f64> = (0..30)
+            .map(|k| if k % 2 == 0 { 0.0 } else { 1e-4 })
+            .collect();
+        let keys = keys_from(&angles);
+        let p = plan(
+            &keys,
+            &times(30, 30.0),
+            &[1.0, 0.0],
+            Threshold::default(),
+            None,
+            30.0,
+            1.0,
+        )
+        .unwrap();
+        assert_eq!(p.transition_count(), 0);
+    }
+
+    #[test]
+    fn bad_parameters_are_errors() {
+        let keys = keys_from(&[0.0, 0.1]);
+        let t = times(2, 30.0);
+        assert!(plan(&keys, &t, &[1.0, 1.0], Threshold::Off, None, 0.0, 1.0).is_err());
+        assert!(plan(&keys, &t, &[1.0, 1.0], Threshold::Off, None, 30.0, -1.0).is_err());
+        assert!(
+            plan(
+                &keys,
+                &t,
+                &[1.0, 1.0],
+                Threshold::Off,
+                Some(f64::NAN),
+                30.0,
+                1.0
+            )
+            .is_err()
+        );
+        let one = plan(
+            &keys[..1],
+            &t[..1],
+            &[1.0, 1.0],
+            Threshold::Off,
+            None,
+            30.0,
+            1.0,
+        )
+        .unwrap();
+        assert_eq!(
+            one.samples,
+            vec![Sample {
+                interval: 0,
+                s: 0.0
+            }]
+        );
+    }
+}
