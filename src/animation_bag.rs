@@ -10,7 +10,9 @@
 //!   layout cannot see, such as fingers from a body-only estimator, are not drawn).
 //!
 //! Bones that never move (static bones, and those the layout cannot drive) go once on
-//! `/tf_static`. With several people, frame names are prefixed `track<id>/`.
+//! `/tf_static`. With several people, frame names are prefixed `track<id>/`; with DSI variants,
+//! `v<k>/` (after the track's prefix), and the markers of variant `k` are in namespace
+//! `skeleton/v<k>`. Variant 0, the animation as converted, has neither.
 //!
 //! A [`TrackWriter`] keeps one message of each kind per person and updates it in place, so a
 //! frame costs no allocation however long the animation.
@@ -53,26 +55,37 @@ pub struct TrackWriter<'r> {
     statics: Vec<TransformStamped>,
 }
 
+/// The tf frame prefix of person `track_id`'s animation `variant`: `track<id>/` when the bag holds
+/// several people, then `v<k>/` for a variant other than 0.
+#[must_use]
+pub fn frame_prefix(track_id: u64, variant: u32, several_people: bool) -> String {
+    let mut prefix = String::new();
+    if several_people {
+        prefix.push_str(&format!("track{track_id}/"));
+    }
+    if variant > 0 {
+        prefix.push_str(&format!("v{variant}/"));
+    }
+    prefix
+}
+
 fn frame_name(prefix: &str, rig: &Rig, bone: usize) -> String {
     format!("{prefix}{}", rig.bones[bone].name)
 }
 
 impl<'r> TrackWriter<'r> {
-    /// A writer for person `track_id` (frame names prefixed when `prefixed`), animated on
-    /// `character` with the bones `coverage` says its data drives.
+    /// A writer for person `track_id`'s animation `variant`, with tf frame names prefixed by
+    /// `prefix` (see [`frame_prefix`]), animated on `character` with the bones `coverage` says its
+    /// data drives.
     #[must_use]
     pub fn new(
         rig: &'r Rig,
         character: Character,
         coverage: &Coverage,
         track_id: u64,
-        prefixed: bool,
+        variant: u32,
+        prefix: &str,
     ) -> TrackWriter<'r> {
-        let prefix = if prefixed {
-            format!("track{track_id}/")
-        } else {
-            String::new()
-        };
         let moves = |b: usize| {
             b == ROOT
                 || (!matches!(rig.bones[b].dof, Dof::Static)
@@ -84,9 +97,9 @@ impl<'r> TrackWriter<'r> {
                 stamp: Time::default(),
                 frame_id: rig.bones[b]
                     .parent
-                    .map_or_else(|| WORLD_FRAME.to_string(), |p| frame_name(&prefix, rig, p)),
+                    .map_or_else(|| WORLD_FRAME.to_string(), |p| frame_name(prefix, rig, p)),
             },
-            child_frame_id: frame_name(&prefix, rig, b),
+            child_frame_id: frame_name(prefix, rig, b),
             transform: Transform {
                 translation: Vector3::from(character.head_offset_m[b]),
                 rotation: Quaternion::default(),
@@ -115,7 +128,11 @@ impl<'r> TrackWriter<'r> {
         };
         let marker = Marker {
             header: header.clone(),
-            ns: "skeleton".to_string(),
+            ns: if variant > 0 {
+                format!("skeleton/v{variant}")
+            } else {
+                "skeleton".to_string()
+            },
             id: i32::try_from(track_id).unwrap_or(i32::MAX),
             type_: Marker::LINE_LIST,
             action: Marker::ADD,
@@ -139,6 +156,7 @@ impl<'r> TrackWriter<'r> {
                 header,
                 rig: rig.name.to_string(),
                 track_id,
+                variant,
                 bone_names: rig.bones.iter().map(|b| b.name.clone()).collect(),
                 local_rotations: vec![Quaternion::default(); rig.bones.len()],
                 root_translation: Vector3::default(),

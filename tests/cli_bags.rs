@@ -505,3 +505,152 @@ fn rosbag2_directories_carry_metadata_yaml() {
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("no .mcap file"), "{}", stderr(&o));
 }
+
+#[test]
+fn dsi_variants_are_labelled_animations_of_their_own_and_deterministic() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = pose_bag(dir.path(), "in.mcap", 90, |_, _| {});
+    let run = |name: &str, seed: &str| {
+        let out = dir.path().join(name);
+        let o = autoact(&[
+            "convert",
+            arg(&input),
+            "-o",
+            arg(&out),
+            "--dsi",
+            "--variants",
+            "3",
+            "--seed",
+            seed,
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(
+            common::stdout(&o).contains("3 variants (seed"),
+            "{}",
+            common::stdout(&o)
+        );
+        out
+    };
+    let (a, b, c) = (run("a.mcap", "5"), run("b.mcap", "5"), run("c.mcap", "6"));
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+
+    let frames = bone_frames(&a);
+    let of = |v: u32| -> Vec<&BoneFrame> {
+        frames
+            .iter()
+            .filter(|(_, f)| f.variant == v)
+            .map(|(_, f)| f)
+            .collect()
+    };
+    let base = of(0);
+    assert!(base.len() >= 88, "{} frames", base.len());
+    for v in 1..=3 {
+        let variant = of(v);
+        assert_eq!(variant.len(), base.len(), "variant {v}");
+        assert_ne!(variant[40].local_rotations, base[40].local_rotations);
+    }
+    assert_eq!(frames.len(), 4 * base.len(), "nothing but variants 0..=3");
+    for (_, f) in &frames {
+        for q in &f.local_rotations {
+            let n = (q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w).sqrt();
+            assert!((n - 1.0).abs() < 1e-9, "|q| = {n}");
+        }
+    }
+    // Another seed: the same animation, other variants.
+    let other = bone_frames(&c);
+    let other_of = |v: u32| -> Vec<&BoneFrame> {
+        other
+            .iter()
+            .filter(|(_, f)| f.variant == v)
+            .map(|(_, f)| f)
+            .collect()
+    };
+    assert_eq!(other_of(0), base);
+    assert_ne!(other_of(1), of(1));
+    // Variants have their own tf frames, and the bag says how they were made.
+    let tf_children: std::collections::BTreeSet<String> = BagReader::open(&a)
+        .unwrap()
+        .messages()
+        .map(Result::unwrap)
+        .filter(|m| m.channel.topic == "/tf")
+        .flat_map(|m| {
+            cdr::decode::<autoact::ros::tf2_msgs::TFMessage>(&m.data)
+                .unwrap()
+                .transforms
+                .into_iter()
+                .map(|t| t.child_frame_id)
+        })
+        .collect();
+    for name in ["root", "v1/root", "v3/l_forearm"] {
+        assert!(
+            tf_children.contains(name),
+            "{name} missing: {tf_children:?}"
+        );
+    }
+    let meta = BagReader::open(&a).unwrap().metadata();
+    let convert = &meta.iter().find(|(n, _)| n == "autoact.convert").unwrap().1;
+    assert_eq!(convert["seed"], "5");
+    assert_eq!(convert["variants"], "3");
+    assert_eq!(convert["dsi_threshold"], "3x");
+}
+
+#[test]
+fn dsi_pace_sets_the_duration() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = pose_bag(dir.path(), "in.mcap", 91, |_, _| {});
+    let count = |extra: &[&str]| {
+        let out = dir.path().join("out.mcap");
+        let mut args = vec!["convert", arg(&input), "-o", arg(&out)];
+        args.extend_from_slice(extra);
+        let o = autoact(&args);
+        assert!(o.status.success(), "{extra:?}: {}", stderr(&o));
+        bone_frames(&out).len()
+    };
+    assert_eq!(count(&["--smooth", "on"]), 91, "3 s at 30 fps, real speed");
+    assert_eq!(
+        count(&["--speed", "2"]),
+        46,
+        "twice as fast: half the frames"
+    );
+    assert_eq!(
+        count(&["--delta", "0.5"]),
+        181,
+        "δ = 0.5: two output frames per source frame"
+    );
+    assert_eq!(
+        count(&["--dsi-threshold", "off", "--fps", "60"]),
+        181,
+        "no cuts at 60 fps"
+    );
+}
+
+#[test]
+fn bad_dsi_options_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = pose_bag(dir.path(), "in.mcap", 20, |_, _| {});
+    let out = dir.path().join("out.mcap");
+    for (extra, code, expect) in [
+        (&["--dsi-threshold", "fast"][..], 2, "3x"),
+        (&["--smooth", "0.3,0.2,1"][..], 1, "ascending"),
+        (&["--smooth", "0.3,0.2"][..], 2, "three spans"),
+        (
+            &["--speed", "0"][..],
+            1,
+            "--speed must be a positive number",
+        ),
+        (
+            &["--speed", "2", "--delta", "1"][..],
+            2,
+            "cannot be used with",
+        ),
+        (&["--dsi-weight", "knee=2"][..], 1, "not a bone"),
+        (&["--variation-deg", "100"][..], 2, "[0, 90]"),
+        (&["--smooth-bass", "12"][..], 1, "[0, 10]"),
+    ] {
+        let mut args = vec!["convert", arg(&input), "-o", arg(&out)];
+        args.extend_from_slice(extra);
+        let o = autoact(&args);
+        assert_eq!(o.status.code(), Some(code), "{extra:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(expect), "{extra:?}: {}", stderr(&o));
+    }
+}

@@ -6,8 +6,12 @@ use std::path::PathBuf;
 use anyhow::{Context, Result, bail};
 
 use super::{BagOutput, Outcome, OutputArgs, file_name, print_stdout, warn_list};
-use crate::animation_bag::{TF_STATIC_TOPIC, TrackWriter};
-use crate::convert::{ConvertOptions, RootMotion, SequenceConverter};
+use crate::animation_bag::{TF_STATIC_TOPIC, TrackWriter, frame_prefix};
+use crate::convert::{AnimationFrame, ConvertOptions, RootMotion, SequenceConverter};
+use crate::dsi::plan::Threshold;
+use crate::dsi::smoothing::Smoothing;
+use crate::dsi::variants::VariationBounds;
+use crate::dsi::{self, DsiOptions, Pace};
 use crate::layout::Layout;
 use crate::pose_bag::{self, METADATA_NAME};
 use crate::resample::Resampler;
@@ -29,6 +33,9 @@ pub struct Args {
     /// Output frame rate: frames are resampled from the input stamps on the rotation group.
     #[arg(long, default_value_t = 30.0)]
     pub fps: f64,
+    /// Dynamic Skeletal Interpolation, smoothing and variants.
+    #[command(flatten)]
+    pub dsi: DsiArgs,
     /// How the root follows the pelvis.
     #[arg(long, value_enum, default_value_t = RootMotion::Full)]
     pub root_motion: RootMotion,
@@ -38,6 +45,158 @@ pub struct Args {
     /// Output options.
     #[command(flatten)]
     pub output: OutputArgs,
+}
+
+/// `convert`'s DSI options. Without any of them, `convert` streams: each frame is solved,
+/// resampled by slerp and written at once. With any, each person's clip is solved whole, then
+/// interpolated, varied and smoothed.
+#[derive(Debug, clap::Args)]
+#[command(next_help_heading = "Dynamic Skeletal Interpolation (whole clips)")]
+pub struct DsiArgs {
+    /// Run DSI: cut the clip into unit motions at fast transitions, resample them at real speed
+    /// with a tangent-space cubic, give each transition extra frames, smooth (SuperSmoother).
+    #[arg(long)]
+    pub dsi: bool,
+    /// Where DSI cuts: `3x` (3 × the clip's median weighted angular distance, never below
+    /// 0.5 rad/s), `0.05rad` (radians per source frame, the paper's unit), `1.5rad/s`, `90deg/s`,
+    /// or `off` [default: 3x]. Implies --dsi.
+    #[arg(long, value_name = "THRESHOLD")]
+    pub dsi_threshold: Option<Threshold>,
+    /// η: a transition whose weighted angular distance is d radians gets ⌈η·d/δ⌉ output frames
+    /// (never fewer than at real speed) [default: 1/threshold, so a transition at the threshold
+    /// keeps its duration]. Implies --dsi.
+    #[arg(long, value_name = "ETA")]
+    pub eta: Option<f64>,
+    /// Weight of a bone in the angular distance, BONE=WEIGHT (repeatable). Defaults: upper
+    /// arms and thighs 3, forearms, calves and root 2, spine 1.5, neck, head, hands and feet 1,
+    /// fingers 0.2, static bones 0. Implies --dsi.
+    #[arg(long = "dsi-weight", value_name = "BONE=WEIGHT")]
+    pub dsi_weights: Vec<String>,
+    /// Playback speed of the unit motions, × real time [default: 1].
+    #[arg(long, value_name = "FACTOR", conflicts_with = "delta")]
+    pub speed: Option<f64>,
+    /// The paper's interpolation rate δ: source frames per output frame (δ = speed × source
+    /// fps / --fps), instead of --speed.
+    #[arg(long, value_name = "DELTA")]
+    pub delta: Option<f64>,
+    /// SuperSmoother in the tangent space: `on`, `off`, or the tweeter, midrange and woofer
+    /// spans in seconds `T,M,W` [default: on (0.1,0.2,0.6) with DSI, off without].
+    #[arg(long, value_name = "on|off|T,M,W")]
+    pub smooth: Option<SmoothArg>,
+    /// Friedman's bass control α in [0, 10]: higher prefers the woofer (smoother) where the fit
+    /// allows [default: none].
+    #[arg(long, value_name = "ALPHA")]
+    pub smooth_bass: Option<f64>,
+    /// Seeded random variants to write besides each animation: variant k of person N is its own
+    /// animation (BoneFrame `variant` = k, tf frames under `v<k>/`).
+    #[arg(long, value_name = "V", default_value_t = 0)]
+    pub variants: u64,
+    /// Bound of the variants' perturbation per DoF class, degrees: one number (every class but
+    /// the root) or CLASS=DEG pairs of 3d, 2d, hinge, root.
+    #[arg(long, value_name = "DEG", default_value = "3d=6,2d=6,hinge=8,root=0")]
+    pub variation_deg: VariationBounds,
+    /// Seed of the variants (recorded in the bag's metadata): the same seed gives the same
+    /// variants on every machine.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+}
+
+/// `--smooth`'s value.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SmoothArg {
+    /// Default spans.
+    On,
+    /// No smoothing.
+    Off,
+    /// These spans, seconds.
+    Spans([f64; 3]),
+}
+
+impl std::str::FromStr for SmoothArg {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<SmoothArg, String> {
+        match s.trim() {
+            "on" => Ok(SmoothArg::On),
+            "off" => Ok(SmoothArg::Off),
+            spans => {
+                let v: Vec<f64> = spans
+                    .split(',')
+                    .map(|x| x.trim().parse::<f64>())
+                    .collect::<Result<_, _>>()
+                    .map_err(|_| format!("`{s}`: give on, off, or three spans in seconds T,M,W"))?;
+                let [t, m, w] = v[..] else {
+                    return Err(format!("`{s}`: give three spans in seconds T,M,W"));
+                };
+                Ok(SmoothArg::Spans([t, m, w]))
+            }
+        }
+    }
+}
+
+impl DsiArgs {
+    /// DSI's options, or `None` when none was asked for (streaming conversion).
+    fn options(&self, rig: &Rig, fps: f64) -> Result<Option<DsiOptions>> {
+        let segmenting = self.dsi
+            || self.dsi_threshold.is_some()
+            || self.eta.is_some()
+            || !self.dsi_weights.is_empty();
+        let whole = segmenting
+            || self.speed.is_some()
+            || self.delta.is_some()
+            || self.smooth.is_some_and(|s| s != SmoothArg::Off)
+            || self.smooth_bass.is_some()
+            || self.variants > 0;
+        if !whole {
+            return Ok(None);
+        }
+        let mut options = DsiOptions::new(rig);
+        options.out_fps = fps;
+        options.threshold = if segmenting {
+            self.dsi_threshold.unwrap_or_default()
+        } else {
+            Threshold::Off
+        };
+        options.eta = self.eta;
+        dsi::apply_weight_overrides(rig, &mut options.weights, &self.dsi_weights)?;
+        options.pace = match (self.speed, self.delta) {
+            (_, Some(d)) => Pace::Delta(d),
+            (s, None) => Pace::Speed(s.unwrap_or(1.0)),
+        };
+        let spans = match self.smooth {
+            Some(SmoothArg::Off) => None,
+            Some(SmoothArg::Spans(s)) => Some(s),
+            Some(SmoothArg::On) => Some(Smoothing::default().spans_s),
+            None => {
+                (segmenting || self.smooth_bass.is_some()).then(|| Smoothing::default().spans_s)
+            }
+        };
+        options.smoothing = spans.map(|spans_s| Smoothing {
+            spans_s,
+            bass: self.smooth_bass,
+        });
+        options.variants = self.variants;
+        options.bounds = self.variation_deg;
+        options.seed = self.seed;
+        if let Some(s) = &options.smoothing {
+            s.validate().map_err(anyhow::Error::msg)?;
+        }
+        for (name, v) in [
+            ("--speed", self.speed),
+            ("--delta", self.delta),
+            ("--eta", self.eta),
+        ] {
+            if let Some(v) = v
+                && !(v.is_finite() && v > 0.0)
+            {
+                bail!("{name} must be a positive number, not {v}");
+            }
+        }
+        if self.variants > u64::from(u32::MAX) {
+            bail!("--variants is at most {}", u32::MAX);
+        }
+        Ok(Some(options))
+    }
 }
 
 /// Runs `autoact convert`.
@@ -50,6 +209,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         topic,
         layout,
         fps,
+        dsi,
         root_motion,
         min_confidence,
         output,
@@ -79,6 +239,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         );
     }
     let rig = Rig::standard();
+    let dsi_options = dsi.options(&rig, fps)?;
     let options = ConvertOptions {
         min_confidence,
         root_motion,
@@ -110,7 +271,8 @@ pub fn run(args: Args) -> Result<Outcome> {
             converter.character().clone(),
             converter.coverage(),
             seq.track_id,
-            prefixed,
+            0,
+            &frame_prefix(seq.track_id, 0, prefixed),
         );
         people.push(Person {
             track_id: seq.track_id,
@@ -124,10 +286,6 @@ pub fn run(args: Args) -> Result<Outcome> {
         bail!("{}: no frames could be converted", input.display());
     };
 
-    let mut out = BagOutput::create(&output)?;
-    for (name, record) in &topics.metadata {
-        out.writer.write_metadata(name, record.clone())?;
-    }
     let mut meta = BTreeMap::new();
     meta.insert("rig".to_string(), rig.name.to_string());
     meta.insert("source".to_string(), file_name(&input));
@@ -149,12 +307,108 @@ pub fn run(args: Args) -> Result<Outcome> {
             .collect::<Vec<_>>()
             .join(","),
     );
+    let mut text = format!("wrote {}\n", output.output.display());
+    let mut lost = topics.lost_data();
+    let mut out;
+    if let Some(dsi_options) = &dsi_options {
+        record_dsi_options(&mut meta, dsi_options);
+        let mut clips = Vec::new();
+        for person in people {
+            let (summary, clip_lost, animations) = whole_clip(&rig, person, dsi_options, prefixed)?;
+            text.push_str(&summary);
+            lost |= clip_lost;
+            clips.extend(animations);
+        }
+        out = BagOutput::create(&output)?;
+        write_header(
+            &mut out,
+            &topics.metadata,
+            meta,
+            first,
+            clips.iter().map(|(w, _)| w),
+        )?;
+        // All animations in stamp order (ties: person, then variant).
+        let mut order: Vec<(u64, usize, usize)> = clips
+            .iter()
+            .enumerate()
+            .flat_map(|(c, (_, frames))| {
+                frames
+                    .iter()
+                    .enumerate()
+                    .map(move |(k, f)| (f.stamp_nanos, c, k))
+            })
+            .collect();
+        order.sort_unstable();
+        for (stamp, c, k) in order {
+            let (writer, frames) = &mut clips[c];
+            writer.write_frame(&mut out.writer, stamp, &frames[k].pose)?;
+        }
+    } else {
+        out = BagOutput::create(&output)?;
+        write_header(
+            &mut out,
+            &topics.metadata,
+            meta,
+            first,
+            people.iter().map(|p| &p.writer),
+        )?;
+        stream(&mut out, &mut people)?;
+        for person in people {
+            let Person {
+                track_id,
+                converter,
+                resampler,
+                mut writer,
+                mut frames_out,
+            } = person;
+            let mut result = Ok(());
+            resampler.finish(&mut |t, p| {
+                if result.is_ok() {
+                    result = writer.write_frame(&mut out.writer, t, p);
+                    frames_out += 1;
+                }
+            });
+            result?;
+            let layout_name = converter.layout_name().to_string();
+            let (_, report) = converter.finish();
+            lost |= report.lost_data();
+            text.push_str(&format!(
+                "  track {track_id}: {} frames in, {frames_out} out at {fps} fps; {} frames needed the degenerate-input path; {} bones at rest ({layout_name})\n",
+                report.frames,
+                report.degenerate_frames,
+                report.coverage.at_rest.len(),
+            ));
+            warn_non_monotonic(track_id, &report.dropped_non_monotonic);
+        }
+    }
+    out.finish()?;
+    print_stdout(&text)?;
+    if lost {
+        tracing::error!(
+            "{}: some input could not be used ({} unreadable parts, {} skipped messages); the output holds everything else",
+            input.display(),
+            topics.issues.len(),
+            topics.skipped.len()
+        );
+        return Ok(Outcome::DataLost);
+    }
+    Ok(Outcome::Success)
+}
+
+/// Writes the metadata records and every writer's `/tf_static` transforms at `first`.
+fn write_header<'w, 'r: 'w>(
+    out: &mut BagOutput,
+    source_metadata: &[(String, BTreeMap<String, String>)],
+    meta: BTreeMap<String, String>,
+    first: u64,
+    writers: impl Iterator<Item = &'w TrackWriter<'r>>,
+) -> Result<()> {
+    for (name, record) in source_metadata {
+        out.writer.write_metadata(name, record.clone())?;
+    }
     out.writer
         .write_metadata(&format!("{METADATA_NAME}.convert"), meta)?;
-    let statics = people
-        .iter()
-        .flat_map(|p| p.writer.static_transforms(first))
-        .collect();
+    let statics = writers.flat_map(|w| w.static_transforms(first)).collect();
     out.writer.write(
         TF_STATIC_TOPIC,
         first,
@@ -162,8 +416,12 @@ pub fn run(args: Args) -> Result<Outcome> {
             transforms: statics,
         },
     )?;
+    Ok(())
+}
 
-    // Always advance the person whose next input frame is earliest.
+/// Streams every person out in time order: each input frame is solved, resampled and written at
+/// once, always advancing the person whose next input frame is earliest.
+fn stream(out: &mut BagOutput, people: &mut [Person<'_>]) -> Result<()> {
     while let Some(k) = (0..people.len())
         .filter(|&k| people[k].converter.peek_stamp().is_some())
         .min_by_key(|&k| people[k].converter.peek_stamp())
@@ -188,52 +446,147 @@ pub fn run(args: Args) -> Result<Outcome> {
         });
         result?;
     }
-    let mut text = format!("wrote {}\n", output.output.display());
-    let mut lost = topics.lost_data();
-    for person in people {
-        let Person {
-            track_id,
-            converter,
-            resampler,
-            mut writer,
-            mut frames_out,
-        } = person;
-        let mut result = Ok(());
-        resampler.finish(&mut |t, p| {
-            if result.is_ok() {
-                result = writer.write_frame(&mut out.writer, t, p);
-                frames_out += 1;
-            }
+    Ok(())
+}
+
+/// Each animation's writer and frames.
+type Animations<'r> = Vec<(TrackWriter<'r>, Vec<AnimationFrame>)>;
+
+/// Solves one person's whole clip and runs DSI on it: the summary line, whether input was lost,
+/// and a writer with its frames per animation (variant 0 first).
+fn whole_clip<'r>(
+    rig: &'r Rig,
+    person: Person<'r>,
+    options: &DsiOptions,
+    several_people: bool,
+) -> Result<(String, bool, Animations<'r>)> {
+    let Person {
+        track_id,
+        mut converter,
+        writer,
+        ..
+    } = person;
+    let mut keys = Vec::new();
+    while let Some(step) = converter.next_frame() {
+        let (stamp_nanos, pose) = step?;
+        keys.push(AnimationFrame {
+            stamp_nanos,
+            pose: pose.clone(),
         });
-        result?;
-        let layout_name = converter.layout_name().to_string();
-        let (_, report) = converter.finish();
-        lost |= report.lost_data();
-        text.push_str(&format!(
-            "  track {track_id}: {} frames in, {frames_out} out at {fps} fps; {} frames needed the degenerate-input path; {} bones at rest ({layout_name})\n",
-            report.frames,
-            report.degenerate_frames,
-            report.coverage.at_rest.len(),
+    }
+    let layout_name = converter.layout_name().to_string();
+    let coverage = converter.coverage().clone();
+    let (character, report) = converter.finish();
+    warn_non_monotonic(track_id, &report.dropped_non_monotonic);
+    let result =
+        dsi::run(rig, &keys, options).with_context(|| format!("DSI on track {track_id}"))?;
+    let plan = &result.plan;
+    let mut summary = format!(
+        "  track {track_id}: {} frames in, {} out per animation at {} fps; {} frames needed the degenerate-input path; {} bones at rest ({layout_name})\n",
+        report.frames,
+        result.animations[0].len(),
+        options.out_fps,
+        report.degenerate_frames,
+        report.coverage.at_rest.len(),
+    );
+    summary.push_str(&match plan.threshold_rad {
+        Some(t) => format!(
+            "    DSI: {} unit motions, {} transitions above {:.4} rad/frame (+{} frames, η = {:.3}), δ = {:.3}\n",
+            plan.segments,
+            plan.transition_count(),
+            t,
+            plan.frames_added(),
+            plan.eta,
+            plan.delta,
+        ),
+        None => format!("    resampled whole (no cuts), δ = {:.3}\n", plan.delta),
+    });
+    if options.smoothing.is_some() || options.variants > 0 {
+        summary.push_str(&format!(
+            "    {}{} variants (seed {})\n",
+            if options.smoothing.is_some() {
+                "smoothed; "
+            } else {
+                ""
+            },
+            options.variants,
+            options.seed
         ));
-        if !report.dropped_non_monotonic.is_empty() {
-            tracing::warn!(
-                "track {track_id}: {} frames dropped for non-monotonic stamps",
-                report.dropped_non_monotonic.len()
-            );
-        }
     }
-    out.finish()?;
-    print_stdout(&text)?;
-    if lost {
-        tracing::error!(
-            "{}: some input could not be used ({} unreadable parts, {} skipped messages); the output holds everything else",
-            input.display(),
-            topics.issues.len(),
-            topics.skipped.len()
+    let mut writer = Some(writer);
+    let animations = result
+        .animations
+        .into_iter()
+        .zip(0u32..)
+        .map(|(frames, v)| {
+            let w = writer.take().filter(|_| v == 0).unwrap_or_else(|| {
+                TrackWriter::new(
+                    rig,
+                    character.clone(),
+                    &coverage,
+                    track_id,
+                    v,
+                    &frame_prefix(track_id, v, several_people),
+                )
+            });
+            (w, frames)
+        })
+        .collect();
+    Ok((summary, report.lost_data(), animations))
+}
+
+/// Puts every DSI parameter in the `autoact.convert` record, so a bag says how it was made.
+fn record_dsi_options(meta: &mut BTreeMap<String, String>, o: &DsiOptions) {
+    meta.insert("dsi_threshold".to_string(), o.threshold.to_string());
+    meta.insert(
+        "dsi_eta".to_string(),
+        o.eta
+            .map_or_else(|| "1/threshold".to_string(), |e| e.to_string()),
+    );
+    meta.insert(
+        "dsi_pace".to_string(),
+        match o.pace {
+            Pace::Speed(s) => format!("speed {s}"),
+            Pace::Delta(d) => format!("delta {d}"),
+        },
+    );
+    meta.insert(
+        "dsi_weights".to_string(),
+        o.weights
+            .iter()
+            .map(ToString::to_string)
+            .collect::<Vec<_>>()
+            .join(","),
+    );
+    meta.insert(
+        "smoothing".to_string(),
+        o.smoothing.map_or_else(
+            || "off".to_string(),
+            |s| {
+                format!(
+                    "supersmoother spans_s={:?} bass={}",
+                    s.spans_s,
+                    s.bass.map_or_else(|| "none".to_string(), |b| b.to_string())
+                )
+            },
+        ),
+    );
+    meta.insert("variants".to_string(), o.variants.to_string());
+    meta.insert("variation_deg".to_string(), o.bounds.to_string());
+    meta.insert("seed".to_string(), o.seed.to_string());
+    meta.insert(
+        "variant_rng".to_string(),
+        "variant k: ChaCha8 seeded with `seed` (seed_from_u64), stream k".to_string(),
+    );
+}
+
+fn warn_non_monotonic(track_id: u64, dropped: &[(usize, u64)]) {
+    if !dropped.is_empty() {
+        tracing::warn!(
+            "track {track_id}: {} frames dropped for non-monotonic stamps",
+            dropped.len()
         );
-        return Ok(Outcome::DataLost);
     }
-    Ok(Outcome::Success)
 }
 
 /// One person being converted.

@@ -38,6 +38,7 @@ struct ChannelStats {
     non_monotonic: u64,
     layouts: BTreeSet<String>,
     tracks: BTreeSet<u64>,
+    variants: BTreeSet<u32>,
 }
 
 /// Decodes one message of a type autoact knows, returning what it learnt; `None` for other types.
@@ -54,6 +55,7 @@ fn check_message(
         s if s == BoneFrame::TYPE_NAME => ros::cdr::decode::<BoneFrame>(data).map(|m| {
             stats.layouts.insert(format!("rig {}", m.rig));
             stats.tracks.insert(m.track_id);
+            stats.variants.insert(m.variant);
         }),
         s if s == TFMessage::TYPE_NAME => ros::cdr::decode::<TFMessage>(data).map(drop),
         s if s == MarkerArray::TYPE_NAME => ros::cdr::decode::<MarkerArray>(data).map(drop),
@@ -186,6 +188,11 @@ pub fn run(args: Args) -> Result<Outcome> {
                             .map(ToString::to_string)
                             .collect::<Vec<_>>()
                             .join(","),
+                        c.variants
+                            .iter()
+                            .map(ToString::to_string)
+                            .collect::<Vec<_>>()
+                            .join(","),
                     ]
                 })
                 .collect();
@@ -212,6 +219,7 @@ pub fn run(args: Args) -> Result<Outcome> {
                     "rate_hz",
                     "layout/rig",
                     "tracks",
+                    "variants",
                 ],
                 &rows,
             ));
@@ -241,7 +249,7 @@ pub fn run(args: Args) -> Result<Outcome> {
                 .map(|(t, c)| {
                     json!({"topic": t, "schema": c.schema, "schema_encoding": c.schema_encoding, "message_encoding": c.message_encoding,
                            "messages": c.count, "first_log_time": c.first, "last_log_time": c.last, "rate_hz": rate(c),
-                           "layouts": c.layouts, "tracks": c.tracks, "undecodable": c.undecodable})
+                           "layouts": c.layouts, "tracks": c.tracks, "variants": c.variants, "undecodable": c.undecodable})
                 })
                 .collect();
             let md: Vec<_> = metadata

@@ -36,6 +36,8 @@ pub struct BoneFrame {
     pub rig: String,
     /// Tracker id of the animated person.
     pub track_id: u64,
+    /// Which animation of the person: 0 as converted, 1..V the DSI variants.
+    pub variant: u32,
     /// Bone names in rig order.
     pub bone_names: Vec<String>,
     /// Local rotations, relative to rest, in the parent's frame.
