@@ -83,12 +83,13 @@ fn main() -> Result<()> {
         "bones (bones moving less than 2° or slower than 0.5 rad/s are left out of the ratios). Sign flips:"
     );
     println!(
-        "consecutive output quaternions with a negative dot product; |q|≠1: norms outside 1 ± 1e-9.\n"
+        "consecutive output quaternions with a negative dot product; |q|≠1: norms outside 1 ± 1e-9; min |q|:"
     );
+    println!("the smallest norm (how far component-wise processing shrinks a quaternion).\n");
     println!(
-        "| clip set | fps | clips | method | mean error (°) | p95 error (°) | range of motion kept (%) | peak angular speed kept (%) | sign flips | \\|q\\|≠1 |"
+        "| clip set | fps | clips | method | mean error (°) | p95 error (°) | range of motion kept (%) | peak angular speed kept (%) | sign flips | \\|q\\|≠1 | min \\|q\\| |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     let sets: Vec<(&str, Vec<Clip>)> = vec![
         (
             "CMU skeleton (Xia)",
@@ -116,14 +117,15 @@ fn main() -> Result<()> {
         {
             let mut errors = r.errors_deg.clone();
             println!(
-                "| {set} | {fps:.0} | {} | {method} | {:.3} | {:.3} | {:.1} | {:.1} | {} | {} |",
+                "| {set} | {fps:.0} | {} | {method} | {:.3} | {:.3} | {:.1} | {:.1} | {} | {} | {:.3} |",
                 clips.len(),
                 mean(&errors),
                 percentile(&mut errors, 0.95),
                 100.0 * mean(&r.rom_ratio),
                 100.0 * mean(&r.peak_ratio),
                 r.flips,
-                r.norms
+                r.norms,
+                r.min_norm
             );
         }
         let a = mean(&results[0].errors_deg);
@@ -162,9 +164,9 @@ fn main() -> Result<()> {
     );
     println!("Range of motion: output ÷ input, mean over bones.\n");
     println!(
-        "| recording | frames in | method | frames out | added at transitions | mean jerk (rad/s³) | jerk cut (%) | range of motion kept (%) | sign flips | \\|q\\|≠1 |"
+        "| recording | frames in | method | frames out | added at transitions | mean jerk (rad/s³) | jerk cut (%) | range of motion kept (%) | sign flips | \\|q\\|≠1 | min \\|q\\| |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     let mut targets_met = true;
     for clip in sensor_clips(&rig, &data)? {
         let input = tracks_of(
@@ -181,13 +183,17 @@ fn main() -> Result<()> {
         let rom_in: Vec<f64> = bones.iter().map(|&b| range_of_motion(&input[b])).collect();
         let frames_in = clip.animation.frames.len();
         println!(
-            "| {} | {frames_in} | input | {frames_in} | – | {jerk_in:.0} | – | 100.0 | {} | {} |",
+            "| {} | {frames_in} | input | {frames_in} | – | {jerk_in:.0} | – | 100.0 | {} | {} | {:.3} |",
             clip.name,
             bones.iter().map(|&b| sign_flips(&input[b])).sum::<usize>(),
             bones
                 .iter()
                 .map(|&b| norm_violations(&input[b]))
                 .sum::<usize>(),
+            bones
+                .iter()
+                .map(|&b| min_norm(&input[b]))
+                .fold(f64::INFINITY, f64::min),
         );
 
         let period = source_period_s(&t_in);
@@ -315,11 +321,15 @@ struct Recon {
     peak_ratio: Vec<f64>,
     flips: usize,
     norms: usize,
+    min_norm: f64,
 }
 
 /// Keeps one frame in [`KEEP_ONE_IN`] of every clip and rebuilds the others.
 fn reconstruct_set(rig: &Rig, clips: &[Clip], method: Rebuild) -> Recon {
-    let mut out = Recon::default();
+    let mut out = Recon {
+        min_norm: f64::INFINITY,
+        ..Recon::default()
+    };
     for clip in clips {
         let frames = &clip.animation.frames;
         let last = (frames.len() - 1) / KEEP_ONE_IN * KEEP_ONE_IN;
@@ -383,6 +393,7 @@ fn reconstruct_set(rig: &Rig, clips: &[Clip], method: Rebuild) -> Recon {
             }
             out.flips += sign_flips(&rebuilt[b]);
             out.norms += norm_violations(&rebuilt[b]);
+            out.min_norm = out.min_norm.min(min_norm(&rebuilt[b]));
         }
     }
     out
@@ -395,6 +406,7 @@ struct Row {
     rom_kept: f64,
     flips: usize,
     norms: usize,
+    min_norm: f64,
 }
 
 impl Row {
@@ -418,15 +430,26 @@ impl Row {
             rom_kept: 100.0 * mean(&rom),
             flips: bones.iter().map(|&b| sign_flips(&tracks[b])).sum(),
             norms: bones.iter().map(|&b| norm_violations(&tracks[b])).sum(),
+            min_norm: bones
+                .iter()
+                .map(|&b| min_norm(&tracks[b]))
+                .fold(f64::INFINITY, f64::min),
         }
     }
 
     fn print(&self, name: &str, frames_in: usize, method: &str, frames_out: usize, added: &str) {
         println!(
-            "| {name} | {frames_in} | {method} | {frames_out} | {added} | {:.0} | {:.1} | {:.1} | {} | {} |",
-            self.jerk, self.jerk_cut, self.rom_kept, self.flips, self.norms
+            "| {name} | {frames_in} | {method} | {frames_out} | {added} | {:.0} | {:.1} | {:.1} | {} | {} | {:.3} |",
+            self.jerk, self.jerk_cut, self.rom_kept, self.flips, self.norms, self.min_norm
         );
     }
+}
+
+fn min_norm(track: &[Quaternion<f64>]) -> f64 {
+    track
+        .iter()
+        .map(Quaternion::norm)
+        .fold(f64::INFINITY, f64::min)
 }
 
 fn unit(q: &Quaternion<f64>) -> nalgebra::UnitQuaternion<f64> {
