@@ -169,22 +169,13 @@ fn main() -> Result<()> {
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
     let mut targets_met = true;
     for clip in sensor_clips(&rig, &data)? {
-        let input = tracks_of(
-            &clip
-                .animation
-                .frames
-                .iter()
-                .map(|f| &f.pose)
-                .collect::<Vec<_>>(),
-        );
-        let t_in = times_s(&clip.animation);
-        let bones = moving_bones(&rig, &input);
-        let jerk_in = mean_over(&bones, |b| mean_jerk(&input[b], &t_in));
-        let rom_in: Vec<f64> = bones.iter().map(|&b| range_of_motion(&input[b])).collect();
+        let sensor = Sensor::measure(&rig, &clip);
+        let (input, bones) = (&sensor.input, &sensor.bones);
         let frames_in = clip.animation.frames.len();
         println!(
-            "| {} | {frames_in} | input | {frames_in} | – | {jerk_in:.0} | – | 100.0 | {} | {} | {:.3} |",
+            "| {} | {frames_in} | input | {frames_in} | – | {:.0} | – | 100.0 | {} | {} | {:.3} |",
             clip.name,
+            sensor.jerk_in,
             bones.iter().map(|&b| sign_flips(&input[b])).sum::<usize>(),
             bones
                 .iter()
@@ -196,22 +187,14 @@ fn main() -> Result<()> {
                 .fold(f64::INFINITY, f64::min),
         );
 
-        let period = source_period_s(&t_in);
-        let mut opts = options.clone();
-        opts.out_fps = 1.0 / period;
-        let out = dsi::run(&rig, &clip.animation.frames, &opts)?;
-        let frames = &out.animations[0];
-        let tracks = tracks_of(&frames.iter().map(|f| &f.pose).collect::<Vec<_>>());
-        #[expect(clippy::cast_precision_loss, reason = "frame counts")]
-        let t_out: Vec<f64> = (0..frames.len()).map(|k| k as f64 / opts.out_fps).collect();
-        let row = Row::measure(&bones, &tracks, &t_out, &rom_in, jerk_in);
+        let (row, out) = sensor.dsi_row(&rig, &clip, options.clone())?;
         targets_met &=
             row.jerk_cut >= 50.0 && row.rom_kept >= 90.0 && row.flips == 0 && row.norms == 0;
         row.print(
             &clip.name,
             frames_in,
             "DSI",
-            frames.len(),
+            out.animations[0].len(),
             &out.plan.frames_added().to_string(),
         );
 
@@ -225,8 +208,9 @@ fn main() -> Result<()> {
                 reference::interpolate_track(&canon, &key_times, &sample_times, true)
             })
             .collect();
+        let period = source_period_s(&sensor.t_in);
         let t_ref: Vec<f64> = sample_times.iter().map(|t| t * period).collect();
-        let row = Row::measure(&bones, &tracks, &t_ref, &rom_in, jerk_in);
+        let row = Row::measure(bones, &tracks, &t_ref, &sensor.rom_in, sensor.jerk_in);
         row.print(
             &clip.name,
             frames_in,
@@ -267,30 +251,12 @@ fn main() -> Result<()> {
     for spans_s in span_sets {
         let mut cells = Vec::new();
         for clip in &clips {
-            let input = tracks_of(
-                &clip
-                    .animation
-                    .frames
-                    .iter()
-                    .map(|f| &f.pose)
-                    .collect::<Vec<_>>(),
-            );
-            let t_in = times_s(&clip.animation);
-            let bones = moving_bones(&rig, &input);
-            let jerk_in = mean_over(&bones, |b| mean_jerk(&input[b], &t_in));
-            let rom_in: Vec<f64> = bones.iter().map(|&b| range_of_motion(&input[b])).collect();
             let mut opts = options.clone();
-            opts.out_fps = 1.0 / source_period_s(&t_in);
             opts.smoothing = Some(autoact::dsi::smoothing::Smoothing {
                 spans_s,
                 bass: None,
             });
-            let out = dsi::run(&rig, &clip.animation.frames, &opts)?;
-            let frames = &out.animations[0];
-            let tracks = tracks_of(&frames.iter().map(|f| &f.pose).collect::<Vec<_>>());
-            #[expect(clippy::cast_precision_loss, reason = "frame counts")]
-            let t_out: Vec<f64> = (0..frames.len()).map(|k| k as f64 / opts.out_fps).collect();
-            let row = Row::measure(&bones, &tracks, &t_out, &rom_in, jerk_in);
+            let (row, _) = Sensor::measure(&rig, clip).dsi_row(&rig, clip, opts)?;
             cells.push(format!("{:.1} / {:.1}", row.jerk_cut, row.rom_kept));
         }
         let marker = if spans_s == smoothing.spans_s {
@@ -397,6 +363,52 @@ fn reconstruct_set(rig: &Rig, clips: &[Clip], method: Rebuild) -> Recon {
         }
     }
     out
+}
+
+/// A sensor recording's rotation tracks and the measures DSI is compared with.
+struct Sensor {
+    input: Vec<Vec<Quaternion<f64>>>,
+    t_in: Vec<f64>,
+    bones: Vec<usize>,
+    jerk_in: f64,
+    rom_in: Vec<f64>,
+}
+
+impl Sensor {
+    fn measure(rig: &Rig, clip: &Clip) -> Sensor {
+        let poses: Vec<&BonePose> = clip.animation.frames.iter().map(|f| &f.pose).collect();
+        let input = tracks_of(&poses);
+        let t_in = times_s(&clip.animation);
+        let bones = moving_bones(rig, &input);
+        let jerk_in = mean_over(&bones, |b| mean_jerk(&input[b], &t_in));
+        let rom_in = bones.iter().map(|&b| range_of_motion(&input[b])).collect();
+        Sensor {
+            input,
+            t_in,
+            bones,
+            jerk_in,
+            rom_in,
+        }
+    }
+
+    /// Full DSI at the recording's own rate with `options`, measured against the input.
+    fn dsi_row(
+        &self,
+        rig: &Rig,
+        clip: &Clip,
+        mut options: DsiOptions,
+    ) -> Result<(Row, dsi::DsiOutput)> {
+        options.out_fps = 1.0 / source_period_s(&self.t_in);
+        let out = dsi::run(rig, &clip.animation.frames, &options)?;
+        let frames = &out.animations[0];
+        let tracks = tracks_of(&frames.iter().map(|f| &f.pose).collect::<Vec<_>>());
+        #[expect(clippy::cast_precision_loss, reason = "frame counts")]
+        let t_out: Vec<f64> = (0..frames.len())
+            .map(|k| k as f64 / options.out_fps)
+            .collect();
+        let row = Row::measure(&self.bones, &tracks, &t_out, &self.rom_in, self.jerk_in);
+        Ok((row, out))
+    }
 }
 
 /// One row of table 2.
