@@ -13,7 +13,9 @@
     reason = "a report generator writes a report"
 )]
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::Path;
 
 use anyhow::{Context, Result};
 use autoact::convert::{Animation, ConvertOptions, convert_sequence};
@@ -30,6 +32,7 @@ use autoact::formats::{bvh, bvh_map::BvhMapping, h36m_expmap, ntu, zed_mat};
 use autoact::layout::Layout;
 use autoact::pose::PoseSequence;
 use autoact::rig::{Dof, Rig};
+use common::{file_name, sorted_files};
 use nalgebra::Quaternion;
 
 /// One frame in this many is kept.
@@ -41,12 +44,7 @@ struct Clip {
 }
 
 fn main() -> Result<()> {
-    let arg = std::env::args().nth(1);
-    let shown = arg.clone().unwrap_or_else(|| "../shared/data".to_string());
-    let data = arg.map_or_else(
-        || PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data")),
-        PathBuf::from,
-    );
+    let (data, shown) = common::data_dir();
     let rig = Rig::standard();
 
     println!("# DSI evaluation on real motion capture\n");
@@ -572,20 +570,4 @@ fn sensor_clips(rig: &Rig, data: &Path) -> Result<Vec<Clip>> {
         }
     }
     Ok(out)
-}
-
-fn file_name(p: &Path) -> String {
-    p.file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default()
-}
-
-fn sorted_files(dir: &Path, ext: &str) -> Result<Vec<PathBuf>> {
-    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
-        .with_context(|| format!("listing {}", dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e == ext))
-        .collect();
-    v.sort();
-    Ok(v)
 }

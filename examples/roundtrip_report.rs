@@ -10,7 +10,7 @@
     reason = "a report generator writes a report"
 )]
 
-use std::path::{Path, PathBuf};
+mod common;
 
 use anyhow::{Context, Result};
 use autoact::convert::{ConvertOptions, Degeneracy};
@@ -19,18 +19,12 @@ use autoact::formats::{bvh, bvh_map::BvhMapping, h36m_expmap, ntu, zed_mat};
 use autoact::layout::Layout;
 use autoact::pose::PoseSequence;
 use autoact::rig::Rig;
+use common::{file_name, sorted_files};
 
 const CLASSES: [&str; 4] = ["3-D", "2-D", "1-D", "static"];
 
 fn main() -> Result<()> {
-    // Default: the data folder beside the repository, shown relative so the report is the same
-    // from any clone.
-    let arg = std::env::args().nth(1);
-    let shown = arg.clone().unwrap_or_else(|| "../shared/data".to_string());
-    let data = arg.map_or_else(
-        || PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data")),
-        PathBuf::from,
-    );
+    let (data, shown) = common::data_dir();
     let rig = Rig::standard();
     let options = ConvertOptions::default();
     println!("# Round-trip report: keypoints → rotations → forward kinematics\n");
@@ -248,19 +242,4 @@ fn row(name: &str, layout: &str, rt: &RoundTrip) {
         rt.overall_mm.mean(),
         rt.overall_mm.max
     );
-}
-
-fn file_name(p: &Path) -> String {
-    p.file_name()
-        .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
-}
-
-fn sorted_files(dir: &Path, ext: &str) -> Result<Vec<PathBuf>> {
-    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
-        .with_context(|| format!("listing {}", dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e == ext))
-        .collect();
-    v.sort();
-    Ok(v)
 }
