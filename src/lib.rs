@@ -29,3 +29,4 @@ pub mod pose_bag;
 pub mod resample;
 pub mod rig;
 pub mod ros;
+pub mod scene;

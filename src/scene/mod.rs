@@ -1,0 +1,297 @@
+//! Scene customization: every animation is shown in seeded random scenes — weather, time of
+//! day, location and character — so a dataset sees each action under many conditions.
+//!
+//! This is the paper's *scene customization* (environment, character and map).
+//! Its published scripts step through the weathers, times and peds *in order* on key presses
+//! (with an off-by-one that applies `nil`), so consecutive clips are correlated and a run is
+//! not reproducible from a seed. Here every choice is an independent draw from explicit
+//! weights, made with the caller's seeded RNG (ChaCha8 in practice): the same seed gives the
+//! same scenes on every machine, and nothing here seeds itself or keeps global state.
+//!
+//! - [`weather`]: the 14 weathers and their physical parameters (visibility, fog, cloud,
+//!   precipitation, wind, light, wet/snowy ground).
+
+pub mod weather;
+
+use rand::{Rng, RngExt};
+use thiserror::Error;
+
+/// What can be wrong with a scene description.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum SceneError {
+    /// A weight list is empty.
+    #[error("{field}: no weights given")]
+    NoWeights {
+        /// Which weights.
+        field: String,
+    },
+    /// A weight is negative, NaN or infinite.
+    #[error("{field}: weight #{index} is {value}; weights must be finite and ≥ 0")]
+    BadWeight {
+        /// Which weights.
+        field: String,
+        /// Its position in the list (0-based).
+        index: usize,
+        /// The bad value.
+        value: f64,
+    },
+    /// Every weight is zero.
+    #[error("{field}: all {count} weights are 0; at least one must be positive")]
+    AllZeroWeights {
+        /// Which weights.
+        field: String,
+        /// How many there are.
+        count: usize,
+    },
+    /// The weights are finite but their sum is not.
+    #[error("{field}: the weights sum to infinity; scale them down")]
+    WeightSumOverflow {
+        /// Which weights.
+        field: String,
+    },
+    /// A weather name that is not one of the 14.
+    #[error("unknown weather `{name}`; valid names: {valid}")]
+    UnknownWeather {
+        /// The name given.
+        name: String,
+        /// The valid names, comma-separated.
+        valid: String,
+    },
+    /// A clock time that does not parse or is out of range.
+    #[error("bad clock time `{text}`: {reason}")]
+    BadClock {
+        /// The text given.
+        text: String,
+        /// What is wrong.
+        reason: &'static str,
+    },
+    /// A location description that makes no sense.
+    #[error("location `{name}`: {problem}")]
+    BadLocation {
+        /// The location's name.
+        name: String,
+        /// What is wrong.
+        problem: String,
+    },
+    /// No location meets an action's requirements.
+    #[error("none of the {pool} locations suits the requirements [{requirements}]")]
+    NoSuitableLocation {
+        /// The requirements, comma-separated.
+        requirements: String,
+        /// How many locations there were.
+        pool: usize,
+    },
+    /// A number outside its allowed range.
+    #[error("{field} = {value}: must be {allowed}")]
+    OutOfRange {
+        /// Which field.
+        field: &'static str,
+        /// The bad value.
+        value: f64,
+        /// The allowed range, in words.
+        allowed: &'static str,
+    },
+}
+
+impl SceneError {
+    /// The same error about the weights named `field`.
+    #[must_use]
+    pub fn in_field(self, name: &str) -> SceneError {
+        match self {
+            SceneError::NoWeights { .. } => SceneError::NoWeights { field: name.into() },
+            SceneError::BadWeight { index, value, .. } => SceneError::BadWeight {
+                field: name.into(),
+                index,
+                value,
+            },
+            SceneError::AllZeroWeights { count, .. } => SceneError::AllZeroWeights {
+                field: name.into(),
+                count,
+            },
+            SceneError::WeightSumOverflow { .. } => {
+                SceneError::WeightSumOverflow { field: name.into() }
+            }
+            other => other,
+        }
+    }
+}
+
+/// Checks weights (non-empty, finite, ≥ 0, not all 0, finite sum) and returns their sum.
+///
+/// # Errors
+/// The [`SceneError`] weight variant naming the problem (field `weights`).
+pub fn check_weights(weights: &[f64]) -> Result<f64, SceneError> {
+    let field = || "weights".to_owned();
+    if weights.is_empty() {
+        return Err(SceneError::NoWeights { field: field() });
+    }
+    if let Some((index, &value)) = weights
+        .iter()
+        .enumerate()
+        .find(|(_, w)| !(w.is_finite() && **w >= 0.0))
+    {
+        return Err(SceneError::BadWeight {
+            field: field(),
+            index,
+            value,
+        });
+    }
+    let total: f64 = weights.iter().sum();
+    if total == 0.0 {
+        return Err(SceneError::AllZeroWeights {
+            field: field(),
+            count: weights.len(),
+        });
+    }
+    if !total.is_finite() {
+        return Err(SceneError::WeightSumOverflow { field: field() });
+    }
+    Ok(total)
+}
+
+/// Draws an index with probability proportional to its weight (one uniform draw from `rng`;
+/// a zero weight is never drawn).
+///
+/// # Errors
+/// As [`check_weights`].
+pub fn weighted_index(rng: &mut (impl Rng + ?Sized), weights: &[f64]) -> Result<usize, SceneError> {
+    let total = check_weights(weights)?;
+    let mut x = rng.random_range(0.0..total);
+    for (i, &w) in weights.iter().enumerate() {
+        if w > 0.0 {
+            if x < w {
+                return Ok(i);
+            }
+            x -= w;
+        }
+    }
+    // Only rounding in the running subtraction gets here: the last positive weight.
+    Ok(weights.iter().rposition(|&w| w > 0.0).unwrap_or(0))
+}
+
+/// Draws one of `choices` with probability proportional to its weight.
+///
+/// # Errors
+/// As [`check_weights`].
+pub fn weighted_choice<T: Copy>(
+    rng: &mut (impl Rng + ?Sized),
+    choices: &[(T, f64)],
+) -> Result<T, SceneError> {
+    let weights: Vec<f64> = choices.iter().map(|c| c.1).collect();
+    Ok(choices[weighted_index(rng, &weights)?].0)
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::weather::Weather;
+    use super::*;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+
+    /// Pearson's χ² of the counts of `seq` (values `0..weights.len()`) against the
+    /// probabilities the weights give; df = categories − 1.
+    pub(crate) fn chi_square_fit(seq: &[usize], weights: &[f64]) -> f64 {
+        let total: f64 = weights.iter().sum();
+        let mut counts = vec![0.0; weights.len()];
+        for &s in seq {
+            counts[s] += 1.0;
+        }
+        let n = seq.len() as f64;
+        counts
+            .iter()
+            .zip(weights)
+            .map(|(&o, &w)| {
+                let e = n * w / total;
+                (o - e) * (o - e) / e
+            })
+            .sum()
+    }
+
+    /// Pearson's χ² of independence on the `k × k` table of consecutive pairs
+    /// (previous draw → next draw); df = (k − 1)². A sequence that cycles fails it.
+    pub(crate) fn chi_square_transitions(seq: &[usize], k: usize) -> f64 {
+        let mut table = vec![vec![0.0; k]; k];
+        for pair in seq.windows(2) {
+            table[pair[0]][pair[1]] += 1.0;
+        }
+        let n: f64 = table.iter().flatten().sum();
+        let rows: Vec<f64> = table.iter().map(|r| r.iter().sum()).collect();
+        let cols: Vec<f64> = (0..k).map(|j| table.iter().map(|r| r[j]).sum()).collect();
+        let mut chi = 0.0;
+        for i in 0..k {
+            for j in 0..k {
+                let e = rows[i] * cols[j] / n;
+                if e > 0.0 {
+                    chi += (table[i][j] - e) * (table[i][j] - e) / e;
+                }
+            }
+        }
+        chi
+    }
+
+    // χ² critical values at p = 0.001 (upper tail), for the degrees of freedom used here.
+    const CHI2_DF13: f64 = 34.528;
+    const CHI2_DF169: f64 = 231.552;
+
+    /// Non-uniform weather weights with every transition cell expecting ≥ 12 of 9,999 pairs,
+    /// so the 14 × 14 independence test is valid.
+    const WEATHER_WEIGHTS: [f64; 14] = [
+        3.0, 1.0, 2.0, 1.0, 3.0, 2.0, 1.0, 2.0, 3.0, 1.0, 2.0, 3.0, 1.0, 2.0,
+    ];
+
+    #[test]
+    fn weather_draws_follow_the_weights_and_do_not_cycle() {
+        let choices: Vec<(Weather, f64)> = Weather::ALL.into_iter().zip(WEATHER_WEIGHTS).collect();
+        let mut rng = ChaCha8Rng::seed_from_u64(42);
+        let seq: Vec<usize> = (0..10_000)
+            .map(|_| weighted_choice(&mut rng, &choices).unwrap() as usize)
+            .collect();
+        let fit = chi_square_fit(&seq, &WEATHER_WEIGHTS);
+        let indep = chi_square_transitions(&seq, 14);
+        assert!(fit < CHI2_DF13, "goodness of fit χ² = {fit}");
+        assert!(indep < CHI2_DF169, "transition independence χ² = {indep}");
+    }
+
+    #[test]
+    fn the_reference_codes_cycling_fails_the_independence_test() {
+        // The paper's scripts step EXTRASUNNY → CLEAR → … in order: each draw fixes the next.
+        let cycled: Vec<usize> = (0..10_000).map(|i| i % 14).collect();
+        assert!(chi_square_transitions(&cycled, 14) > 100.0 * CHI2_DF169);
+        // Cycling even passes the goodness-of-fit test for equal weights: only the
+        // transitions reveal it.
+        assert!(chi_square_fit(&cycled, &[1.0; 14]) < CHI2_DF13);
+    }
+
+    #[test]
+    fn weighted_index_never_draws_a_zero_weight_and_validates() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let w = [0.0, 2.0, 0.0, 1.0, 0.0];
+        for _ in 0..2_000 {
+            let i = weighted_index(&mut rng, &w).unwrap();
+            assert!(i == 1 || i == 3);
+        }
+        assert_eq!(weighted_index(&mut rng, &[0.0, 5.0]).unwrap(), 1);
+        let mut err = |w: &[f64]| weighted_index(&mut rng, w).unwrap_err();
+        assert!(matches!(err(&[]), SceneError::NoWeights { .. }));
+        assert!(matches!(
+            err(&[0.0, 0.0]),
+            SceneError::AllZeroWeights { count: 2, .. }
+        ));
+        let msg = err(&[1.0, -2.0]).to_string();
+        assert!(msg.contains("#1") && msg.contains("-2"), "{msg}");
+        assert!(matches!(
+            err(&[1.0, f64::NAN]),
+            SceneError::BadWeight { index: 1, .. }
+        ));
+        assert!(matches!(
+            err(&[f64::INFINITY]),
+            SceneError::BadWeight { index: 0, .. }
+        ));
+        assert!(matches!(
+            err(&[f64::MAX, f64::MAX]),
+            SceneError::WeightSumOverflow { .. }
+        ));
+        let named = err(&[]).in_field("weather_weights").to_string();
+        assert!(named.starts_with("weather_weights:"), "{named}");
+    }
+}
