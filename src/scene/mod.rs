@@ -10,7 +10,10 @@
 //!
 //! - [`weather`]: the 14 weathers and their physical parameters (visibility, fog, cloud,
 //!   precipitation, wind, light, wet/snowy ground).
+//! - [`sky`]: clock times (the paper's dawn/noon/evening/midnight or any `HH:MM`), the sun's
+//!   position and the daylight factor.
 
+pub mod sky;
 pub mod weather;
 
 use rand::{Rng, RngExt};
@@ -183,6 +186,7 @@ pub fn weighted_choice<T: Copy>(
 
 #[cfg(test)]
 pub(crate) mod tests {
+    use super::sky::ClockTime;
     use super::weather::Weather;
     use super::*;
     use rand::SeedableRng;
@@ -230,6 +234,8 @@ pub(crate) mod tests {
     }
 
     // χ² critical values at p = 0.001 (upper tail), for the degrees of freedom used here.
+    const CHI2_DF3: f64 = 16.266;
+    const CHI2_DF9: f64 = 27.877;
     const CHI2_DF13: f64 = 34.528;
     const CHI2_DF169: f64 = 231.552;
 
@@ -260,6 +266,27 @@ pub(crate) mod tests {
         // Cycling even passes the goodness-of-fit test for equal weights: only the
         // transitions reveal it.
         assert!(chi_square_fit(&cycled, &[1.0; 14]) < CHI2_DF13);
+    }
+
+    #[test]
+    fn clock_presets_follow_the_weights_and_do_not_cycle() {
+        let weights = [1.0, 3.0, 2.0, 1.5];
+        let choices: Vec<(ClockTime, f64)> = ClockTime::PRESETS
+            .iter()
+            .zip(weights)
+            .map(|(&(_, t), w)| (t, w))
+            .collect();
+        let mut rng = ChaCha8Rng::seed_from_u64(1234);
+        let seq: Vec<usize> = (0..10_000)
+            .map(|_| {
+                let t = weighted_choice(&mut rng, &choices).unwrap();
+                choices.iter().position(|c| c.0 == t).unwrap()
+            })
+            .collect();
+        let fit = chi_square_fit(&seq, &weights);
+        let indep = chi_square_transitions(&seq, 4);
+        assert!(fit < CHI2_DF3, "goodness of fit χ² = {fit}");
+        assert!(indep < CHI2_DF9, "transition independence χ² = {indep}");
     }
 
     #[test]
