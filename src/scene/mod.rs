@@ -12,7 +12,9 @@
 //!   precipitation, wind, light, wet/snowy ground).
 //! - [`sky`]: clock times (the paper's dawn/noon/evening/midnight or any `HH:MM`), the sun's
 //!   position and the daylight factor.
+//! - [`location`]: floors, backdrops and props, filtered by what an action needs.
 
+pub mod location;
 pub mod sky;
 pub mod weather;
 
