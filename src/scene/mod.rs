@@ -14,14 +14,27 @@
 //!   position and the daylight factor.
 //! - [`location`]: floors, backdrops and props, filtered by what an action needs.
 //! - [`cast`]: a population model of ages, sexes, heights, proportions, skin, hair, clothes.
+//!
+//! [`SceneConfig`] bundles the distributions (as a dataset spec section, TOML) and
+//! [`SceneConfig::draw`] makes one [`Scene`]. Conventions: metres, degrees only where the name
+//! says `_deg`; location frame x east, y north, z up with the character at the origin; sun
+//! azimuth clockwise from north; colours sRGB in [0, 1].
 
 pub mod cast;
 pub mod location;
 pub mod sky;
 pub mod weather;
 
+use std::collections::BTreeMap;
+
 use rand::{Rng, RngExt};
+use serde::{Deserialize, Serialize};
 use thiserror::Error;
+
+use self::cast::{Look, Population};
+use self::location::{Location, LocationInstance};
+use self::sky::{ClockTime, SunPosition, ambient_from_sun, sun_position};
+use self::weather::{Weather, WeatherParams};
 
 /// What can be wrong with a scene description.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -195,10 +208,170 @@ pub(crate) fn standard_normal(rng: &mut (impl Rng + ?Sized)) -> f64 {
     (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
+/// One drawn scene: everything a renderer needs to set the stage, and what the dataset logs.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Scene {
+    /// The weather.
+    pub weather: Weather,
+    /// Its physical parameters.
+    pub weather_params: WeatherParams,
+    /// The clock time (local mean solar time).
+    pub clock: ClockTime,
+    /// Where the sun stands then.
+    pub sun: SunPosition,
+    /// The location and its placed props.
+    pub location: LocationInstance,
+    /// The character's appearance.
+    pub look: Look,
+}
+
+impl Scene {
+    /// The sky's ambient light relative to a clear day at full daylight, [0, 1]: the time of
+    /// day's [`ambient_from_sun`] times the weather's `ambient_light_scale`.
+    #[must_use]
+    pub fn ambient_light_scale(&self) -> f64 {
+        ambient_from_sun(self.sun.elevation_deg) * self.weather_params.ambient_light_scale
+    }
+}
+
+/// The distributions scenes are drawn from: a dataset spec's `[scene]` section.
+///
+/// Every field is optional in TOML and a given field replaces its default whole:
+/// ```toml
+/// [scene]
+/// weather_weights = { CLEAR = 3, RAIN = 1, FOGGY = 0.5 }   # unlisted weathers never occur
+/// clock_weights = { dawn = 1, noon = 2, "17:45" = 1 }      # presets or HH:MM
+/// latitude_deg = 34.0
+/// day_of_year = 172
+/// clear_radius_m = 2.5
+/// population = { age_weights = [0.2, 0.6, 0.2], female_fraction = 0.5 }
+/// # [[scene.locations]] ... replaces the built-in pool (see `location`)
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SceneConfig {
+    /// Weather → relative weight (GTA names, any case). Default: the 14 alike.
+    pub weather_weights: BTreeMap<Weather, f64>,
+    /// Clock time → relative weight. Default: the paper's four presets alike.
+    pub clock_weights: BTreeMap<ClockTime, f64>,
+    /// Latitude for the sun, degrees north. Default 34.0 (Los Santos is Los Angeles, 34.05° N).
+    pub latitude_deg: f64,
+    /// Day of the year for the sun, 1–366. Default 172 (21 June: GTA's long summer days, when
+    /// 05:30 is just after sunrise and 20:00 in the dusk).
+    pub day_of_year: u16,
+    /// The locations to choose among (uniformly, among those that suit the action). Default:
+    /// [`Location::builtin_pool`].
+    pub locations: Vec<Location>,
+    /// Who the characters are.
+    pub population: Population,
+    /// Radius kept free of props around the character, metres. Default 2.5 (arm span plus a
+    /// step, so props do not intrude on most actions).
+    pub clear_radius_m: f64,
+}
+
+impl Default for SceneConfig {
+    fn default() -> SceneConfig {
+        SceneConfig {
+            weather_weights: Weather::ALL.into_iter().map(|w| (w, 1.0)).collect(),
+            clock_weights: ClockTime::PRESETS
+                .into_iter()
+                .map(|(_, t)| (t, 1.0))
+                .collect(),
+            latitude_deg: 34.0,
+            day_of_year: 172,
+            locations: Location::builtin_pool(),
+            population: Population::default(),
+            clear_radius_m: 2.5,
+        }
+    }
+}
+
+impl SceneConfig {
+    /// Checks every field.
+    ///
+    /// # Errors
+    /// The first problem found, naming the field and value.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        let weights = |m: Vec<f64>, field: &str| check_weights(&m).map_err(|e| e.in_field(field));
+        weights(
+            self.weather_weights.values().copied().collect(),
+            "weather_weights",
+        )?;
+        weights(
+            self.clock_weights.values().copied().collect(),
+            "clock_weights",
+        )?;
+        if !(-90.0..=90.0).contains(&self.latitude_deg) {
+            return Err(SceneError::OutOfRange {
+                field: "latitude_deg",
+                value: self.latitude_deg,
+                allowed: "in [-90, 90]",
+            });
+        }
+        if !(1..=366).contains(&self.day_of_year) {
+            return Err(SceneError::OutOfRange {
+                field: "day_of_year",
+                value: f64::from(self.day_of_year),
+                allowed: "in 1..=366",
+            });
+        }
+        if !(self.clear_radius_m.is_finite() && self.clear_radius_m >= 0.0) {
+            return Err(SceneError::OutOfRange {
+                field: "clear_radius_m",
+                value: self.clear_radius_m,
+                allowed: "finite and ≥ 0",
+            });
+        }
+        for l in &self.locations {
+            l.validate()?;
+        }
+        self.population.validate()
+    }
+
+    /// Draws one scene for an action that needs `requirements` (see [`Location::suits`]).
+    /// The draws, in this order: weather, clock, location, its props, the character.
+    ///
+    /// # Errors
+    /// As [`SceneConfig::validate`], or [`SceneError::NoSuitableLocation`].
+    pub fn draw(
+        &self,
+        rng: &mut (impl Rng + ?Sized),
+        requirements: &[String],
+    ) -> Result<Scene, SceneError> {
+        self.validate()?;
+        let weathers: Vec<(Weather, f64)> =
+            self.weather_weights.iter().map(|(&w, &p)| (w, p)).collect();
+        let weather = weighted_choice(rng, &weathers)?;
+        let clocks: Vec<(ClockTime, f64)> =
+            self.clock_weights.iter().map(|(&c, &p)| (c, p)).collect();
+        let clock = weighted_choice(rng, &clocks)?;
+        let suitable: Vec<&Location> = self
+            .locations
+            .iter()
+            .filter(|l| l.suits(requirements))
+            .collect();
+        if suitable.is_empty() {
+            return Err(SceneError::NoSuitableLocation {
+                requirements: requirements.join(", "),
+                pool: self.locations.len(),
+            });
+        }
+        let place = suitable[rng.random_range(0..suitable.len())];
+        let location = place.draw(rng, self.clear_radius_m);
+        let look = self.population.draw(rng)?;
+        Ok(Scene {
+            weather,
+            weather_params: weather.params(),
+            clock,
+            sun: sun_position(clock, self.latitude_deg, self.day_of_year),
+            location,
+            look,
+        })
+    }
+}
+
 #[cfg(test)]
 pub(crate) mod tests {
-    use super::sky::ClockTime;
-    use super::weather::Weather;
     use super::*;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
@@ -346,5 +519,94 @@ pub(crate) mod tests {
             "{mean} {var}"
         );
         assert!(x.iter().all(|v| v.is_finite()));
+    }
+
+    #[test]
+    fn scenes_are_deterministic_per_seed() {
+        let config = SceneConfig::default();
+        let draw = |seed| {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            (0..20)
+                .map(|_| config.draw(&mut rng, &[]).unwrap())
+                .collect::<Vec<_>>()
+        };
+        let a = draw(99);
+        assert_eq!(a, draw(99));
+        assert_ne!(a, draw(100));
+        let json = serde_json::to_string(&a[0]).unwrap();
+        assert_eq!(json, serde_json::to_string(&draw(99)[0]).unwrap());
+        for key in [
+            "\"weather\"",
+            "\"fog_density_per_m\"",
+            "\"clock\"",
+            "\"azimuth_deg\"",
+        ] {
+            assert!(json.contains(key), "{json}");
+        }
+        for s in &a {
+            let amb = s.ambient_light_scale();
+            assert!((0.0..=1.0).contains(&amb));
+            assert_eq!(s.weather_params, s.weather.params());
+        }
+    }
+
+    #[test]
+    fn requirements_pick_suitable_locations_or_error() {
+        let config = SceneConfig::default();
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let water = vec!["water".to_owned()];
+        for _ in 0..50 {
+            let s = config.draw(&mut rng, &water).unwrap();
+            assert!(s.location.has_water, "{}", s.location.name);
+        }
+        let impossible = vec!["indoor".to_owned(), "water".to_owned()];
+        let msg = config.draw(&mut rng, &impossible).unwrap_err().to_string();
+        assert!(
+            msg.contains("indoor, water") && msg.contains("10 locations"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn config_parses_from_toml_and_names_bad_fields() {
+        let text = r#"
+            weather_weights = { clear = 3, RAIN = 1, FOGGY = 0.5 }
+            clock_weights = { dawn = 1, noon = 2, "17:45" = 1 }
+            latitude_deg = 51.5
+            population = { age_weights = [0.2, 0.6, 0.2] }
+        "#;
+        let c: SceneConfig = toml::from_str(text).unwrap();
+        c.validate().unwrap();
+        assert_eq!(c.weather_weights.len(), 3);
+        assert_eq!(c.weather_weights[&Weather::Clear], 3.0);
+        assert_eq!(c.clock_weights[&"17:45".parse().unwrap()], 1.0);
+        assert_eq!(c.population.female_fraction, 0.5);
+        assert_eq!(c.locations.len(), Location::builtin_pool().len());
+        let mut rng = ChaCha8Rng::seed_from_u64(0);
+        for _ in 0..100 {
+            let s = c.draw(&mut rng, &[]).unwrap();
+            assert!(c.weather_weights.contains_key(&s.weather));
+        }
+        // The default round-trips through TOML.
+        let d = SceneConfig::default();
+        assert_eq!(
+            toml::from_str::<SceneConfig>(&toml::to_string(&d).unwrap()).unwrap(),
+            d
+        );
+
+        let err = toml::from_str::<SceneConfig>("weather_weights = { HALLOWEEN = 1 }")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("HALLOWEEN") && err.contains("XMAS"), "{err}");
+        let c: SceneConfig = toml::from_str("clock_weights = { noon = 0 }").unwrap();
+        let err = c.validate().unwrap_err().to_string();
+        assert!(err.contains("clock_weights"), "{err}");
+        let c: SceneConfig = toml::from_str("latitude_deg = 95.0").unwrap();
+        assert!(
+            c.validate()
+                .unwrap_err()
+                .to_string()
+                .contains("latitude_deg = 95")
+        );
     }
 }
