@@ -12,6 +12,7 @@
 //! ```
 
 pub mod animation_bag;
+pub mod camera;
 pub mod character;
 pub mod cli;
 pub mod cmd;
