@@ -29,9 +29,11 @@
 //! at `z = 0`). The camera's ROS frame is [`CAMERA_FRAME`], an optical frame; see [`CameraPose`]
 //! for what to write into `geometry_msgs/PoseStamped`, TF and `sensor_msgs/CameraInfo`.
 
+mod framing;
 mod intrinsics;
 mod pose;
 
+pub use framing::{BODY_ALLOWANCE_M, Subject, framing_band, subject_points_into};
 pub use intrinsics::{DISTORTION_MODEL, Intrinsics, MAX_HFOV_DEG, MIN_HFOV_DEG};
 pub use pose::{CameraPose, look_at, optical_from_camera_link};
 
