@@ -32,10 +32,12 @@
 mod framing;
 mod intrinsics;
 mod pose;
+mod rcm;
 
 pub use framing::{BODY_ALLOWANCE_M, Subject, framing_band, subject_points_into};
 pub use intrinsics::{DISTORTION_MODEL, Intrinsics, MAX_HFOV_DEG, MIN_HFOV_DEG};
 pub use pose::{CameraPose, look_at, optical_from_camera_link};
+pub use rcm::{RcmRanges, Shot, StepDraw, Viewpoint, camera_at, random_viewpoints};
 
 /// Name of the camera's ROS frame: the **optical** frame (z forward, x right, y down). Use it as
 /// the TF `child_frame_id` of the camera pose and as `header.frame_id` of `sensor_msgs/CameraInfo`.
@@ -143,4 +145,25 @@ pub enum CameraError {
         /// Upper bound of the framing band.
         framing_high: f64,
     },
+}
+
+/// Checks a `[low, high]` range: finite, `low ≤ high`, and `low ≥ min` when `min` is given.
+fn check_range(
+    field: &'static str,
+    r: [f64; 2],
+    min: Option<f64>,
+    expected: &'static str,
+) -> Result<(), CameraError> {
+    let [low, high] = r;
+    let ok = low.is_finite() && high.is_finite() && low <= high && min.is_none_or(|m| low >= m);
+    if ok {
+        Ok(())
+    } else {
+        Err(CameraError::Range {
+            field,
+            low,
+            high,
+            expected,
+        })
+    }
 }
