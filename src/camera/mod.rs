@@ -17,6 +17,29 @@
 //! 5. [`Shot`] and [`camera_at`]: the camera pose at any instant of a static or moving shot,
 //!    tracking the character's ground position and looking at its current centre.
 //!
+//! ```
+//! use autoact::camera::{self, Intrinsics, RcmRanges, Shot, Subject};
+//! use autoact::{character::Character, fk::BonePose, rig::Rig};
+//! use rand::SeedableRng;
+//!
+//! let rig = Rig::standard();
+//! let body = Character::standard(&rig);
+//! let clip = vec![BonePose::rest(&rig); 30];
+//! let lens = Intrinsics::from_horizontal_fov(1280, 720, 60.0)?;
+//! let subject = Subject::from_poses(&rig, &body, &clip, 1.0)?;
+//! let band = camera::framing_band(&lens, &subject, 0.05, 12.0)?;
+//! let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+//! let walk = camera::random_viewpoints(&mut rng, &RcmRanges::default(), band, 4)?;
+//! // Viewpoint 0 as a moving shot to viewpoint 1, one pose per frame of the clip.
+//! for f in 0..clip.len() {
+//!     let s = f as f64 / (clip.len() - 1) as f64;
+//!     let (ground, centre) = (subject.ground_xy_m[f], subject.centres_m[f]);
+//!     let pose = camera::camera_at(&walk[0], walk.get(1), Shot::Moving, s, ground, centre);
+//!     assert!(pose.project(&lens, &centre).is_some());
+//! }
+//! # Ok::<(), camera::CameraError>(())
+//! ```
+//!
 //! **Why it differs from the reference code** (`reference/gtautoact-reference-code.md` §5): there,
 //! the first camera stood at the character's own origin, steps were key-hold seconds (so metres
 //! depended on the frame rate), the "radius" could go negative and mirror the point, nothing kept
@@ -33,6 +56,9 @@ mod framing;
 mod intrinsics;
 mod pose;
 mod rcm;
+
+#[cfg(test)]
+mod tests;
 
 pub use framing::{BODY_ALLOWANCE_M, Subject, framing_band, subject_points_into};
 pub use intrinsics::{DISTORTION_MODEL, Intrinsics, MAX_HFOV_DEG, MIN_HFOV_DEG};
