@@ -66,7 +66,19 @@ pub enum Command {
     /// arrays need `--layout`. Writes `/animation` (BoneFrame), `/tf`, `/tf_static` and
     /// `/skeleton/markers`. Unreadable chunks or messages are skipped, reported, and end the run
     /// with exit code 3.
+    ///
+    /// With `--spec DATASET.toml` it builds a dataset's capture sessions instead: every source
+    /// converted (DSI, variants), every clip of the plan laid on a timeline with its drawn scene,
+    /// its camera (`/camera/pose`, a `camera` TF frame, `/camera/camera_info`) and its segment
+    /// (`/scene`, `/segments`), one bag per session in the `-o` folder.
     Convert(crate::cmd::convert::Args),
+    /// Print a dataset spec's recording plan before anything is converted or rendered: counts
+    /// per class, weather, time of day, location and character, the expected size, or every
+    /// clip (`--format json|csv`).
+    ///
+    /// The hierarchy is category → action → animation → variant → scene → viewpoint; every draw
+    /// comes from the spec's seed (see `examples/dataset.toml`).
+    Plan(crate::cmd::plan::Args),
     /// Describe an MCAP file: channels, schemas, counts, time range, rate, layouts, labels, and
     /// whether ROS 2 tools and autoact can read all of it.
     Info(crate::cmd::info::Args),

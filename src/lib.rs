@@ -17,6 +17,7 @@ pub mod character;
 pub mod cli;
 pub mod cmd;
 pub mod convert;
+pub mod dataset;
 pub mod dsi;
 pub mod eval;
 pub mod fk;

@@ -576,6 +576,14 @@ impl BagReader {
         &self.map
     }
 
+    /// First and last message log times, nanoseconds, from the summary's statistics (no message
+    /// is read); `None` for a file without them (unfinished, or written without a summary).
+    #[must_use]
+    pub fn time_range(&self) -> Option<(u64, u64)> {
+        let stats = mcap::read::Summary::read(&self.map).ok()??.stats?;
+        (stats.message_count > 0).then_some((stats.message_start_time, stats.message_end_time))
+    }
+
     /// The header's profile and library, if the header record is readable.
     #[must_use]
     pub fn header(&self) -> Option<(String, String)> {

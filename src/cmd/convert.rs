@@ -21,8 +21,14 @@ use crate::ros::tf2_msgs::TFMessage;
 /// Arguments of `autoact convert`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The pose bag (`.mcap`).
-    pub input: PathBuf,
+    /// The pose bag (`.mcap` or rosbag2 directory).
+    #[arg(required_unless_present = "spec")]
+    pub input: Option<PathBuf>,
+    /// Build a dataset's capture sessions from this spec instead (see `examples/dataset.toml`
+    /// and `autoact plan`): `-o` is then a folder that receives `<session>.anim.mcap` per
+    /// session and `plan.json`.
+    #[arg(long, value_name = "DATASET.toml", conflicts_with_all = ["input", "topic", "layout", "rosbag2"])]
+    pub spec: Option<PathBuf>,
     /// Convert only this topic (default: every topic carrying a pose type).
     #[arg(long)]
     pub topic: Option<String>,
@@ -206,6 +212,7 @@ impl DsiArgs {
 pub fn run(args: Args) -> Result<Outcome> {
     let Args {
         input,
+        spec,
         topic,
         layout,
         fps,
@@ -214,6 +221,12 @@ pub fn run(args: Args) -> Result<Outcome> {
         min_confidence,
         output,
     } = args;
+    if let Some(spec) = spec {
+        return run_spec(&spec, &output);
+    }
+    let Some(input) = input else {
+        bail!("give a pose bag, or --spec DATASET.toml");
+    };
     if !(fps.is_finite() && fps > 0.0) {
         bail!("--fps must be a positive number of frames per second, not {fps}");
     }
@@ -447,6 +460,74 @@ fn stream(out: &mut BagOutput, people: &mut [Person<'_>]) -> Result<()> {
         result?;
     }
     Ok(())
+}
+
+/// `convert --spec`: every source converted, the plan laid out with the exact lengths, one bag
+/// per capture session and the plan as JSON in the output folder.
+fn run_spec(spec_path: &std::path::Path, output: &OutputArgs) -> Result<Outcome> {
+    use crate::dataset::{capture, plan::Plan, spec::Spec};
+    let spec = Spec::load(spec_path)?;
+    let rig = Rig::standard();
+    let estimated = crate::dataset::estimated_frames(&spec).map_err(anyhow::Error::msg)?;
+    let mut plan = Plan::build(&spec, &|class, source| estimated[class][source])
+        .map_err(anyhow::Error::msg)?;
+    let mut converted = Vec::with_capacity(plan.animations.len());
+    for (a, anim) in plan.animations.clone().iter().enumerate() {
+        tracing::info!(
+            "converting {} ({}/{})",
+            anim.name,
+            a + 1,
+            plan.animations.len()
+        );
+        let conv = capture::convert_source(&rig, &spec, anim.class, anim.source, &anim.name)?;
+        for (v, frames) in conv.variants.iter().enumerate() {
+            plan.set_frames(
+                &spec,
+                a,
+                u32::try_from(v).unwrap_or(u32::MAX),
+                frames.len() as u64,
+            );
+        }
+        converted.push(conv);
+    }
+    let dir = &output.output;
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let config = crate::mcap_io::WriteConfig {
+        compression: output.compression,
+        ..crate::mcap_io::WriteConfig::default()
+    };
+    let sessions = capture::write_sessions(&rig, &spec, &plan, &converted, dir, config)?;
+    let plan_path = dir.join("plan.json");
+    std::fs::write(
+        &plan_path,
+        serde_json::to_string_pretty(&serde_json::json!({"estimated": false, "plan": plan}))?,
+    )
+    .with_context(|| format!("writing {}", plan_path.display()))?;
+    let mut text = format!(
+        "wrote {} sessions, {} clips into {} (and plan.json)\n",
+        sessions.len(),
+        plan.leaves.len(),
+        dir.display()
+    );
+    for s in &sessions {
+        #[expect(clippy::cast_precision_loss, reason = "display only")]
+        let seconds = s.frames as f64 / spec.file.dataset.fps;
+        text.push_str(&format!(
+            "  {}: {} clips, {} frames ({seconds:.1} s)\n",
+            file_name(&s.path),
+            s.clips,
+            s.frames
+        ));
+        if s.viewpoints_pushed_out > 0 {
+            tracing::warn!(
+                "{}: {} viewpoints moved out beyond the plan's distance to keep a wide movement in frame",
+                file_name(&s.path),
+                s.viewpoints_pushed_out
+            );
+        }
+    }
+    print_stdout(&text)?;
+    Ok(Outcome::Success)
 }
 
 /// Each animation's writer and frames.

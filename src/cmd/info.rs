@@ -9,8 +9,9 @@ use serde_json::json;
 use super::{Outcome, print_stdout, table};
 use crate::cli::Format;
 use crate::mcap_io::BagReader;
-use crate::ros::autoact_msgs::{BoneFrame, Skeleton3D};
-use crate::ros::geometry_msgs::PoseArray;
+use crate::ros::autoact_msgs::{BoneFrame, SceneState, Segment, Skeleton3D};
+use crate::ros::geometry_msgs::{PoseArray, PoseStamped};
+use crate::ros::sensor_msgs::CameraInfo;
 use crate::ros::tf2_msgs::TFMessage;
 use crate::ros::visualization_msgs::MarkerArray;
 use crate::ros::{self, RosMessage};
@@ -58,11 +59,112 @@ fn check_message(
             stats.variants.insert(m.variant);
         }),
         s if s == TFMessage::TYPE_NAME => ros::cdr::decode::<TFMessage>(data).map(drop),
+        s if s == SceneState::TYPE_NAME => ros::cdr::decode::<SceneState>(data).map(drop),
+        s if s == Segment::TYPE_NAME => ros::cdr::decode::<Segment>(data).map(drop),
+        s if s == PoseStamped::TYPE_NAME => ros::cdr::decode::<PoseStamped>(data).map(drop),
+        s if s == CameraInfo::TYPE_NAME => ros::cdr::decode::<CameraInfo>(data).map(drop),
         s if s == MarkerArray::TYPE_NAME => ros::cdr::decode::<MarkerArray>(data).map(drop),
         s if s == PoseArray::TYPE_NAME => ros::cdr::decode::<PoseArray>(data).map(drop),
         _ => return None,
     };
     Some(result)
+}
+
+/// Per animation: its variants, its scene ids, its clips.
+type AnimationCounts = (BTreeSet<u32>, BTreeSet<String>, usize);
+
+/// A dataset's recording hierarchy as its `/segments` describe it: per category, action and
+/// animation, the variants, scenes and clips.
+#[derive(Debug, Default)]
+struct Hierarchy {
+    /// (category, action) → label id and per animation: variants, scene ids, clips.
+    classes: BTreeMap<(String, String), (u32, BTreeMap<String, AnimationCounts>)>,
+    ids: BTreeSet<String>,
+    duplicate_ids: usize,
+}
+
+impl Hierarchy {
+    fn add(&mut self, s: &Segment) {
+        if !self.ids.insert(s.id.clone()) {
+            self.duplicate_ids += 1;
+        }
+        let (_, animations) = self
+            .classes
+            .entry((s.category.clone(), s.action.clone()))
+            .or_insert((s.label_id, BTreeMap::new()));
+        let a = animations.entry(s.animation.clone()).or_default();
+        a.0.insert(s.variant);
+        a.1.insert(s.scene_id.clone());
+        a.2 += 1;
+    }
+
+    fn is_empty(&self) -> bool {
+        self.classes.is_empty()
+    }
+
+    fn tree(&self) -> String {
+        let animations: usize = self.classes.values().map(|(_, a)| a.len()).sum();
+        let variants: usize = self
+            .classes
+            .values()
+            .flat_map(|(_, a)| a.values().map(|v| v.0.len()))
+            .sum();
+        let scenes: usize = self
+            .classes
+            .values()
+            .flat_map(|(_, a)| a.values().map(|v| v.1.len()))
+            .sum();
+        let categories: BTreeSet<&String> = self.classes.keys().map(|(c, _)| c).collect();
+        let mut out = format!(
+            "hierarchy (/segments): {} categories, {} actions, {animations} animations, {variants} variants, {scenes} scenes, {} clips{}\n",
+            categories.len(),
+            self.classes.len(),
+            self.ids.len() + self.duplicate_ids,
+            if self.duplicate_ids > 0 {
+                format!(" ({} duplicate ids!)", self.duplicate_ids)
+            } else {
+                String::new()
+            }
+        );
+        for category in categories {
+            let clips: usize = self
+                .classes
+                .iter()
+                .filter(|((c, _), _)| c == category)
+                .flat_map(|(_, (_, a))| a.values().map(|v| v.2))
+                .sum();
+            out.push_str(&format!("  {category}: {clips} clips\n"));
+            for ((_, action), (label, animations)) in
+                self.classes.iter().filter(|((c, _), _)| c == category)
+            {
+                let clips: usize = animations.values().map(|v| v.2).sum();
+                out.push_str(&format!("    {action} (label {label}): {clips} clips\n"));
+                for (name, (variants, scenes, clips)) in animations {
+                    out.push_str(&format!(
+                        "      {name}: {} variants, {} scenes, {clips} clips\n",
+                        variants.len(),
+                        scenes.len()
+                    ));
+                }
+            }
+        }
+        out.trim_end().to_string()
+    }
+
+    fn json(&self) -> serde_json::Value {
+        let classes: Vec<_> = self
+            .classes
+            .iter()
+            .map(|((category, action), (label, animations))| {
+                let anims: Vec<_> = animations
+                    .iter()
+                    .map(|(name, (v, s, c))| json!({"animation": name, "variants": v.len(), "scenes": s.len(), "clips": c}))
+                    .collect();
+                json!({"category": category, "action": action, "label_id": label, "animations": anims})
+            })
+            .collect();
+        json!({"clips": self.ids.len() + self.duplicate_ids, "duplicate_ids": self.duplicate_ids, "classes": classes})
+    }
 }
 
 /// Runs `autoact info`.
@@ -78,6 +180,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         .unwrap_or_default();
     let mut channels: BTreeMap<String, ChannelStats> = BTreeMap::new();
     let mut issues = Vec::new();
+    let mut hierarchy = Hierarchy::default();
     for item in readers.iter().flat_map(BagReader::messages) {
         let msg = match item {
             Ok(m) => m,
@@ -104,6 +207,11 @@ pub fn run(args: Args) -> Result<Outcome> {
         stats.last = stats.last.max(msg.log_time);
         stats.count += 1;
         let schema = stats.schema.clone();
+        if schema == Segment::TYPE_NAME
+            && let Ok(seg) = ros::cdr::decode::<Segment>(&msg.data)
+        {
+            hierarchy.add(&seg);
+        }
         if let Some(Err(e)) = check_message(&schema, &msg.data, stats) {
             stats.undecodable += 1;
             stats
@@ -156,6 +264,12 @@ pub fn run(args: Args) -> Result<Outcome> {
                 c.non_monotonic
             ));
         }
+    }
+    if hierarchy.duplicate_ids > 0 {
+        problems.push(format!(
+            "/segments: {} clips repeat an id (a leaf id must be unique)",
+            hierarchy.duplicate_ids
+        ));
     }
     problems.extend(issues.iter().cloned());
     let verdict = if problems.is_empty() {
@@ -237,6 +351,9 @@ pub fn run(args: Args) -> Result<Outcome> {
                     .collect();
                 s.push_str(&format!("\nmetadata {name}: {}", kv.join(" ")));
             }
+            if !hierarchy.is_empty() {
+                s.push_str(&format!("\n\n{}", hierarchy.tree()));
+            }
             s.push_str(&format!("\n\nverdict: {verdict}\n"));
             for p in &problems {
                 s.push_str(&format!("  - {p}\n"));
@@ -259,7 +376,7 @@ pub fn run(args: Args) -> Result<Outcome> {
             format!(
                 "{:#}\n",
                 json!({"file": input.display().to_string(), "profile": profile, "library": library, "channels": ch,
-                       "metadata": md, "valid": problems.is_empty(), "problems": problems})
+                       "metadata": md, "hierarchy": hierarchy.json(), "valid": problems.is_empty(), "problems": problems})
             )
         }
     };

@@ -4,6 +4,7 @@ pub mod convert;
 pub mod import;
 pub mod info;
 pub mod layouts;
+pub mod plan;
 pub mod rig;
 
 use std::fs::File;
@@ -47,6 +48,7 @@ pub fn dispatch(command: Command) -> anyhow::Result<Outcome> {
         Command::Import(args) => import::run(args),
         Command::Convert(args) => convert::run(args),
         Command::Info(args) => info::run(args),
+        Command::Plan(args) => plan::run(args),
     }
 }
 

@@ -1,8 +1,10 @@
-//! `autoact_msgs` (`schemas/autoact_msgs/`): skeletons in, bone frames out.
+//! `autoact_msgs` (`schemas/autoact_msgs/`): skeletons in, bone frames out, and a dataset's
+//! scenes and recording hierarchy.
 
 use serde::{Deserialize, Serialize};
 
 use super::RosMessage;
+use super::builtin_interfaces::Time;
 use super::geometry_msgs::{Point, Quaternion, Vector3};
 use super::std_msgs::Header;
 
@@ -48,4 +50,100 @@ pub struct BoneFrame {
 
 impl RosMessage for BoneFrame {
     const TYPE_NAME: &'static str = "autoact_msgs/msg/BoneFrame";
+}
+
+/// `autoact_msgs/msg/SceneState`: the drawn scene an animation is shown in.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct SceneState {
+    /// Stamp (the scene's start) and world frame.
+    pub header: Header,
+    /// Capture session.
+    pub session: String,
+    /// Scene id in the hierarchy.
+    pub scene_id: String,
+    /// Dataset seed.
+    pub seed: u64,
+    /// ChaCha8 stream of the scene's draws.
+    pub stream: u64,
+    /// Weather name.
+    pub weather: String,
+    /// Meteorological visibility, metres.
+    pub visibility_m: f64,
+    /// Fog extinction coefficient, per metre.
+    pub fog_density_per_m: f64,
+    /// Cloud cover in [0, 1].
+    pub cloud_cover: f64,
+    /// `none`, `rain` or `snow`.
+    pub precipitation: String,
+    /// Precipitation rate, mm/h.
+    pub precipitation_rate_mm_per_h: f64,
+    /// Wind speed, m/s.
+    pub wind_speed_m_per_s: f64,
+    /// Multiplier on clear-sky ambient light, [0, 1].
+    pub ambient_light_scale: f64,
+    /// Ground wetness in [0, 1].
+    pub ground_wetness: f64,
+    /// Snow cover in [0, 1].
+    pub snow_cover: f64,
+    /// Lightning flashes.
+    pub lightning: bool,
+    /// Local solar clock, `HH:MM`.
+    pub clock: String,
+    /// Latitude of the sun computation, degrees.
+    pub latitude_deg: f64,
+    /// Day of year of the sun computation.
+    pub day_of_year: u16,
+    /// Sun elevation, degrees.
+    pub sun_elevation_deg: f64,
+    /// Sun azimuth, degrees clockwise from north.
+    pub sun_azimuth_deg: f64,
+    /// Location name.
+    pub location: String,
+    /// Height of the drawn character, metres.
+    pub character_height_m: f64,
+    /// Every drawn parameter, JSON.
+    pub parameters_json: String,
+}
+
+impl RosMessage for SceneState {
+    const TYPE_NAME: &'static str = "autoact_msgs/msg/SceneState";
+}
+
+/// `autoact_msgs/msg/Segment`: one leaf of the recording hierarchy on a capture timeline.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Segment {
+    /// Stamp (the segment's start) and world frame.
+    pub header: Header,
+    /// Capture session.
+    pub session: String,
+    /// Unique leaf id.
+    pub id: String,
+    /// Category.
+    pub category: String,
+    /// Action label.
+    pub action: String,
+    /// Index of the label in the dataset's sorted labels.
+    pub label_id: u32,
+    /// Source animation, `<bag>#<track>`.
+    pub animation: String,
+    /// Variant index.
+    pub variant: u32,
+    /// Scene index within the variant.
+    pub scene: u32,
+    /// Viewpoint index within the scene.
+    pub viewpoint: u32,
+    /// Scene id.
+    pub scene_id: String,
+    /// Clip start.
+    pub start: Time,
+    /// Clip end (exclusive).
+    pub end: Time,
+    /// Animation start.
+    pub content_start: Time,
+    /// Animation end.
+    pub content_end: Time,
+}
+
+impl RosMessage for Segment {
+    const TYPE_NAME: &'static str = "autoact_msgs/msg/Segment";
 }

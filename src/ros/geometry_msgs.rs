@@ -173,6 +173,19 @@ impl RosMessage for PoseArray {
     const TYPE_NAME: &'static str = "geometry_msgs/msg/PoseArray";
 }
 
+/// `geometry_msgs/msg/PoseStamped`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct PoseStamped {
+    /// Stamp and the frame the pose is in.
+    pub header: Header,
+    /// The pose.
+    pub pose: Pose,
+}
+
+impl RosMessage for PoseStamped {
+    const TYPE_NAME: &'static str = "geometry_msgs/msg/PoseStamped";
+}
+
 /// `geometry_msgs/msg/Transform`: `parent_from_child`.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct Transform {

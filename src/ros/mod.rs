@@ -26,10 +26,18 @@ pub trait RosMessage: Serialize + DeserializeOwned {
 }
 
 /// The `.msg` texts autoact knows: (full type name, text), compiled in from `schemas/`.
-const SCHEMAS: [(&str, &str); 19] = [
+const SCHEMAS: [(&str, &str); 24] = [
     (
         "autoact_msgs/msg/BoneFrame",
         include_str!("../../schemas/autoact_msgs/msg/BoneFrame.msg"),
+    ),
+    (
+        "autoact_msgs/msg/SceneState",
+        include_str!("../../schemas/autoact_msgs/msg/SceneState.msg"),
+    ),
+    (
+        "autoact_msgs/msg/Segment",
+        include_str!("../../schemas/autoact_msgs/msg/Segment.msg"),
     ),
     (
         "autoact_msgs/msg/Skeleton3D",
@@ -56,6 +64,10 @@ const SCHEMAS: [(&str, &str); 19] = [
         include_str!("../../schemas/geometry_msgs/msg/PoseArray.msg"),
     ),
     (
+        "geometry_msgs/msg/PoseStamped",
+        include_str!("../../schemas/geometry_msgs/msg/PoseStamped.msg"),
+    ),
+    (
         "geometry_msgs/msg/Quaternion",
         include_str!("../../schemas/geometry_msgs/msg/Quaternion.msg"),
     ),
@@ -72,8 +84,16 @@ const SCHEMAS: [(&str, &str); 19] = [
         include_str!("../../schemas/geometry_msgs/msg/Vector3.msg"),
     ),
     (
+        "sensor_msgs/msg/CameraInfo",
+        include_str!("../../schemas/sensor_msgs/msg/CameraInfo.msg"),
+    ),
+    (
         "sensor_msgs/msg/CompressedImage",
         include_str!("../../schemas/sensor_msgs/msg/CompressedImage.msg"),
+    ),
+    (
+        "sensor_msgs/msg/RegionOfInterest",
+        include_str!("../../schemas/sensor_msgs/msg/RegionOfInterest.msg"),
     ),
     (
         "std_msgs/msg/ColorRGBA",
@@ -263,6 +283,11 @@ mod tests {
         }
         check::<autoact_msgs::Skeleton3D>();
         check::<autoact_msgs::BoneFrame>();
+        check::<autoact_msgs::SceneState>();
+        check::<autoact_msgs::Segment>();
+        check::<geometry_msgs::PoseStamped>();
+        check::<sensor_msgs::CameraInfo>();
+        check::<sensor_msgs::RegionOfInterest>();
         check::<builtin_interfaces::Time>();
         check::<builtin_interfaces::Duration>();
         check::<std_msgs::Header>();

@@ -1,0 +1,335 @@
+//! `autoact plan` and `autoact convert --spec` on specs written here: counts, determinism, every
+//! kind of bad spec, the camera keeping the character in frame in the written bags, and the
+//! paper's NTU-scale plan.
+
+#![expect(clippy::unwrap_used, reason = "test helpers fail loudly")]
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+mod common;
+
+use common::{autoact, stderr, stdout};
+
+use autoact::mcap_io::{BagReader, BagWriter, WriteConfig};
+use autoact::ros::autoact_msgs::{Segment, Skeleton3D};
+use autoact::ros::builtin_interfaces::Time;
+use autoact::ros::cdr;
+use autoact::ros::geometry_msgs::{Point, PoseStamped};
+use autoact::ros::sensor_msgs::CameraInfo;
+use autoact::ros::std_msgs::Header;
+use autoact::ros::visualization_msgs::MarkerArray;
+use nalgebra::{Point3, UnitQuaternion};
+
+fn repo(path: &str) -> String {
+    format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A spec over the two sample bags, with `dataset`, `counts` and extra sections.
+fn spec_text(seed: u64, counts: &str, extra: &str) -> String {
+    format!(
+        r#"[dataset]
+name = "t"
+seed = {seed}
+fps = 30.0
+resolution = [640, 360]
+[counts]
+{counts}
+{extra}
+[[class]]
+category = "gesture"
+action = "wave"
+sources = ["{wave}"]
+
+[[class]]
+category = "locomotion"
+action = "walk"
+sources = ["{walk}"]
+"#,
+        wave = repo("bags/bandai_wave.pose.mcap"),
+        walk = repo("bags/bandai_walk.pose.mcap"),
+    )
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn arg(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+#[test]
+fn plan_counts_and_its_three_formats_agree() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = write(
+        dir.path(),
+        "s.toml",
+        &spec_text(1, "variants = 2\nscenes = 3\nviewpoints = 2", ""),
+    );
+    let o = autoact(&["plan", arg(&spec)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert!(
+        text.contains(
+            "2 animations × 2 variants × 3 scenes × 2 viewpoints = 24 clips in 2 sessions"
+        ),
+        "{text}"
+    );
+    for section in ["weather", "time", "location", "character", "expected size"] {
+        assert!(text.contains(section), "{section}: {text}");
+    }
+    let csv = stdout(&autoact(&["plan", arg(&spec), "--format", "csv"]));
+    assert_eq!(csv.lines().count(), 25);
+    let ids: BTreeSet<&str> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap())
+        .collect();
+    assert_eq!(ids.len(), 24);
+    let json: serde_json::Value =
+        serde_json::from_str(&stdout(&autoact(&["plan", arg(&spec), "--format", "json"]))).unwrap();
+    assert_eq!(json["plan"]["leaves"].as_array().unwrap().len(), 24);
+    assert_eq!(json["plan"]["labels"], serde_json::json!(["walk", "wave"]));
+}
+
+fn segments(path: &Path) -> Vec<Segment> {
+    BagReader::open(path)
+        .unwrap()
+        .messages()
+        .map(Result::unwrap)
+        .filter(|m| m.channel.topic == "/segments")
+        .map(|m| cdr::decode::<Segment>(&m.data).unwrap())
+        .collect()
+}
+
+#[test]
+fn capture_bags_are_deterministic_labelled_and_keep_the_character_in_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let counts = "variants = 2\nscenes = 2\nviewpoints = 3\nshot = \"moving\"";
+    let spec = write(dir.path(), "s.toml", &spec_text(5, counts, ""));
+    let run = |name: &str, spec: &Path| {
+        let out = dir.path().join(name);
+        let o = autoact(&["convert", "--spec", arg(spec), "-o", arg(&out)]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        out
+    };
+    let (a, b) = (run("a", &spec), run("b", &spec));
+    let bags: Vec<PathBuf> = {
+        let mut v: Vec<PathBuf> = std::fs::read_dir(&a)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "mcap"))
+            .collect();
+        v.sort();
+        v
+    };
+    assert_eq!(bags.len(), 2, "one session per animation");
+    for bag in &bags {
+        let twin = b.join(bag.file_name().unwrap());
+        assert_eq!(
+            std::fs::read(bag).unwrap(),
+            std::fs::read(&twin).unwrap(),
+            "{bag:?}"
+        );
+    }
+    // Another seed: other bags.
+    let other = write(dir.path(), "o.toml", &spec_text(6, counts, ""));
+    let c = run("c", &other);
+    assert_ne!(
+        std::fs::read(&bags[0]).unwrap(),
+        std::fs::read(c.join(bags[0].file_name().unwrap())).unwrap()
+    );
+
+    // Segments: 12 per session, unique ids, labels by sorted name, back to back.
+    let mut ids = BTreeSet::new();
+    for bag in &bags {
+        let segs = segments(bag);
+        assert_eq!(segs.len(), 12);
+        let mut end = Time::default();
+        for s in &segs {
+            assert!(ids.insert(s.id.clone()));
+            assert_eq!(s.label_id, u32::from(s.action == "wave"));
+            assert_eq!(s.start, end);
+            assert!(s.start.to_nanos() < s.content_start.to_nanos());
+            assert!(s.content_end.to_nanos() < s.end.to_nanos());
+            end = s.end;
+        }
+    }
+
+    // Framing: every joint of every frame projects inside the image with the 5% margin, and the
+    // camera is above the ground.
+    for bag in &bags {
+        let reader = BagReader::open(bag).unwrap();
+        let mut camera: Option<PoseStamped> = None;
+        let mut info: Option<CameraInfo> = None;
+        let mut frames = 0;
+        for m in reader.messages().map(Result::unwrap) {
+            match m.channel.topic.as_str() {
+                "/camera/pose" => camera = Some(cdr::decode(&m.data).unwrap()),
+                "/camera/camera_info" => info = Some(cdr::decode(&m.data).unwrap()),
+                "/skeleton/markers" => {
+                    let markers: MarkerArray = cdr::decode(&m.data).unwrap();
+                    let (Some(cam), Some(info)) = (&camera, &info) else {
+                        panic!("markers before the camera");
+                    };
+                    assert_eq!(cam.header.stamp, markers.markers[0].header.stamp);
+                    assert!(cam.pose.position.z > 0.0, "camera below the ground");
+                    let q: UnitQuaternion<f64> = cam.pose.orientation.try_into().unwrap();
+                    let c = Point3::from(cam.pose.position);
+                    let (w, h) = (f64::from(info.width), f64::from(info.height));
+                    for p in &markers.markers[0].points {
+                        let v = q.inverse() * (Point3::<f64>::from(Point { ..*p }) - c);
+                        assert!(v.z > 0.0, "a joint behind the camera");
+                        let u = info.k[0] * v.x / v.z + info.k[2] + 0.5;
+                        let y = info.k[4] * v.y / v.z + info.k[5] + 0.5;
+                        let (mu, mv) = (0.05 * w / 2.0, 0.05 * h / 2.0);
+                        assert!(
+                            u > mu && u < w - mu && y > mv && y < h - mv,
+                            "{bag:?} frame {frames}: a joint at ({u:.0}, {y:.0}) leaves the {w}×{h} image"
+                        );
+                    }
+                    frames += 1;
+                }
+                _ => {}
+            }
+        }
+        assert!(frames > 1000, "{frames} frames");
+    }
+
+    let info = autoact(&["info", arg(&bags[0])]);
+    let text = stdout(&info);
+    assert!(
+        text.contains("hierarchy (/segments): 1 categories, 1 actions, 1 animations, 2 variants, 4 scenes, 12 clips"),
+        "{text}"
+    );
+    assert!(text.contains("verdict: valid"), "{text}");
+}
+
+#[test]
+fn bad_specs_are_clear_errors_naming_the_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = spec_text(1, "", "");
+    let cases: [(&str, String, &str); 8] = [
+        (
+            "unknown weather",
+            spec_text(1, "", "[scene]\nweather_weights = { SUNNY = 1 }"),
+            "SUNNY",
+        ),
+        (
+            "negative range",
+            spec_text(1, "", "[camera]\ndelta_xy_m = [0.8, -0.8]"),
+            "delta_xy_m",
+        ),
+        (
+            "negative height",
+            spec_text(1, "", "[camera]\nheight_m = [-1.0, 2.0]"),
+            "height_m",
+        ),
+        (
+            "no sources",
+            good.replace(
+                &format!("[\"{}\"]", repo("bags/bandai_walk.pose.mcap")),
+                "[]",
+            ),
+            "class[1].sources",
+        ),
+        (
+            "missing path",
+            good.replace("bandai_walk.pose.mcap", "nope.mcap"),
+            "class[1].sources[0]",
+        ),
+        (
+            "escaping label",
+            good.replace("action = \"walk\"", "action = \"../x\""),
+            "escape the output folder",
+        ),
+        (
+            "unknown key",
+            good.replace("fps = 30.0", "fsp = 30.0"),
+            "fsp",
+        ),
+        (
+            "zero scenes",
+            spec_text(1, "scenes = 0", ""),
+            "counts.scenes",
+        ),
+    ];
+    for (what, text, expect) in cases {
+        let spec = write(dir.path(), "bad.toml", &text);
+        let o = autoact(&["plan", arg(&spec)]);
+        assert_eq!(o.status.code(), Some(1), "{what}: {}", stderr(&o));
+        let err = stderr(&o);
+        assert!(
+            err.contains(expect) && err.contains("bad.toml"),
+            "{what}: {err}"
+        );
+    }
+}
+
+/// A two-frame pose bag (a valid source with a summary), for large synthetic plans.
+fn tiny_pose_bag(path: &Path) {
+    let mut w = BagWriter::create(path, WriteConfig::default()).unwrap();
+    for k in 0..2u64 {
+        let s = Skeleton3D {
+            header: Header {
+                stamp: Time::from_nanos(k * 33_333_333),
+                frame_id: "world".into(),
+            },
+            layout: "h36m-17".into(),
+            ..Skeleton3D::default()
+        };
+        w.write("/skeleton", k * 33_333_333, &s).unwrap();
+    }
+    w.finish().unwrap();
+}
+
+#[test]
+fn the_papers_ntu_scale_plan_has_exact_counts_and_unique_ids() {
+    // 1,566 animations × 4 positions × 3 viewpoints = 18,792 clips (the paper's NTU-like plan).
+    let dir = tempfile::tempdir().unwrap();
+    let bag = dir.path().join("a.mcap");
+    tiny_pose_bag(&bag);
+    let mut classes = String::new();
+    let mut n = 0;
+    for c in 0..54 {
+        let sources: Vec<String> = (0..29)
+            .map(|i| {
+                let name = format!("c{c:02}_{i:02}.mcap");
+                std::fs::copy(&bag, dir.path().join(&name)).unwrap();
+                n += 1;
+                format!("\"{name}\"")
+            })
+            .collect();
+        classes.push_str(&format!(
+            "[[class]]\ncategory = \"daily\"\naction = \"A{c:03}\"\nsources = [{}]\n",
+            sources.join(", ")
+        ));
+    }
+    assert_eq!(n, 1566);
+    let spec = write(
+        dir.path(),
+        "ntu.toml",
+        &format!(
+            "[dataset]\nname = \"ntu\"\nseed = 3\n[counts]\nscenes = 4\nviewpoints = 3\n{classes}"
+        ),
+    );
+    let o = autoact(&["plan", arg(&spec), "--format", "csv"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let csv = stdout(&o);
+    let rows: Vec<&str> = csv.lines().skip(1).collect();
+    assert_eq!(rows.len(), 18_792);
+    let ids: BTreeSet<&str> = rows.iter().map(|r| r.split(',').next().unwrap()).collect();
+    assert_eq!(ids.len(), 18_792, "every clip has its own id");
+    assert!(
+        rows.iter()
+            .all(|r| r.split(',').nth(3).is_some_and(|a| a.starts_with('A')))
+    );
+    let summary = stdout(&autoact(&["plan", arg(&spec)]));
+    assert!(
+        summary.contains("1566 animations × 1 variants × 4 scenes × 3 viewpoints = 18792 clips"),
+        "{summary}"
+    );
+}
