@@ -496,7 +496,15 @@ fn run_spec(spec_path: &std::path::Path, output: &OutputArgs) -> Result<Outcome>
         compression: output.compression,
         ..crate::mcap_io::WriteConfig::default()
     };
-    let sessions = capture::write_sessions(&rig, &spec, &plan, &converted, dir, config)?;
+    let sessions = capture::write_sessions(
+        &rig,
+        &spec,
+        &plan,
+        &converted,
+        dir,
+        config,
+        output.write_expected_json,
+    )?;
     let plan_path = dir.join("plan.json");
     std::fs::write(
         &plan_path,

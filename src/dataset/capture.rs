@@ -401,7 +401,8 @@ fn camera_messages(
 }
 
 /// Writes every session of `plan` into `out_dir` as `<session>.anim.mcap`, with the sources
-/// already converted (`converted[animation]`, lengths set in the plan).
+/// already converted (`converted[animation]`, lengths set in the plan). With `journal`, each
+/// bag also gets `<session>.anim.expected.json` (every message as meant, for `tools/interop`).
 ///
 /// # Errors
 /// [`CaptureError`] for a write failure or a character the camera cannot frame.
@@ -412,6 +413,7 @@ pub fn write_sessions(
     converted: &[Converted],
     out_dir: &Path,
     config: WriteConfig,
+    journal: bool,
 ) -> Result<Vec<SessionWritten>, CaptureError> {
     let d = &spec.file.dataset;
     let intrinsics = Intrinsics::from_horizontal_fov(d.resolution[0], d.resolution[1], d.fov_deg)
@@ -421,6 +423,9 @@ pub fn write_sessions(
     for session in &plan.sessions {
         let path = out_dir.join(format!("{}.anim.mcap", session.name));
         let mut w = BagWriter::create(&path, config)?;
+        if journal {
+            w.keep_journal();
+        }
         let mut meta = BTreeMap::new();
         meta.insert("dataset".to_string(), plan.name.clone());
         meta.insert("session".to_string(), session.name.clone());
@@ -565,7 +570,11 @@ pub fn write_sessions(
                 tw.write_frame(&mut w, stamp, pose)?;
             }
         }
-        w.finish()?;
+        if journal {
+            w.finish_with_journal(&path.with_extension("expected.json"))?;
+        } else {
+            w.finish()?;
+        }
         written.push(SessionWritten {
             path,
             clips: session.leaves.len(),
