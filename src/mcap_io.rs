@@ -91,7 +91,7 @@ pub enum McapIoError {
 pub struct BagWriter<W: Write + Seek> {
     path: PathBuf,
     writer: mcap::Writer<W>,
-    schemas: BTreeMap<&'static str, u16>,
+    schemas: BTreeMap<String, u16>,
     channels: BTreeMap<String, u16>,
     sequences: BTreeMap<u16, u32>,
     stats: BagStats,
@@ -104,7 +104,7 @@ pub struct BagWriter<W: Write + Seek> {
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct BagStats {
     /// Per topic: (type name, message count).
-    pub topics: BTreeMap<String, (&'static str, u64)>,
+    pub topics: BTreeMap<String, (String, u64)>,
     /// Earliest and latest log time, nanoseconds.
     pub time_range: Option<(u64, u64)>,
 }
@@ -211,23 +211,29 @@ impl<W: Write + Seek> BagWriter<W> {
         self.journal = Some(Journal::default());
     }
 
-    fn channel_for<M: RosMessage>(&mut self, topic: &str) -> Result<u16, McapIoError> {
+    /// The channel of `topic` (created with `type_name`'s schema on first use; `definition`
+    /// gives the schema text then).
+    fn channel_for(
+        &mut self,
+        topic: &str,
+        type_name: &str,
+        definition: impl FnOnce() -> String,
+    ) -> Result<u16, McapIoError> {
         if let Some(&id) = self.channels.get(topic) {
             return Ok(id);
         }
-        let schema_id = match self.schemas.get(M::TYPE_NAME) {
+        let schema_id = match self.schemas.get(type_name) {
             Some(&id) => id,
             None => {
-                let definition = ros::definition_of::<M>();
                 let id = self
                     .writer
-                    .add_schema(M::TYPE_NAME, "ros2msg", definition.as_bytes())
+                    .add_schema(type_name, "ros2msg", definition().as_bytes())
                     .map_err(|source| McapIoError::Mcap {
                         action: "cannot add a schema to",
                         path: self.path.clone(),
                         source,
                     })?;
-                self.schemas.insert(M::TYPE_NAME, id);
+                self.schemas.insert(type_name.to_string(), id);
                 id
             }
         };
@@ -247,6 +253,83 @@ impl<W: Write + Seek> BagWriter<W> {
         Ok(id)
     }
 
+    /// Appends one encoded message (CDR with its encapsulation header) to its channel.
+    fn append(
+        &mut self,
+        channel_id: u16,
+        topic: &str,
+        type_name: &str,
+        log_time_nanos: u64,
+        publish_time_nanos: u64,
+        payload: &[u8],
+    ) -> Result<(), McapIoError> {
+        let sequence = self.sequences.entry(channel_id).or_insert(0);
+        *sequence += 1;
+        let entry = self
+            .stats
+            .topics
+            .entry(topic.to_string())
+            .or_insert_with(|| (type_name.to_string(), 0));
+        entry.1 += 1;
+        self.stats.time_range = Some(match self.stats.time_range {
+            Some((a, b)) => (a.min(log_time_nanos), b.max(log_time_nanos)),
+            None => (log_time_nanos, log_time_nanos),
+        });
+        let header = mcap::records::MessageHeader {
+            channel_id,
+            sequence: *sequence,
+            log_time: log_time_nanos,
+            publish_time: publish_time_nanos,
+        };
+        self.writer
+            .write_to_known_channel(&header, payload)
+            .map_err(|source| McapIoError::Mcap {
+                action: "cannot write a message to",
+                path: self.path.clone(),
+                source,
+            })
+    }
+
+    /// Writes a message that is already CDR (with its 4-byte encapsulation header), of ROS type
+    /// `type_name` whose `.msg` text (rosbag2 form, dependencies included) is `definition` — as
+    /// received from DDS, or read from another bag.
+    ///
+    /// # Errors
+    /// [`McapIoError`] naming the file and topic.
+    pub fn write_raw(
+        &mut self,
+        topic: &str,
+        type_name: &str,
+        definition: &str,
+        log_time_nanos: u64,
+        publish_time_nanos: u64,
+        cdr: &[u8],
+    ) -> Result<(), McapIoError> {
+        let channel_id = self.channel_for(topic, type_name, || definition.to_string())?;
+        self.append(
+            channel_id,
+            topic,
+            type_name,
+            log_time_nanos,
+            publish_time_nanos,
+            cdr,
+        )
+    }
+
+    /// Ends the current chunk and hands everything written so far to the operating system, so
+    /// that a crash after this point loses nothing before it.
+    ///
+    /// # Errors
+    /// [`McapIoError::Mcap`] (e.g. a full disk).
+    pub fn flush(&mut self) -> Result<(), McapIoError> {
+        let path = self.path.clone();
+        self.writer.flush().map_err(|source| McapIoError::Mcap {
+            action: "cannot flush",
+            path,
+            source,
+        })
+    }
+
     /// Writes one message on `topic` at `log_time_nanos` (also its publish time).
     ///
     /// # Errors
@@ -257,7 +340,7 @@ impl<W: Write + Seek> BagWriter<W> {
         log_time_nanos: u64,
         msg: &M,
     ) -> Result<(), McapIoError> {
-        let channel_id = self.channel_for::<M>(topic)?;
+        let channel_id = self.channel_for(topic, M::TYPE_NAME, ros::definition_of::<M>)?;
         let mut payload = std::mem::take(&mut self.payload);
         ros::cdr::encode_into(msg, &mut payload).map_err(|source| McapIoError::Encode {
             path: self.path.clone(),
@@ -265,18 +348,6 @@ impl<W: Write + Seek> BagWriter<W> {
             type_name: M::TYPE_NAME,
             source,
         })?;
-        let sequence = self.sequences.entry(channel_id).or_insert(0);
-        *sequence += 1;
-        let entry = self
-            .stats
-            .topics
-            .entry(topic.to_string())
-            .or_insert((M::TYPE_NAME, 0));
-        entry.1 += 1;
-        self.stats.time_range = Some(match self.stats.time_range {
-            Some((a, b)) => (a.min(log_time_nanos), b.max(log_time_nanos)),
-            None => (log_time_nanos, log_time_nanos),
-        });
         if let Some(journal) = self.journal.as_mut() {
             journal.messages.push(serde_json::json!({
                 "topic": topic,
@@ -286,19 +357,16 @@ impl<W: Write + Seek> BagWriter<W> {
                 "message": serde_json::to_value(msg).unwrap_or(serde_json::Value::Null),
             }));
         }
-        let header = mcap::records::MessageHeader {
+        let result = self.append(
             channel_id,
-            sequence: *sequence,
-            log_time: log_time_nanos,
-            publish_time: log_time_nanos,
-        };
-        let result = self.writer.write_to_known_channel(&header, &payload);
+            topic,
+            M::TYPE_NAME,
+            log_time_nanos,
+            log_time_nanos,
+            &payload,
+        );
         self.payload = payload;
-        result.map_err(|source| McapIoError::Mcap {
-            action: "cannot write a message to",
-            path: self.path.clone(),
-            source,
-        })
+        result
     }
 
     /// Writes a metadata record (e.g. the dataset label).
