@@ -79,6 +79,12 @@ pub enum Command {
     /// The hierarchy is category → action → animation → variant → scene → viewpoint; every draw
     /// comes from the spec's seed (see `examples/dataset.toml`).
     Plan(crate::cmd::plan::Args),
+    /// Rewrite a bag that was cut off (crash, `kill -9`) or damaged into a complete one: every
+    /// message of every readable chunk, its metadata, a fresh summary and index.
+    ///
+    /// Prints how many messages were kept per topic; exits with code 3 when the input was
+    /// unfinished or damaged (something may be lost), 0 when it was whole.
+    Recover(crate::cmd::recover::Args),
     /// Describe an MCAP file: channels, schemas, counts, time range, rate, layouts, labels, and
     /// whether ROS 2 tools and autoact can read all of it.
     Info(crate::cmd::info::Args),

@@ -28,6 +28,7 @@ pub mod layout;
 pub mod mcap_io;
 pub mod pose;
 pub mod pose_bag;
+pub mod record;
 pub mod resample;
 pub mod rig;
 pub mod ros;

@@ -654,3 +654,53 @@ fn bad_dsi_options_are_clear_errors() {
         assert!(stderr(&o).contains(expect), "{extra:?}: {}", stderr(&o));
     }
 }
+
+#[test]
+fn recover_rewrites_a_cut_bag_with_every_complete_chunk_and_says_data_was_lost() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = pose_bag(dir.path(), "in.mcap", 90, |_, _| {});
+    let bytes = std::fs::read(&input).unwrap();
+    let chunks = chunk_ranges(&bytes);
+    assert!(chunks.len() > 3);
+    // Cut in the middle of the fourth chunk, as a kill -9 would leave it.
+    let (start, end) = chunks[3];
+    let cut = dir.path().join("cut.mcap");
+    std::fs::write(&cut, &bytes[..(start + end) / 2]).unwrap();
+    let before: usize = BagReader::open(&cut)
+        .unwrap()
+        .messages()
+        .filter(Result::is_ok)
+        .count();
+    let out = dir.path().join("out.mcap");
+    let o = autoact(&["recover", arg(&cut), "-o", arg(&out)]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(
+        common::stdout(&o).contains(&format!("{before} messages kept")),
+        "{}",
+        common::stdout(&o)
+    );
+    let r = BagReader::open(&out).unwrap();
+    assert!(r.time_range().is_some(), "the recovered file has a summary");
+    let frames: Vec<Skeleton3D> = r
+        .messages()
+        .map(|m| cdr::decode::<Skeleton3D>(&m.unwrap().data).unwrap())
+        .collect();
+    assert_eq!(frames.len(), before);
+    assert_eq!(
+        frames,
+        (0..before).map(|k| skeleton(k, 0)).collect::<Vec<_>>()
+    );
+    // The recovered bag converts like any other.
+    let anim = dir.path().join("anim.mcap");
+    assert!(
+        autoact(&["convert", arg(&out), "-o", arg(&anim)])
+            .status
+            .success()
+    );
+    // A whole file recovers with exit 0; an existing output needs --force.
+    let o = autoact(&["recover", arg(&input), "-o", arg(&out)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("--force"));
+    let o = autoact(&["recover", arg(&input), "-o", arg(&out), "--force"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}

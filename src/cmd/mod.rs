@@ -5,6 +5,7 @@ pub mod import;
 pub mod info;
 pub mod layouts;
 pub mod plan;
+pub mod recover;
 pub mod rig;
 
 use std::fs::File;
@@ -49,6 +50,7 @@ pub fn dispatch(command: Command) -> anyhow::Result<Outcome> {
         Command::Convert(args) => convert::run(args),
         Command::Info(args) => info::run(args),
         Command::Plan(args) => plan::run(args),
+        Command::Recover(args) => recover::run(args),
     }
 }
 

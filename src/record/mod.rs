@@ -1,0 +1,3 @@
+//! `autoact record`: live ROS 2 topics into MCAP.
+
+pub mod session;
