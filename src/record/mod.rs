@@ -1,3 +1,10 @@
-//! `autoact record`: live ROS 2 topics into MCAP.
+//! Recording live ROS 2 topics (`autoact record`).
+//!
+//! [`dds`] is the transport layer: it joins a DDS domain, finds ROS 2 topics by discovery and
+//! subscribes to them *without* knowing their Rust types, handing back each sample's raw CDR bytes
+//! (with the 4-byte encapsulation header a ROS 2 MCAP `cdr` message needs) plus the RTPS writer
+//! GUID and sequence number. [`session`] is the file side: MCAP writing, splits, timed flushes
+//! and the per-topic counts of what was lost.
 
+pub mod dds;
 pub mod session;
