@@ -4,9 +4,11 @@
 //! bytes incl. the encapsulation header). A summary line goes to stderr at the end
 //! (`samples`, `rejected`, `first_sample_s`, `discovered`).
 //!
-//! Usage: `dds_record_probe [--seconds T] [--hex] [--until N] TOPIC=TYPE...`
+//! Usage: `dds_record_probe [--seconds T] [--hex] [--until N] [--all] TOPIC=TYPE...`
 //!   e.g. `dds_record_probe --seconds 5 /skeleton=autoact_msgs/msg/Skeleton3D`
-//! `--until N` stops early once N samples arrived. The domain comes from `ROS_DOMAIN_ID`.
+//! `--until N` stops early once N samples arrived. `--all` also subscribes to every topic
+//! [`Recorder::discovered`] reports while it runs (the discover-then-subscribe path of
+//! `autoact record --all`). The domain comes from `ROS_DOMAIN_ID`.
 //!
 //! It starts DDS: run it only inside a network namespace (`tools/dds/netns.sh`).
 
@@ -33,6 +35,7 @@ fn main() -> anyhow::Result<()> {
 
     let mut seconds = 5.0_f64;
     let mut hex = false;
+    let mut all = false;
     let mut until = usize::MAX;
     let mut topics = Vec::new();
     let mut args = std::env::args().skip(1);
@@ -43,6 +46,7 @@ fn main() -> anyhow::Result<()> {
             }
             "--until" => until = args.next().context("--until needs a value")?.parse()?,
             "--hex" => hex = true,
+            "--all" => all = true,
             _ => {
                 let (topic, type_name) = arg
                     .split_once('=')
@@ -51,8 +55,10 @@ fn main() -> anyhow::Result<()> {
             }
         }
     }
-    if topics.is_empty() || !(0.0..=3600.0).contains(&seconds) {
-        bail!("usage: dds_record_probe [--seconds T<=3600] [--hex] [--until N] TOPIC=TYPE...");
+    if (topics.is_empty() && !all) || !(0.0..=3600.0).contains(&seconds) {
+        bail!(
+            "usage: dds_record_probe [--seconds T<=3600] [--hex] [--until N] [--all] TOPIC=TYPE..."
+        );
     }
 
     let start = Instant::now();
@@ -68,7 +74,23 @@ fn main() -> anyhow::Result<()> {
         if now >= deadline {
             break;
         }
-        recorder.wait((deadline - now).min(Duration::from_millis(100)));
+        if all {
+            for (topic, type_name) in recorder.discovered() {
+                if !topics.iter().any(|(t, _)| *t == topic) {
+                    recorder.subscribe(&topic, &type_name)?;
+                    eprintln!(
+                        "{}",
+                        serde_json::json!({
+                            "subscribed": topic,
+                            "type": type_name,
+                            "after_s": start.elapsed().as_secs_f64(),
+                        })
+                    );
+                    topics.push((topic, type_name));
+                }
+            }
+        }
+        recorder.wait((deadline - now).min(Duration::from_millis(if all { 10 } else { 100 })));
         for s in recorder.take() {
             first_sample_s.get_or_insert_with(|| start.elapsed().as_secs_f64());
             count += 1;

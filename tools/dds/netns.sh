@@ -6,7 +6,8 @@
 # and probes of `autoact record` must not send DDS traffic off the machine, so anything that starts
 # DDS (RustDDS, Cyclone) runs through this script. Processes started by one CMD share the
 # namespace and find each other; nothing inside can reach the outside network. Multicast on `lo`
-# is needed for a participant to reach its own readers (see docs/ros-mcap-measurements §3).
+# is needed for a participant to reach its own readers in the same process (RustDDS finds no
+# usable self-locator without it; measured in the ROS/MCAP feasibility notes, §3).
 #
 #   tools/dds/netns.sh CMD [ARG...]      e.g. tools/dds/netns.sh sh -c 'a & b; wait'
 #

@@ -4,6 +4,8 @@
 #
 #   1. dds_record_probe (our Recorder) subscribes to /skeleton and /skeleton/markers;
 #   2. publish_cyclone.py (Cyclone DDS, Python) publishes N Skeleton3D + N MarkerArray at R Hz;
+#      (second scenario: the publisher runs first and the probe joins later with --all,
+#      subscribing to what discovery reports);
 #   3. check_probe.py (outside the namespace, no DDS) asserts every message arrived once, in order,
 #      with contiguous RTPS sequence numbers, and decodes (rosbags, schemas/*.msg) to exactly
 #      what was published.
@@ -30,35 +32,57 @@ OUT=${KEEP:-$(mktemp -d)}
 mkdir -p "$OUT"
 [ -n "${KEEP:-}" ] || trap 'rm -rf "$OUT"' EXIT
 
+# One scenario: the probe and the publisher in a fresh namespace, then the checks.
+#   scenario NAME first   - the probe subscribes to both topics, then the publisher starts;
+#   scenario NAME late    - the publisher starts first; 1 s later the probe joins with --all and
+#                           subscribes to whatever discovery shows (discover-then-subscribe).
 # Bounded: the probe stops after 2N samples or 60 s, the publisher after N messages (or 10 s
-# without a reader), and the whole namespace run after 120 s.
-export PROBE OUT N RATE
-set +e
-timeout 120 "$HERE/netns.sh" bash -c '
-  "$PROBE" --seconds 60 --until $((2 * N)) --hex \
-    /skeleton=autoact_msgs/msg/Skeleton3D \
-    /skeleton/markers=visualization_msgs/msg/MarkerArray \
-    >"$OUT/probe.jsonl" 2>"$OUT/probe.err" &
-  probe=$!
-  tools/interop/run.sh --exec python tools/dds/publish_cyclone.py -n "$N" -r "$RATE" \
-    --json "$OUT/published.json" 2>"$OUT/publisher.err"
-  pub=$?
-  wait "$probe"
-  probe_rc=$?
-  echo "publisher exit $pub, probe exit $probe_rc" >"$OUT/status"
-  [ "$pub" -eq 0 ] && [ "$probe_rc" -eq 0 ]'
-rc=$?
-set -e
-cat "$OUT/status" 2>/dev/null || true
-if [ "$rc" -ne 0 ]; then
-  echo "FAIL selftest: namespace run exited $rc; logs:" >&2
-  tail -n 5 "$OUT/publisher.err" "$OUT/probe.err" >&2 || true
-  exit 1
-fi
-summary=$(grep '^{' "$OUT/probe.err" | tail -n 1)
-echo "probe: $summary"
-echo "publisher: $(grep '^{' "$OUT/publisher.err" | tail -n 1)"
-case "$summary" in *'"rejected":0,'*) ;; *) echo "FAIL selftest: the probe rejected samples" >&2; exit 1 ;; esac
+# without a reader), and each namespace run after 120 s.
+scenario() {
+  local name=$1 order=$2 dir="$OUT/$1" rc summary
+  mkdir -p "$dir"
+  set +e
+  DIR=$dir ORDER=$order PROBE=$PROBE N=$N RATE=$RATE timeout 120 "$HERE/netns.sh" bash -c '
+    probe() {
+      "$PROBE" --seconds 60 --until $((2 * N)) --hex "$@" >"$DIR/probe.jsonl" 2>"$DIR/probe.err"
+    }
+    publish() {
+      tools/interop/run.sh --exec python tools/dds/publish_cyclone.py -n "$N" -r "$RATE" \
+        --json "$DIR/published.json" 2>"$DIR/publisher.err"
+    }
+    if [ "$ORDER" = first ]; then
+      probe /skeleton=autoact_msgs/msg/Skeleton3D \
+        /skeleton/markers=visualization_msgs/msg/MarkerArray &
+      probe_pid=$!
+      publish; pub=$?
+      wait "$probe_pid"; probe_rc=$?
+    else
+      publish & pub_pid=$!
+      sleep 1
+      probe --all; probe_rc=$?
+      wait "$pub_pid"; pub=$?
+    fi
+    echo "publisher exit $pub, probe exit $probe_rc" >"$DIR/status"
+    [ "$pub" -eq 0 ] && [ "$probe_rc" -eq 0 ]'
+  rc=$?
+  set -e
+  echo "== $name: $(cat "$dir/status" 2>/dev/null || echo 'no status')"
+  if [ "$rc" -ne 0 ]; then
+    echo "FAIL selftest $name: namespace run exited $rc; logs:" >&2
+    tail -n 5 "$dir/publisher.err" "$dir/probe.err" >&2 || true
+    return 1
+  fi
+  summary=$(grep '^{' "$dir/probe.err" | tail -n 1)
+  echo "probe: $summary"
+  echo "publisher: $(grep '^{' "$dir/publisher.err" | tail -n 1)"
+  grep "\"subscribed\"" "$dir/probe.err" || true
+  case "$summary" in
+    *'"rejected":0,'*) ;;
+    *) echo "FAIL selftest $name: the probe rejected samples" >&2; return 1 ;;
+  esac
+  tools/interop/run.sh --exec python "$HERE/check_probe.py" "$dir/published.json" "$dir/probe.jsonl"
+}
 
-tools/interop/run.sh --exec python "$HERE/check_probe.py" "$OUT/published.json" "$OUT/probe.jsonl"
-echo "selftest: ok ($N + $N messages at $RATE Hz)"
+scenario recorder-first first
+scenario recorder-joins-late late
+echo "selftest: ok ($N + $N messages at $RATE Hz, two scenarios)"
