@@ -8,7 +8,9 @@
 //!   e.g. `dds_record_probe --seconds 5 /skeleton=autoact_msgs/msg/Skeleton3D`
 //! `--until N` stops early once N samples arrived. `--all` also subscribes to every topic
 //! [`Recorder::discovered`] reports while it runs (the discover-then-subscribe path of
-//! `autoact record --all`). The domain comes from `ROS_DOMAIN_ID`.
+//! `autoact record --all`). `--stall-ms M` sleeps M ms before each take instead of waiting for
+//! data (a recorder falling behind: the keep-last history overflows and sequence numbers gap).
+//! The domain comes from `ROS_DOMAIN_ID`.
 //!
 //! It starts DDS: run it only inside a network namespace (`tools/dds/netns.sh`).
 
@@ -36,6 +38,7 @@ fn main() -> anyhow::Result<()> {
     let mut seconds = 5.0_f64;
     let mut hex = false;
     let mut all = false;
+    let mut stall_ms = 0_u64;
     let mut until = usize::MAX;
     let mut topics = Vec::new();
     let mut args = std::env::args().skip(1);
@@ -47,6 +50,7 @@ fn main() -> anyhow::Result<()> {
             "--until" => until = args.next().context("--until needs a value")?.parse()?,
             "--hex" => hex = true,
             "--all" => all = true,
+            "--stall-ms" => stall_ms = args.next().context("--stall-ms needs a value")?.parse()?,
             _ => {
                 let (topic, type_name) = arg
                     .split_once('=')
@@ -57,7 +61,7 @@ fn main() -> anyhow::Result<()> {
     }
     if (topics.is_empty() && !all) || !(0.0..=3600.0).contains(&seconds) {
         bail!(
-            "usage: dds_record_probe [--seconds T<=3600] [--hex] [--until N] [--all] TOPIC=TYPE..."
+            "usage: dds_record_probe [--seconds T<=3600] [--hex] [--until N] [--all] [--stall-ms M] TOPIC=TYPE..."
         );
     }
 
@@ -90,7 +94,11 @@ fn main() -> anyhow::Result<()> {
                 }
             }
         }
-        recorder.wait((deadline - now).min(Duration::from_millis(if all { 10 } else { 100 })));
+        if stall_ms > 0 {
+            std::thread::sleep(Duration::from_millis(stall_ms).min(deadline - now));
+        } else {
+            recorder.wait((deadline - now).min(Duration::from_millis(if all { 10 } else { 100 })));
+        }
         for s in recorder.take() {
             first_sample_s.get_or_insert_with(|| start.elapsed().as_secs_f64());
             count += 1;

@@ -210,6 +210,8 @@ def main() -> int:
                     help="DDS domain (default: ROS_DOMAIN_ID or 0)")
     ap.add_argument("--match-timeout", type=float, default=10.0,
                     help="seconds to wait for a reader on every topic (default 10)")
+    ap.add_argument("--linger", type=float, default=0.5,
+                    help="seconds to stay up after the last write, for reliable resends (default 0.5)")
     ap.add_argument("--json", metavar="OUT", help="write what was published to OUT")
     args = ap.parse_args()
     if not 0 < args.count <= 100_000 or not 0 < args.rate <= 10_000:
@@ -243,7 +245,7 @@ def main() -> int:
         if delay > 0:
             time.sleep(delay)
     # Let reliable resends finish before the participant goes away.
-    time.sleep(0.5)
+    time.sleep(min(max(args.linger, 0.0), 60.0))
     print(json.dumps({"published": len(published), "reader_match_s": round(matched, 3),
                       "publish_s": round(time.monotonic() - start, 3)}), file=sys.stderr)
     if args.json:
