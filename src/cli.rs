@@ -85,6 +85,15 @@ pub enum Command {
     /// Prints how many messages were kept per topic; exits with code 3 when the input was
     /// unfinished or damaged (something may be lost), 0 when it was whole.
     Recover(crate::cmd::recover::Args),
+    /// Record live ROS 2 topics (DDS; no ROS installation needed) into MCAP — the pose bags
+    /// `convert` reads, like `import` writes.
+    ///
+    /// Records autoact_msgs/Skeleton3D, MarkerArray, PoseArray, TFMessage, CameraInfo and the
+    /// other types autoact has definitions of, with receive time as log time and the writer's
+    /// source time as publish time. SIGINT and SIGTERM finish the file; a crash costs at most
+    /// `--flush-interval` (see `autoact recover`). Sequence gaps and undecodable messages are
+    /// counted per topic, in the status line, the bag's `autoact.record` metadata and exit code 3.
+    Record(crate::cmd::record::Args),
     /// Describe an MCAP file: channels, schemas, counts, time range, rate, layouts, labels, and
     /// whether ROS 2 tools and autoact can read all of it.
     Info(crate::cmd::info::Args),

@@ -171,6 +171,7 @@ pub fn read_pose_topics(
     let mut nan_first = Vec::new();
     let mut nan_total = 0u64;
     let mut seen_topics: BTreeMap<String, String> = BTreeMap::new();
+    let mut first_unstamped: BTreeMap<(String, u64), bool> = BTreeMap::new();
     for (reader, item) in readers
         .iter()
         .flat_map(|r| r.messages().map(move |m| (r, m)))
@@ -245,7 +246,7 @@ pub fn read_pose_topics(
                 }
             }
             let key = (msg.channel.topic.clone(), person.track_id);
-            let entry = tracks.entry(key).or_insert_with(|| {
+            let entry = tracks.entry(key.clone()).or_insert_with(|| {
                 (
                     PoseSequence {
                         source: path_s.clone(),
@@ -262,6 +263,18 @@ pub fn read_pose_topics(
                     person.track_id
                 )));
                 continue;
+            }
+            // A stream whose first header stamp is really 0 (an import replayed live) had its
+            // first frame read as unstamped: once a stamped second frame follows, it was 0.
+            if entry.0.frames.len() == 1
+                && first_unstamped.get(&key).copied().unwrap_or(false)
+                && !person.unstamped
+                && person.frame.stamp_nanos > 0
+            {
+                entry.0.frames[0].stamp_nanos = 0;
+            }
+            if entry.0.frames.is_empty() {
+                first_unstamped.insert(key.clone(), person.unstamped);
             }
             if let Some(last) = entry.0.frames.last()
                 && person.frame.stamp_nanos <= last.stamp_nanos
@@ -320,6 +333,8 @@ pub fn read_pose_topics(
 }
 
 struct Person {
+    /// The message's header stamp was zero (its frame carries the log time instead).
+    unstamped: bool,
     track_id: u64,
     layout: String,
     joint_names: Vec<String>,
@@ -333,12 +348,17 @@ enum DecodeProblem {
 }
 
 fn stamp_of(header: &Header, log_time: u64) -> u64 {
-    // A zero header stamp means the publisher did not stamp: use the log time.
+    // A zero header stamp means the publisher did not stamp: use the log time. (A stream that
+    // really starts at 0 is recognised by its second frame; see `read_pose_topics`.)
     header
         .stamp
         .to_nanos()
         .filter(|&n| n != 0)
         .unwrap_or(log_time)
+}
+
+fn unstamped(header: &Header) -> bool {
+    header.stamp.to_nanos() == Some(0)
 }
 
 fn decode_people(
@@ -367,6 +387,7 @@ fn decode_people(
             }
             let layout_name = layout.map_or_else(|| s.layout.clone(), |l| l.name.clone());
             Ok(vec![Person {
+                unstamped: unstamped(&s.header),
                 track_id: s.track_id,
                 layout: layout_name,
                 frame: PoseFrame {
@@ -404,6 +425,7 @@ fn decode_people(
                 )));
             }
             Ok(vec![Person {
+                unstamped: unstamped(&p.header),
                 track_id: 0,
                 layout: layout.name.clone(),
                 joint_names: layout.joints.clone(),
@@ -486,6 +508,7 @@ fn markers_to_people(
         }
         let track_id = u64::try_from(track).unwrap_or(u64::MAX);
         people.push(Person {
+            unstamped: markers.first().is_some_and(|mk| unstamped(&mk.header)),
             track_id,
             layout: layout.name.clone(),
             joint_names: layout.joints.clone(),

@@ -5,6 +5,7 @@ pub mod import;
 pub mod info;
 pub mod layouts;
 pub mod plan;
+pub mod record;
 pub mod recover;
 pub mod rig;
 
@@ -51,6 +52,7 @@ pub fn dispatch(command: Command) -> anyhow::Result<Outcome> {
         Command::Info(args) => info::run(args),
         Command::Plan(args) => plan::run(args),
         Command::Recover(args) => recover::run(args),
+        Command::Record(args) => record::run(args),
     }
 }
 

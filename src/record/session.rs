@@ -223,6 +223,14 @@ impl RecordWriter {
         )?;
         self.current_bytes += m.cdr.len() as u64;
         self.current_start_ns.get_or_insert(m.receive_time_ns);
+        self.flush_if_due()
+    }
+
+    /// Flushes when the flush interval has passed since the last flush (call it when idle too).
+    ///
+    /// # Errors
+    /// [`McapIoError`].
+    pub fn flush_if_due(&mut self) -> Result<(), McapIoError> {
         if self.last_flush.elapsed() >= self.flush_every {
             self.flush()?;
         }

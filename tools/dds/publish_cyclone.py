@@ -202,6 +202,25 @@ TOPICS = [
 ]
 
 
+def skeletons_from(path):
+    """The Skeleton3D messages of a pose bag, as this publisher's dataclasses."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+    out = []
+    with open(path, "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        for schema, _, _, m in reader.iter_decoded_messages(log_time_order=True):
+            if schema.name != "autoact_msgs/msg/Skeleton3D":
+                continue
+            out.append(Skeleton3D_(
+                header=Header_(stamp=Time_(sec=m.header.stamp.sec, nanosec=m.header.stamp.nanosec),
+                               frame_id=m.header.frame_id),
+                layout=m.layout, track_id=m.track_id, joint_names=list(m.joint_names),
+                positions=[Point_(x=p.x, y=p.y, z=p.z) for p in m.positions],
+                confidence=[float(c) for c in m.confidence]))
+    return out
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("-n", "--count", type=int, default=50, help="messages per topic (default 50)")
@@ -213,7 +232,15 @@ def main() -> int:
     ap.add_argument("--linger", type=float, default=0.5,
                     help="seconds to stay up after the last write, for reliable resends (default 0.5)")
     ap.add_argument("--json", metavar="OUT", help="write what was published to OUT")
+    ap.add_argument("--skeletons-from", metavar="BAG",
+                    help="publish the Skeleton3D messages of this pose bag on /skeleton (only), "
+                         "a real pose stream instead of the synthetic test vectors")
     args = ap.parse_args()
+    topics = TOPICS
+    if args.skeletons_from:
+        frames = skeletons_from(args.skeletons_from)
+        args.count = min(args.count, len(frames))
+        topics = [("/skeleton", "autoact_msgs/msg/Skeleton3D", Skeleton3D_, lambda k: frames[k])]
     if not 0 < args.count <= 100_000 or not 0 < args.rate <= 10_000:
         ap.error("need 0 < count <= 100000 and 0 < rate <= 10000 (bounded load)")
 
@@ -223,7 +250,7 @@ def main() -> int:
     t0 = time.monotonic()  # discovery time is measured from participant creation
     dp = DomainParticipant(args.domain)
     writers = [(ros, typ, DataWriter(dp, Topic(dp, "rt/" + ros.lstrip("/"), cls, qos=qos), qos=qos), make)
-               for ros, typ, cls, make in TOPICS]
+               for ros, typ, cls, make in topics]
 
     while not all(w.get_publication_matched_status().current_count > 0 for _, _, w, _ in writers):
         if time.monotonic() - t0 > args.match_timeout:
