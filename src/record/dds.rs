@@ -378,6 +378,7 @@ pub struct Recorder {
     /// Keeps the ROS 2 context (which owns the participant) alive.
     _context: ros2_client::Context,
     qos: QosPolicies,
+    config: DdsConfig,
     domain_id: u16,
     rejected: u64,
 }
@@ -408,6 +409,7 @@ impl Recorder {
             participant,
             subscriber,
             qos,
+            config: *config,
             domain_id,
             subscriptions: Vec::new(),
             poll,
@@ -496,12 +498,31 @@ impl Recorder {
                 TopicKind::NoKey,
             )
             .map_err(err)?;
+        // Adapt to what the publishers offer: a reliable reader never matches a best-effort
+        // writer (sensor-data QoS), so a topic with one gets a best-effort reader.
+        let dds_name = ros_to_dds_topic(&ros_topic);
+        let best_effort_writer = self.participant.discovered_writers().iter().any(|w| {
+            w.publication_topic_data.topic_name == dds_name
+                && matches!(
+                    w.publication_topic_data.reliability,
+                    Some(policy::Reliability::BestEffort)
+                )
+        });
+        let reader_qos = if best_effort_writer && self.config.reliability == Reliability::Reliable {
+            tracing::info!(
+                "{ros_topic}: a publisher offers best-effort only; recording it best-effort"
+            );
+            DdsConfig {
+                reliability: Reliability::BestEffort,
+                ..self.config
+            }
+            .qos()
+        } else {
+            self.qos.clone()
+        };
         let mut reader = self
             .subscriber
-            .create_simple_datareader_no_key::<RawPayload, RawAdapter>(
-                &dds_topic,
-                Some(self.qos.clone()),
-            )
+            .create_simple_datareader_no_key::<RawPayload, RawAdapter>(&dds_topic, Some(reader_qos))
             .map_err(err)?;
         self.poll
             .registry()
