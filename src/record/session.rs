@@ -85,7 +85,7 @@ pub fn split_path(base: &Path, index: usize) -> PathBuf {
 fn decodes(type_name: &str, cdr: &[u8]) -> bool {
     use crate::ros::autoact_msgs::Skeleton3D;
     use crate::ros::geometry_msgs::PoseArray;
-    use crate::ros::sensor_msgs::CameraInfo;
+    use crate::ros::sensor_msgs::{CameraInfo, Image};
     use crate::ros::tf2_msgs::TFMessage;
     use crate::ros::visualization_msgs::MarkerArray;
     match type_name {
@@ -94,6 +94,7 @@ fn decodes(type_name: &str, cdr: &[u8]) -> bool {
         t if t == PoseArray::TYPE_NAME => ros::cdr::decode::<PoseArray>(cdr).is_ok(),
         t if t == TFMessage::TYPE_NAME => ros::cdr::decode::<TFMessage>(cdr).is_ok(),
         t if t == CameraInfo::TYPE_NAME => ros::cdr::decode::<CameraInfo>(cdr).is_ok(),
+        t if t == Image::TYPE_NAME => ros::cdr::decode::<Image>(cdr).is_ok(),
         _ => cdr.len() >= 4,
     }
 }
@@ -331,6 +332,26 @@ mod tests {
         assert_eq!(got, sent, "every message once, in order, across the seams");
         assert_eq!(split_path(&base, 0), base);
         assert_eq!(split_path(&base, 2), dir.path().join("rec_2.mcap"));
+    }
+
+    #[test]
+    fn images_are_checked_like_the_other_known_types() {
+        use crate::ros::sensor_msgs::Image;
+        let image = Image {
+            height: 2,
+            width: 3,
+            encoding: "rgb8".into(),
+            step: 9,
+            data: (0..18).collect(),
+            ..Image::default()
+        };
+        let cdr = ros::cdr::encode(&image).unwrap();
+        assert!(decodes(Image::TYPE_NAME, &cdr));
+        assert!(
+            !decodes(Image::TYPE_NAME, &cdr[..cdr.len() - 1]),
+            "one pixel byte short"
+        );
+        assert!(ros::definition(Image::TYPE_NAME).is_some());
     }
 
     #[test]

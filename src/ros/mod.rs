@@ -26,7 +26,7 @@ pub trait RosMessage: Serialize + DeserializeOwned {
 }
 
 /// The `.msg` texts autoact knows: (full type name, text), compiled in from `schemas/`.
-const SCHEMAS: [(&str, &str); 24] = [
+const SCHEMAS: [(&str, &str); 25] = [
     (
         "autoact_msgs/msg/BoneFrame",
         include_str!("../../schemas/autoact_msgs/msg/BoneFrame.msg"),
@@ -90,6 +90,10 @@ const SCHEMAS: [(&str, &str); 24] = [
     (
         "sensor_msgs/msg/CompressedImage",
         include_str!("../../schemas/sensor_msgs/msg/CompressedImage.msg"),
+    ),
+    (
+        "sensor_msgs/msg/Image",
+        include_str!("../../schemas/sensor_msgs/msg/Image.msg"),
     ),
     (
         "sensor_msgs/msg/RegionOfInterest",
@@ -287,6 +291,7 @@ mod tests {
         check::<autoact_msgs::Segment>();
         check::<geometry_msgs::PoseStamped>();
         check::<sensor_msgs::CameraInfo>();
+        check::<sensor_msgs::Image>();
         check::<sensor_msgs::RegionOfInterest>();
         check::<builtin_interfaces::Time>();
         check::<builtin_interfaces::Duration>();

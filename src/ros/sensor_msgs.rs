@@ -1,5 +1,5 @@
-//! `sensor_msgs`: the camera's calibration (`CameraInfo`), and what `visualization_msgs/Marker`
-//! embeds.
+//! `sensor_msgs`: the camera's calibration (`CameraInfo`), raw camera frames (`Image`, which
+//! `autoact record` stores and checks), and what `visualization_msgs/Marker` embeds.
 
 use serde::{Deserialize, Serialize};
 
@@ -70,4 +70,27 @@ pub struct CameraInfo {
 
 impl RosMessage for CameraInfo {
     const TYPE_NAME: &'static str = "sensor_msgs/msg/CameraInfo";
+}
+
+/// `sensor_msgs/msg/Image`: an uncompressed image, row by row from the top-left pixel.
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct Image {
+    /// Acquisition time and the camera's optical frame.
+    pub header: Header,
+    /// Number of rows.
+    pub height: u32,
+    /// Number of columns.
+    pub width: u32,
+    /// Pixel encoding, e.g. `rgb8` (see ROS `sensor_msgs/image_encodings.hpp`).
+    pub encoding: String,
+    /// Whether multi-byte pixel data is big-endian (0 or 1).
+    pub is_bigendian: u8,
+    /// Full row length, bytes.
+    pub step: u32,
+    /// The pixels, `step * height` bytes.
+    pub data: Vec<u8>,
+}
+
+impl RosMessage for Image {
+    const TYPE_NAME: &'static str = "sensor_msgs/msg/Image";
 }
