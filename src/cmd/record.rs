@@ -254,10 +254,15 @@ pub fn run(args: Args) -> Result<Outcome> {
     if !missing.is_empty() {
         tracing::warn!("never discovered: {missing:?}");
     }
-    let (files, topics) = writer.finish()?;
     if let Some(e) = failure {
+        // Finishing writes the summary into the same file, which (a full disk) usually fails
+        // too: report the first error, the one that stopped the recording.
+        if let Err(finish) = writer.finish() {
+            tracing::warn!("the file could not be finished either: {finish}");
+        }
         return Err(e);
     }
+    let (files, topics) = writer.finish()?;
     let mut text = format!(
         "recorded {total} messages from {} topics in {:.1} s into {}\n",
         topics.len(),
