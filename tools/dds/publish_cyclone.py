@@ -290,7 +290,7 @@ class Preserialized:
 
 def image_maker(width: int, height: int):
     """(frame k -> Image_, frame k -> its CDR). The CDR is built by hand: cyclonedds serializes a
-    uint8 sequence element by element (~1 s for one 640x480 rgb8 frame); the hand-built bytes are
+    uint8 sequence element by element (900k Python calls per 640x480 rgb8 frame); the hand-built bytes are
     checked against its serializer on a small image below."""
     size = width * height * 3
     pattern = bytes(range(256)) * (size // 256 + 2)
