@@ -329,6 +329,25 @@ def check_image_cdr():
     assert bytes(cdr(7)) == m.serialize(), "hand-built Image CDR differs from cyclonedds'"
 
 
+def skeletons_from(path):
+    """The Skeleton3D messages of a pose bag, as this publisher's dataclasses."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+    out = []
+    with open(path, "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        for schema, _, _, m in reader.iter_decoded_messages(log_time_order=True):
+            if schema.name != "autoact_msgs/msg/Skeleton3D":
+                continue
+            out.append(Skeleton3D_(
+                header=Header_(stamp=Time_(sec=m.header.stamp.sec, nanosec=m.header.stamp.nanosec),
+                               frame_id=m.header.frame_id),
+                layout=m.layout, track_id=m.track_id, joint_names=list(m.joint_names),
+                positions=[Point_(x=p.x, y=p.y, z=p.z) for p in m.positions],
+                confidence=[float(c) for c in m.confidence]))
+    return out
+
+
 def parse_image(spec: str):
     """`WxH@HZ` -> (W, H, HZ)."""
     try:
