@@ -430,27 +430,45 @@ impl<W: Write + Seek> BagWriter<W> {
     }
 }
 
-/// Writes the `metadata.yaml` of a rosbag2 directory (format version 9, MCAP storage) whose one
-/// file is `dir/file_name`, for ROS distributions whose `ros2 bag play` wants a directory.
+/// Writes the `metadata.yaml` of a rosbag2 directory (format version 9, MCAP storage) whose
+/// files are `files` (name in `dir`, and what it holds), in order — one for a bag, several for a
+/// split recording — for ROS distributions whose `ros2 bag play` wants a directory.
 ///
 /// # Errors
 /// [`McapIoError::Io`].
-pub fn write_rosbag2_metadata(
-    dir: &Path,
-    file_name: &str,
-    stats: &BagStats,
-) -> Result<(), McapIoError> {
-    let (start, end) = stats.time_range.unwrap_or((0, 0));
-    let duration = end - start;
-    let count = stats.message_count();
+pub fn write_rosbag2_metadata(dir: &Path, files: &[(String, BagStats)]) -> Result<(), McapIoError> {
+    let mut topics_total: BTreeMap<&String, (&String, u64)> = BTreeMap::new();
+    let mut range: Option<(u64, u64)> = None;
+    for (_, stats) in files {
+        for (topic, (type_name, n)) in &stats.topics {
+            topics_total.entry(topic).or_insert((type_name, 0)).1 += n;
+        }
+        if let Some((a, b)) = stats.time_range {
+            range = Some(range.map_or((a, b), |(x, y)| (x.min(a), y.max(b))));
+        }
+    }
+    let (start, end) = range.unwrap_or((0, 0));
+    let count: u64 = files.iter().map(|(_, s)| s.message_count()).sum();
     let mut topics = String::new();
-    for (topic, (type_name, n)) in &stats.topics {
+    for (topic, (type_name, n)) in &topics_total {
         topics.push_str(&format!(
             "  - message_count: {n}\n    topic_metadata:\n      name: {topic}\n      offered_qos_profiles: []\n      serialization_format: cdr\n      type: {type_name}\n      type_description_hash: ''\n"
         ));
     }
+    let mut relative = String::new();
+    let mut entries = String::new();
+    for (name, stats) in files {
+        let (a, b) = stats.time_range.unwrap_or((start, start));
+        relative.push_str(&format!("  - {name}\n"));
+        entries.push_str(&format!(
+            "  - path: {name}\n    starting_time:\n      nanoseconds_since_epoch: {a}\n    duration:\n      nanoseconds: {}\n    message_count: {}\n",
+            b - a,
+            stats.message_count()
+        ));
+    }
     let yaml = format!(
-        "rosbag2_bagfile_information:\n  version: 9\n  storage_identifier: mcap\n  duration:\n    nanoseconds: {duration}\n  starting_time:\n    nanoseconds_since_epoch: {start}\n  message_count: {count}\n  topics_with_message_count:\n{topics}  compression_format: ''\n  compression_mode: ''\n  relative_file_paths:\n  - {file_name}\n  files:\n  - path: {file_name}\n    starting_time:\n      nanoseconds_since_epoch: {start}\n    duration:\n      nanoseconds: {duration}\n    message_count: {count}\n  custom_data: {{}}\n  ros_distro: autoact\n"
+        "rosbag2_bagfile_information:\n  version: 9\n  storage_identifier: mcap\n  duration:\n    nanoseconds: {}\n  starting_time:\n    nanoseconds_since_epoch: {start}\n  message_count: {count}\n  topics_with_message_count:\n{topics}  compression_format: ''\n  compression_mode: ''\n  relative_file_paths:\n{relative}  files:\n{entries}  custom_data: {{}}\n  ros_distro: autoact\n",
+        end - start
     );
     let path = dir.join("metadata.yaml");
     std::fs::write(&path, yaml).map_err(|source| McapIoError::Io {

@@ -184,7 +184,7 @@ impl BagOutput {
             let name = mcap_path
                 .file_name()
                 .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-            crate::mcap_io::write_rosbag2_metadata(&args.output, &name, &stats)?;
+            crate::mcap_io::write_rosbag2_metadata(&args.output, &[(name, stats.clone())])?;
         }
         Ok(stats)
     }

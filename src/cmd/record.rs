@@ -13,7 +13,7 @@ use regex::Regex;
 use super::{Outcome, print_stdout};
 use crate::mcap_io::{Compression, WriteConfig};
 use crate::record::dds::{DdsConfig, Durability, Recorder, Reliability, parse_domain_id};
-use crate::record::session::{Received, RecordWriter, SplitPolicy};
+use crate::record::session::{Output, Received, RecordWriter, SplitPolicy};
 use crate::ros;
 
 /// Reader reliability on the command line.
@@ -60,8 +60,10 @@ pub struct Args {
     /// Keep-last history depth per topic.
     #[arg(long, default_value_t = 100)]
     pub depth: i32,
-    /// Output `.mcap` (splits go beside it as `<stem>_1.mcap`, `<stem>_2.mcap`, …).
-    #[arg(short, long, value_name = "PATH")]
+    /// Output: a `.mcap` file (splits go beside it as `<stem>_1.mcap`, `<stem>_2.mcap`, …), or
+    /// a rosbag2 directory (any other path: `<dir>/<dir>_0.mcap`, … and `metadata.yaml`, which
+    /// `ros2 bag play` and `autoact convert` open).
+    #[arg(short, long, value_name = "FILE.mcap|DIR")]
     pub output: PathBuf,
     /// Replace an existing output.
     #[arg(long)]
@@ -168,9 +170,20 @@ pub fn run(args: Args) -> Result<Outcome> {
         signal_hook::flag::register(signal, Arc::clone(&stop))
             .context("installing signal handlers")?;
     }
+    let output = if args.output.extension().is_some_and(|e| e == "mcap") {
+        Output::File(args.output.clone())
+    } else {
+        if args.output.is_dir() {
+            std::fs::remove_dir_all(&args.output)
+                .with_context(|| format!("replacing {}", args.output.display()))?;
+        }
+        std::fs::create_dir_all(&args.output)
+            .with_context(|| format!("creating {}", args.output.display()))?;
+        Output::Rosbag2(args.output.clone())
+    };
     let mut recorder = Recorder::new(&config)?;
     let mut writer = RecordWriter::new(
-        &args.output,
+        output,
         WriteConfig {
             compression: args.compression,
             ..WriteConfig::default()

@@ -53,9 +53,35 @@ pub struct TopicStats {
     pub rejected: u64,
 }
 
+/// Where the files go.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Output {
+    /// A bare `.mcap`; splits go beside it as `<stem>_1.mcap`, `<stem>_2.mcap`, …
+    File(PathBuf),
+    /// A rosbag2 directory: `<dir>/<name>_0.mcap`, `<name>_1.mcap`, … and `metadata.yaml`
+    /// listing them, `<name>` being the directory's name.
+    Rosbag2(PathBuf),
+}
+
+impl Output {
+    /// The file of split `index`.
+    #[must_use]
+    pub fn path(&self, index: usize) -> PathBuf {
+        match self {
+            Output::File(base) => split_path(base, index),
+            Output::Rosbag2(dir) => {
+                let name = dir
+                    .file_name()
+                    .map_or_else(|| "record".into(), |s| s.to_string_lossy().into_owned());
+                dir.join(format!("{name}_{index}.mcap"))
+            }
+        }
+    }
+}
+
 /// Writes received messages into one or more MCAP files.
 pub struct RecordWriter {
-    base: PathBuf,
+    output: Output,
     config: WriteConfig,
     split: SplitPolicy,
     flush_every: Duration,
@@ -64,6 +90,7 @@ pub struct RecordWriter {
     current_start_ns: Option<u64>,
     last_flush: Instant,
     files: Vec<PathBuf>,
+    file_stats: Vec<(String, crate::mcap_io::BagStats)>,
     topics: BTreeMap<String, TopicStats>,
     last_sequence: BTreeMap<(String, [u8; 16]), i64>,
     metadata: BTreeMap<String, String>,
@@ -100,16 +127,16 @@ fn decodes(type_name: &str, cdr: &[u8]) -> bool {
 }
 
 impl RecordWriter {
-    /// A writer to `base` (`.mcap`; splits go beside it), flushing at least every `flush_every`.
+    /// A writer to `output`, flushing at least every `flush_every`.
     #[must_use]
     pub fn new(
-        base: &Path,
+        output: Output,
         config: WriteConfig,
         split: SplitPolicy,
         flush_every: Duration,
     ) -> RecordWriter {
         RecordWriter {
-            base: base.to_path_buf(),
+            output,
             config,
             split,
             flush_every,
@@ -118,6 +145,7 @@ impl RecordWriter {
             current_start_ns: None,
             last_flush: Instant::now(),
             files: Vec::new(),
+            file_stats: Vec::new(),
             topics: BTreeMap::new(),
             last_sequence: BTreeMap::new(),
             metadata: BTreeMap::new(),
@@ -155,7 +183,7 @@ impl RecordWriter {
             self.close_current()?;
         }
         if self.current.is_none() {
-            let path = split_path(&self.base, self.files.len());
+            let path = self.output.path(self.files.len());
             self.current = Some(BagWriter::create(&path, self.config)?);
             self.files.push(path);
             self.current_bytes = 0;
@@ -176,7 +204,13 @@ impl RecordWriter {
                 (self.files.len() - 1).to_string(),
             );
             w.write_metadata(&format!("{}.record", crate::pose_bag::METADATA_NAME), meta)?;
-            w.finish()?;
+            let stats = w.finish()?;
+            let name = self
+                .files
+                .last()
+                .and_then(|p| p.file_name())
+                .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+            self.file_stats.push((name, stats));
         }
         Ok(())
     }
@@ -257,6 +291,9 @@ impl RecordWriter {
     /// [`McapIoError`].
     pub fn finish(mut self) -> Result<(Vec<PathBuf>, BTreeMap<String, TopicStats>), McapIoError> {
         self.close_current()?;
+        if let Output::Rosbag2(dir) = &self.output {
+            crate::mcap_io::write_rosbag2_metadata(dir, &self.file_stats)?;
+        }
         Ok((self.files, self.topics))
     }
 }
@@ -293,7 +330,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let base = dir.path().join("rec.mcap");
         let mut w = RecordWriter::new(
-            &base,
+            Output::File(base.clone()),
             WriteConfig::default(),
             SplitPolicy {
                 max_bytes: None,
@@ -355,11 +392,47 @@ mod tests {
     }
 
     #[test]
+    fn a_split_rosbag2_directory_lists_every_file_in_order() {
+        let dir = tempfile::tempdir().unwrap();
+        let bag = dir.path().join("take");
+        std::fs::create_dir(&bag).unwrap();
+        let mut w = RecordWriter::new(
+            Output::Rosbag2(bag.clone()),
+            WriteConfig::default(),
+            SplitPolicy {
+                max_bytes: Some(400),
+                max_duration: None,
+            },
+            Duration::from_secs(1),
+        );
+        for k in 1..=40 {
+            let cdr = skeleton_cdr(k);
+            w.write(&received(&cdr, i64::try_from(k).unwrap())).unwrap();
+        }
+        let (files, _) = w.finish().unwrap();
+        assert!(files.len() > 2, "{files:?}");
+        assert_eq!(files[0], bag.join("take_0.mcap"));
+        let yaml = std::fs::read_to_string(bag.join("metadata.yaml")).unwrap();
+        assert!(yaml.contains("message_count: 40"), "{yaml}");
+        for (i, f) in files.iter().enumerate() {
+            assert!(yaml.contains(&format!("- take_{i}.mcap")), "{yaml}");
+            assert!(f.exists());
+        }
+        let ids: Vec<u64> = BagReader::open_all(&bag)
+            .unwrap()
+            .iter()
+            .flat_map(|r| r.messages().map(|m| m.unwrap()).collect::<Vec<_>>())
+            .map(|m| ros::cdr::decode::<Skeleton3D>(&m.data).unwrap().track_id)
+            .collect();
+        assert_eq!(ids, (1..=40).collect::<Vec<_>>());
+    }
+
+    #[test]
     fn a_flushed_file_keeps_its_messages_when_the_process_dies() {
         let dir = tempfile::tempdir().unwrap();
         let base = dir.path().join("crash.mcap");
         let mut w = RecordWriter::new(
-            &base,
+            Output::File(base.clone()),
             WriteConfig::default(),
             SplitPolicy::default(),
             Duration::from_secs(3600),

@@ -16,7 +16,11 @@
 #             recorder takes as Skeleton3D, next to a good /skeleton: every bad sample counted
 #             `rejected`, the good topic complete, exit 3;
 #   diskfull - recording into a 2 MB tmpfs (a private mount namespace) until it fills: exit 1 with
-#             an error naming the file; `autoact recover` restores a valid bag of what was flushed.
+#             an error naming the file; `autoact recover` restores a valid bag of what was flushed;
+#   rosbag2 - `-o DIR` with --split-duration: a rosbag2 directory of several files that `rosbags`
+#             reads whole (metadata.yaml lists them all);
+#   besteffort - a best-effort publisher (sensor-data QoS) recorded in full with the default
+#             (reliable) settings: the reader follows what the publisher offers.
 #   tools/dds/check_record.sh [SCENARIO...]   (all by default; N=200 RATE=200; KEEP=dir keeps
 #                                             the outputs)
 set -euo pipefail
@@ -151,6 +155,49 @@ if want restart; then
     passed=$((passed + 1))
   else
     fail "restart: bag differs from the two runs"
+  fi
+fi
+
+if want rosbag2; then
+  dir=$OUT/rosbag2
+  mkdir -p "$dir"
+  # -o DIR: a rosbag2 directory, split every 0.3 s; rosbags (independent) reads it whole.
+  set +e
+  DIR=$dir AUTOACT=$AUTOACT timeout 120 "$HERE/netns.sh" bash -c '
+    "$AUTOACT" -q record /skeleton -o "$DIR/take" --split-duration 0.3 --max-duration 60 \
+      >"$DIR/record.out" 2>"$DIR/record.err" &
+    rec=$!
+    sleep 0.5
+    tools/interop/run.sh --exec python tools/dds/publish_cyclone.py --topics skeleton -n 200 -r 200 \
+      --linger 1 --json "$DIR/published.json" 2>"$DIR/publisher.err" || exit 10
+    sleep 0.5; kill -INT "$rec"; wait "$rec"; echo $? >"$DIR/record.rc"'
+  rc=$?
+  set -e
+  files=$(ls "$dir/take"/take_*.mcap 2>/dev/null | wc -l)
+  if [ $rc -ne 0 ] || [ "$(cat "$dir/record.rc" 2>/dev/null)" != 0 ]; then
+    fail "rosbag2: record" "$dir/record.err" "$dir/publisher.err"
+  elif [ "$files" -lt 2 ]; then
+    fail "rosbag2: expected several split files, got $files"
+  elif tools/interop/run.sh --exec python tools/dds/check_rosbag2.py "$dir/take" "$dir/published.json"; then
+    echo "ok rosbag2: $files split files in a rosbag2 directory, read whole by rosbags"; passed=$((passed + 1))
+  else
+    fail "rosbag2: rosbags could not read it whole"
+  fi
+fi
+
+if want besteffort; then
+  dir=$OUT/besteffort
+  # A best-effort publisher (sensor-data QoS) with the recorder's default (reliable) settings:
+  # the recorder adapts its reader to what the publisher offers.
+  if ! record_while "$dir" /skeleton \
+      '$PUB --topics skeleton --best-effort -n 100 -r 100 --linger 1 --json "$DIR/published.json" 2>"$DIR/publisher.err"'; then
+    fail "besteffort: namespace run" "$dir/record.err" "$dir/publisher.err"
+  elif [ "$(cat "$dir/record.rc")" != 0 ]; then
+    fail "besteffort: record exit $(cat "$dir/record.rc")" "$dir/record.out" "$dir/record.err"
+  elif tools/interop/run.sh --exec python tools/dds/check_recorded.py "$dir/published.json" "$dir/rec.mcap"; then
+    echo "ok besteffort: a best-effort publisher recorded in full with the default settings"; passed=$((passed + 1))
+  else
+    fail "besteffort: bag differs from what was published"
   fi
 fi
 

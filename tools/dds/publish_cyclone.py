@@ -382,6 +382,8 @@ def main() -> int:
     ap.add_argument("--wholebody", action="store_true", help="133-joint coco-wholebody-133 skeletons")
     ap.add_argument("--image", type=parse_image, metavar="WxH@HZ", help="also publish rt/camera/image_raw")
     ap.add_argument("--first", type=int, default=0, help="first frame index (default 0)")
+    ap.add_argument("--best-effort", action="store_true",
+                    help="offer best-effort reliability (sensor-data QoS) instead of reliable")
     args = ap.parse_args()
     kinds = [k for k in args.topics.split(",") if k]
     if set(kinds) - {"skeleton", "markers", "malformed"}:
@@ -415,7 +417,9 @@ def main() -> int:
     if not streams:
         ap.error("nothing to publish")
 
-    qos = Qos(Policy.Reliability.Reliable(max_blocking_time=duration(seconds=1)),
+    reliability = (Policy.Reliability.BestEffort if args.best_effort
+                   else Policy.Reliability.Reliable(max_blocking_time=duration(seconds=1)))
+    qos = Qos(reliability,
               Policy.Durability.Volatile,
               Policy.History.KeepLast(100))
     t0 = time.monotonic()  # discovery time is measured from participant creation
