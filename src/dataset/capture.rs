@@ -303,11 +303,13 @@ pub struct SessionWritten {
     pub viewpoints_pushed_out: usize,
 }
 
+/// Nanoseconds of frame `frame` on a session timeline at `fps`.
+fn nanos_at(frame: u64, fps: f64) -> u64 {
+    stamp_nanos_at(usize::try_from(frame).unwrap_or(usize::MAX), fps)
+}
+
 fn time_at(frame: u64, fps: f64) -> Time {
-    Time::from_nanos(stamp_nanos_at(
-        usize::try_from(frame).unwrap_or(usize::MAX),
-        fps,
-    ))
+    Time::from_nanos(nanos_at(frame, fps))
 }
 
 /// The scene's state message.
@@ -460,21 +462,22 @@ pub fn write_sessions(
             let conv = &converted[node.animation];
             let frames = &conv.variants[node.variant as usize];
             let character = node.drawn.look.character(rig);
-            let start = time_at(leaf.start_frame, d.fps);
+            let start_ns = nanos_at(leaf.start_frame, d.fps);
+            let start = Time::from_nanos(start_ns);
             if current_scene != Some(leaf.scene) {
                 current_scene = Some(leaf.scene);
                 w.write(
                     SCENE_TOPIC,
-                    start.to_nanos().unwrap_or(0),
+                    start_ns,
                     &scene_state(spec, plan, node, &session.name, start),
                 )?;
                 let tw =
                     TrackWriter::new(rig, character.clone(), &conv.coverage, 0, node.variant, "");
                 w.write(
                     TF_STATIC_TOPIC,
-                    start.to_nanos().unwrap_or(0),
+                    start_ns,
                     &TFMessage {
-                        transforms: tw.static_transforms(start.to_nanos().unwrap_or(0)),
+                        transforms: tw.static_transforms(start_ns),
                     },
                 )?;
                 writer = Some(tw);
@@ -503,7 +506,7 @@ pub fn write_sessions(
                 content_start: time_at(leaf.content_start_frame, d.fps),
                 content_end: time_at(leaf.content_end_frame, d.fps),
             };
-            w.write(SEGMENTS_TOPIC, start.to_nanos().unwrap_or(0), &segment)?;
+            w.write(SEGMENTS_TOPIC, start_ns, &segment)?;
 
             // The clip's poses: the animation retargeted onto the scene's body, starting at the
             // location's origin; held still in the lead-in and lead-out.
@@ -552,7 +555,7 @@ pub fn write_sessions(
                 .unwrap_or(0)
                 .min(content.len() - 1);
                 let pose = &content[k];
-                let stamp = stamp_nanos_at(usize::try_from(f).unwrap_or(usize::MAX), d.fps);
+                let stamp = nanos_at(f, d.fps);
                 #[expect(clippy::cast_precision_loss, reason = "frame counts far below 2^52")]
                 let s = (f - leaf.start_frame) as f64 / (clip_frames.max(2) - 1) as f64;
                 let cam = camera_at(
