@@ -165,16 +165,16 @@ pub fn read_pose_topics(
     layout: Option<&crate::layout::Layout>,
 ) -> Result<PoseTopics, PoseBagError> {
     let readers = BagReader::open_all(path)?;
-    let mut tracks: BTreeMap<(String, u64), (PoseSequence, String)> = BTreeMap::new();
+    let mut tracks: BTreeMap<(String, u64), Collected> = BTreeMap::new();
     let mut skipped = Vec::new();
     let mut issues = Vec::new();
     let mut nan_first = Vec::new();
     let mut nan_total = 0u64;
     let mut seen_topics: BTreeMap<String, String> = BTreeMap::new();
-    let mut first_unstamped: BTreeMap<(String, u64), bool> = BTreeMap::new();
-    for (reader, item) in readers
+    for (reader_index, reader, item) in readers
         .iter()
-        .flat_map(|r| r.messages().map(move |m| (r, m)))
+        .enumerate()
+        .flat_map(|(i, r)| r.messages().map(move |m| (i, r, m)))
     {
         let path_s = reader.path().display().to_string();
         let msg = match item {
@@ -246,47 +246,34 @@ pub fn read_pose_topics(
                 }
             }
             let key = (msg.channel.topic.clone(), person.track_id);
-            let entry = tracks.entry(key.clone()).or_insert_with(|| {
-                (
-                    PoseSequence {
-                        source: path_s.clone(),
-                        track_id: person.track_id,
-                        joint_names: person.joint_names.clone(),
-                        frames: Vec::new(),
-                    },
-                    person.layout.clone(),
-                )
+            let entry = tracks.entry(key).or_insert_with(|| Collected {
+                seq: PoseSequence {
+                    source: path_s.clone(),
+                    track_id: person.track_id,
+                    joint_names: person.joint_names.clone(),
+                    frames: Vec::new(),
+                },
+                layout: person.layout.clone(),
+                clocks: Vec::new(),
             });
-            if entry.0.joint_names != person.joint_names {
+            if entry.seq.joint_names != person.joint_names {
                 skipped.push(skip(format!(
                     "track {}: joint names differ from the track's earlier messages",
                     person.track_id
                 )));
                 continue;
             }
-            // A stream whose first header stamp is really 0 (an import replayed live) had its
-            // first frame read as unstamped: once a stamped second frame follows, it was 0.
-            if entry.0.frames.len() == 1
-                && first_unstamped.get(&key).copied().unwrap_or(false)
-                && !person.unstamped
-                && person.frame.stamp_nanos > 0
-            {
-                entry.0.frames[0].stamp_nanos = 0;
-            }
-            if entry.0.frames.is_empty() {
-                first_unstamped.insert(key.clone(), person.unstamped);
-            }
-            if let Some(last) = entry.0.frames.last()
-                && person.frame.stamp_nanos <= last.stamp_nanos
-            {
-                skipped.push(skip(format!(
-                    "track {}: stamp {} ns is not after the previous {} ns (non-monotonic)",
-                    person.track_id, person.frame.stamp_nanos, last.stamp_nanos
-                )));
-                continue;
-            }
-            entry.0.frames.push(person.frame);
+            entry.seq.frames.push(person.frame);
+            entry.clocks.push(Clock {
+                header: person.header_stamp,
+                log_time: msg.log_time,
+                index: msg.index_on_channel,
+                reader: reader_index,
+            });
         }
+    }
+    for ((topic, _), c) in &mut tracks {
+        c.settle_stamps(topic, &readers, &mut skipped);
     }
     if tracks.is_empty() && skipped.is_empty() {
         let why = match topic {
@@ -318,9 +305,9 @@ pub fn read_pose_topics(
     }
     let mut sequences = Vec::new();
     let mut layouts = Vec::new();
-    for ((topic, _), (seq, layout)) in tracks {
-        sequences.push((topic, seq));
-        layouts.push(layout);
+    for ((topic, _), c) in tracks {
+        sequences.push((topic, c.seq));
+        layouts.push(c.layout);
     }
     Ok(PoseTopics {
         sequences,
@@ -332,9 +319,69 @@ pub fn read_pose_topics(
     })
 }
 
+/// Where one frame's time can come from.
+#[derive(Debug, Clone, Copy)]
+struct Clock {
+    /// The header stamp (`None`: zero).
+    header: Option<u64>,
+    log_time: u64,
+    index: u64,
+    reader: usize,
+}
+
+/// One track as read, before its stamps are settled.
+struct Collected {
+    seq: PoseSequence,
+    layout: String,
+    clocks: Vec<Clock>,
+}
+
+impl Collected {
+    /// Gives every frame its time, decided once per track: the header stamps when any frame has
+    /// one (a zero there is a real 0 — a stream replayed from 0), else the log times (a
+    /// publisher that never stamps). Frames not after their predecessor are dropped and
+    /// reported.
+    fn settle_stamps(
+        &mut self,
+        topic: &str,
+        readers: &[BagReader],
+        skipped: &mut Vec<SkippedMessage>,
+    ) {
+        let stamped = self.clocks.iter().any(|c| c.header.is_some());
+        let frames = std::mem::take(&mut self.seq.frames);
+        let mut last: Option<u64> = None;
+        for (mut frame, clock) in frames.into_iter().zip(&self.clocks) {
+            let stamp = if stamped {
+                clock.header.unwrap_or(0)
+            } else {
+                clock.log_time
+            };
+            if let Some(previous) = last
+                && stamp <= previous
+            {
+                skipped.push(SkippedMessage {
+                    path: readers[clock.reader].path().display().to_string(),
+                    topic: topic.to_string(),
+                    index: clock.index,
+                    log_time: clock.log_time,
+                    reason: format!(
+                        "track {}: stamp {stamp} ns is not after the previous {previous} ns (non-monotonic)",
+                        self.seq.track_id
+                    ),
+                });
+                continue;
+            }
+            last = Some(stamp);
+            frame.stamp_nanos = stamp;
+            self.seq.frames.push(frame);
+        }
+        self.clocks.clear();
+    }
+}
+
 struct Person {
-    /// The message's header stamp was zero (its frame carries the log time instead).
-    unstamped: bool,
+    /// The message's header stamp, `None` when zero (the publisher may not have stamped).
+    header_stamp: Option<u64>,
     track_id: u64,
     layout: String,
     joint_names: Vec<String>,
@@ -347,18 +394,9 @@ enum DecodeProblem {
     NotPose,
 }
 
-fn stamp_of(header: &Header, log_time: u64) -> u64 {
-    // A zero header stamp means the publisher did not stamp: use the log time. (A stream that
-    // really starts at 0 is recognised by its second frame; see `read_pose_topics`.)
-    header
-        .stamp
-        .to_nanos()
-        .filter(|&n| n != 0)
-        .unwrap_or(log_time)
-}
-
-fn unstamped(header: &Header) -> bool {
-    header.stamp.to_nanos() == Some(0)
+/// A header stamp, `None` when zero or invalid: a publisher that does not stamp leaves it zero.
+fn header_stamp(header: &Header) -> Option<u64> {
+    header.stamp.to_nanos().filter(|&n| n != 0)
 }
 
 fn decode_people(
@@ -387,11 +425,11 @@ fn decode_people(
             }
             let layout_name = layout.map_or_else(|| s.layout.clone(), |l| l.name.clone());
             Ok(vec![Person {
-                unstamped: unstamped(&s.header),
+                header_stamp: header_stamp(&s.header),
                 track_id: s.track_id,
                 layout: layout_name,
                 frame: PoseFrame {
-                    stamp_nanos: stamp_of(&s.header, msg.log_time),
+                    stamp_nanos: 0,
                     positions_m: s.positions.iter().map(|p| Point3::from(*p)).collect(),
                     confidence: s
                         .confidence
@@ -411,7 +449,7 @@ fn decode_people(
         t if t == MarkerArray::TYPE_NAME => {
             let layout = layout.ok_or(DecodeProblem::NeedsLayout)?;
             let m: MarkerArray = ros::cdr::decode(&msg.data).map_err(bad)?;
-            markers_to_people(&m, layout, msg.log_time)
+            markers_to_people(&m, layout)
         }
         t if t == PoseArray::TYPE_NAME => {
             let layout = layout.ok_or(DecodeProblem::NeedsLayout)?;
@@ -425,12 +463,12 @@ fn decode_people(
                 )));
             }
             Ok(vec![Person {
-                unstamped: unstamped(&p.header),
+                header_stamp: header_stamp(&p.header),
                 track_id: 0,
                 layout: layout.name.clone(),
                 joint_names: layout.joints.clone(),
                 frame: PoseFrame {
-                    stamp_nanos: stamp_of(&p.header, msg.log_time),
+                    stamp_nanos: 0,
                     positions_m: p
                         .poses
                         .iter()
@@ -458,7 +496,6 @@ fn decode_people(
 fn markers_to_people(
     m: &MarkerArray,
     layout: &crate::layout::Layout,
-    log_time: u64,
 ) -> Result<Vec<Person>, DecodeProblem> {
     let n = layout.joints.len();
     let mut by_ns: BTreeMap<&str, Vec<&Marker>> = BTreeMap::new();
@@ -467,9 +504,6 @@ fn markers_to_people(
     }
     let mut people = Vec::new();
     for (track, (ns, markers)) in by_ns.into_iter().enumerate() {
-        let stamp = markers
-            .first()
-            .map_or(log_time, |mk| stamp_of(&mk.header, log_time));
         let mut positions = vec![Point3::new(f64::NAN, f64::NAN, f64::NAN); n];
         let mut confidence = vec![0.0f32; n];
         let lists: Vec<&&Marker> = markers
@@ -508,12 +542,12 @@ fn markers_to_people(
         }
         let track_id = u64::try_from(track).unwrap_or(u64::MAX);
         people.push(Person {
-            unstamped: markers.first().is_some_and(|mk| unstamped(&mk.header)),
+            header_stamp: markers.first().and_then(|mk| header_stamp(&mk.header)),
             track_id,
             layout: layout.name.clone(),
             joint_names: layout.joints.clone(),
             frame: PoseFrame {
-                stamp_nanos: stamp,
+                stamp_nanos: 0,
                 positions_m: positions,
                 confidence,
             },

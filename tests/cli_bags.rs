@@ -704,3 +704,31 @@ fn recover_rewrites_a_cut_bag_with_every_complete_chunk_and_says_data_was_lost()
     let o = autoact(&["recover", arg(&input), "-o", arg(&out), "--force"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }
+
+#[test]
+fn a_tracks_time_comes_from_its_header_stamps_or_else_its_log_times() {
+    // Recorded live: header stamps from 0 (a replayed import), log times on the wall clock; and
+    // a publisher that never stamps (all zero), whose log times are the only clock.
+    let dir = tempfile::tempdir().unwrap();
+    let wall = 1_795_000_000_000_000_000u64;
+    for (name, stamped) in [("replayed.mcap", true), ("unstamped.mcap", false)] {
+        let path = dir.path().join(name);
+        let mut w = BagWriter::create(&path, WriteConfig::default()).unwrap();
+        for k in 0..30 {
+            let mut s = skeleton(k, 0);
+            if !stamped {
+                s.header.stamp = Time::default();
+            }
+            w.write("/skeleton", wall + stamp_nanos_at(k, 30.0) + 5_000_000, &s)
+                .unwrap();
+        }
+        w.finish().unwrap();
+        let out = dir.path().join(format!("{name}.anim.mcap"));
+        let o = autoact(&["convert", arg(&path), "-o", arg(&out)]);
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        let frames = bone_frames(&out);
+        assert_eq!(frames.len(), 30, "{name}: every frame kept");
+        let first = frames[0].0;
+        assert_eq!(first, if stamped { 0 } else { wall + 5_000_000 }, "{name}");
+    }
+}
