@@ -9,11 +9,7 @@ use serde_json::json;
 use super::{Outcome, print_stdout, table};
 use crate::cli::Format;
 use crate::mcap_io::BagReader;
-use crate::ros::autoact_msgs::{BoneFrame, SceneState, Segment, Skeleton3D};
-use crate::ros::geometry_msgs::{PoseArray, PoseStamped};
-use crate::ros::sensor_msgs::CameraInfo;
-use crate::ros::tf2_msgs::TFMessage;
-use crate::ros::visualization_msgs::MarkerArray;
+use crate::ros::autoact_msgs::{BoneFrame, Segment, Skeleton3D};
 use crate::ros::{self, RosMessage};
 
 /// Arguments of `autoact info`.
@@ -42,32 +38,25 @@ struct ChannelStats {
     variants: BTreeSet<u32>,
 }
 
-/// Decodes one message of a type autoact knows, returning what it learnt; `None` for other types.
+/// Decodes one message of a type autoact knows, noting the layouts, tracks and variants it
+/// names; `None` for other types.
 fn check_message(
     schema: &str,
     data: &[u8],
     stats: &mut ChannelStats,
 ) -> Option<Result<(), ros::cdr::CdrError>> {
-    let result = match schema {
-        s if s == Skeleton3D::TYPE_NAME => ros::cdr::decode::<Skeleton3D>(data).map(|m| {
+    match schema {
+        s if s == Skeleton3D::TYPE_NAME => Some(ros::cdr::decode::<Skeleton3D>(data).map(|m| {
             stats.layouts.insert(m.layout);
             stats.tracks.insert(m.track_id);
-        }),
-        s if s == BoneFrame::TYPE_NAME => ros::cdr::decode::<BoneFrame>(data).map(|m| {
+        })),
+        s if s == BoneFrame::TYPE_NAME => Some(ros::cdr::decode::<BoneFrame>(data).map(|m| {
             stats.layouts.insert(format!("rig {}", m.rig));
             stats.tracks.insert(m.track_id);
             stats.variants.insert(m.variant);
-        }),
-        s if s == TFMessage::TYPE_NAME => ros::cdr::decode::<TFMessage>(data).map(drop),
-        s if s == SceneState::TYPE_NAME => ros::cdr::decode::<SceneState>(data).map(drop),
-        s if s == Segment::TYPE_NAME => ros::cdr::decode::<Segment>(data).map(drop),
-        s if s == PoseStamped::TYPE_NAME => ros::cdr::decode::<PoseStamped>(data).map(drop),
-        s if s == CameraInfo::TYPE_NAME => ros::cdr::decode::<CameraInfo>(data).map(drop),
-        s if s == MarkerArray::TYPE_NAME => ros::cdr::decode::<MarkerArray>(data).map(drop),
-        s if s == PoseArray::TYPE_NAME => ros::cdr::decode::<PoseArray>(data).map(drop),
-        _ => return None,
-    };
-    Some(result)
+        })),
+        _ => ros::check_decodes(schema, data),
+    }
 }
 
 /// Per animation: its variants, its scene ids, its clips.

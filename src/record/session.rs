@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use crate::mcap_io::{BagWriter, McapIoError, WriteConfig};
-use crate::ros::{self, RosMessage};
+use crate::ros;
 
 /// One received message.
 #[derive(Debug, Clone, PartialEq)]
@@ -108,22 +108,10 @@ pub fn split_path(base: &Path, index: usize) -> PathBuf {
     base.with_file_name(format!("{stem}_{index}.mcap"))
 }
 
-/// Whether `cdr` decodes as `type_name`, for the types autoact knows (others pass).
+/// Whether `cdr` decodes as `type_name`, for the types autoact knows (others need only a CDR
+/// encapsulation header).
 fn decodes(type_name: &str, cdr: &[u8]) -> bool {
-    use crate::ros::autoact_msgs::Skeleton3D;
-    use crate::ros::geometry_msgs::PoseArray;
-    use crate::ros::sensor_msgs::{CameraInfo, Image};
-    use crate::ros::tf2_msgs::TFMessage;
-    use crate::ros::visualization_msgs::MarkerArray;
-    match type_name {
-        t if t == Skeleton3D::TYPE_NAME => ros::cdr::decode::<Skeleton3D>(cdr).is_ok(),
-        t if t == MarkerArray::TYPE_NAME => ros::cdr::decode::<MarkerArray>(cdr).is_ok(),
-        t if t == PoseArray::TYPE_NAME => ros::cdr::decode::<PoseArray>(cdr).is_ok(),
-        t if t == TFMessage::TYPE_NAME => ros::cdr::decode::<TFMessage>(cdr).is_ok(),
-        t if t == CameraInfo::TYPE_NAME => ros::cdr::decode::<CameraInfo>(cdr).is_ok(),
-        t if t == Image::TYPE_NAME => ros::cdr::decode::<Image>(cdr).is_ok(),
-        _ => cdr.len() >= 4,
-    }
+    ros::check_decodes(type_name, cdr).map_or(cdr.len() >= 4, |r| r.is_ok())
 }
 
 impl RecordWriter {
@@ -302,6 +290,7 @@ impl RecordWriter {
 mod tests {
     use super::*;
     use crate::mcap_io::BagReader;
+    use crate::ros::RosMessage;
     use crate::ros::autoact_msgs::Skeleton3D;
 
     fn skeleton_cdr(k: u64) -> Vec<u8> {

@@ -227,6 +227,33 @@ pub fn definition_of<M: RosMessage>() -> String {
         .unwrap_or_else(|| panic!("internal bug: no .msg text for {}", M::TYPE_NAME))
 }
 
+/// Whether `cdr` (with its encapsulation header) decodes as `type_name`, for every message type
+/// autoact has a Rust type of; `None` for other types. The one place that maps a type name to
+/// its decoder, for `info` and `record`.
+#[must_use]
+pub fn check_decodes(type_name: &str, cdr: &[u8]) -> Option<Result<(), cdr::CdrError>> {
+    fn check<M: RosMessage>(cdr: &[u8]) -> Result<(), cdr::CdrError> {
+        cdr::decode::<M>(cdr).map(drop)
+    }
+    let check: fn(&[u8]) -> Result<(), cdr::CdrError> = match type_name {
+        autoact_msgs::Skeleton3D::TYPE_NAME => check::<autoact_msgs::Skeleton3D>,
+        autoact_msgs::BoneFrame::TYPE_NAME => check::<autoact_msgs::BoneFrame>,
+        autoact_msgs::SceneState::TYPE_NAME => check::<autoact_msgs::SceneState>,
+        autoact_msgs::Segment::TYPE_NAME => check::<autoact_msgs::Segment>,
+        geometry_msgs::PoseArray::TYPE_NAME => check::<geometry_msgs::PoseArray>,
+        geometry_msgs::PoseStamped::TYPE_NAME => check::<geometry_msgs::PoseStamped>,
+        geometry_msgs::TransformStamped::TYPE_NAME => check::<geometry_msgs::TransformStamped>,
+        sensor_msgs::CameraInfo::TYPE_NAME => check::<sensor_msgs::CameraInfo>,
+        sensor_msgs::CompressedImage::TYPE_NAME => check::<sensor_msgs::CompressedImage>,
+        sensor_msgs::Image::TYPE_NAME => check::<sensor_msgs::Image>,
+        tf2_msgs::TFMessage::TYPE_NAME => check::<tf2_msgs::TFMessage>,
+        visualization_msgs::Marker::TYPE_NAME => check::<visualization_msgs::Marker>,
+        visualization_msgs::MarkerArray::TYPE_NAME => check::<visualization_msgs::MarkerArray>,
+        _ => return None,
+    };
+    Some(check(cdr))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -358,6 +385,20 @@ mod tests {
             cdr::decode::<std_msgs::Header>(&[0, 3, 0, 0]),
             Err(cdr::CdrError::Encapsulation(0, 3))
         ));
+    }
+
+    #[test]
+    fn check_decodes_knows_the_message_types_and_rejects_damage() {
+        let ok = cdr::encode(&sensor_msgs::CameraInfo::default()).unwrap();
+        assert!(matches!(
+            check_decodes(sensor_msgs::CameraInfo::TYPE_NAME, &ok),
+            Some(Ok(()))
+        ));
+        assert!(matches!(
+            check_decodes(sensor_msgs::CameraInfo::TYPE_NAME, &ok[..ok.len() - 3]),
+            Some(Err(_))
+        ));
+        assert!(check_decodes("std_msgs/msg/String", &ok).is_none());
     }
 
     #[test]
