@@ -69,6 +69,135 @@ pub fn frame_prefix(track_id: u64, variant: u32, several_people: bool) -> String
     prefix
 }
 
+/// The inverse of [`frame_prefix`] + bone name: `(track, variant, bone name)` of a tf frame
+/// name written by a [`TrackWriter`] (`track` is `None` when the bag held one person).
+#[must_use]
+pub fn parse_frame_name(name: &str) -> (Option<u64>, u32, &str) {
+    let mut rest = name;
+    let mut track = None;
+    if let Some((head, tail)) = rest.split_once('/')
+        && let Some(id) = head.strip_prefix("track").and_then(|t| t.parse().ok())
+    {
+        track = Some(id);
+        rest = tail;
+    }
+    let mut variant = 0;
+    if let Some((head, tail)) = rest.split_once('/')
+        && let Some(v) = head.strip_prefix('v').and_then(|v| v.parse().ok())
+    {
+        variant = v;
+        rest = tail;
+    }
+    (track, variant, rest)
+}
+
+/// Reads one person's animation (variant 0) back from an animation bag: the `/animation`
+/// frames of `track` (`None`: the first track seen), the body from the rest offsets its
+/// `/tf_static` and `/tf` carry, and as coverage the bones that move.
+///
+/// # Errors
+/// A message when the bag has no such frames or their bone count is not the rig's.
+pub fn read_animation(
+    rig: &Rig,
+    readers: &[crate::mcap_io::BagReader],
+    track: Option<u64>,
+) -> Result<(Vec<crate::convert::AnimationFrame>, Character, Coverage), String> {
+    use crate::ros::{RosMessage, cdr};
+    let mut keys: Vec<crate::convert::AnimationFrame> = Vec::new();
+    let mut chosen = track;
+    // Rest offsets seen per (track prefix, bone), variant 0 only; the first one wins.
+    let mut offsets: std::collections::BTreeMap<(Option<u64>, usize), nalgebra::Vector3<f64>> =
+        std::collections::BTreeMap::new();
+    for m in readers
+        .iter()
+        .flat_map(|r| r.messages().filter_map(Result::ok))
+    {
+        match m.channel.schema_name() {
+            s if s == BoneFrame::TYPE_NAME => {
+                let Ok(f) = cdr::decode::<BoneFrame>(&m.data) else {
+                    continue;
+                };
+                if f.variant != 0 || *chosen.get_or_insert(f.track_id) != f.track_id {
+                    continue;
+                }
+                if f.local_rotations.len() != rig.bones.len() {
+                    return Err(format!(
+                        "/animation has {} rotations per frame; the rig has {} bones",
+                        f.local_rotations.len(),
+                        rig.bones.len()
+                    ));
+                }
+                let stamp = f.header.stamp.to_nanos().unwrap_or(m.log_time);
+                if keys.last().is_some_and(|k| k.stamp_nanos >= stamp) {
+                    continue;
+                }
+                keys.push(crate::convert::AnimationFrame {
+                    stamp_nanos: stamp,
+                    pose: BonePose {
+                        root_translation_m: nalgebra::Vector3::from(f.root_translation),
+                        local_rotations: f
+                            .local_rotations
+                            .iter()
+                            .map(|q| {
+                                nalgebra::UnitQuaternion::try_from(*q)
+                                    .unwrap_or_else(|_| nalgebra::UnitQuaternion::identity())
+                            })
+                            .collect(),
+                    },
+                });
+            }
+            s if s == TFMessage::TYPE_NAME
+                && (m.channel.topic == TF_STATIC_TOPIC || m.channel.topic == TF_TOPIC) =>
+            {
+                let Ok(tf) = cdr::decode::<TFMessage>(&m.data) else {
+                    continue;
+                };
+                for t in tf.transforms {
+                    let (frame_track, variant, bone) = parse_frame_name(&t.child_frame_id);
+                    if let Some(b) = rig.bone_index(bone)
+                        && b != ROOT
+                        && variant == 0
+                    {
+                        offsets
+                            .entry((frame_track, b))
+                            .or_insert_with(|| nalgebra::Vector3::from(t.transform.translation));
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    if keys.is_empty() {
+        return Err(match track {
+            Some(t) => format!("no /animation frames of track {t}"),
+            None => "no /animation frames".to_string(),
+        });
+    }
+    let mut character = Character::standard(rig);
+    for ((frame_track, b), offset) in offsets {
+        // Prefixed frames belong to their track; unprefixed ones to the bag's only person.
+        if frame_track.is_none() || frame_track == chosen {
+            character.head_offset_m[b] = offset;
+        }
+    }
+    let poses: Vec<BonePose> = keys.iter().map(|k| k.pose.clone()).collect();
+    let moving = fk::moving_bones(&poses);
+    let names = |wanted: bool| -> Vec<String> {
+        rig.bones
+            .iter()
+            .zip(&moving)
+            .filter(|(_, m)| **m == wanted)
+            .map(|(b, _)| b.name.clone())
+            .collect()
+    };
+    let coverage = Coverage {
+        driven: names(true),
+        twist_unobserved: Vec::new(),
+        at_rest: names(false),
+    };
+    Ok((keys, character, coverage))
+}
+
 fn frame_name(prefix: &str, rig: &Rig, bone: usize) -> String {
     format!("{prefix}{}", rig.bones[bone].name)
 }
@@ -223,5 +352,25 @@ impl<'r> TrackWriter<'r> {
             pair[1] = Point::from(self.world.heads_m[b]);
         }
         writer.write(MARKERS_TOPIC, stamp, &self.markers)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_names_parse_back_to_what_the_prefix_wrote() {
+        for (track, variant, several) in [(0, 0, false), (3, 0, true), (0, 2, false), (12, 7, true)]
+        {
+            let name = format!("{}l_forearm", frame_prefix(track, variant, several));
+            let (t, v, bone) = parse_frame_name(&name);
+            assert_eq!(
+                (t, v, bone),
+                (several.then_some(track), variant, "l_forearm"),
+                "{name}"
+            );
+        }
+        assert_eq!(parse_frame_name("root"), (None, 0, "root"));
     }
 }

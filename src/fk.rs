@@ -27,6 +27,21 @@ impl BonePose {
     }
 }
 
+/// Per bone: whether its rotation changes anywhere in `poses`.
+#[must_use]
+pub fn moving_bones(poses: &[BonePose]) -> Vec<bool> {
+    let Some(first) = poses.first() else {
+        return Vec::new();
+    };
+    (0..first.local_rotations.len())
+        .map(|b| {
+            poses
+                .iter()
+                .any(|p| p.local_rotations[b] != first.local_rotations[b])
+        })
+        .collect()
+}
+
 /// World rotations and head positions of every bone of one posed body.
 #[derive(Debug, Clone, PartialEq)]
 pub struct WorldPose {

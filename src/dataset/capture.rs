@@ -20,10 +20,10 @@ use std::path::{Path, PathBuf};
 
 use super::plan::{Plan, SceneNode};
 use super::spec::Spec;
-use crate::animation_bag::{TF_STATIC_TOPIC, TF_TOPIC, TrackWriter};
+use crate::animation_bag::{TF_STATIC_TOPIC, TF_TOPIC, TrackWriter, read_animation};
 use crate::camera::{CameraPose, Intrinsics, Subject, Viewpoint, camera_at, framing_band};
 use crate::character::Character;
-use crate::convert::{AnimationFrame, ConvertOptions, SequenceConverter};
+use crate::convert::{AnimationFrame, ConvertOptions, convert_sequence};
 use crate::dsi::smoothing::Smoothing;
 use crate::dsi::{self, DsiOptions, Pace};
 use crate::fk::BonePose;
@@ -36,7 +36,6 @@ use crate::rig::Rig;
 use crate::ros::RosMessage;
 use crate::ros::autoact_msgs::{BoneFrame, SceneState, Segment};
 use crate::ros::builtin_interfaces::Time;
-use crate::ros::cdr;
 use crate::ros::geometry_msgs::{
     Pose, PoseStamped, Quaternion, Transform, TransformStamped, Vector3,
 };
@@ -129,8 +128,7 @@ pub fn convert_source(
 }
 
 /// The key frames, body and coverage of one person of a bag: a pose bag is converted (its own
-/// layout), an animation bag's `/animation` is read (variant 0) with the body from its
-/// transforms and the bones that move in it as its coverage.
+/// layout); an animation bag is read back ([`crate::animation_bag::read_animation`]).
 fn read_source(
     rig: &Rig,
     path: &Path,
@@ -144,24 +142,7 @@ fn read_source(
             .any(|m| m.channel.schema_name() == BoneFrame::TYPE_NAME)
     });
     if is_animation {
-        let (keys, character) = read_animation_bag(rig, &readers, track)?;
-        let poses: Vec<BonePose> = keys.iter().map(|k| k.pose.clone()).collect();
-        let moving = crate::dsi::variants::moving_bones(&poses);
-        let (driven, at_rest): (Vec<_>, Vec<_>) =
-            rig.bones.iter().zip(&moving).partition(|(_, m)| **m);
-        let names = |v: Vec<(&crate::rig::Bone, &bool)>| -> Vec<String> {
-            v.into_iter().map(|(b, _)| b.name.clone()).collect()
-        };
-        let (driven, at_rest) = (names(driven), names(at_rest));
-        return Ok((
-            keys,
-            character,
-            Coverage {
-                driven,
-                twist_unobserved: Vec::new(),
-                at_rest,
-            },
-        ));
+        return read_animation(rig, &readers, track);
     }
     let topics = pose_bag::read_pose_topics(path, None, None).map_err(|e| e.to_string())?;
     if topics.lost_data() {
@@ -182,112 +163,13 @@ fn read_source(
             None => "no pose topic with frames".to_string(),
         })?;
     let layout = Layout::load(&topics.layouts[index]).map_err(|e| e.to_string())?;
-    let mut converter = SequenceConverter::new(rig, &layout, seq, ConvertOptions::default())
+    let animation = convert_sequence(rig, &layout, seq, ConvertOptions::default())
         .map_err(|e| e.to_string())?;
-    let mut keys = Vec::new();
-    while let Some(step) = converter.next_frame() {
-        let (stamp_nanos, pose) = step.map_err(|e| e.to_string())?;
-        keys.push(AnimationFrame {
-            stamp_nanos,
-            pose: pose.clone(),
-        });
-    }
-    let coverage = converter.coverage().clone();
-    let (character, _) = converter.finish();
-    if keys.is_empty() {
-        return Err("no frame could be converted".to_string());
-    }
-    Ok((keys, character, coverage))
-}
-
-/// `/animation` of one track (variant 0), and the body from the rest offsets on `/tf_static`
-/// and `/tf` (the bone frames without a variant prefix).
-fn read_animation_bag(
-    rig: &Rig,
-    readers: &[BagReader],
-    track: Option<u64>,
-) -> Result<(Vec<AnimationFrame>, Character), String> {
-    let mut keys = Vec::new();
-    let mut chosen = track;
-    let mut character = Character::standard(rig);
-    let mut offsets_seen = vec![false; rig.bones.len()];
-    for reader in readers {
-        for m in reader.messages().filter_map(Result::ok) {
-            match m.channel.schema_name() {
-                s if s == BoneFrame::TYPE_NAME => {
-                    let Ok(f) = cdr::decode::<BoneFrame>(&m.data) else {
-                        continue;
-                    };
-                    if f.variant != 0 || *chosen.get_or_insert(f.track_id) != f.track_id {
-                        continue;
-                    }
-                    if f.local_rotations.len() != rig.bones.len() {
-                        return Err(format!(
-                            "/animation has {} rotations per frame; the rig has {} bones",
-                            f.local_rotations.len(),
-                            rig.bones.len()
-                        ));
-                    }
-                    let stamp = f.header.stamp.to_nanos().unwrap_or(m.log_time);
-                    if keys
-                        .last()
-                        .is_some_and(|k: &AnimationFrame| k.stamp_nanos >= stamp)
-                    {
-                        continue;
-                    }
-                    keys.push(AnimationFrame {
-                        stamp_nanos: stamp,
-                        pose: BonePose {
-                            root_translation_m: nalgebra::Vector3::from(f.root_translation),
-                            local_rotations: f
-                                .local_rotations
-                                .iter()
-                                .map(|q| {
-                                    nalgebra::UnitQuaternion::try_from(*q)
-                                        .unwrap_or_else(|_| nalgebra::UnitQuaternion::identity())
-                                })
-                                .collect(),
-                        },
-                    });
-                }
-                s if s == TFMessage::TYPE_NAME
-                    && (m.channel.topic == TF_STATIC_TOPIC || m.channel.topic == TF_TOPIC) =>
-                {
-                    let Ok(tf) = cdr::decode::<TFMessage>(&m.data) else {
-                        continue;
-                    };
-                    for t in tf.transforms {
-                        let name = t.child_frame_id.rsplit_once('/').map_or(
-                            t.child_frame_id.as_str(),
-                            |(prefix, name)| {
-                                if prefix.contains("/v") || prefix.starts_with('v') {
-                                    ""
-                                } else {
-                                    name
-                                }
-                            },
-                        );
-                        if let Some(b) = rig.bone_index(name)
-                            && b != crate::rig::ROOT
-                            && !offsets_seen[b]
-                        {
-                            character.head_offset_m[b] =
-                                nalgebra::Vector3::from(t.transform.translation);
-                            offsets_seen[b] = true;
-                        }
-                    }
-                }
-                _ => {}
-            }
-        }
-    }
-    if keys.is_empty() {
-        return Err(match track {
-            Some(t) => format!("no /animation frames of track {t}"),
-            None => "no /animation frames".to_string(),
-        });
-    }
-    Ok((keys, character))
+    Ok((
+        animation.frames,
+        animation.character,
+        animation.report.coverage,
+    ))
 }
 
 /// One session bag written.
@@ -402,6 +284,57 @@ fn camera_messages(
     (p, tf, info)
 }
 
+/// What every clip of one scene shares: the character's writer, the animation retargeted onto
+/// the scene's body (from the location's origin), how the camera must frame it.
+struct Staged<'r> {
+    writer: TrackWriter<'r>,
+    content: Vec<BonePose>,
+    subject: Subject,
+    /// The framing band for this animation on this body.
+    band: [f64; 2],
+}
+
+/// Retargets a scene's animation variant onto its drawn body (root translation scaled by the
+/// ratio of hip heights, starting at the location's origin) and measures it for the camera.
+fn stage_scene<'r>(
+    rig: &'r Rig,
+    spec: &Spec,
+    intrinsics: &Intrinsics,
+    node: &SceneNode,
+    conv: &Converted,
+) -> Result<Staged<'r>, CaptureError> {
+    let character = node.drawn.look.character(rig);
+    let scale = character.hip_height_m(rig) / conv.character.hip_height_m(rig);
+    let frames = &conv.variants[node.variant as usize];
+    let origin = frames
+        .first()
+        .map_or_else(nalgebra::Vector3::zeros, |f| f.root_translation_m);
+    let content: Vec<BonePose> = frames
+        .iter()
+        .map(|f| BonePose {
+            root_translation_m: (f.root_translation_m
+                - nalgebra::Vector3::new(origin.x, origin.y, 0.0))
+                * scale,
+            local_rotations: f.local_rotations.clone(),
+        })
+        .collect();
+    let subject = Subject::from_poses(rig, &character, &content, 1.0)
+        .map_err(|e| CaptureError::Plan(format!("{}: {e}", node.id)))?;
+    let band = framing_band(
+        intrinsics,
+        &subject,
+        spec.file.camera.margin,
+        spec.file.camera.max_distance_m,
+    )
+    .map_err(|e| CaptureError::Plan(format!("{}: {e}", node.id)))?;
+    Ok(Staged {
+        writer: TrackWriter::new(rig, character, &conv.coverage, 0, node.variant, ""),
+        content,
+        subject,
+        band,
+    })
+}
+
 /// Writes every session of `plan` into `out_dir` as `<session>.anim.mcap`, with the sources
 /// already converted (`converted[animation]`, lengths set in the plan). With `journal`, each
 /// bag also gets `<session>.anim.expected.json` (every message as meant, for `tools/interop`).
@@ -452,16 +385,12 @@ pub fn write_sessions(
         w.write_metadata(&format!("{}.dataset", crate::pose_bag::METADATA_NAME), meta)?;
 
         let mut current_scene: Option<usize> = None;
+        let mut staged: Option<Staged<'_>> = None;
         let mut pushed_out = 0;
-        let mut writer: Option<TrackWriter<'_>> = None;
-        let mut scale = 1.0;
         for leaf in &plan.leaves[session.leaves.clone()] {
             let node = &plan.scenes[leaf.scene];
             let anim = &plan.animations[node.animation];
             let class = &spec.file.classes[anim.class];
-            let conv = &converted[node.animation];
-            let frames = &conv.variants[node.variant as usize];
-            let character = node.drawn.look.character(rig);
             let start_ns = nanos_at(leaf.start_frame, d.fps);
             let start = Time::from_nanos(start_ns);
             if current_scene != Some(leaf.scene) {
@@ -471,19 +400,23 @@ pub fn write_sessions(
                     start_ns,
                     &scene_state(spec, plan, node, &session.name, start),
                 )?;
-                let tw =
-                    TrackWriter::new(rig, character.clone(), &conv.coverage, 0, node.variant, "");
+                let s = stage_scene(rig, spec, &intrinsics, node, &converted[node.animation])?;
                 w.write(
                     TF_STATIC_TOPIC,
                     start_ns,
                     &TFMessage {
-                        transforms: tw.static_transforms(start_ns),
+                        transforms: s.writer.static_transforms(start_ns),
                     },
                 )?;
-                writer = Some(tw);
-                scale = character.hip_height_m(rig) / conv.character.hip_height_m(rig);
+                staged = Some(s);
             }
-            let Some(tw) = writer.as_mut() else {
+            let Some(Staged {
+                writer: tw,
+                content,
+                subject,
+                band,
+            }) = staged.as_mut()
+            else {
                 continue;
             };
             let segment = Segment {
@@ -508,31 +441,8 @@ pub fn write_sessions(
             };
             w.write(SEGMENTS_TOPIC, start_ns, &segment)?;
 
-            // The clip's poses: the animation retargeted onto the scene's body, starting at the
-            // location's origin; held still in the lead-in and lead-out.
-            let origin = frames
-                .first()
-                .map_or_else(nalgebra::Vector3::zeros, |f| f.root_translation_m);
-            let content: Vec<BonePose> = frames
-                .iter()
-                .map(|f| {
-                    let mut p = f.clone();
-                    let t = f.root_translation_m - nalgebra::Vector3::new(origin.x, origin.y, 0.0);
-                    p.root_translation_m = t * scale;
-                    p
-                })
-                .collect();
-            let subject = Subject::from_poses(rig, &character, &content, 1.0)
-                .map_err(|e| CaptureError::Plan(format!("{}: {e}", leaf.id)))?;
             // The plan framed a standing body of the drawn height; an animation that reaches
             // farther (a wide jump) pushes the camera out along its ray, never closer.
-            let band = framing_band(
-                &intrinsics,
-                &subject,
-                spec.file.camera.margin,
-                spec.file.camera.max_distance_m,
-            )
-            .map_err(|e| CaptureError::Plan(format!("{}: {e}", leaf.id)))?;
             let mut fit = |v: &Viewpoint| {
                 let mut v = *v;
                 if v.distance_m < band[0] {
@@ -586,4 +496,58 @@ pub fn write_sessions(
         });
     }
     Ok(written)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_animation_bag_source_reads_back_what_its_pose_bag_converts_to() {
+        let rig = Rig::standard();
+        let bag = |name: &str| {
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("bags")
+                .join(name)
+        };
+        let (pose_keys, pose_body, pose_cov) =
+            read_source(&rig, &bag("bandai_wave.pose.mcap"), None).unwrap();
+        let (anim_keys, anim_body, anim_cov) =
+            read_source(&rig, &bag("bandai_wave.anim.mcap"), None).unwrap();
+        assert_eq!(pose_keys.len(), anim_keys.len());
+        // The animation bag was resampled on the 30 fps output clock, whose stamps drift up to
+        // 33 ns a frame from the BVH's 0.0333333 s frames: rotations agree to the motion in that
+        // instant, under 10 rad/s × 10 µs.
+        for (a, b) in pose_keys.iter().zip(&anim_keys) {
+            assert!(a.stamp_nanos.abs_diff(b.stamp_nanos) < 10_000);
+            for (k, (p, q)) in a
+                .pose
+                .local_rotations
+                .iter()
+                .zip(&b.pose.local_rotations)
+                .enumerate()
+            {
+                let d = crate::geom::rotation_distance(p, q);
+                assert!(
+                    d < 1e-4,
+                    "frame {} bone {}: {d}",
+                    a.stamp_nanos,
+                    rig.bones[k].name
+                );
+            }
+        }
+        for (b, (p, q)) in pose_body
+            .head_offset_m
+            .iter()
+            .zip(&anim_body.head_offset_m)
+            .enumerate()
+            .skip(1)
+        {
+            assert!((p - q).norm() < 1e-12, "{}", rig.bones[b].name);
+        }
+        // Bones the pose layout does not drive never move in the animation either.
+        for name in &pose_cov.at_rest {
+            assert!(anim_cov.at_rest.contains(name), "{name}");
+        }
+    }
 }

@@ -94,12 +94,7 @@ pub fn interpolate(
         return Vec::new();
     };
     let bones = first.local_rotations.len();
-    let varies: Vec<bool> = (0..bones)
-        .map(|b| {
-            keys.iter()
-                .any(|k| k.local_rotations[b] != first.local_rotations[b])
-        })
-        .collect();
+    let varies = crate::fk::moving_bones(keys);
     let is_transition = |i: usize| transition.get(i).copied().unwrap_or(false);
 
     let mut out = Vec::with_capacity(samples.len());

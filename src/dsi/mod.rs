@@ -260,7 +260,7 @@ pub fn run(
 
 /// Puts every rotation in its bone's class, renormalises, and makes each track sign-continuous.
 fn finish(rig: &Rig, poses: &mut [BonePose]) {
-    let moving = variants::moving_bones(poses);
+    let moving = crate::fk::moving_bones(poses);
     for (b, bone) in rig.bones.iter().enumerate() {
         if !moving[b] {
             continue;

@@ -132,17 +132,12 @@ impl Plan {
 /// docs). `weights` has one entry per bone; bones that never move in the clip do not count.
 #[must_use]
 pub fn angular_distances(keys: &[BonePose], times_s: &[f64], weights: &[f64]) -> Vec<f64> {
-    let Some(first) = keys.first() else {
-        return Vec::new();
-    };
     let period_s = source_period_s(times_s);
-    let moving: Vec<usize> = (0..first.local_rotations.len())
-        .filter(|&b| {
-            weights.get(b).copied().unwrap_or(0.0) > 0.0
-                && keys
-                    .iter()
-                    .any(|k| k.local_rotations[b] != first.local_rotations[b])
-        })
+    let moving: Vec<usize> = crate::fk::moving_bones(keys)
+        .iter()
+        .enumerate()
+        .filter(|&(b, &m)| m && weights.get(b).copied().unwrap_or(0.0) > 0.0)
+        .map(|(b, _)| b)
         .collect();
     let total: f64 = moving.iter().map(|&b| weights[b]).sum();
     keys.windows(2)

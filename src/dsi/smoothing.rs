@@ -19,8 +19,8 @@
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
 use super::supersmoother::{SmoothScratch, SuperSmoother};
-use super::variants::moving_bones;
 use crate::fk::BonePose;
+use crate::fk::moving_bones;
 use crate::geom::{align_hemisphere, exp_rotation, log_rotation};
 use crate::rig::{Dof, Rig};
 

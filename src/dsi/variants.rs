@@ -209,7 +209,7 @@ pub fn variant(
     seed: u64,
     index: u64,
 ) -> Vec<BonePose> {
-    let moving = moving_bones(poses);
+    let moving = crate::fk::moving_bones(poses);
     let wobbles = wobbles(rig, &moving, bounds, seed, index);
     poses
         .iter()
@@ -249,21 +249,6 @@ fn perturb(
         theta *= 0.999 * bound_rad / d;
     }
     *q
-}
-
-/// Per bone: whether its rotation changes anywhere in `poses`.
-#[must_use]
-pub fn moving_bones(poses: &[BonePose]) -> Vec<bool> {
-    let Some(first) = poses.first() else {
-        return Vec::new();
-    };
-    (0..first.local_rotations.len())
-        .map(|b| {
-            poses
-                .iter()
-                .any(|p| p.local_rotations[b] != first.local_rotations[b])
-        })
-        .collect()
 }
 
 #[cfg(test)]
@@ -316,7 +301,7 @@ mod tests {
             variant(&rig, &poses, 30.0, &bounds, 8, 1),
             "another seed differs"
         );
-        let moving = moving_bones(&poses);
+        let moving = crate::fk::moving_bones(&poses);
         for v in &vs {
             for (p, o) in v.iter().zip(&poses) {
                 for (b, bone) in rig.bones.iter().enumerate() {
