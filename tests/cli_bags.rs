@@ -104,6 +104,22 @@ fn bone_frames(path: &Path) -> Vec<(u64, BoneFrame)> {
         .collect()
 }
 
+/// Every child frame named on a bag's `/tf`.
+fn tf_children(path: &Path) -> std::collections::BTreeSet<String> {
+    BagReader::open(path)
+        .unwrap()
+        .messages()
+        .map(Result::unwrap)
+        .filter(|m| m.channel.topic == "/tf")
+        .flat_map(|m| {
+            cdr::decode::<autoact::ros::tf2_msgs::TFMessage>(&m.data)
+                .unwrap()
+                .transforms
+        })
+        .map(|t| t.child_frame_id)
+        .collect()
+}
+
 fn chunk_ranges(bytes: &[u8]) -> Vec<(usize, usize)> {
     let mut out = Vec::new();
     let mut at = 8;
@@ -459,21 +475,10 @@ fn several_people_on_one_topic_become_several_tracks() {
     let frames = bone_frames(&out);
     assert_eq!(frames.len(), 60);
     assert_eq!(frames.iter().filter(|(_, f)| f.track_id == 8).count(), 30);
-    let tf_frames: Vec<String> = BagReader::open(&out)
-        .unwrap()
-        .messages()
-        .map(Result::unwrap)
-        .filter(|m| m.channel.topic == "/tf")
-        .flat_map(|m| {
-            cdr::decode::<autoact::ros::tf2_msgs::TFMessage>(&m.data)
-                .unwrap()
-                .transforms
-        })
-        .map(|t| t.child_frame_id)
-        .collect();
+    let tf_frames = tf_children(&out);
     assert!(
-        tf_frames.contains(&"track3/l_forearm".to_string())
-            && tf_frames.contains(&"track8/root".to_string())
+        tf_frames.contains("track3/l_forearm")
+            && tf_frames.contains("track8/root")
     );
 }
 
@@ -568,19 +573,7 @@ fn dsi_variants_are_labelled_animations_of_their_own_and_deterministic() {
     assert_eq!(other_of(0), base);
     assert_ne!(other_of(1), of(1));
     // Variants have their own tf frames, and the bag says how they were made.
-    let tf_children: std::collections::BTreeSet<String> = BagReader::open(&a)
-        .unwrap()
-        .messages()
-        .map(Result::unwrap)
-        .filter(|m| m.channel.topic == "/tf")
-        .flat_map(|m| {
-            cdr::decode::<autoact::ros::tf2_msgs::TFMessage>(&m.data)
-                .unwrap()
-                .transforms
-                .into_iter()
-                .map(|t| t.child_frame_id)
-        })
-        .collect();
+    let tf_children = tf_children(&a);
     for name in ["root", "v1/root", "v3/l_forearm"] {
         assert!(
             tf_children.contains(name),

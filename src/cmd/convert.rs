@@ -322,24 +322,26 @@ pub fn run(args: Args) -> Result<Outcome> {
     );
     let mut text = format!("wrote {}\n", output.output.display());
     let mut lost = topics.lost_data();
-    let mut out;
+    // Whole clips are solved before the output exists, so a failing one leaves no file.
+    let mut clips = None;
     if let Some(dsi_options) = &dsi_options {
         record_dsi_options(&mut meta, dsi_options);
-        let mut clips = Vec::new();
-        for person in people {
+        let mut all = Vec::new();
+        for person in std::mem::take(&mut people) {
             let (summary, clip_lost, animations) = whole_clip(&rig, person, dsi_options, prefixed)?;
             text.push_str(&summary);
             lost |= clip_lost;
-            clips.extend(animations);
+            all.extend(animations);
         }
-        out = BagOutput::create(&output)?;
-        write_header(
-            &mut out,
-            &topics.metadata,
-            meta,
-            first,
-            clips.iter().map(|(w, _)| w),
-        )?;
+        clips = Some(all);
+    }
+    let mut out = BagOutput::create(&output)?;
+    let writers: Vec<&TrackWriter<'_>> = match &clips {
+        Some(clips) => clips.iter().map(|(w, _)| w).collect(),
+        None => people.iter().map(|p| &p.writer).collect(),
+    };
+    write_header(&mut out, &topics.metadata, meta, first, writers.into_iter())?;
+    if let Some(mut clips) = clips {
         // All animations in stamp order (ties: person, then variant).
         let mut order: Vec<(u64, usize, usize)> = clips
             .iter()
@@ -357,14 +359,6 @@ pub fn run(args: Args) -> Result<Outcome> {
             writer.write_frame(&mut out.writer, stamp, &frames[k].pose)?;
         }
     } else {
-        out = BagOutput::create(&output)?;
-        write_header(
-            &mut out,
-            &topics.metadata,
-            meta,
-            first,
-            people.iter().map(|p| &p.writer),
-        )?;
         stream(&mut out, &mut people)?;
         for person in people {
             let Person {

@@ -211,18 +211,7 @@ pub fn run(
         .map(|k| (k.stamp_nanos - first.stamp_nanos) as f64 * 1e-9)
         .collect();
     let poses: Vec<BonePose> = keys.iter().map(|k| k.pose.clone()).collect();
-    let speed = options
-        .pace
-        .speed(plan::source_period_s(&times_s), options.out_fps);
-    let plan = plan::plan(
-        &poses,
-        &times_s,
-        &options.weights,
-        options.threshold,
-        options.eta,
-        options.out_fps,
-        speed,
-    )?;
+    let plan = plan::plan(&poses, &times_s, options)?;
     let base = interp::interpolate(
         &poses,
         &times_s,

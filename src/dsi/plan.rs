@@ -18,8 +18,8 @@
 use std::fmt;
 use std::str::FromStr;
 
-use super::DsiError;
 use super::interp::Sample;
+use super::{DsiError, DsiOptions};
 use crate::character::median;
 use crate::fk::BonePose;
 
@@ -172,20 +172,22 @@ pub fn source_period_s(times_s: &[f64]) -> f64 {
 }
 
 /// Plans the output of one clip: keys at `times_s` (seconds, strictly increasing), played at
-/// `out_fps` frames per second and `speed` × real time, cut at `threshold`, transitions
-/// stretched by `eta` (default `1 / threshold`).
+/// `options.out_fps` and `options.pace`, cut at `options.threshold` with `options.weights`,
+/// transitions stretched by `options.eta` (default `1 / threshold`).
 ///
 /// # Errors
 /// [`DsiError::Parameter`] for a non-positive rate, speed or η.
-pub fn plan(
-    keys: &[BonePose],
-    times_s: &[f64],
-    weights: &[f64],
-    threshold: Threshold,
-    eta: Option<f64>,
-    out_fps: f64,
-    speed: f64,
-) -> Result<Plan, DsiError> {
+pub fn plan(keys: &[BonePose], times_s: &[f64], options: &DsiOptions) -> Result<Plan, DsiError> {
+    let DsiOptions {
+        out_fps,
+        pace,
+        threshold,
+        eta,
+        ref weights,
+        ..
+    } = *options;
+    let period_s = source_period_s(times_s);
+    let speed = pace.speed(period_s, out_fps);
     let positive = |name: &str, v: f64| {
         if v.is_finite() && v > 0.0 {
             Ok(())
@@ -200,7 +202,6 @@ pub fn plan(
     if let Some(e) = eta {
         positive("η", e)?;
     }
-    let period_s = source_period_s(times_s);
     let delta = speed / (period_s * out_fps);
     let distances_rad = angular_distances(keys, times_s, weights);
     let threshold_rad = match threshold {
@@ -299,6 +300,24 @@ mod tests {
     use super::*;
     use nalgebra::{UnitQuaternion, Vector3};
 
+    /// Options for a two-bone clip: per-bone `weights`, the rest as given.
+    fn opts(
+        weights: &[f64],
+        threshold: Threshold,
+        eta: Option<f64>,
+        out_fps: f64,
+        speed: f64,
+    ) -> DsiOptions {
+        DsiOptions {
+            weights: weights.to_vec(),
+            threshold,
+            eta,
+            out_fps,
+            pace: crate::dsi::Pace::Speed(speed),
+            ..DsiOptions::new(&crate::rig::Rig::standard())
+        }
+    }
+
     fn keys_from(angles: &[f64]) -> Vec<BonePose> {
         angles
             .iter()
@@ -352,11 +371,7 @@ mod tests {
         let p = plan(
             &keys,
             &times(31, 30.0),
-            &[1.0, 1.0],
-            Threshold::Off,
-            None,
-            60.0,
-            1.0,
+            &opts(&[1.0, 1.0], Threshold::Off, None, 60.0, 1.0),
         )
         .unwrap();
         // 1 s at 60 fps: 61 frames, the last on the last key.
@@ -375,11 +390,7 @@ mod tests {
         let p = plan(
             &keys,
             &times(31, 30.0),
-            &[1.0, 1.0],
-            Threshold::Off,
-            None,
-            30.0,
-            2.0,
+            &opts(&[1.0, 1.0], Threshold::Off, None, 30.0, 2.0),
         )
         .unwrap();
         assert_eq!(p.samples.len(), 16);
@@ -398,11 +409,7 @@ mod tests {
         let p = plan(
             &keys,
             &t,
-            &[1.0, 0.0],
-            Threshold::RadPerFrame(0.05),
-            None,
-            30.0,
-            1.0,
+            &opts(&[1.0, 0.0], Threshold::RadPerFrame(0.05), None, 30.0, 1.0),
         )
         .unwrap();
         assert_eq!(p.transition_count(), 1);
@@ -423,11 +430,7 @@ mod tests {
         let p = plan(
             &keys,
             &t,
-            &[1.0, 0.0],
-            Threshold::default(),
-            None,
-            30.0,
-            1.0,
+            &opts(&[1.0, 0.0], Threshold::default(), None, 30.0, 1.0),
         )
         .unwrap();
         assert_eq!(p.transition_count(), 1);
@@ -443,11 +446,7 @@ mod tests {
         let p = plan(
             &keys,
             &times(30, 30.0),
-            &[1.0, 0.0],
-            Threshold::default(),
-            None,
-            30.0,
-            1.0,
+            &opts(&[1.0, 0.0], Threshold::default(), None, 30.0, 1.0),
         )
         .unwrap();
         assert_eq!(p.transition_count(), 0);
@@ -457,28 +456,34 @@ mod tests {
     fn bad_parameters_are_errors() {
         let keys = keys_from(&[0.0, 0.1]);
         let t = times(2, 30.0);
-        assert!(plan(&keys, &t, &[1.0, 1.0], Threshold::Off, None, 0.0, 1.0).is_err());
-        assert!(plan(&keys, &t, &[1.0, 1.0], Threshold::Off, None, 30.0, -1.0).is_err());
         assert!(
             plan(
                 &keys,
                 &t,
-                &[1.0, 1.0],
-                Threshold::Off,
-                Some(f64::NAN),
-                30.0,
-                1.0
+                &opts(&[1.0, 1.0], Threshold::Off, None, 0.0, 1.0)
+            )
+            .is_err()
+        );
+        assert!(
+            plan(
+                &keys,
+                &t,
+                &opts(&[1.0, 1.0], Threshold::Off, None, 30.0, -1.0)
+            )
+            .is_err()
+        );
+        assert!(
+            plan(
+                &keys,
+                &t,
+                &opts(&[1.0, 1.0], Threshold::Off, Some(f64::NAN), 30.0, 1.0)
             )
             .is_err()
         );
         let one = plan(
             &keys[..1],
             &t[..1],
-            &[1.0, 1.0],
-            Threshold::Off,
-            None,
-            30.0,
-            1.0,
+            &opts(&[1.0, 1.0], Threshold::Off, None, 30.0, 1.0),
         )
         .unwrap();
         assert_eq!(
