@@ -10,26 +10,10 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use autoact::dataset::estimated_frames;
 use autoact::dataset::plan::Plan;
 use autoact::dataset::spec::Spec;
-use autoact::mcap_io::{BagWriter, WriteConfig};
-use autoact::ros::autoact_msgs::Skeleton3D;
-use autoact::ros::builtin_interfaces::Time;
-use autoact::ros::std_msgs::Header;
 
 fn ntu_like_spec(dir: &Path) -> std::path::PathBuf {
-    let bag = dir.join("a.mcap");
-    let mut w = BagWriter::create(&bag, WriteConfig::default()).expect("bag");
-    for k in 0..2u64 {
-        let s = Skeleton3D {
-            header: Header {
-                stamp: Time::from_nanos(k * 33_333_333),
-                frame_id: "world".into(),
-            },
-            layout: "ntu-25".into(),
-            ..Skeleton3D::default()
-        };
-        w.write("/skeleton", k * 33_333_333, &s).expect("write");
-    }
-    w.finish().expect("finish");
+    // Every source a copy of the walking sample (its summary is all a plan reads).
+    let bag = Path::new(env!("CARGO_MANIFEST_DIR")).join("bags/bandai_walk.pose.mcap");
     let mut classes = String::new();
     for c in 0..54 {
         let sources: Vec<String> = (0..29)
