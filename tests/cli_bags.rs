@@ -476,10 +476,7 @@ fn several_people_on_one_topic_become_several_tracks() {
     assert_eq!(frames.len(), 60);
     assert_eq!(frames.iter().filter(|(_, f)| f.track_id == 8).count(), 30);
     let tf_frames = tf_children(&out);
-    assert!(
-        tf_frames.contains("track3/l_forearm")
-            && tf_frames.contains("track8/root")
-    );
+    assert!(tf_frames.contains("track3/l_forearm") && tf_frames.contains("track8/root"));
 }
 
 #[test]

@@ -265,47 +265,72 @@ fn finish(rig: &Rig, poses: &mut [BonePose]) {
     }
 }
 
+/// A synthetic motion for DSI's tests.
+#[cfg(test)]
+pub(crate) mod fixture {
+    use nalgebra::{UnitQuaternion, Vector3};
+
+    use crate::fk::BonePose;
+    use crate::rig::Rig;
+
+    /// `n` frames at 30 fps of every bone moving within its DoF class (a phase per bone), the
+    /// root walking along +X and turning through ±180° (where raw quaternion components would
+    /// flip), plus `extra(t)` on each bone's first Euler angle and a deterministic sawtooth
+    /// jitter of amplitude `noise` radians (metres on the root's height).
+    pub(crate) fn whole_body(
+        rig: &Rig,
+        n: u32,
+        noise: f64,
+        extra: impl Fn(f64) -> f64,
+    ) -> Vec<BonePose> {
+        let jitter = |k: u32, b: usize, c: u32| {
+            let x = f64::from(k) * 0.618_033_988_75
+                + f64::from(u32::try_from(b).unwrap_or(0)) * 0.414
+                + f64::from(c) * 0.732;
+            noise * (2.0 * (x - x.floor()) - 1.0)
+        };
+        (0..n)
+            .map(|k| {
+                let t = f64::from(k) / 30.0;
+                BonePose {
+                    root_translation_m: Vector3::new(t, 0.0, jitter(k, 99, 0)),
+                    local_rotations: rig
+                        .bones
+                        .iter()
+                        .enumerate()
+                        .map(|(b, bone)| {
+                            let phase = f64::from(u32::try_from(b).unwrap_or(0)) * 0.37;
+                            bone.constrain(&UnitQuaternion::from_euler_angles(
+                                0.6 * (2.0 * t + phase).sin() + extra(t) + jitter(k, b, 0),
+                                0.4 * (1.5 * t + phase).cos() + jitter(k, b, 1),
+                                if b == 0 {
+                                    2.0 * t
+                                } else {
+                                    0.3 * (t + phase).sin()
+                                } + jitter(k, b, 2),
+                            ))
+                        })
+                        .collect(),
+                }
+            })
+            .collect()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::geom::rotation_distance;
-    use nalgebra::{UnitQuaternion, Vector3};
 
-    /// Every bone moving in its class with jitter, 4 s at 30 fps, with a fast swing in the middle.
+    /// 4 s of whole-body motion with jitter and a fast swing in the middle.
     fn keys(rig: &Rig) -> Vec<AnimationFrame> {
-        (0..120u32)
-            .map(|k| {
-                let t = f64::from(k) / 30.0;
-                let burst = if (55..65).contains(&k) {
-                    2.5 * (t - 55.0 / 30.0)
-                } else if k >= 65 {
-                    2.5 / 3.0
-                } else {
-                    0.0
-                };
-                let jitter = |b: usize| {
-                    let x = f64::from(k) * 0.618 + f64::from(u32::try_from(b).unwrap()) * 0.31;
-                    0.02 * (x - x.floor() - 0.5)
-                };
-                AnimationFrame {
-                    stamp_nanos: stamp_nanos_at(k as usize, 30.0),
-                    pose: BonePose {
-                        root_translation_m: Vector3::new(t, 0.0, 0.0),
-                        local_rotations: rig
-                            .bones
-                            .iter()
-                            .enumerate()
-                            .map(|(b, bone)| {
-                                bone.constrain(&UnitQuaternion::from_euler_angles(
-                                    0.5 * t.sin() + burst + jitter(b),
-                                    0.3 * (1.7 * t).cos() + jitter(b + 7),
-                                    // The root spins through ±180°.
-                                    if b == 0 { 1.5 * t } else { 0.2 * t } + jitter(b + 3),
-                                ))
-                            })
-                            .collect(),
-                    },
-                }
+        let burst = |t: f64| (8.0 * (t - 55.0 / 30.0)).clamp(0.0, 8.0 / 3.0);
+        fixture::whole_body(rig, 120, 0.01, burst)
+            .into_iter()
+            .enumerate()
+            .map(|(k, pose)| AnimationFrame {
+                stamp_nanos: stamp_nanos_at(k, 30.0),
+                pose,
             })
             .collect()
     }

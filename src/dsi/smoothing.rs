@@ -180,42 +180,10 @@ mod tests {
     use crate::geom::rotation_distance;
 
     fn clip(rig: &Rig, n: u32, noise: f64) -> (Vec<BonePose>, Vec<BonePose>) {
-        // A deterministic pseudo-noise (no RNG needed): a fast irrational-phase sawtooth.
-        let jitter = |k: u32, b: usize, c: u32| {
-            let x = f64::from(k) * 0.618_033_988_75
-                + f64::from(u32::try_from(b).unwrap()) * 0.414
-                + f64::from(c) * 0.732;
-            noise * (2.0 * (x - x.floor()) - 1.0)
-        };
-        let mut clean = Vec::new();
-        let mut noisy = Vec::new();
-        for k in 0..n {
-            let t = f64::from(k) / 30.0;
-            let pose = |noise_on: bool| BonePose {
-                root_translation_m: Vector3::new(
-                    t,
-                    0.0,
-                    if noise_on { jitter(k, 99, 0) } else { 0.0 },
-                ),
-                local_rotations: rig
-                    .bones
-                    .iter()
-                    .enumerate()
-                    .map(|(b, bone)| {
-                        let e = |c: u32| if noise_on { jitter(k, b, c) } else { 0.0 };
-                        bone.constrain(&UnitQuaternion::from_euler_angles(
-                            0.8 * (2.0 * t).sin() + e(0),
-                            0.5 * (1.5 * t).cos() + e(1),
-                            // The root turns past ±180°, where raw components would flip.
-                            if b == 0 { 2.0 * t } else { 0.3 * t.sin() } + e(2),
-                        ))
-                    })
-                    .collect(),
-            };
-            clean.push(pose(false));
-            noisy.push(pose(true));
-        }
-        (clean, noisy)
+        (
+            crate::dsi::fixture::whole_body(rig, n, 0.0, |_| 0.0),
+            crate::dsi::fixture::whole_body(rig, n, noise, |_| 0.0),
+        )
     }
 
     fn mean_error(rig: &Rig, a: &[BonePose], b: &[BonePose]) -> f64 {

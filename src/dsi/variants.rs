@@ -255,32 +255,10 @@ fn perturb(
 mod tests {
     use super::*;
     use crate::geom::rotation_distance;
-    use nalgebra::UnitQuaternion;
 
     /// Every bone of the rig moving in its own class, smoothly, for 3 s at 30 fps.
     fn moving_animation(rig: &Rig) -> Vec<BonePose> {
-        (0..90)
-            .map(|k| {
-                let t = f64::from(k) / 30.0;
-                BonePose {
-                    root_translation_m: Vector3::new(t, 0.0, 0.0),
-                    local_rotations: rig
-                        .bones
-                        .iter()
-                        .enumerate()
-                        .map(|(b, bone)| {
-                            let phase = f64::from(u32::try_from(b).unwrap());
-                            let q = UnitQuaternion::from_euler_angles(
-                                0.6 * (t + phase).sin(),
-                                0.4 * (1.3 * t + phase).cos(),
-                                0.5 * (0.7 * t - phase).sin(),
-                            );
-                            bone.constrain(&q)
-                        })
-                        .collect(),
-                }
-            })
-            .collect()
+        crate::dsi::fixture::whole_body(rig, 90, 0.0, |_| 0.0)
     }
 
     #[test]
