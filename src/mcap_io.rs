@@ -291,8 +291,8 @@ impl<W: Write + Seek> BagWriter<W> {
     }
 
     /// Writes a message that is already CDR (with its 4-byte encapsulation header), of ROS type
-    /// `type_name` whose `.msg` text (rosbag2 form, dependencies included) is `definition` — as
-    /// received from DDS, or read from another bag.
+    /// `type_name` — as received from DDS, or read from another bag. `definition` gives its
+    /// `.msg` text (rosbag2 form, dependencies included); it is called only for a new channel.
     ///
     /// # Errors
     /// [`McapIoError`] naming the file and topic.
@@ -300,12 +300,12 @@ impl<W: Write + Seek> BagWriter<W> {
         &mut self,
         topic: &str,
         type_name: &str,
-        definition: &str,
+        definition: impl FnOnce() -> String,
         log_time_nanos: u64,
         publish_time_nanos: u64,
         cdr: &[u8],
     ) -> Result<(), McapIoError> {
-        let channel_id = self.channel_for(topic, type_name, || definition.to_string())?;
+        let channel_id = self.channel_for(topic, type_name, definition)?;
         self.append(
             channel_id,
             topic,

@@ -69,7 +69,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         writer.write_raw(
             &m.channel.topic,
             &schema.name,
-            &String::from_utf8_lossy(&schema.data),
+            || String::from_utf8_lossy(&schema.data).into_owned(),
             m.log_time,
             m.publish_time,
             &m.data,

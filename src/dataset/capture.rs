@@ -21,7 +21,10 @@ use std::path::{Path, PathBuf};
 use super::plan::{Plan, SceneNode};
 use super::spec::Spec;
 use crate::animation_bag::{TF_STATIC_TOPIC, TF_TOPIC, TrackWriter, read_animation};
-use crate::camera::{CameraPose, Intrinsics, Subject, Viewpoint, camera_at, framing_band};
+use crate::camera::{
+    CAMERA_FRAME, CameraPose, DISTORTION_MODEL, Intrinsics, Subject, Viewpoint, camera_at,
+    framing_band,
+};
 use crate::character::Character;
 use crate::convert::{AnimationFrame, ConvertOptions, convert_sequence};
 use crate::dsi::smoothing::Smoothing;
@@ -51,8 +54,6 @@ pub const CAMERA_INFO_TOPIC: &str = "/camera/camera_info";
 pub const SCENE_TOPIC: &str = "/scene";
 /// Topic of the clip segments.
 pub const SEGMENTS_TOPIC: &str = "/segments";
-/// The camera's optical frame.
-pub const CAMERA_FRAME: &str = "camera";
 
 /// What went wrong while capturing.
 #[derive(Debug, thiserror::Error)]
@@ -235,53 +236,70 @@ fn scene_state(
     }
 }
 
-fn camera_messages(
-    pose: &CameraPose,
-    intrinsics: &Intrinsics,
-    stamp: Time,
-) -> (PoseStamped, TFMessage, CameraInfo) {
-    let header = Header {
-        stamp,
-        frame_id: WORLD_FRAME.to_string(),
-    };
-    let rotation = Quaternion::from(pose.world_from_optical);
-    let position = crate::ros::geometry_msgs::Point::from(pose.position_m);
-    let p = PoseStamped {
-        header: header.clone(),
-        pose: Pose {
-            position,
-            orientation: rotation,
-        },
-    };
-    let tf = TFMessage {
-        transforms: vec![TransformStamped {
-            header,
-            child_frame_id: CAMERA_FRAME.to_string(),
-            transform: Transform {
-                translation: Vector3 {
-                    x: position.x,
-                    y: position.y,
-                    z: position.z,
-                },
-                rotation,
+/// The camera's three messages per frame, kept and updated in place (no allocation per frame):
+/// its pose in `world`, the `world → camera` transform, and its calibration.
+struct CameraTrack {
+    pose: PoseStamped,
+    tf: TFMessage,
+    info: CameraInfo,
+}
+
+impl CameraTrack {
+    fn new(intrinsics: &Intrinsics) -> CameraTrack {
+        let world = Header {
+            stamp: Time::default(),
+            frame_id: WORLD_FRAME.to_string(),
+        };
+        CameraTrack {
+            pose: PoseStamped {
+                header: world.clone(),
+                pose: Pose::default(),
             },
-        }],
-    };
-    let info = CameraInfo {
-        header: Header {
-            stamp,
-            frame_id: CAMERA_FRAME.to_string(),
-        },
-        height: intrinsics.height_px,
-        width: intrinsics.width_px,
-        distortion_model: "plumb_bob".to_string(),
-        d: intrinsics.d().to_vec(),
-        k: intrinsics.k(),
-        r: intrinsics.r(),
-        p: intrinsics.p(),
-        ..CameraInfo::default()
-    };
-    (p, tf, info)
+            tf: TFMessage {
+                transforms: vec![TransformStamped {
+                    header: world,
+                    child_frame_id: CAMERA_FRAME.to_string(),
+                    transform: Transform::default(),
+                }],
+            },
+            info: CameraInfo {
+                header: Header {
+                    stamp: Time::default(),
+                    frame_id: CAMERA_FRAME.to_string(),
+                },
+                height: intrinsics.height_px,
+                width: intrinsics.width_px,
+                distortion_model: DISTORTION_MODEL.to_string(),
+                d: intrinsics.d().to_vec(),
+                k: intrinsics.k(),
+                r: intrinsics.r(),
+                p: intrinsics.p(),
+                ..CameraInfo::default()
+            },
+        }
+    }
+
+    /// Writes `/camera/pose`, the camera's `/tf` and `/camera/camera_info` at `stamp`.
+    fn write<W: std::io::Write + std::io::Seek>(
+        &mut self,
+        w: &mut BagWriter<W>,
+        stamp: u64,
+        camera: &CameraPose,
+    ) -> Result<(), McapIoError> {
+        let time = Time::from_nanos(stamp);
+        let rotation = Quaternion::from(camera.world_from_optical);
+        self.pose.header.stamp = time;
+        self.pose.pose.position = crate::ros::geometry_msgs::Point::from(camera.position_m);
+        self.pose.pose.orientation = rotation;
+        let t = &mut self.tf.transforms[0];
+        t.header.stamp = time;
+        t.transform.translation = Vector3::from(camera.position_m.coords);
+        t.transform.rotation = rotation;
+        self.info.header.stamp = time;
+        w.write(CAMERA_POSE_TOPIC, stamp, &self.pose)?;
+        w.write(TF_TOPIC, stamp, &self.tf)?;
+        w.write(CAMERA_INFO_TOPIC, stamp, &self.info)
+    }
 }
 
 /// What every clip of one scene shares: the character's writer, the animation retargeted onto
@@ -384,6 +402,7 @@ pub fn write_sessions(
         meta.insert("clips".to_string(), session.leaves.len().to_string());
         w.write_metadata(&format!("{}.dataset", crate::pose_bag::METADATA_NAME), meta)?;
 
+        let mut camera_track = CameraTrack::new(&intrinsics);
         let mut current_scene: Option<usize> = None;
         let mut staged: Option<Staged<'_>> = None;
         let mut pushed_out = 0;
@@ -476,10 +495,7 @@ pub fn write_sessions(
                     subject.ground_xy_m[k],
                     subject.centres_m[k],
                 );
-                let (p, tf, info) = camera_messages(&cam, &intrinsics, Time::from_nanos(stamp));
-                w.write(CAMERA_POSE_TOPIC, stamp, &p)?;
-                w.write(TF_TOPIC, stamp, &tf)?;
-                w.write(CAMERA_INFO_TOPIC, stamp, &info)?;
+                camera_track.write(&mut w, stamp, &cam)?;
                 tw.write_frame(&mut w, stamp, pose)?;
             }
         }

@@ -51,6 +51,9 @@ pub struct TopicStats {
     pub dropped: u64,
     /// Messages that did not decode as their type (not written).
     pub rejected: u64,
+    /// The last sequence number seen from each DDS writer of the topic.
+    #[serde(skip)]
+    last_sequence: BTreeMap<[u8; 16], i64>,
 }
 
 /// Where the files go.
@@ -92,7 +95,6 @@ pub struct RecordWriter {
     files: Vec<PathBuf>,
     file_stats: Vec<(String, crate::mcap_io::BagStats)>,
     topics: BTreeMap<String, TopicStats>,
-    last_sequence: BTreeMap<(String, [u8; 16]), i64>,
     metadata: BTreeMap<String, String>,
 }
 
@@ -135,7 +137,6 @@ impl RecordWriter {
             files: Vec::new(),
             file_stats: Vec::new(),
             topics: BTreeMap::new(),
-            last_sequence: BTreeMap::new(),
             metadata: BTreeMap::new(),
         }
     }
@@ -208,23 +209,28 @@ impl RecordWriter {
     /// # Errors
     /// [`McapIoError`] from the file (e.g. a full disk): stop recording then.
     pub fn write(&mut self, m: &Received<'_>) -> Result<(), McapIoError> {
-        let stats = self
-            .topics
-            .entry(m.topic.to_string())
-            .or_insert_with(|| TopicStats {
-                type_name: m.type_name.to_string(),
-                ..TopicStats::default()
-            });
-        let key = (m.topic.to_string(), m.writer);
-        if let Some(&last) = self.last_sequence.get(&key)
-            && m.sequence_number > last + 1
-        {
-            stats.dropped += u64::try_from(m.sequence_number - last - 1).unwrap_or(0);
+        // Keys are allocated once per topic and writer, not once per message.
+        if !self.topics.contains_key(m.topic) {
+            self.topics.insert(
+                m.topic.to_string(),
+                TopicStats {
+                    type_name: m.type_name.to_string(),
+                    ..TopicStats::default()
+                },
+            );
         }
-        self.last_sequence
-            .entry(key)
-            .and_modify(|s| *s = (*s).max(m.sequence_number))
-            .or_insert(m.sequence_number);
+        let stats = self.topics.get_mut(m.topic).expect("inserted above");
+        match stats.last_sequence.get_mut(&m.writer) {
+            Some(last) => {
+                if m.sequence_number > *last + 1 {
+                    stats.dropped += u64::try_from(m.sequence_number - *last - 1).unwrap_or(0);
+                }
+                *last = (*last).max(m.sequence_number);
+            }
+            None => {
+                stats.last_sequence.insert(m.writer, m.sequence_number);
+            }
+        }
         if !decodes(m.type_name, m.cdr) {
             stats.rejected += 1;
             return Ok(());
@@ -235,11 +241,10 @@ impl RecordWriter {
         let Some(w) = self.current.as_mut() else {
             return Ok(());
         };
-        let definition = ros::definition(m.type_name).unwrap_or_default();
         w.write_raw(
             m.topic,
             m.type_name,
-            &definition,
+            || ros::definition(m.type_name).unwrap_or_default(),
             m.receive_time_ns,
             m.source_time_ns.unwrap_or(m.receive_time_ns),
             m.cdr,
