@@ -28,13 +28,8 @@ HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 ROOT=$(cd "$HERE/../.." && pwd)
 N=${N:-200}
 RATE=${RATE:-200}
-cd "$ROOT"
-cargo build --release --quiet
-AUTOACT=$ROOT/target/release/autoact
-tools/interop/run.sh --exec python -c 'import cyclonedds, mcap_ros2'
-OUT=${KEEP:-$(mktemp -d)}
-mkdir -p "$OUT"
-[ -n "${KEEP:-}" ] || trap 'rm -rf "$OUT"' EXIT
+# shellcheck source=setup.sh
+. "$HERE/setup.sh"
 failed=0
 passed=0
 ONLY=" $* "

@@ -25,13 +25,8 @@ RUNS=${RUNS:-1}
 [[ $P =~ ^[0-9]+$ && $R =~ ^[0-9]+$ && $T =~ ^[0-9]+$ && $RUNS =~ ^[0-9]+$ ]] || { echo "usage: P, R, T, RUNS are integers" >&2; exit 2; }
 (( P >= 1 && P <= 8 && R >= 1 && R <= 5000 && T >= 1 && T <= 120 && RUNS >= 1 && RUNS <= 10 )) \
   || { echo "load.sh: bounded load only: 1<=P<=8, 1<=R<=5000, 1<=T<=120, 1<=RUNS<=10" >&2; exit 2; }
-cd "$ROOT"
-cargo build --release --quiet
-AUTOACT=$ROOT/target/release/autoact
-tools/interop/run.sh --exec python -c 'import cyclonedds, mcap'
-OUT=${KEEP:-$(mktemp -d)}
-mkdir -p "$OUT"
-[ -n "${KEEP:-}" ] || trap 'rm -rf "$OUT"' EXIT
+# shellcheck source=setup.sh
+. "$HERE/setup.sh"
 failed=0
 printf '%-4s %-3s %-5s %-3s %-9s %-9s %-8s %-8s %-9s %-6s %-5s %-9s %-6s\n' \
   run P R T published recorded dropped rejected pub_rate cpu_s cpu% maxrss_MB wall_s
