@@ -12,6 +12,7 @@
 //! ```
 
 pub mod animation_bag;
+pub mod body_mesh;
 pub mod camera;
 pub mod character;
 pub mod cli;
