@@ -54,6 +54,10 @@ pub const MAX_TRIANGLES: usize = 3_000;
 /// shoulder stays round when the arm hangs down.
 const SHOULDER_BLEND: f64 = 0.45;
 
+/// How much further (in chain coordinates) the top of the shoulder stays with the clavicle
+/// than the armpit.
+const SHOULDER_WEIGHT_SHIFT: f64 = 0.2;
+
 /// Fraction of a bone's length, each side of a joint, over which its rings blend between the
 /// parent and the child bone (50/50 at the joint).
 pub const JOINT_BLEND: f64 = 0.25;
@@ -734,6 +738,9 @@ struct Station {
     back_m: f64,
     /// Offset of the ring's centre from the chain, metres.
     offset_m: Vector3<f64>,
+    /// Weights of a ring vertex are taken at `c − weight_shift · v` (`v` its profile
+    /// coefficient, +1 at the `+v` side): the `+v` side follows the parent bone longer.
+    weight_shift: f64,
 }
 
 impl Station {
@@ -744,6 +751,7 @@ impl Station {
             front_m: half_depth_m,
             back_m: half_depth_m,
             offset_m: Vector3::zeros(),
+            weight_shift: 0.0,
         }
     }
 
@@ -849,10 +857,15 @@ impl PartBuilder {
                 .unwrap_or_else(|| t.cross(&Vector3::x()).normalize());
             let u = v.cross(&t);
             let centre = chain.point(s.c) + s.offset_m;
-            let w = chain.influences(s.c);
+            let ring_weights = chain.influences(s.c);
             for &[pu, pv] in profile {
                 let depth = if pv >= 0.0 { s.front_m } else { s.back_m };
                 let p = centre + u * (pu * s.half_width_m) + v * (pv * depth);
+                let w = if s.weight_shift == 0.0 {
+                    ring_weights
+                } else {
+                    chain.influences(s.c - s.weight_shift * pv)
+                };
                 rings.push(self.vertex(p, w));
             }
         }
@@ -985,6 +998,7 @@ fn torso(sk: &Skeleton<'_>, dims: &Dims, shape: &BodyShape) -> Result<PartBuilde
                 front_m: f * kf + bust_here,
                 back_m: b * kb,
                 offset_m: Vector3::zeros(),
+                weight_shift: 0.0,
             }
         })
         .collect();
@@ -1041,6 +1055,7 @@ fn head(sk: &Skeleton<'_>, dims: &Dims, shape: &BodyShape) -> Result<PartBuilder
                 front_m: af * s,
                 back_m: ab * s * nape,
                 offset_m: Vector3::zeros(),
+                weight_shift: 0.0,
             }
         })
         .collect();
@@ -1211,6 +1226,9 @@ fn arm(sk: &Skeleton<'_>, dims: &Dims, side: Side) -> Result<PartBuilder, BodyMe
             let k = if c >= 3.2 { hand_scale } else { limb };
             let mut s = Station::oval(c, w, h).scaled(k);
             s.offset_m = Vector3::z() * (-drop * limb);
+            // Over the shoulder the top of the arm stays with the clavicle longer than the
+            // armpit, so a lowered arm leaves a rounded shoulder rather than a corner.
+            s.weight_shift = SHOULDER_WEIGHT_SHIFT * (1.0 - ((c - 1.0) / 0.45).abs()).max(0.0);
             s
         })
         .collect();
@@ -1315,6 +1333,7 @@ fn leg(sk: &Skeleton<'_>, dims: &Dims, side: Side) -> Result<PartBuilder, BodyMe
                 front_m: f * k,
                 back_m: bk * k,
                 offset_m: Vector3::zeros(),
+                weight_shift: 0.0,
             }
         })
         .collect();
@@ -1383,6 +1402,7 @@ fn shoe(sk: &Skeleton<'_>, side: Side) -> Result<PartBuilder, BodyMeshError> {
             front_m: 0.5 * h * k,
             back_m: 0.5 * h * k,
             offset_m: Vector3::z() * (0.5 * h * k),
+            weight_shift: 0.0,
         })
         .collect();
     let mut part = PartBuilder::new(side.part("l_shoe", "r_shoe"));
