@@ -454,8 +454,10 @@ impl<'a> Skeleton<'a> {
         let rest = fk::forward(rig, character, &BonePose::rest(rig), 1.0);
         let head = bone(rig, "head")?;
         let head_top = match rig.landmark_index("head_top") {
-            Some(l) => fk::landmark_position(rig, character, &rest, l).coords,
-            None => tail_of(rig, character, &rest, head),
+            Some(l) if l < character.landmark_offset_m.len() => {
+                fk::landmark_position(rig, character, &rest, l).coords
+            }
+            _ => tail_of(rig, character, &rest, head),
         };
         Ok(Skeleton {
             rig,
