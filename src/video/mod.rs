@@ -18,6 +18,8 @@
 
 mod annexb;
 mod encode;
+mod font;
+mod image;
 mod probe;
 mod rational;
 mod stderr_tail;
@@ -31,6 +33,7 @@ pub use encode::{
     DEFAULT_CRF, DEFAULT_GOP_SECS, DEFAULT_PRESET, EncodeSettings, EncodedVideo, VideoEncoder,
     force_key_frames_arg,
 };
+pub use image::{Tile, contact_sheet, read_png, write_png};
 pub use probe::{ProbedFrame, ProbedPacket, VideoProbe, probe, probe_packets};
 pub use rational::Rational;
 pub use tools::{Ffmpeg, INSTALL_HINT, download_cache_dir};
