@@ -456,6 +456,131 @@ fn ffmpeg_killed_mid_stream_is_an_error_and_leaves_no_file() {
     );
 }
 
+#[cfg(unix)]
+#[test]
+fn ffmpeg_exiting_0_with_a_wrong_file_is_caught_and_leaves_no_file() {
+    let Some(real) = ffmpeg_or_skip("ffmpeg_exiting_0_with_a_wrong_file…") else {
+        return;
+    };
+    let tools = tempfile::tempdir().unwrap();
+    // A genuine 5-frame video whose only keyframe is frame 0.
+    let five = tools.path().join("five.mp4");
+    let mut settings = EncodeSettings::new(64, 48, 30.0);
+    settings.gop_frames = 1000;
+    encode_indexed(&real, &five, &settings, 5);
+    // An "ffmpeg" that swallows its input, copies that file to its output and exits 0.
+    let fake = script(
+        tools.path(),
+        "ffmpeg",
+        &format!(
+            "for a; do last=$a; done\ncat >/dev/null\ncp '{}' \"$last\"",
+            five.display()
+        ),
+    );
+    let ffmpeg = Ffmpeg::from_paths(fake, real.ffprobe_path());
+    let dir = tempfile::tempdir().unwrap();
+    let output = dir.path().join("out.mp4");
+
+    let mut encoder = VideoEncoder::start(&ffmpeg, &output, &settings).unwrap();
+    for k in 0..7 {
+        encoder.write_frame(&index_frame(64, 48, k)).unwrap();
+    }
+    let err = encoder.finish().unwrap_err();
+    assert!(
+        matches!(
+            err,
+            VideoError::FrameCountMismatch {
+                written: 7,
+                found: 5,
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+    assert!(
+        dir_entries(dir.path()).is_empty(),
+        "{:?}",
+        dir_entries(dir.path())
+    );
+
+    let with_key = settings.clone().with_keyframes([3]);
+    let mut encoder = VideoEncoder::start(&ffmpeg, &output, &with_key).unwrap();
+    for k in 0..5 {
+        encoder.write_frame(&index_frame(64, 48, k)).unwrap();
+    }
+    let err = encoder.finish().unwrap_err();
+    assert!(
+        matches!(err, VideoError::KeyframeMissing { frame: 3, .. }),
+        "{err:?}"
+    );
+    assert!(
+        dir_entries(dir.path()).is_empty(),
+        "{:?}",
+        dir_entries(dir.path())
+    );
+}
+
+#[cfg(unix)]
+#[test]
+fn interrupted_process_leaves_no_file_under_the_final_name() {
+    if let Some(dir) = std::env::var_os("AUTOACT_VIDEO_INTERRUPT_DIR") {
+        // Child: encode until killed by SIGINT (no handler: the default action ends it).
+        let dir = PathBuf::from(dir);
+        let ffmpeg = Ffmpeg::locate().unwrap();
+        let settings = EncodeSettings::new(320, 240, 30.0);
+        let mut encoder =
+            VideoEncoder::start(&ffmpeg, &dir.join("capture.mp4"), &settings).unwrap();
+        for k in 0..1_000_000 {
+            encoder
+                .write_frame(&index_frame(320, 240, k % 60_000))
+                .unwrap();
+            if k == 30 {
+                std::fs::write(dir.join("ready"), b"").unwrap();
+            }
+        }
+        return;
+    }
+    if ffmpeg_or_skip("interrupted_process…").is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let exe = std::env::current_exe().unwrap();
+    let mut child = Command::new(exe)
+        .args([
+            "interrupted_process_leaves_no_file_under_the_final_name",
+            "--exact",
+            "--test-threads=1",
+        ])
+        .env("AUTOACT_VIDEO_INTERRUPT_DIR", dir.path())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let t0 = Instant::now();
+    while !dir.path().join("ready").exists() {
+        assert!(t0.elapsed().as_secs() < 60, "the child never got going");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let interrupted = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(interrupted.success());
+    let status = child.wait().unwrap();
+    assert!(!status.success(), "the child should have died from SIGINT");
+    // ffmpeg, in its own process group, sees the end of its input and closes its file; give it
+    // a moment, then check that only the hidden `.part` name was ever used.
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let names = dir_entries(dir.path());
+    assert!(!names.iter().any(|n| n == "capture.mp4"), "{names:?}");
+    assert!(
+        names
+            .iter()
+            .all(|n| n == "ready" || n == ".capture.mp4.part"),
+        "{names:?}"
+    );
+}
+
 #[test]
 fn dropped_or_aborted_encoders_leave_no_file_and_keep_an_old_output() {
     let Some(ffmpeg) = ffmpeg_or_skip("dropped_or_aborted…") else {

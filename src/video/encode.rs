@@ -353,7 +353,7 @@ impl VideoEncoder {
             use std::os::unix::process::CommandExt;
             command.as_inner_mut().process_group(0);
         }
-        tracing::debug!(command = ?command_line(&mut command), "starting ffmpeg");
+        tracing::debug!(command = %command_line(&mut command), "starting ffmpeg");
 
         let mut child = command
             .spawn()

@@ -12,6 +12,24 @@
 //! - [`annexb_access_units`] turns an encoded file into one Annex B access unit per frame.
 //! - [`write_png`], [`read_png`] and [`contact_sheet`] cover stills.
 //!
+//! ```no_run
+//! use autoact::video::{EncodeSettings, Ffmpeg, VideoEncoder};
+//! # fn main() -> Result<(), autoact::video::VideoError> {
+//! let ffmpeg = Ffmpeg::locate()?; // or Ffmpeg::download() when the user asked for it
+//! // 640x360 at 30 fps; segments start at frames 0, 90 and 151, so cuts there can be exact.
+//! let settings = EncodeSettings::new(640, 360, 30.0).with_keyframes([90, 151]);
+//! let mut encoder = VideoEncoder::start(&ffmpeg, "capture.mp4".as_ref(), &settings)?;
+//! for k in 0..200_u64 {
+//!     let frame = vec![(k % 256) as u8; settings.frame_bytes()]; // rendered rgb24 pixels
+//!     encoder.write_frame(&frame)?;
+//! }
+//! let video = encoder.finish()?; // capture.mp4 exists only now, checked by ffprobe
+//! let stamp_ns = video.fps.frame_time_nanos(151); // frame 151's time in the video
+//! # let _ = stamp_ns;
+//! # Ok(())
+//! # }
+//! ```
+//!
 //! `ffmpeg` 5.1 (Debian 12) is the reference version; nothing here needs a newer one. The
 //! `ffmpeg-sidecar` crate builds and spawns the encoder command; `ffprobe` runs through
 //! [`std::process::Command`] because `ffmpeg-sidecar` has no `ffprobe` wrapper.

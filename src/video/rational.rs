@@ -81,6 +81,17 @@ impl Rational {
         self.num as f64 / self.den as f64
     }
 
+    /// Taking `self` as frames per second: the time of frame `frame` (frame 0 at 0), in
+    /// nanoseconds, rounded to the nearest. Exact integer arithmetic, so stamps of a long video
+    /// never drift from the encoded timestamps by more than half a nanosecond.
+    #[must_use]
+    pub fn frame_time_nanos(self, frame: u64) -> u64 {
+        let num = u128::from(self.num.unsigned_abs()).max(1);
+        let den = u128::from(self.den.unsigned_abs());
+        let nanos = (u128::from(frame) * den * 1_000_000_000 * 2 + num) / (2 * num);
+        u64::try_from(nanos).unwrap_or(u64::MAX)
+    }
+
     /// Parses `ffmpeg`'s `num/den` (or a plain integer).
     #[must_use]
     pub fn parse(text: &str) -> Option<Rational> {
@@ -139,6 +150,18 @@ mod tests {
         assert_eq!(Rational::from_f64(f64::NAN), None);
         assert_eq!(Rational::from_f64(-30.0), None);
         assert_eq!(Rational::from_f64(30.000_000_1), None);
+    }
+
+    #[test]
+    fn frame_times_are_exact_nanoseconds() {
+        let ntsc = Rational::new(30000, 1001).unwrap();
+        assert_eq!(ntsc.frame_time_nanos(0), 0);
+        assert_eq!(ntsc.frame_time_nanos(1), 33_366_667);
+        assert_eq!(ntsc.frame_time_nanos(30_000), 1_001_000_000_000);
+        assert_eq!(
+            Rational::new(30, 1).unwrap().frame_time_nanos(3),
+            100_000_000
+        );
     }
 
     #[test]
