@@ -46,7 +46,13 @@ impl AccessUnit {
 }
 
 /// The H.264 stream of `path`'s first video stream as Annex B access units, one per frame, in
-/// decode order (= presentation order for the encoder's files, which have no B-frames).
+/// decode order (= presentation order for the encoder's files, which have no B-frames), ready
+/// for `foxglove_msgs/CompressedVideo` (format `h264`).
+///
+/// Nothing is re-encoded: `ffmpeg -i FILE -map 0:v:0 -c copy -bsf:v
+/// h264_mp4toannexb,h264_metadata=aud=insert -f h264 -` gives start-code NAL units with the
+/// SPS and PPS repeated before every IDR frame and an access unit delimiter opening every
+/// frame, where the stream is split (the delimiters stay in the units: 6 bytes each).
 ///
 /// # Errors
 /// [`VideoError::Exited`] if ffmpeg fails (e.g. the stream is not H.264),

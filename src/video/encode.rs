@@ -1,38 +1,5 @@
-//! Encoding rendered `rgb24` frames to H.264 with `ffmpeg` (libx264), frame-exact.
-//!
-//! The command (`ffmpeg-sidecar` builds and spawns it):
-//!
-//! ```text
-//! ffmpeg -hide_banner -nostats -loglevel level+warning
-//!        -f rawvideo -pix_fmt rgb24 -video_size WxH -framerate NUM/DEN -i -
-//!        -map 0:v:0 -an -sn -dn
-//!        -c:v libx264 -preset P -crf C -pix_fmt yuv420p
-//!        -bf 0 -g GOP -sc_threshold 0 -forced-idr 1 [-force_key_frames T1,T2,…]
-//!        -f mp4 -y DIR/.NAME.part
-//! ```
-//!
-//! - **Timing.** The frame rate is passed as an exact rational ([`Rational::from_f64`]), and the
-//!   raw demuxer stamps frame k with pts k in a 1/fps time base, so frame k is at exactly k/fps in
-//!   the output (mp4 track timescale = a multiple of the rate's numerator).
-//! - **No B-frames** (`-bf 0`): decode order = presentation order, so the same stream can go into
-//!   `foxglove_msgs/CompressedVideo` and a cut needs no reordering.
-//! - **Keyframes.** `-g` bounds the distance between keyframes; `-sc_threshold 0` stops x264
-//!   adding its own at scene cuts (so keyframes sit only where asked, and at most every `-g`);
-//!   `-force_key_frames` lists a time for each requested frame index and `-forced-idr 1` makes
-//!   each an IDR frame. See [`force_key_frames_arg`] for how the times are chosen.
-//! - **Never a file that looks complete unless it is.** ffmpeg writes a hidden `.NAME.part`
-//!   sibling. [`VideoEncoder::finish`] renames it to `NAME` only after ffmpeg exited 0, `ffprobe`
-//!   counted exactly the frames written and found a keyframe at every requested index, and the
-//!   file was synced to disk. Every error, [`VideoEncoder::abort`] and dropping an unfinished
-//!   encoder kill ffmpeg and delete the `.part` file.
-//! - **Interruption.** ffmpeg runs in its own process group, so a terminal's Ctrl-C reaches only
-//!   autoact, which should stop rendering and drop (or abort) the encoder. If autoact dies
-//!   without unwinding, ffmpeg sees the end of its input and closes the `.part` file, which keeps
-//!   its `.part` name.
-//! - **No deadlock.** Frames go through a small queue to a writer thread that owns ffmpeg's
-//!   stdin, and ffmpeg's stderr is drained by another thread, so neither pipe can block the
-//!   other; rendering continues while ffmpeg catches up. A write that fails because ffmpeg died
-//!   is reported as [`VideoError::Exited`] with ffmpeg's last stderr lines.
+//! Encoding rendered `rgb24` frames to H.264 with `ffmpeg` (libx264), frame-exact; the
+//! details are on [`VideoEncoder`].
 
 use std::ffi::OsString;
 use std::io::Write;
@@ -227,7 +194,41 @@ pub struct EncodedVideo {
     pub keyframes: Vec<u64>,
 }
 
-/// ffmpeg encoding frames into a `.part` file; see the [module docs](self).
+/// ffmpeg encoding `rgb24` frames into a hidden `.part` file, renamed when complete and checked.
+///
+/// The command (`ffmpeg-sidecar` builds and spawns it):
+///
+/// ```text
+/// ffmpeg -hide_banner -nostats -loglevel level+warning
+///        -f rawvideo -pix_fmt rgb24 -video_size WxH -framerate NUM/DEN -i -
+///        -map 0:v:0 -an -sn -dn
+///        -c:v libx264 -preset P -crf C -pix_fmt yuv420p
+///        -bf 0 -g GOP -sc_threshold 0 -forced-idr 1 [-force_key_frames T1,T2,…]
+///        -f mp4 -y DIR/.NAME.part
+/// ```
+///
+/// - **Timing.** The frame rate is passed as an exact rational ([`Rational::from_f64`]), and the
+///   raw demuxer stamps frame k with pts k in a 1/fps time base, so frame k is at exactly k/fps in
+///   the output (mp4 track timescale = a multiple of the rate's numerator).
+/// - **No B-frames** (`-bf 0`): decode order = presentation order, so the same stream can go into
+///   `foxglove_msgs/CompressedVideo` and a cut needs no reordering.
+/// - **Keyframes.** `-g` bounds the distance between keyframes; `-sc_threshold 0` stops x264
+///   adding its own at scene cuts (so keyframes sit only where asked, and at most every `-g`);
+///   `-force_key_frames` lists a time for each requested frame index and `-forced-idr 1` makes
+///   each an IDR frame. See [`force_key_frames_arg`] for how the times are chosen.
+/// - **Never a file that looks complete unless it is.** ffmpeg writes a hidden `.NAME.part`
+///   sibling. [`VideoEncoder::finish`] renames it to `NAME` only after ffmpeg exited 0, `ffprobe`
+///   counted exactly the frames written and found a keyframe at every requested index, and the
+///   file was synced to disk. Every error, [`VideoEncoder::abort`] and dropping an unfinished
+///   encoder kill ffmpeg and delete the `.part` file.
+/// - **Interruption.** ffmpeg runs in its own process group, so a terminal's Ctrl-C reaches only
+///   autoact, which should stop rendering and drop (or abort) the encoder. If autoact dies
+///   without unwinding, ffmpeg sees the end of its input and closes the `.part` file, which keeps
+///   its `.part` name.
+/// - **No deadlock.** Frames go through a small queue to a writer thread that owns ffmpeg's
+///   stdin, and ffmpeg's stderr is drained by another thread, so neither pipe can block the
+///   other; rendering continues while ffmpeg catches up. A write that fails because ffmpeg died
+///   is reported as [`VideoError::Exited`] with ffmpeg's last stderr lines.
 #[derive(Debug)]
 pub struct VideoEncoder {
     ffmpeg: Ffmpeg,
@@ -857,6 +858,21 @@ mod tests {
         let frames: Vec<u64> = (1..=10_000).map(|i| i * 30).collect();
         let arg = force_key_frames_arg(&frames, rate(30000, 1001)).unwrap();
         assert!(arg.len() < 100_000, "{}", arg.len());
+    }
+
+    #[test]
+    fn too_many_keyframes_are_refused_before_starting_ffmpeg() {
+        let dir = tempfile::tempdir().unwrap();
+        let ffmpeg =
+            crate::video::Ffmpeg::from_paths("/nonexistent/ffmpeg", "/nonexistent/ffprobe");
+        let settings = EncodeSettings::new(64, 48, 30000.0 / 1001.0).with_keyframes(1..40_000);
+        let err =
+            super::VideoEncoder::start(&ffmpeg, &dir.path().join("a.mp4"), &settings).unwrap_err();
+        assert!(
+            matches!(err, crate::video::VideoError::InvalidSettings { .. }),
+            "{err:?}"
+        );
+        assert!(err.to_string().contains("split the video"), "{err}");
     }
 
     #[test]
