@@ -34,3 +34,4 @@ pub mod resample;
 pub mod rig;
 pub mod ros;
 pub mod scene;
+pub mod video;

@@ -1,0 +1,916 @@
+//! Encoding rendered `rgb24` frames to H.264 with `ffmpeg` (libx264), frame-exact; the
+//! details are on [`VideoEncoder`].
+
+use std::ffi::OsString;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ChildStdin;
+use std::sync::mpsc::{Receiver, SyncSender, TryRecvError};
+use std::thread::JoinHandle;
+
+use ffmpeg_sidecar::child::FfmpegChild;
+use ffmpeg_sidecar::command::FfmpegCommand;
+
+use super::probe::probe_packets;
+use super::stderr_tail::StderrTail;
+use super::tools::spawn_error;
+use super::{Ffmpeg, Rational, VideoError};
+
+/// The default libx264 preset. Measured on a synthetic moving render (2 shared cores, ffmpeg
+/// 5.1, CRF 23; `encode_speed_report` in `tests/video.rs`), ffmpeg CPU per frame and bytes per
+/// frame:
+///
+/// | preset    | 320×240         | 640×360         |
+/// |-----------|-----------------|-----------------|
+/// | ultrafast | 1.0 ms, 3.7 KB  | 2.2 ms, 8.8 KB  |
+/// | superfast | 1.4 ms, 2.8 KB  | 2.9 ms, 6.3 KB  |
+/// | veryfast  | 1.6–1.9 ms, 1.6 KB | 3.8–4.0 ms, 3.6 KB |
+///
+/// `superfast` keeps CABAC and the deblocking filter, which `ultrafast` turns off (blockier
+/// frames and 40 % larger files at the same CRF), for under 1 ms more per frame; `veryfast`
+/// halves the size again but takes another ~1 ms per frame at 640×360 from the renderer, whose
+/// budget at 120 frames/s on 2 cores is 16.7 ms of CPU per frame.
+pub const DEFAULT_PRESET: &str = "superfast";
+/// The default constant rate factor (x264's own default).
+pub const DEFAULT_CRF: u8 = 23;
+/// The default longest keyframe interval, in seconds of video.
+pub const DEFAULT_GOP_SECS: f64 = 2.0;
+
+/// libx264's presets, fastest first.
+const PRESETS: [&str; 10] = [
+    "ultrafast",
+    "superfast",
+    "veryfast",
+    "faster",
+    "fast",
+    "medium",
+    "slow",
+    "slower",
+    "veryslow",
+    "placebo",
+];
+
+/// Frames queued between [`VideoEncoder::write_frame`] and the thread writing to ffmpeg.
+const QUEUE_FRAMES: usize = 4;
+
+/// Longest `-force_key_frames` argument we pass. Linux refuses a single argument longer than
+/// 128 KiB (`MAX_ARG_STRLEN`); this leaves room. At 30 fps the compact times take ~8 bytes each,
+/// so this allows about 15 000 keyframes.
+const MAX_KEYFRAME_ARG_BYTES: usize = 120_000;
+
+/// Largest frame side we accept.
+const MAX_SIDE_PX: u32 = 16_384;
+
+/// What to encode and how.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EncodeSettings {
+    /// Frame width in pixels (even: `yuv420p` halves it).
+    pub width: u32,
+    /// Frame height in pixels (even).
+    pub height: u32,
+    /// Frames per second. Converted to the exact rational it denotes
+    /// (`29.97` → `2997/100`; pass `30000.0 / 1001.0` for NTSC).
+    pub fps: f64,
+    /// libx264 constant rate factor, 0 (lossless) ..= 51; lower is better and larger.
+    pub crf: u8,
+    /// libx264 preset (`ultrafast` … `placebo`).
+    pub preset: String,
+    /// The longest run of frames without a keyframe (`-g`), ≥ 1.
+    pub gop_frames: u32,
+    /// Frame indices that must be IDR keyframes (any order; duplicates are fine). Frame 0
+    /// always is one.
+    pub keyframes: Vec<u64>,
+}
+
+impl EncodeSettings {
+    /// `width × height` at `fps` with the defaults: [`DEFAULT_CRF`], [`DEFAULT_PRESET`], a
+    /// keyframe at least every [`DEFAULT_GOP_SECS`], no extra keyframes.
+    #[must_use]
+    pub fn new(width: u32, height: u32, fps: f64) -> EncodeSettings {
+        EncodeSettings {
+            width,
+            height,
+            fps,
+            crf: DEFAULT_CRF,
+            preset: DEFAULT_PRESET.to_owned(),
+            gop_frames: default_gop_frames(fps),
+            keyframes: Vec::new(),
+        }
+    }
+
+    /// These settings with `keyframes` as the frames that must be IDR.
+    #[must_use]
+    pub fn with_keyframes(mut self, keyframes: impl IntoIterator<Item = u64>) -> EncodeSettings {
+        self.keyframes = keyframes.into_iter().collect();
+        self
+    }
+
+    /// Bytes of one `rgb24` frame: `width × height × 3`.
+    #[must_use]
+    pub fn frame_bytes(&self) -> usize {
+        self.width as usize * self.height as usize * 3
+    }
+}
+
+fn default_gop_frames(fps: f64) -> u32 {
+    let frames = (fps * DEFAULT_GOP_SECS).round();
+    if frames.is_finite() && frames >= 1.0 {
+        #[expect(
+            clippy::cast_possible_truncation,
+            clippy::cast_sign_loss,
+            reason = "clamped to 1..=u32::MAX"
+        )]
+        let frames = frames.min(f64::from(u32::MAX)) as u32;
+        frames
+    } else {
+        1
+    }
+}
+
+/// The `-force_key_frames` value that makes exactly the frames in `keyframes` (sorted or not,
+/// duplicates allowed) keyframes at frame rate `fps`; `None` when only frame 0 (always a
+/// keyframe) or nothing is asked for.
+///
+/// Frame k gets the shortest decimal time t with (k − ½)/fps < t ≤ k/fps. That interval is what
+/// both ffmpeg behaviours agree on: ffmpeg ≤ 6.0 rounds t to the *nearest* frame and keys the
+/// first frame at or after it, later versions key the first frame whose time is ≥ t. The
+/// usual "half a frame before" time would fall on the rounding boundary, and microsecond
+/// rounding in ffmpeg's time parser then keys frame k − 1 about half the time (measured with
+/// ffmpeg 5.1). Short decimals keep hundreds of boundaries well inside the argument length
+/// limit (at 30 fps two decimals always suffice).
+#[must_use]
+pub fn force_key_frames_arg(keyframes: &[u64], fps: Rational) -> Option<String> {
+    let mut frames: Vec<u64> = keyframes.iter().copied().filter(|&k| k > 0).collect();
+    frames.sort_unstable();
+    frames.dedup();
+    if frames.is_empty() {
+        return None;
+    }
+    let mut arg = String::with_capacity(frames.len() * 9);
+    for k in frames {
+        if !arg.is_empty() {
+            arg.push(',');
+        }
+        arg.push_str(&keyframe_time(k, fps)?);
+    }
+    Some(arg)
+}
+
+/// The shortest decimal t (at most 6 places) with (k − ½)/fps < t ≤ k/fps.
+fn keyframe_time(k: u64, fps: Rational) -> Option<String> {
+    let num = u128::from(fps.num.unsigned_abs());
+    let den = u128::from(fps.den.unsigned_abs());
+    let k = u128::from(k);
+    let mut scale: u128 = 1;
+    for places in 0..=6_usize {
+        // Largest m with m/scale ≤ k·den/num.
+        let m = k * den * scale / num;
+        // m/scale > (k − ½)·den/num  ⇔  2·m·num > (2k − 1)·den·scale.
+        if 2 * m * num > (2 * k - 1) * den * scale {
+            let whole = m / scale;
+            if places == 0 {
+                return Some(whole.to_string());
+            }
+            let frac = m % scale;
+            return Some(format!("{whole}.{frac:0places$}"));
+        }
+        scale *= 10;
+    }
+    None
+}
+
+/// An encoded file, complete and checked.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EncodedVideo {
+    /// The final path.
+    pub path: PathBuf,
+    /// Frames in the file (= frames written).
+    pub frame_count: u64,
+    /// File size.
+    pub bytes: u64,
+    /// The exact frame rate: frame k is at `k / fps`.
+    pub fps: Rational,
+    /// Indices of all keyframes in the file (the requested ones, frame 0 and GOP keyframes).
+    pub keyframes: Vec<u64>,
+}
+
+/// ffmpeg encoding `rgb24` frames into a hidden `.part` file, renamed when complete and checked.
+///
+/// The command (`ffmpeg-sidecar` builds and spawns it):
+///
+/// ```text
+/// ffmpeg -hide_banner -nostats -loglevel level+warning
+///        -f rawvideo -pix_fmt rgb24 -video_size WxH -framerate NUM/DEN -i -
+///        -map 0:v:0 -an -sn -dn
+///        -c:v libx264 -preset P -crf C -pix_fmt yuv420p
+///        -bf 0 -g GOP -sc_threshold 0 -forced-idr 1 [-force_key_frames T1,T2,…]
+///        -f mp4 -y DIR/.NAME.part
+/// ```
+///
+/// - **Timing.** The frame rate is passed as an exact rational ([`Rational::from_f64`]), and the
+///   raw demuxer stamps frame k with pts k in a 1/fps time base, so frame k is at exactly k/fps in
+///   the output (mp4 track timescale = a multiple of the rate's numerator).
+/// - **No B-frames** (`-bf 0`): decode order = presentation order, so the same stream can go into
+///   `foxglove_msgs/CompressedVideo` and a cut needs no reordering.
+/// - **Keyframes.** `-g` bounds the distance between keyframes; `-sc_threshold 0` stops x264
+///   adding its own at scene cuts (so keyframes sit only where asked, and at most every `-g`);
+///   `-force_key_frames` lists a time for each requested frame index and `-forced-idr 1` makes
+///   each an IDR frame. See [`force_key_frames_arg`] for how the times are chosen.
+/// - **Never a file that looks complete unless it is.** ffmpeg writes a hidden `.NAME.part`
+///   sibling. [`VideoEncoder::finish`] renames it to `NAME` only after ffmpeg exited 0, `ffprobe`
+///   counted exactly the frames written and found a keyframe at every requested index, and the
+///   file was synced to disk. Every error, [`VideoEncoder::abort`] and dropping an unfinished
+///   encoder kill ffmpeg and delete the `.part` file.
+/// - **Interruption.** ffmpeg runs in its own process group, so a terminal's Ctrl-C reaches only
+///   autoact, which should stop rendering and drop (or abort) the encoder. If autoact dies
+///   without unwinding, ffmpeg sees the end of its input and closes the `.part` file, which keeps
+///   its `.part` name.
+/// - **No deadlock.** Frames go through a small queue to a writer thread that owns ffmpeg's
+///   stdin, and ffmpeg's stderr is drained by another thread, so neither pipe can block the
+///   other; rendering continues while ffmpeg catches up. A write that fails because ffmpeg died
+///   is reported as [`VideoError::Exited`] with ffmpeg's last stderr lines.
+#[derive(Debug)]
+pub struct VideoEncoder {
+    ffmpeg: Ffmpeg,
+    output: PathBuf,
+    part: PathBuf,
+    width: u32,
+    height: u32,
+    frame_bytes: usize,
+    fps: Rational,
+    keyframes: Vec<u64>,
+    frames_written: u64,
+    running: Option<Running>,
+}
+
+/// The live parts of an encoder.
+struct Running {
+    child: FfmpegChild,
+    frames: SyncSender<Vec<u8>>,
+    spare: Receiver<Vec<u8>>,
+    writer: JoinHandle<std::io::Result<()>>,
+    stderr: StderrTail,
+}
+
+impl std::fmt::Debug for Running {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        // `FfmpegChild` has no `Debug`.
+        f.debug_struct("Running")
+            .field("writer_finished", &self.writer.is_finished())
+            .finish_non_exhaustive()
+    }
+}
+
+impl VideoEncoder {
+    /// Checks `settings`, then starts ffmpeg writing `output` through the hidden sibling
+    /// `.<name>.part` (renamed by [`VideoEncoder::finish`]). The container follows `output`'s
+    /// extension: `.mp4`/`.m4v`, `.mov` or `.mkv`. An existing `output` stays untouched until
+    /// the new file is complete, then is replaced.
+    ///
+    /// # Errors
+    /// [`VideoError::InvalidSettings`] (odd or zero size, bad fps, crf > 51, unknown preset,
+    /// gop 0, unknown extension, too many keyframes), [`VideoError::Io`] if `output`'s
+    /// directory does not exist, [`VideoError::NotFound`] / [`VideoError::Spawn`] if ffmpeg
+    /// cannot be started.
+    pub fn start(
+        ffmpeg: &Ffmpeg,
+        output: &Path,
+        settings: &EncodeSettings,
+    ) -> Result<VideoEncoder, VideoError> {
+        let invalid = |detail: String| VideoError::InvalidSettings {
+            path: output.to_path_buf(),
+            detail,
+        };
+        let fps = validate(settings).map_err(invalid)?;
+        let container = container_for(output).map_err(invalid)?;
+        let keyframe_arg = match force_key_frames_arg(&settings.keyframes, fps) {
+            Some(arg) if arg.len() > MAX_KEYFRAME_ARG_BYTES => {
+                return Err(invalid(format!(
+                    "{} keyframes need a {}-byte `-force_key_frames` argument, over the {} bytes \
+                     ffmpeg can be given; split the video into shorter ones",
+                    settings.keyframes.len(),
+                    arg.len(),
+                    MAX_KEYFRAME_ARG_BYTES
+                )));
+            }
+            Some(arg) => Some(arg),
+            None if settings.keyframes.iter().any(|&k| k > 0) => {
+                return Err(invalid(format!("cannot place keyframes at {fps} fps")));
+            }
+            None => None,
+        };
+        let part =
+            part_path(output).ok_or_else(|| invalid("the output has no file name".into()))?;
+        let dir = part.parent().unwrap_or(Path::new("."));
+        if !dir.as_os_str().is_empty() && !dir.is_dir() {
+            return Err(VideoError::Io {
+                action: "write a video into",
+                path: dir.to_path_buf(),
+                source: std::io::Error::new(
+                    std::io::ErrorKind::NotFound,
+                    "the directory does not exist",
+                ),
+            });
+        }
+
+        let mut command = FfmpegCommand::new_with_path(ffmpeg.ffmpeg_path());
+        command
+            .hide_banner()
+            // ffmpeg-sidecar put `-loglevel level+info` first; the last `-loglevel` wins.
+            .args(["-nostats", "-loglevel", "level+warning"])
+            .format("rawvideo")
+            .pix_fmt("rgb24")
+            .args([
+                "-video_size".to_owned(),
+                format!("{}x{}", settings.width, settings.height),
+                "-framerate".to_owned(),
+                fps.to_string(),
+            ])
+            .input("-")
+            .args(["-map", "0:v:0", "-an", "-sn", "-dn"])
+            .codec_video("libx264")
+            .preset(&settings.preset)
+            .crf(u32::from(settings.crf))
+            .pix_fmt("yuv420p")
+            .args([
+                "-bf".to_owned(),
+                "0".to_owned(),
+                "-g".to_owned(),
+                settings.gop_frames.to_string(),
+                "-sc_threshold".to_owned(),
+                "0".to_owned(),
+                "-forced-idr".to_owned(),
+                "1".to_owned(),
+            ]);
+        if let Some(arg) = &keyframe_arg {
+            command.args(["-force_key_frames", arg]);
+        }
+        command
+            .format(container)
+            .overwrite()
+            .output(part.as_os_str());
+        #[cfg(unix)]
+        {
+            use std::os::unix::process::CommandExt;
+            command.as_inner_mut().process_group(0);
+        }
+        tracing::debug!(command = %command_line(&mut command), "starting ffmpeg");
+
+        let mut child = command
+            .spawn()
+            .map_err(|source| spawn_error("ffmpeg", ffmpeg.ffmpeg_path(), source))?;
+        let mut encoder = VideoEncoder {
+            ffmpeg: ffmpeg.clone(),
+            output: output.to_path_buf(),
+            part,
+            width: settings.width,
+            height: settings.height,
+            frame_bytes: settings.frame_bytes(),
+            fps,
+            keyframes: sorted_keyframes(&settings.keyframes),
+            frames_written: 0,
+            running: None,
+        };
+        match start_threads(&mut child) {
+            Ok((frames, spare, writer, stderr)) => {
+                encoder.running = Some(Running {
+                    child,
+                    frames,
+                    spare,
+                    writer,
+                    stderr,
+                });
+                Ok(encoder)
+            }
+            Err(source) => {
+                // Dropping the pipes ends ffmpeg; kill it in case it is still starting.
+                let _ = child.kill();
+                let _ = child.wait();
+                remove_part(&encoder.part);
+                Err(VideoError::Spawn {
+                    program: PathBuf::from("ffmpeg pipe thread"),
+                    source,
+                })
+            }
+        }
+    }
+
+    /// Queues one frame (`width × height × 3` bytes, rows top to bottom, `rgb24`). Returns as soon
+    /// as the frame is queued; ffmpeg encodes it in the background.
+    ///
+    /// # Errors
+    /// [`VideoError::FrameSize`] for a buffer of the wrong size, [`VideoError::Exited`] if ffmpeg
+    /// died (possibly reported one call late), [`VideoError::Stopped`] after an earlier error.
+    /// Every error stops the encoder: ffmpeg is ended and the `.part` file removed.
+    pub fn write_frame(&mut self, rgb24: &[u8]) -> Result<(), VideoError> {
+        let Some(running) = &self.running else {
+            return Err(self.stopped());
+        };
+        if rgb24.len() != self.frame_bytes {
+            return Err(self.frame_size_error(rgb24.len()));
+        }
+        let mut buffer = match running.spare.try_recv() {
+            Ok(buffer) => buffer,
+            Err(TryRecvError::Empty | TryRecvError::Disconnected) => {
+                Vec::with_capacity(self.frame_bytes)
+            }
+        };
+        buffer.clear();
+        buffer.extend_from_slice(rgb24);
+        self.send(buffer)
+    }
+
+    /// [`VideoEncoder::write_frame`] taking ownership of the buffer, saving a copy.
+    ///
+    /// # Errors
+    /// As [`VideoEncoder::write_frame`].
+    pub fn write_frame_owned(&mut self, rgb24: Vec<u8>) -> Result<(), VideoError> {
+        if self.running.is_none() {
+            return Err(self.stopped());
+        }
+        if rgb24.len() != self.frame_bytes {
+            return Err(self.frame_size_error(rgb24.len()));
+        }
+        self.send(rgb24)
+    }
+
+    fn send(&mut self, buffer: Vec<u8>) -> Result<(), VideoError> {
+        let Some(running) = &self.running else {
+            return Err(self.stopped());
+        };
+        if running.frames.send(buffer).is_err() {
+            // The writer thread ended: writing to ffmpeg failed.
+            return Err(self.fail());
+        }
+        self.frames_written += 1;
+        Ok(())
+    }
+
+    /// Frames queued so far.
+    #[must_use]
+    pub fn frames_written(&self) -> u64 {
+        self.frames_written
+    }
+
+    /// The final path (the `.part` file becomes this on [`VideoEncoder::finish`]).
+    #[must_use]
+    pub fn output(&self) -> &Path {
+        &self.output
+    }
+
+    /// The exact frame rate the video is encoded at.
+    #[must_use]
+    pub fn fps(&self) -> Rational {
+        self.fps
+    }
+
+    /// Ends the input, waits for ffmpeg, checks the result and renames `.part` to the output.
+    ///
+    /// # Errors
+    /// [`VideoError::Exited`] (ffmpeg failed; includes its stderr tail),
+    /// [`VideoError::FrameCountMismatch`], [`VideoError::KeyframeMissing`],
+    /// [`VideoError::Probe`], [`VideoError::Io`] (e.g. a full disk while syncing or renaming),
+    /// [`VideoError::InvalidSettings`] if no frame was written, [`VideoError::Stopped`] after an
+    /// earlier error. On every error the `.part` file is removed and no output is left.
+    pub fn finish(mut self) -> Result<EncodedVideo, VideoError> {
+        let Some(running) = self.running.take() else {
+            return Err(self.stopped());
+        };
+        if self.frames_written == 0 {
+            let _ = stop(running, true);
+            remove_part(&self.part);
+            return Err(VideoError::InvalidSettings {
+                path: self.output.clone(),
+                detail: "no frames were written".into(),
+            });
+        }
+        let result = self.complete(running);
+        if result.is_err() {
+            remove_part(&self.part);
+        }
+        result
+    }
+
+    fn complete(&self, running: Running) -> Result<EncodedVideo, VideoError> {
+        let (status, written, stderr_tail) = stop(running, false);
+        let status = status.map_err(|source| VideoError::Io {
+            action: "wait for ffmpeg writing",
+            path: self.part.clone(),
+            source,
+        })?;
+        if !status.success() {
+            return Err(VideoError::Exited {
+                program: "ffmpeg",
+                status,
+                path: self.output.clone(),
+                stderr_tail,
+            });
+        }
+        written.map_err(|source| VideoError::Io {
+            action: "pipe frames to ffmpeg for",
+            path: self.output.clone(),
+            source,
+        })?;
+
+        let packets = probe_packets(&self.ffmpeg, &self.part)?;
+        let found = packets.len() as u64;
+        if found != self.frames_written {
+            return Err(VideoError::FrameCountMismatch {
+                path: self.output.clone(),
+                written: self.frames_written,
+                found,
+            });
+        }
+        let keyframes: Vec<u64> = (0_u64..)
+            .zip(&packets)
+            .filter(|(_, p)| p.key)
+            .map(|(i, _)| i)
+            .collect();
+        if let Some(&frame) = self
+            .keyframes
+            .iter()
+            .filter(|&&k| k < found)
+            .find(|k| keyframes.binary_search(k).is_err())
+        {
+            return Err(VideoError::KeyframeMissing {
+                path: self.output.clone(),
+                frame,
+            });
+        }
+
+        let io = |action: &'static str, path: &Path| {
+            let path = path.to_path_buf();
+            move |source| VideoError::Io {
+                action,
+                path,
+                source,
+            }
+        };
+        std::fs::File::open(&self.part)
+            .and_then(|f| f.sync_all())
+            .map_err(io("sync", &self.part))?;
+        std::fs::rename(&self.part, &self.output).map_err(io("rename into place", &self.output))?;
+        let bytes = std::fs::metadata(&self.output)
+            .map_err(io("read the size of", &self.output))?
+            .len();
+        tracing::debug!(
+            path = %self.output.display(),
+            frames = found,
+            bytes,
+            "video written"
+        );
+        Ok(EncodedVideo {
+            path: self.output.clone(),
+            frame_count: found,
+            bytes,
+            fps: self.fps,
+            keyframes,
+        })
+    }
+
+    /// Kills ffmpeg and removes the partial file. Dropping an unfinished encoder does the same.
+    pub fn abort(mut self) {
+        self.teardown();
+    }
+
+    fn teardown(&mut self) {
+        if let Some(running) = self.running.take() {
+            let _ = stop(running, true);
+            remove_part(&self.part);
+            tracing::debug!(path = %self.output.display(), "video encoding aborted");
+        }
+    }
+
+    /// Stops after a failed write: collects ffmpeg's status and stderr, removes the `.part` file.
+    fn fail(&mut self) -> VideoError {
+        let Some(running) = self.running.take() else {
+            return self.stopped();
+        };
+        let (status, written, stderr_tail) = stop(running, false);
+        remove_part(&self.part);
+        match (status, written) {
+            (Ok(status), _) if !status.success() => VideoError::Exited {
+                program: "ffmpeg",
+                status,
+                path: self.output.clone(),
+                stderr_tail,
+            },
+            (_, Err(source)) | (Err(source), Ok(())) => VideoError::Io {
+                action: "pipe frames to ffmpeg for",
+                path: self.output.clone(),
+                source,
+            },
+            (Ok(_), Ok(())) => VideoError::Io {
+                action: "pipe frames to ffmpeg for",
+                path: self.output.clone(),
+                source: std::io::Error::other("ffmpeg stopped reading frames"),
+            },
+        }
+    }
+
+    fn frame_size_error(&mut self, got: usize) -> VideoError {
+        self.teardown();
+        VideoError::FrameSize {
+            path: self.output.clone(),
+            frame: self.frames_written,
+            width: self.width,
+            height: self.height,
+            expected: self.frame_bytes,
+            got,
+        }
+    }
+
+    fn stopped(&self) -> VideoError {
+        VideoError::Stopped {
+            path: self.output.clone(),
+        }
+    }
+}
+
+impl Drop for VideoEncoder {
+    fn drop(&mut self) {
+        self.teardown();
+    }
+}
+
+type Threads = (
+    SyncSender<Vec<u8>>,
+    Receiver<Vec<u8>>,
+    JoinHandle<std::io::Result<()>>,
+    StderrTail,
+);
+
+fn start_threads(child: &mut FfmpegChild) -> std::io::Result<Threads> {
+    let missing = |what| std::io::Error::other(format!("ffmpeg's {what} was not piped"));
+    let stdin = child.take_stdin().ok_or_else(|| missing("stdin"))?;
+    let stderr = child.take_stderr().ok_or_else(|| missing("stderr"))?;
+    // ffmpeg writes nothing to stdout when writing a file; close our end.
+    drop(child.take_stdout());
+    let stderr = StderrTail::spawn("ffmpeg-stderr", stderr)?;
+    let (frames_tx, frames_rx) = std::sync::mpsc::sync_channel::<Vec<u8>>(QUEUE_FRAMES);
+    let (spare_tx, spare_rx) = std::sync::mpsc::sync_channel::<Vec<u8>>(QUEUE_FRAMES + 1);
+    let writer = std::thread::Builder::new()
+        .name("ffmpeg-stdin".into())
+        .spawn(move || write_frames(stdin, &frames_rx, &spare_tx))?;
+    Ok((frames_tx, spare_rx, writer, stderr))
+}
+
+/// The writer thread: frames from the queue to ffmpeg's stdin, buffers back for reuse. Ends
+/// (closing stdin, which tells ffmpeg the input is over) when the queue is closed or a write
+/// fails.
+fn write_frames(
+    mut stdin: ChildStdin,
+    frames: &Receiver<Vec<u8>>,
+    spare: &SyncSender<Vec<u8>>,
+) -> std::io::Result<()> {
+    for frame in frames {
+        stdin.write_all(&frame)?;
+        // A full spare queue just drops the buffer.
+        let _ = spare.try_send(frame);
+    }
+    stdin.flush()
+}
+
+/// Closes the input (and kills ffmpeg if `kill`), then waits for everything. Returns ffmpeg's
+/// exit status, the writer thread's result and the stderr tail.
+fn stop(
+    running: Running,
+    kill: bool,
+) -> (
+    std::io::Result<std::process::ExitStatus>,
+    std::io::Result<()>,
+    String,
+) {
+    let Running {
+        mut child,
+        frames,
+        spare,
+        writer,
+        stderr,
+    } = running;
+    drop(frames);
+    drop(spare);
+    if kill {
+        // A writer blocked on a full pipe gets EPIPE once ffmpeg is gone.
+        let _ = child.kill();
+    }
+    let written = writer
+        .join()
+        .unwrap_or_else(|_| Err(std::io::Error::other("the frame writer thread failed")));
+    let status = child.wait();
+    let tail = stderr.join();
+    (status, written, tail)
+}
+
+fn remove_part(part: &Path) {
+    match std::fs::remove_file(part) {
+        Ok(()) => {}
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(e) => tracing::warn!(
+            path = %part.display(),
+            error = %e,
+            "cannot remove the partial video; delete it by hand"
+        ),
+    }
+}
+
+fn validate(settings: &EncodeSettings) -> Result<Rational, String> {
+    let EncodeSettings {
+        width,
+        height,
+        fps,
+        crf,
+        preset,
+        gop_frames,
+        ..
+    } = settings;
+    if *width < 2 || *height < 2 || width % 2 != 0 || height % 2 != 0 {
+        return Err(format!(
+            "frame size {width}x{height}: both sides must be even and at least 2 (H.264 yuv420p)"
+        ));
+    }
+    if *width > MAX_SIDE_PX || *height > MAX_SIDE_PX {
+        return Err(format!(
+            "frame size {width}x{height}: at most {MAX_SIDE_PX} per side"
+        ));
+    }
+    let rate = Rational::from_f64(*fps)
+        .filter(|r| r.as_f64() <= 10_000.0)
+        .ok_or_else(|| {
+            format!(
+                "fps {fps}: must be a positive rate up to 10000 that is a fraction with a \
+                 denominator up to 1000000 (e.g. 30, 29.97 or 30000/1001)"
+            )
+        })?;
+    if *crf > 51 {
+        return Err(format!("crf {crf}: must be 0..=51"));
+    }
+    if !PRESETS.contains(&preset.as_str()) {
+        return Err(format!(
+            "unknown preset `{preset}`; use one of {}",
+            PRESETS.join(", ")
+        ));
+    }
+    if *gop_frames == 0 {
+        return Err("gop_frames is 0; it must be at least 1".into());
+    }
+    Ok(rate)
+}
+
+fn container_for(output: &Path) -> Result<&'static str, String> {
+    let ext = output
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("mp4" | "m4v") => Ok("mp4"),
+        Some("mov") => Ok("mov"),
+        Some("mkv") => Ok("matroska"),
+        _ => Err(format!(
+            "unsupported file extension `{}`; use `.mp4`, `.mov` or `.mkv`",
+            output.extension().map_or_else(
+                || String::from("(none)"),
+                |e| e.to_string_lossy().into_owned()
+            )
+        )),
+    }
+}
+
+/// `dir/name` → `dir/.name.part`.
+fn part_path(output: &Path) -> Option<PathBuf> {
+    let name = output.file_name()?;
+    let mut part = OsString::from(".");
+    part.push(name);
+    part.push(".part");
+    Some(output.with_file_name(part))
+}
+
+fn sorted_keyframes(keyframes: &[u64]) -> Vec<u64> {
+    let mut frames = keyframes.to_vec();
+    frames.sort_unstable();
+    frames.dedup();
+    frames
+}
+
+fn command_line(command: &mut FfmpegCommand) -> String {
+    let inner = command.as_inner();
+    std::iter::once(inner.get_program())
+        .chain(inner.get_args())
+        .map(|a| a.to_string_lossy().into_owned())
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{EncodeSettings, force_key_frames_arg, keyframe_time, part_path, validate};
+    use crate::video::Rational;
+
+    fn rate(num: i64, den: i64) -> Rational {
+        Rational::new(num, den).unwrap()
+    }
+
+    /// The time must key frame k under both ffmpeg rules: rounds to k, and lies in
+    /// ((k-1)/fps, k/fps].
+    fn check_window(k: u64, fps: Rational, t: &str) {
+        let t: f64 = t.parse().unwrap();
+        let frames = t * fps.as_f64();
+        #[expect(clippy::cast_precision_loss, reason = "test values are small")]
+        let k_f = k as f64;
+        assert!(
+            frames > k_f - 0.5 && frames <= k_f + 1e-9,
+            "k={k} t={t} → {frames}"
+        );
+    }
+
+    #[test]
+    fn keyframe_times_fall_in_the_exact_window() {
+        for fps in [
+            rate(30, 1),
+            rate(2997, 100),
+            rate(30000, 1001),
+            rate(25, 1),
+            rate(60, 1),
+        ] {
+            for k in (1..5000)
+                .step_by(7)
+                .chain([1, 2, 37, 38, 90, 151, 199, 999_999])
+            {
+                let t = keyframe_time(k, fps).unwrap();
+                check_window(k, fps, &t);
+            }
+        }
+        assert_eq!(keyframe_time(30, rate(30, 1)).unwrap(), "1");
+        assert_eq!(keyframe_time(37, rate(30, 1)).unwrap(), "1.23");
+        assert_eq!(keyframe_time(1, rate(30, 1)).unwrap(), "0.03");
+    }
+
+    #[test]
+    fn keyframe_list_is_sorted_deduplicated_and_skips_frame_zero() {
+        let arg = force_key_frames_arg(&[90, 0, 37, 38, 37], rate(30, 1)).unwrap();
+        assert_eq!(arg, "1.23,1.26,3");
+        assert_eq!(force_key_frames_arg(&[0], rate(30, 1)), None);
+        assert_eq!(force_key_frames_arg(&[], rate(30, 1)), None);
+    }
+
+    #[test]
+    fn thousands_of_keyframes_stay_compact() {
+        let frames: Vec<u64> = (1..=10_000).map(|i| i * 30).collect();
+        let arg = force_key_frames_arg(&frames, rate(30000, 1001)).unwrap();
+        assert!(arg.len() < 100_000, "{}", arg.len());
+    }
+
+    #[test]
+    fn too_many_keyframes_are_refused_before_starting_ffmpeg() {
+        let dir = tempfile::tempdir().unwrap();
+        let ffmpeg =
+            crate::video::Ffmpeg::from_paths("/nonexistent/ffmpeg", "/nonexistent/ffprobe");
+        let settings = EncodeSettings::new(64, 48, 30000.0 / 1001.0).with_keyframes(1..40_000);
+        let err =
+            super::VideoEncoder::start(&ffmpeg, &dir.path().join("a.mp4"), &settings).unwrap_err();
+        assert!(
+            matches!(err, crate::video::VideoError::InvalidSettings { .. }),
+            "{err:?}"
+        );
+        assert!(err.to_string().contains("split the video"), "{err}");
+    }
+
+    #[test]
+    fn settings_are_checked() {
+        let ok = EncodeSettings::new(320, 240, 30.0);
+        assert_eq!(validate(&ok).unwrap(), rate(30, 1));
+        assert_eq!(ok.gop_frames, 60);
+        for bad in [
+            EncodeSettings::new(321, 240, 30.0),
+            EncodeSettings::new(0, 240, 30.0),
+            EncodeSettings::new(320, 240, 0.0),
+            EncodeSettings::new(320, 240, f64::NAN),
+            EncodeSettings {
+                crf: 52,
+                ..ok.clone()
+            },
+            EncodeSettings {
+                preset: "ludicrous".into(),
+                ..ok.clone()
+            },
+            EncodeSettings {
+                gop_frames: 0,
+                ..ok.clone()
+            },
+        ] {
+            assert!(validate(&bad).is_err(), "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn part_file_is_a_hidden_sibling() {
+        assert_eq!(
+            part_path(std::path::Path::new("/a/b/capture.mp4")).unwrap(),
+            std::path::Path::new("/a/b/.capture.mp4.part")
+        );
+        assert_eq!(
+            part_path(std::path::Path::new("x.mkv")).unwrap(),
+            std::path::Path::new(".x.mkv.part")
+        );
+    }
+}

@@ -1,0 +1,179 @@
+//! Video output: rendered RGB frames → H.264 through the system `ffmpeg`, checked with `ffprobe`;
+//! H.264 Annex B access units for `foxglove_msgs/CompressedVideo`; PNG stills and contact sheets.
+//!
+//! - [`Ffmpeg`] finds `ffmpeg` and `ffprobe` (`AUTOACT_FFMPEG`, then `PATH`, then the download
+//!   cache), or downloads a static build when the user asked for it ([`Ffmpeg::download`]).
+//! - [`VideoEncoder`] pipes raw `rgb24` frames into `ffmpeg` (libx264, `yuv420p`, no B-frames,
+//!   constant frame rate with frame k at exactly k/fps, IDR frames at every requested index) and
+//!   writes a hidden `.<name>.part` sibling that is renamed only once `ffmpeg` exited 0 and
+//!   `ffprobe` counted every frame and found every requested keyframe. On any error, on
+//!   [`VideoEncoder::abort`] and on drop, `ffmpeg` is killed and the partial file removed.
+//! - [`probe`] and [`probe_packets`] read what a video file really holds, frame by frame.
+//! - [`annexb_access_units`] turns an encoded file into one Annex B access unit per frame.
+//! - [`write_png`], [`read_png`] and [`contact_sheet`] cover stills.
+//!
+//! ```no_run
+//! use autoact::video::{EncodeSettings, Ffmpeg, VideoEncoder};
+//! # fn main() -> Result<(), autoact::video::VideoError> {
+//! let ffmpeg = Ffmpeg::locate()?; // or Ffmpeg::download() when the user asked for it
+//! // 640x360 at 30 fps; segments start at frames 0, 90 and 151, so cuts there can be exact.
+//! let settings = EncodeSettings::new(640, 360, 30.0).with_keyframes([90, 151]);
+//! let mut encoder = VideoEncoder::start(&ffmpeg, "capture.mp4".as_ref(), &settings)?;
+//! for k in 0..200_u64 {
+//!     let frame = vec![(k % 256) as u8; settings.frame_bytes()]; // rendered rgb24 pixels
+//!     encoder.write_frame(&frame)?;
+//! }
+//! let video = encoder.finish()?; // capture.mp4 exists only now, checked by ffprobe
+//! let stamp_ns = video.fps.frame_time_nanos(151); // frame 151's time in the video
+//! # let _ = stamp_ns;
+//! # Ok(())
+//! # }
+//! ```
+//!
+//! `ffmpeg` 5.1 (Debian 12) is the reference version; nothing here needs a newer one. The
+//! `ffmpeg-sidecar` crate builds and spawns the encoder command; `ffprobe` runs through
+//! [`std::process::Command`] because `ffmpeg-sidecar` has no `ffprobe` wrapper.
+
+mod annexb;
+mod encode;
+mod font;
+mod image;
+mod probe;
+mod rational;
+mod stderr_tail;
+mod tools;
+
+use std::path::PathBuf;
+use std::process::ExitStatus;
+
+pub use annexb::{AccessUnit, annexb_access_units, split_access_units};
+pub use encode::{
+    DEFAULT_CRF, DEFAULT_GOP_SECS, DEFAULT_PRESET, EncodeSettings, EncodedVideo, VideoEncoder,
+    force_key_frames_arg,
+};
+pub use image::{Tile, contact_sheet, read_png, write_png};
+pub use probe::{ProbedFrame, ProbedPacket, VideoProbe, probe, probe_packets};
+pub use rational::Rational;
+pub use tools::{Ffmpeg, INSTALL_HINT, download_cache_dir};
+
+/// Number of `ffmpeg` stderr lines kept for error messages.
+pub const STDERR_TAIL_LINES: usize = 20;
+
+/// Errors from finding, running or reading the output of `ffmpeg` / `ffprobe`, and from the
+/// image helpers.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum VideoError {
+    /// `ffmpeg` or `ffprobe` is not installed where we looked.
+    #[error("cannot find `{program}`: {detail}\n{INSTALL_HINT}")]
+    NotFound {
+        /// `ffmpeg` or `ffprobe`.
+        program: &'static str,
+        /// Where we looked.
+        detail: String,
+    },
+    /// The ffmpeg download was not possible or failed.
+    #[error("cannot download ffmpeg into `{dir}`: {detail}")]
+    Download {
+        /// The cache directory the binaries were meant for.
+        dir: PathBuf,
+        /// What went wrong, and what to do instead.
+        detail: String,
+    },
+    /// The program exists but could not be started, or a helper thread could not be started.
+    #[error("cannot start `{program}`")]
+    Spawn {
+        /// The program (or thread) that failed to start.
+        program: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// `ffmpeg` or `ffprobe` exited with an error (or was killed).
+    #[error("`{program}` failed on `{path}` ({status}); its last messages:\n{stderr_tail}")]
+    Exited {
+        /// `ffmpeg` or `ffprobe`.
+        program: &'static str,
+        /// How it ended.
+        status: ExitStatus,
+        /// The file it was writing or reading.
+        path: PathBuf,
+        /// The last lines of its standard error (at most [`STDERR_TAIL_LINES`]).
+        stderr_tail: String,
+    },
+    /// A file system error.
+    #[error("cannot {action} `{path}`")]
+    Io {
+        /// What was being done.
+        action: &'static str,
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A frame buffer does not hold `width × height × 3` bytes.
+    #[error("frame {frame} for `{path}` has {got} bytes; {width}x{height} rgb24 needs {expected}")]
+    FrameSize {
+        /// The file the frame was meant for.
+        path: PathBuf,
+        /// The index of the offending frame (or tile).
+        frame: u64,
+        /// Expected width.
+        width: u32,
+        /// Expected height.
+        height: u32,
+        /// `width × height × 3`.
+        expected: usize,
+        /// The buffer's length.
+        got: usize,
+    },
+    /// The finished file holds a different number of frames than were written.
+    #[error("`{path}` holds {found} frames, but {written} were written")]
+    FrameCountMismatch {
+        /// The (partial) file.
+        path: PathBuf,
+        /// Frames handed to the encoder.
+        written: u64,
+        /// Frames `ffprobe` counted.
+        found: u64,
+    },
+    /// A frame that was asked to be a keyframe is not one in the finished file.
+    #[error("frame {frame} of `{path}` was requested as a keyframe but is not one")]
+    KeyframeMissing {
+        /// The (partial) file.
+        path: PathBuf,
+        /// The frame index.
+        frame: u64,
+    },
+    /// The encoder settings cannot be used.
+    #[error("invalid video settings for `{path}`: {detail}")]
+    InvalidSettings {
+        /// The output file.
+        path: PathBuf,
+        /// What is wrong and how to fix it.
+        detail: String,
+    },
+    /// The encoder already failed, was finished or aborted.
+    #[error("the encoder for `{path}` has already stopped; start a new one")]
+    Stopped {
+        /// The output file.
+        path: PathBuf,
+    },
+    /// `ffprobe` output (or an encoded stream) could not be understood.
+    #[error("cannot read video `{path}`: {detail}")]
+    Probe {
+        /// The file.
+        path: PathBuf,
+        /// What was wrong.
+        detail: String,
+    },
+    /// A PNG could not be encoded or decoded.
+    #[error("PNG `{path}`: {detail}")]
+    Png {
+        /// The file.
+        path: PathBuf,
+        /// What the `png` crate said.
+        detail: String,
+    },
+}
