@@ -47,8 +47,8 @@ fn euler_angles_stay_continuous_through_a_full_turn() {
         let q = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), f64::from(k).to_radians())
             * UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 0.3);
         let angles = euler_zxy(&q, previous);
-        if previous.is_some() {
-            for (a, p) in angles.iter().zip(previous.unwrap()) {
+        if let Some(before) = previous {
+            for (a, p) in angles.iter().zip(before) {
                 assert!(
                     (a - p).abs() < 2f64.to_radians(),
                     "frame {k}: {angles:?} after {p}"

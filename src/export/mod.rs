@@ -89,11 +89,11 @@ pub enum ExportError {
 }
 
 /// The export formats.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, clap::ValueEnum)]
 pub enum ExportFormat {
-    /// Biovision Hierarchy text ([`bvh`]).
+    /// BVH: the rig's hierarchy in cm, Y-up, ZXY Euler rotations (Blender, MotionBuilder, Maya).
     Bvh,
-    /// GTA V `.onim` text, Version 8 2 ([`onim`]).
+    /// GTA V `.onim` text (Version 8 2), for OpenIV/CodeWalker to make a `.ycd`.
     Onim,
 }
 
