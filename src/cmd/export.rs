@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 
 use super::{Outcome, print_stdout, table};
-use crate::export::{self, ExportFormat, RenderOptions, onim};
+use crate::export::{self, EncodeOptions, ExportFormat, onim};
 use crate::mcap_io::BagReader;
 use crate::rig::Rig;
 
@@ -112,7 +112,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         bail!("--write-expected-json is for --format bvh only");
     }
     let rig = Rig::standard();
-    let options = RenderOptions {
+    let options = EncodeOptions {
         onim_mapping: match (format, &args.onim_template) {
             (ExportFormat::Onim, Some(path)) => Some(onim::OnimMapping::load(&rig, path)?),
             (ExportFormat::Onim, None) => Some(onim::OnimMapping::builtin(&rig)?),
@@ -134,7 +134,7 @@ pub fn run(args: Args) -> Result<Outcome> {
     let mut text = String::new();
     for (key, path) in keys.iter().zip(&targets) {
         let clip = export::read_clip(&rig, input, &readers, *key, args.fps)?;
-        let bytes = export::render(&rig, &clip, format, &options)?;
+        let bytes = export::encode(&rig, &clip, format, &options)?;
         export::write_atomically(path, &bytes, args.force)?;
         if args.write_expected_json {
             let json = serde_json::to_vec(&export::bvh::expected_json(&rig, &clip))
@@ -193,7 +193,7 @@ fn listing(available: &[export::AnimationListing], fps: Option<f64>) -> String {
         .iter()
         .map(|a| {
             #[expect(clippy::cast_precision_loss, reason = "display only")]
-            let seconds = (a.last_stamp_nanos - a.first_stamp_nanos) as f64 / 1e9;
+            let seconds = a.last_stamp_nanos.saturating_sub(a.first_stamp_nanos) as f64 / 1e9;
             #[expect(clippy::cast_precision_loss, reason = "display only")]
             let measured = (a.frames > 1 && seconds > 0.0).then(|| (a.frames - 1) as f64 / seconds);
             vec![

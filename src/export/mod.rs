@@ -211,14 +211,15 @@ fn nanos_to_secs(nanos: u64) -> f64 {
 }
 
 /// The first frame whose stamp is more than half a frame away from `first + k / fps_hz`, as
-/// `(k, seconds off)`: frames a fixed-rate file would play at the wrong time.
+/// `(k, seconds off)`: frames a fixed-rate file would play at the wrong time. `stamps_nanos` is
+/// in increasing order.
 #[must_use]
 pub fn first_uneven_frame(stamps_nanos: &[u64], fps_hz: f64) -> Option<(usize, f64)> {
     let first = *stamps_nanos.first()?;
     stamps_nanos.iter().enumerate().find_map(|(k, &s)| {
         #[expect(clippy::cast_precision_loss, reason = "frame counts far below 2^52")]
         let expected = k as f64 / fps_hz;
-        let off = nanos_to_secs(s - first) - expected;
+        let off = nanos_to_secs(s.saturating_sub(first)) - expected;
         (off.abs() > 0.5 / fps_hz).then_some((k, off))
     })
 }
@@ -332,14 +333,15 @@ pub fn write_atomically(path: &Path, bytes: &[u8], force: bool) -> Result<(), Ex
         .to_string_lossy()
         .into_owned();
     let partial = path.with_file_name(format!(".{name}.partial"));
+    // Errors name the file asked for; the temporary one is an implementation detail.
     let result = (|| {
-        let mut file = std::fs::File::create(&partial).map_err(io("create", &partial))?;
-        file.write_all(bytes).map_err(io("write", &partial))?;
-        file.sync_all().map_err(io("write", &partial))?;
+        let mut file = std::fs::File::create(&partial).map_err(io("write", path))?;
+        file.write_all(bytes).map_err(io("write", path))?;
+        file.sync_all().map_err(io("write", path))?;
         drop(file);
         // Checked again right before the rename: another process may have made it meanwhile.
         check_writable(path, force)?;
-        std::fs::rename(&partial, path).map_err(io("write", path))
+        std::fs::rename(&partial, path).map_err(io("move into place", path))
     })();
     if result.is_err() {
         let _ = std::fs::remove_file(&partial);
@@ -347,9 +349,9 @@ pub fn write_atomically(path: &Path, bytes: &[u8], force: bool) -> Result<(), Ex
     result
 }
 
-/// Per format option sets that [`render`] needs.
+/// What [`encode`] needs besides the clip, per format.
 #[derive(Debug, Clone, Default)]
-pub struct RenderOptions {
+pub struct EncodeOptions {
     /// The `.onim` bone mapping (the built-in default when `None`).
     pub onim_mapping: Option<onim::OnimMapping>,
 }
@@ -358,11 +360,11 @@ pub struct RenderOptions {
 ///
 /// # Errors
 /// [`onim::OnimError`] when the `.onim` mapping does not cover the rig.
-pub fn render(
+pub fn encode(
     rig: &Rig,
     clip: &Clip,
     format: ExportFormat,
-    options: &RenderOptions,
+    options: &EncodeOptions,
 ) -> Result<Vec<u8>, onim::OnimError> {
     Ok(match format {
         ExportFormat::Bvh => bvh::write(rig, clip).into_bytes(),
