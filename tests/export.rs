@@ -494,10 +494,7 @@ fn bad_input_gets_clear_errors() {
         "-o",
         "/proc/autoact/x.bvh",
     ]);
-    assert!(
-        e.contains("/proc/autoact/x.bvh") || e.contains("/proc/autoact/.x.bvh.partial"),
-        "{e}"
-    );
+    assert!(e.contains("cannot write /proc/autoact/x.bvh: "), "{e}");
 
     // Several animations into one file name.
     let bag = synthetic_bag(dir.path(), 1, 2, 3);
