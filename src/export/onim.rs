@@ -504,7 +504,7 @@ impl OnimFile {
     }
 }
 
-/// Reads `.onim` text of the layout [`write`] produces (GTA's native one): the header fields,
+/// Reads `.onim` text of the layout [`write()`] produces (GTA's native one): the header fields,
 /// every `BonePosition Float3` / `BoneRotation Float4` track and its `FramesData` blocks.
 ///
 /// # Errors
