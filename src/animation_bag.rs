@@ -96,17 +96,103 @@ pub fn parse_frame_name(name: &str) -> (Option<u64>, u32, &str) {
 /// `/tf_static` and `/tf` carry, and as coverage the bones that move.
 ///
 /// # Errors
-/// A message when the bag has no such frames or their bone count is not the rig's.
+/// A message when the bag has no such frames, or their bones are not the rig's.
 pub fn read_animation(
     rig: &Rig,
     readers: &[crate::mcap_io::BagReader],
     track: Option<u64>,
 ) -> Result<(Vec<crate::convert::AnimationFrame>, Character, Coverage), String> {
+    read_animation_variant(rig, readers, track, 0)
+}
+
+/// One animation an animation bag holds: a person (`track_id`) and one of its variants (0 as
+/// converted, 1.. the DSI variants).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct AnimationKey {
+    /// The person's tracker id (`BoneFrame.track_id`).
+    pub track_id: u64,
+    /// The variant (`BoneFrame.variant`).
+    pub variant: u32,
+}
+
+impl std::fmt::Display for AnimationKey {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "track {} variant {}", self.track_id, self.variant)
+    }
+}
+
+/// What [`list_animations`] finds of one animation.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct AnimationListing {
+    /// Which animation.
+    pub key: AnimationKey,
+    /// Its rig's name (`BoneFrame.rig`).
+    pub rig: String,
+    /// Frames, counted as [`read_animation_variant`] reads them (increasing stamps only).
+    pub frames: usize,
+    /// Stamp of the first frame, nanoseconds.
+    pub first_stamp_nanos: u64,
+    /// Stamp of the last frame, nanoseconds.
+    pub last_stamp_nanos: u64,
+}
+
+/// Every animation (person × variant) of an animation bag's `/animation` frames, ordered by
+/// track id, then variant. Unreadable messages are skipped; an empty list means the bag holds no
+/// readable `BoneFrame`.
+#[must_use]
+pub fn list_animations(readers: &[crate::mcap_io::BagReader]) -> Vec<AnimationListing> {
+    use crate::ros::{RosMessage, cdr};
+    let mut found: std::collections::BTreeMap<AnimationKey, AnimationListing> =
+        std::collections::BTreeMap::new();
+    for m in readers
+        .iter()
+        .flat_map(|r| r.messages().filter_map(Result::ok))
+        .filter(|m| m.channel.schema_name() == BoneFrame::TYPE_NAME)
+    {
+        let Ok(f) = cdr::decode::<BoneFrame>(&m.data) else {
+            continue;
+        };
+        let key = AnimationKey {
+            track_id: f.track_id,
+            variant: f.variant,
+        };
+        let stamp = f.header.stamp.to_nanos().unwrap_or(m.log_time);
+        let entry = found.entry(key).or_insert_with(|| AnimationListing {
+            key,
+            rig: f.rig.clone(),
+            frames: 0,
+            first_stamp_nanos: stamp,
+            last_stamp_nanos: stamp,
+        });
+        if entry.frames > 0 && stamp <= entry.last_stamp_nanos {
+            continue;
+        }
+        entry.frames += 1;
+        entry.last_stamp_nanos = stamp;
+    }
+    found.into_values().collect()
+}
+
+/// Reads one animation back from an animation bag: the `/animation` frames of `track` (`None`:
+/// the first track seen) and `variant`, the body from the rest offsets its `/tf_static` and `/tf`
+/// carry (the variant's own frames, `v<k>/…`, where the bag has them, else variant 0's), and as
+/// coverage the bones that move. Frames whose stamp does not increase are skipped.
+///
+/// # Errors
+/// A message when the bag has no such frames, or their bones are not the rig's.
+pub fn read_animation_variant(
+    rig: &Rig,
+    readers: &[crate::mcap_io::BagReader],
+    track: Option<u64>,
+    variant: u32,
+) -> Result<(Vec<crate::convert::AnimationFrame>, Character, Coverage), String> {
     use crate::ros::{RosMessage, cdr};
     let mut keys: Vec<crate::convert::AnimationFrame> = Vec::new();
     let mut chosen = track;
-    // Rest offsets seen per (track prefix, bone), variant 0 only; the first one wins.
-    let mut offsets: std::collections::BTreeMap<(Option<u64>, usize), nalgebra::Vector3<f64>> =
+    // Rest offsets seen per (track prefix, variant, bone), for variant 0 and `variant`; the first
+    // one wins.
+    type OffsetKey = (Option<u64>, u32, usize);
+    let mut offsets: std::collections::BTreeMap<OffsetKey, nalgebra::Vector3<f64>> =
         std::collections::BTreeMap::new();
     for m in readers
         .iter()
@@ -117,7 +203,7 @@ pub fn read_animation(
                 let Ok(f) = cdr::decode::<BoneFrame>(&m.data) else {
                     continue;
                 };
-                if f.variant != 0 || *chosen.get_or_insert(f.track_id) != f.track_id {
+                if f.variant != variant || *chosen.get_or_insert(f.track_id) != f.track_id {
                     continue;
                 }
                 if f.local_rotations.len() != rig.bones.len() {
@@ -125,6 +211,19 @@ pub fn read_animation(
                         "/animation has {} rotations per frame; the rig has {} bones",
                         f.local_rotations.len(),
                         rig.bones.len()
+                    ));
+                }
+                if !f.bone_names.is_empty()
+                    && let Some((k, (bag, ours))) = f
+                        .bone_names
+                        .iter()
+                        .zip(&rig.bones)
+                        .enumerate()
+                        .find(|(_, (bag, ours))| **bag != ours.name)
+                {
+                    return Err(format!(
+                        "/animation (rig `{}`) names bone {k} `{bag}`, where rig {} has `{}`",
+                        f.rig, rig.name, ours.name
                     ));
                 }
                 let stamp = f.header.stamp.to_nanos().unwrap_or(m.log_time);
@@ -153,13 +252,13 @@ pub fn read_animation(
                     continue;
                 };
                 for t in tf.transforms {
-                    let (frame_track, variant, bone) = parse_frame_name(&t.child_frame_id);
+                    let (frame_track, frame_variant, bone) = parse_frame_name(&t.child_frame_id);
                     if let Some(b) = rig.bone_index(bone)
                         && b != ROOT
-                        && variant == 0
+                        && (frame_variant == 0 || frame_variant == variant)
                     {
                         offsets
-                            .entry((frame_track, b))
+                            .entry((frame_track, frame_variant, b))
                             .or_insert_with(|| nalgebra::Vector3::from(t.transform.translation));
                     }
                 }
@@ -168,13 +267,16 @@ pub fn read_animation(
         }
     }
     if keys.is_empty() {
-        return Err(match track {
-            Some(t) => format!("no /animation frames of track {t}"),
-            None => "no /animation frames".to_string(),
+        return Err(match (track, variant) {
+            (Some(t), 0) => format!("no /animation frames of track {t}"),
+            (Some(t), v) => format!("no /animation frames of track {t} variant {v}"),
+            (None, 0) => "no /animation frames".to_string(),
+            (None, v) => format!("no /animation frames of variant {v}"),
         });
     }
     let mut character = Character::standard(rig);
-    for ((frame_track, b), offset) in offsets {
+    // Variant 0's offsets first, then the variant's own (the map's order puts them after).
+    for ((frame_track, _, b), offset) in offsets {
         // Prefixed frames belong to their track; unprefixed ones to the bag's only person.
         if frame_track.is_none() || frame_track == chosen {
             character.head_offset_m[b] = offset;

@@ -97,6 +97,15 @@ pub enum Command {
     /// Describe an MCAP file: channels, schemas, counts, time range, rate, layouts, labels, and
     /// whether ROS 2 tools and autoact can read all of it.
     Info(crate::cmd::info::Args),
+    /// Write the animations of an animation bag as BVH or GTA V `.onim` files, at the bag's frame
+    /// rate.
+    ///
+    /// An animation is one person (track id) and one variant of the bag's `/animation` frames;
+    /// `--list` shows them, `--animation` and `--variant` pick, and by default all are written,
+    /// one file each. BVH carries the rig's hierarchy and the body's offsets with ZXY Euler
+    /// rotations, for Blender and other animation tools; `.onim` is GTA V's text animation, with
+    /// the rig's bones mapped onto the ped skeleton's frames (`--onim-template`).
+    Export(crate::cmd::export::Args),
 }
 
 /// Output format of listing commands.

@@ -21,6 +21,7 @@ pub mod convert;
 pub mod dataset;
 pub mod dsi;
 pub mod eval;
+pub mod export;
 pub mod fk;
 pub mod formats;
 pub mod frames;

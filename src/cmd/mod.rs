@@ -1,6 +1,7 @@
 //! One module per command; the only layer that prints. Each has its `Args` next to its `run`.
 
 pub mod convert;
+pub mod export;
 pub mod import;
 pub mod info;
 pub mod layouts;
@@ -53,6 +54,7 @@ pub fn dispatch(command: Command) -> anyhow::Result<Outcome> {
         Command::Plan(args) => plan::run(args),
         Command::Recover(args) => recover::run(args),
         Command::Record(args) => record::run(args),
+        Command::Export(args) => export::run(args),
     }
 }
 

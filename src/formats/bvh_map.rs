@@ -116,12 +116,13 @@ pub struct BvhMapping {
     pub layouts: BTreeMap<String, BTreeMap<String, JointExpr>>,
 }
 
-const BUILTIN: [(&str, &str); 2] = [
+const BUILTIN: [(&str, &str); 3] = [
     (
         "bandai-namco",
         include_str!("../layouts/bvh/bandai-namco.toml"),
     ),
     ("cmu", include_str!("../layouts/bvh/cmu.toml")),
+    ("autoact53", include_str!("../layouts/bvh/autoact53.toml")),
 ];
 
 impl BvhMapping {

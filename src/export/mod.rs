@@ -1,0 +1,386 @@
+//! Export: animations of an animation bag → files other tools play (`autoact export`).
+//!
+//! **What is exported.** An *animation* is one `(track_id, variant)` pair of the bag's
+//! `/animation` frames ([`AnimationKey`]): a person, and either the animation as converted
+//! (variant 0) or one of its DSI variants. [`list`] names them all (`autoact export BAG --list`);
+//! [`read_clip`] reads one with the body its `/tf_static` rest offsets describe, at the bag's frame
+//! rate ([`frame_rate`]). A capture bag (`autoact convert --spec`) holds every clip of a session on
+//! one timeline: there a `(track, variant)` is every clip drawn with that variant, back to back,
+//! on the body of its first scene (a warning says when frames are not evenly spaced).
+//!
+//! **Formats.** Each format is a module that turns a [`Clip`] into the bytes of one file and
+//! knows nothing of paths: [`bvh`] (Biovision Hierarchy, for Blender, MotionBuilder, Maya) and
+//! [`onim`] (GTA V's text animation, for OpenIV/CodeWalker → `.ycd`). [`ExportFormat`] lists them;
+//! a new format (glTF) is a module with the same shape and one more variant there.
+//!
+//! **Output files.** [`write_atomically`] writes through a temporary file in the target folder
+//! and renames it into place, so an interrupted export never leaves a complete-looking file; an
+//! existing file is replaced only when asked. [`output_name`] names one file per animation when
+//! several are exported into a folder.
+
+pub mod bvh;
+pub mod onim;
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+pub use crate::animation_bag::{AnimationKey, AnimationListing};
+use crate::character::Character;
+use crate::fk::BonePose;
+use crate::mcap_io::BagReader;
+use crate::rig::Rig;
+
+/// Why an export failed. Every variant names the file it is about.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ExportError {
+    /// The bag holds no readable `/animation` frames.
+    #[error(
+        "{path}: no /animation frames (autoact_msgs/msg/BoneFrame): not an animation bag; `autoact convert` makes one from a pose bag"
+    )]
+    NotAnimationBag {
+        /// The bag.
+        path: PathBuf,
+    },
+    /// The asked-for animation (track and/or variant) is not in the bag.
+    #[error("{path}: no animation with {wanted}; the bag holds: {available}")]
+    UnknownAnimation {
+        /// The bag.
+        path: PathBuf,
+        /// What was asked for, e.g. `track 3` or `track 0 variant 2`.
+        wanted: String,
+        /// What the bag has, e.g. `track 0 variant 0, track 0 variant 1`.
+        available: String,
+    },
+    /// The frames of an animation could not be used.
+    #[error("{path}: {key}: {message}")]
+    BadAnimation {
+        /// The bag.
+        path: PathBuf,
+        /// Which animation.
+        key: AnimationKey,
+        /// What was wrong.
+        message: String,
+    },
+    /// No frame rate: the bag states none and has too few frames to measure one.
+    #[error(
+        "{path}: {key}: cannot tell the frame rate (no `fps` in the bag's metadata and fewer than two frames); give `--fps`"
+    )]
+    NoFrameRate {
+        /// The bag.
+        path: PathBuf,
+        /// Which animation.
+        key: AnimationKey,
+    },
+    /// The output exists and replacing it was not asked for.
+    #[error("{0} exists; pass `--force` to replace it")]
+    OutputExists(PathBuf),
+    /// A file system error.
+    #[error("cannot {action} {path}")]
+    Io {
+        /// What was being done.
+        action: &'static str,
+        /// The file or folder.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// The export formats.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, clap::ValueEnum)]
+pub enum ExportFormat {
+    /// BVH: the rig's hierarchy in cm, Y-up, ZXY Euler rotations (Blender, MotionBuilder, Maya).
+    Bvh,
+    /// GTA V `.onim` text (Version 8 2), for OpenIV/CodeWalker to make a `.ycd`.
+    Onim,
+}
+
+impl ExportFormat {
+    /// The file extension, without the dot.
+    #[must_use]
+    pub fn extension(self) -> &'static str {
+        match self {
+            ExportFormat::Bvh => "bvh",
+            ExportFormat::Onim => "onim",
+        }
+    }
+}
+
+/// One animation ready to write: its frames at a fixed rate, on one body.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Clip {
+    /// Which animation of the bag.
+    pub key: AnimationKey,
+    /// Frames per second; frame `k` plays at `k / fps_hz` seconds.
+    pub fps_hz: f64,
+    /// The body: rest offsets of every bone (from the bag's `/tf_static`).
+    pub character: Character,
+    /// The poses, one per frame, in order.
+    pub poses: Vec<BonePose>,
+}
+
+/// Every animation of the bag, ordered by track id, then variant.
+///
+/// # Errors
+/// [`ExportError::NotAnimationBag`] when there is none.
+pub fn list(path: &Path, readers: &[BagReader]) -> Result<Vec<AnimationListing>, ExportError> {
+    let all = crate::animation_bag::list_animations(readers);
+    if all.is_empty() {
+        return Err(ExportError::NotAnimationBag {
+            path: path.to_path_buf(),
+        });
+    }
+    Ok(all)
+}
+
+/// The animations `track` and `variant` select from `available` (`None`: every one), in
+/// `available`'s order.
+///
+/// # Errors
+/// [`ExportError::UnknownAnimation`] when nothing matches, naming what the bag holds.
+pub fn select(
+    path: &Path,
+    available: &[AnimationListing],
+    track: Option<u64>,
+    variant: Option<u32>,
+) -> Result<Vec<AnimationKey>, ExportError> {
+    let chosen: Vec<AnimationKey> = available
+        .iter()
+        .map(|a| a.key)
+        .filter(|k| track.is_none_or(|t| k.track_id == t) && variant.is_none_or(|v| k.variant == v))
+        .collect();
+    if chosen.is_empty() {
+        let wanted = match (track, variant) {
+            (Some(t), Some(v)) => format!("track {t} variant {v}"),
+            (Some(t), None) => format!("track {t}"),
+            (None, Some(v)) => format!("variant {v}"),
+            (None, None) => "any track".to_string(),
+        };
+        return Err(ExportError::UnknownAnimation {
+            path: path.to_path_buf(),
+            wanted,
+            available: available
+                .iter()
+                .map(|a| a.key.to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
+        });
+    }
+    Ok(chosen)
+}
+
+/// The frame rate the bag states: the `fps` of its `autoact.convert` or `autoact.dataset`
+/// metadata record (what `autoact convert` resampled to), if any.
+#[must_use]
+pub fn stated_frame_rate(readers: &[BagReader]) -> Option<f64> {
+    let prefix = crate::pose_bag::METADATA_NAME;
+    readers
+        .iter()
+        .flat_map(BagReader::metadata)
+        .filter(|(name, _)| {
+            *name == format!("{prefix}.convert") || *name == format!("{prefix}.dataset")
+        })
+        .find_map(|(_, record)| record.get("fps").and_then(|v| v.parse::<f64>().ok()))
+        .filter(|f| f.is_finite() && *f > 0.0)
+}
+
+/// The frame rate of frames stamped `stamps_nanos`: `stated` when given, else measured as one
+/// over the median step between stamps. `None` with no statement and fewer than two frames.
+#[must_use]
+pub fn frame_rate(stated: Option<f64>, stamps_nanos: &[u64]) -> Option<f64> {
+    if stated.is_some() {
+        return stated;
+    }
+    let mut steps: Vec<f64> = stamps_nanos
+        .windows(2)
+        .map(|w| nanos_to_secs(w[1].saturating_sub(w[0])))
+        .filter(|s| *s > 0.0)
+        .collect();
+    let step = crate::character::median(&mut steps)?;
+    Some(1.0 / step)
+}
+
+#[expect(
+    clippy::cast_precision_loss,
+    reason = "stamps are below 2^53 ns (104 days) apart"
+)]
+fn nanos_to_secs(nanos: u64) -> f64 {
+    nanos as f64 * 1e-9
+}
+
+/// The first frame whose stamp is more than half a frame away from `first + k / fps_hz`, as
+/// `(k, seconds off)`: frames a fixed-rate file would play at the wrong time. `stamps_nanos` is
+/// in increasing order.
+#[must_use]
+pub fn first_uneven_frame(stamps_nanos: &[u64], fps_hz: f64) -> Option<(usize, f64)> {
+    let first = *stamps_nanos.first()?;
+    stamps_nanos.iter().enumerate().find_map(|(k, &s)| {
+        #[expect(clippy::cast_precision_loss, reason = "frame counts far below 2^52")]
+        let expected = k as f64 / fps_hz;
+        let off = nanos_to_secs(s.saturating_sub(first)) - expected;
+        (off.abs() > 0.5 / fps_hz).then_some((k, off))
+    })
+}
+
+/// Reads animation `key` of the bag as a [`Clip`] at `fps_hz` (`None`: [`stated_frame_rate`],
+/// else measured from the stamps), warning when its frames are not evenly spaced at that rate.
+///
+/// # Errors
+/// [`ExportError::BadAnimation`] for frames that do not fit the rig, [`ExportError::NoFrameRate`].
+pub fn read_clip(
+    rig: &Rig,
+    path: &Path,
+    readers: &[BagReader],
+    key: AnimationKey,
+    fps_hz: Option<f64>,
+) -> Result<Clip, ExportError> {
+    let (frames, character, _) =
+        crate::animation_bag::read_animation_variant(rig, readers, Some(key.track_id), key.variant)
+            .map_err(|message| ExportError::BadAnimation {
+                path: path.to_path_buf(),
+                key,
+                message,
+            })?;
+    let stamps: Vec<u64> = frames.iter().map(|f| f.stamp_nanos).collect();
+    let fps_hz =
+        frame_rate(fps_hz.or_else(|| stated_frame_rate(readers)), &stamps).ok_or_else(|| {
+            ExportError::NoFrameRate {
+                path: path.to_path_buf(),
+                key,
+            }
+        })?;
+    if let Some((k, off)) = first_uneven_frame(&stamps, fps_hz) {
+        tracing::warn!(
+            "{}: {key}: frames are not evenly spaced at {fps_hz} fps (frame {k} is {off:+.3} s off); the export plays them back to back",
+            path.display()
+        );
+    }
+    Ok(Clip {
+        key,
+        fps_hz,
+        character,
+        poses: frames.into_iter().map(|f| f.pose).collect(),
+    })
+}
+
+/// The file name of animation `key` of bag `bag` when several are exported into one folder:
+/// `<bag stem>_track<T>_v<V>.<ext>`, where the stem is the bag's file name without `.mcap` and
+/// `.anim`, with every character other than ASCII letters, digits, `-` and `_` replaced by `_`.
+#[must_use]
+pub fn output_name(bag: &Path, key: AnimationKey, format: ExportFormat) -> String {
+    let name = bag
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let stem = name.strip_suffix(".mcap").unwrap_or(&name);
+    let stem = stem.strip_suffix(".anim").unwrap_or(stem);
+    let mut safe: String = stem
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if safe.is_empty() {
+        safe.push_str("animation");
+    }
+    format!(
+        "{safe}_track{}_v{}.{}",
+        key.track_id,
+        key.variant,
+        format.extension()
+    )
+}
+
+/// Fails with [`ExportError::OutputExists`] when `path` exists and `force` is not set.
+///
+/// # Errors
+/// As said.
+pub fn check_writable(path: &Path, force: bool) -> Result<(), ExportError> {
+    if !force && path.symlink_metadata().is_ok() {
+        return Err(ExportError::OutputExists(path.to_path_buf()));
+    }
+    Ok(())
+}
+
+/// Writes `bytes` to `path` through a temporary file beside it (`.<name>.partial`), renamed into
+/// place once complete: an interrupted export leaves no file that looks finished. An existing
+/// `path` is replaced only with `force`.
+///
+/// # Errors
+/// [`ExportError::OutputExists`], or [`ExportError::Io`] naming the file.
+pub fn write_atomically(path: &Path, bytes: &[u8], force: bool) -> Result<(), ExportError> {
+    check_writable(path, force)?;
+    let io = |action: &'static str, at: &Path| {
+        let at = at.to_path_buf();
+        move |source| ExportError::Io {
+            action,
+            path: at,
+            source,
+        }
+    };
+    let name = path
+        .file_name()
+        .ok_or_else(|| ExportError::Io {
+            action: "write",
+            path: path.to_path_buf(),
+            source: std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file name"),
+        })?
+        .to_string_lossy()
+        .into_owned();
+    let partial = path.with_file_name(format!(".{name}.partial"));
+    // Errors name the file asked for; the temporary one is an implementation detail.
+    let result = (|| {
+        let mut file = std::fs::File::create(&partial).map_err(io("write", path))?;
+        file.write_all(bytes).map_err(io("write", path))?;
+        file.sync_all().map_err(io("write", path))?;
+        drop(file);
+        // Checked again right before the rename: another process may have made it meanwhile.
+        check_writable(path, force)?;
+        std::fs::rename(&partial, path).map_err(io("move into place", path))
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&partial);
+    }
+    result
+}
+
+/// What [`encode`] needs besides the clip, per format.
+#[derive(Debug, Clone, Default)]
+pub struct EncodeOptions {
+    /// The `.onim` bone mapping (the built-in default when `None`).
+    pub onim_mapping: Option<onim::OnimMapping>,
+}
+
+/// The bytes of `clip` in `format`.
+///
+/// # Errors
+/// [`onim::OnimError`] when the `.onim` mapping does not cover the rig.
+pub fn encode(
+    rig: &Rig,
+    clip: &Clip,
+    format: ExportFormat,
+    options: &EncodeOptions,
+) -> Result<Vec<u8>, onim::OnimError> {
+    Ok(match format {
+        ExportFormat::Bvh => bvh::write(rig, clip).into_bytes(),
+        ExportFormat::Onim => {
+            let default;
+            let mapping = match &options.onim_mapping {
+                Some(m) => m,
+                None => {
+                    default = onim::OnimMapping::builtin(rig)?;
+                    &default
+                }
+            };
+            onim::write(rig, clip, mapping)?.into_bytes()
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,604 @@
+//! `autoact export` end to end: BVH and `.onim` files from the sample bags and from bags with
+//! several people and variants made here, read back with autoact's BVH reader and `.onim`
+//! parser, and every kind of bad input.
+
+#![expect(clippy::unwrap_used, reason = "test helpers fail loudly")]
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+mod common;
+
+use common::{autoact, stderr, stdout};
+
+use autoact::animation_bag::{TrackWriter, frame_prefix, read_animation, read_animation_variant};
+use autoact::character::Character;
+use autoact::export::bvh::read_back;
+use autoact::export::onim::{self, OnimMapping, TrackKind};
+use autoact::fk::BonePose;
+use autoact::formats::bvh;
+use autoact::geom::rotation_distance;
+use autoact::layout::Coverage;
+use autoact::mcap_io::{BagReader, BagWriter, WriteConfig};
+use autoact::rig::Rig;
+use autoact::ros::tf2_msgs::TFMessage;
+use nalgebra::{UnitQuaternion, Vector3};
+
+fn arg(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn sample(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("bags")
+        .join(name)
+}
+
+/// Runs `autoact` and requires success.
+fn ok(args: &[&str]) -> String {
+    let out = autoact(args);
+    assert!(out.status.success(), "autoact {args:?}: {}", stderr(&out));
+    stdout(&out)
+}
+
+/// Runs `autoact` and requires exit code 1; returns stderr.
+fn fails(args: &[&str]) -> String {
+    let out = autoact(args);
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "autoact {args:?}: {}",
+        stderr(&out)
+    );
+    stderr(&out)
+}
+
+/// The pose of track `track`, variant `variant` at frame `k`: everything but fingers moving.
+fn pose(rig: &Rig, track: u64, variant: u32, k: usize) -> BonePose {
+    #[expect(clippy::cast_precision_loss, reason = "small numbers")]
+    let t = k as f64 / 30.0 + track as f64 + 0.1 * f64::from(variant);
+    let mut pose = BonePose::rest(rig);
+    for (b, bone) in rig.bones.iter().enumerate() {
+        #[expect(clippy::cast_precision_loss, reason = "small numbers")]
+        let phase = b as f64 * 0.37;
+        pose.local_rotations[b] = bone.constrain(&UnitQuaternion::from_euler_angles(
+            0.4 * (t + phase).sin(),
+            0.3 * (1.3 * t + phase).cos(),
+            0.5 * (0.7 * t - phase).sin(),
+        ));
+    }
+    pose.root_translation_m = Vector3::new(0.5 * t, 0.2 * t.sin(), 0.05 * t.cos());
+    pose
+}
+
+/// An animation bag with `tracks` people × `variants` variants of `frames` frames at 30 fps,
+/// each person on their own (scaled) body, as `autoact convert --dsi` lays them out.
+fn synthetic_bag(dir: &Path, tracks: u64, variants: u32, frames: usize) -> PathBuf {
+    let rig = Rig::standard();
+    let path = dir.join("people.anim.mcap");
+    let mut w = BagWriter::create(&path, WriteConfig::default()).unwrap();
+    let mut meta = BTreeMap::new();
+    meta.insert("fps".to_string(), "30".to_string());
+    w.write_metadata("autoact.convert", meta).unwrap();
+    let coverage = Coverage {
+        driven: rig.bones.iter().map(|b| b.name.clone()).collect(),
+        twist_unobserved: Vec::new(),
+        at_rest: Vec::new(),
+    };
+    let mut writers = Vec::new();
+    for track in 0..tracks {
+        #[expect(clippy::cast_precision_loss, reason = "small numbers")]
+        let character =
+            Character::from_scales(&rig, vec![0.9 + 0.1 * track as f64; rig.bones.len()]);
+        for variant in 0..variants {
+            let prefix = frame_prefix(track, variant, tracks > 1);
+            writers.push((
+                track,
+                variant,
+                TrackWriter::new(&rig, character.clone(), &coverage, track, variant, &prefix),
+            ));
+        }
+    }
+    let statics = writers
+        .iter()
+        .flat_map(|(_, _, tw)| tw.static_transforms(0))
+        .collect();
+    w.write(
+        "/tf_static",
+        0,
+        &TFMessage {
+            transforms: statics,
+        },
+    )
+    .unwrap();
+    for k in 0..frames {
+        let stamp = autoact::pose::stamp_nanos_at(k, 30.0);
+        for (track, variant, tw) in &mut writers {
+            tw.write_frame(&mut w, stamp, &pose(&rig, *track, *variant, k))
+                .unwrap();
+        }
+    }
+    w.finish().unwrap();
+    path
+}
+
+/// Largest angle between two animations' rotations, degrees, and the bone and frame.
+fn worst_angle_deg(rig: &Rig, a: &[BonePose], b: &[BonePose]) -> (f64, String, usize) {
+    assert_eq!(a.len(), b.len(), "frame counts");
+    let mut worst = (0.0, String::new(), 0);
+    for (k, (x, y)) in a.iter().zip(b).enumerate() {
+        for (i, bone) in rig.bones.iter().enumerate() {
+            let d = rotation_distance(&x.local_rotations[i], &y.local_rotations[i]).to_degrees();
+            if d > worst.0 {
+                worst = (d, bone.name.clone(), k);
+            }
+        }
+    }
+    worst
+}
+
+fn bag_poses(rig: &Rig, bag: &Path, track: u64, variant: u32) -> (Vec<BonePose>, Character) {
+    let readers = BagReader::open_all(bag).unwrap();
+    let (frames, character, _) =
+        read_animation_variant(rig, &readers, Some(track), variant).unwrap();
+    (frames.into_iter().map(|f| f.pose).collect(), character)
+}
+
+#[test]
+fn sample_bags_export_to_bvh_that_autoacts_reader_reads_back_within_0_01_degrees() {
+    let rig = Rig::standard();
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["bandai_walk.anim.mcap", "bandai_wave.anim.mcap"] {
+        let bag = sample(name);
+        let out = dir.path().join(name.replace(".anim.mcap", ".bvh"));
+        let text = ok(&["export", arg(&bag), "--format", "bvh", "-o", arg(&out)]);
+        assert!(
+            text.contains("track 0 variant 0") && text.contains("at 30 fps"),
+            "{text}"
+        );
+        let file = bvh::read(&out).unwrap();
+        let (poses, character) = bag_poses(&rig, &bag, 0, 0);
+        assert_eq!(file.joints.iter().filter(|j| !j.is_end_site).count(), 53);
+        assert_eq!(file.frame_count(), poses.len());
+        assert!((file.frame_time_secs - 1.0 / 30.0).abs() < 1e-9);
+        // The offsets are the bag's body, in cm.
+        let calf = file.joint_index("l_calf").unwrap();
+        let want = character.head_offset_m[rig.bone_index("l_calf").unwrap()].norm() * 100.0;
+        assert!(
+            (file.joints[calf].offset.norm() - want).abs() < 1e-5,
+            "{name}"
+        );
+        let back = read_back(&rig, &file).unwrap();
+        let (worst, bone, k) = worst_angle_deg(&rig, &back, &poses);
+        assert!(worst < 0.01, "{name}: {bone} frame {k} is {worst}° off");
+        for (x, y) in back.iter().zip(&poses) {
+            assert!(
+                (x.root_translation_m - y.root_translation_m).norm() < 1e-6,
+                "{name}"
+            );
+        }
+    }
+}
+
+/// The full path the issue names — BVH → `autoact import` (the built-in `autoact53` mapping) →
+/// `autoact convert` — does not reach 0.01°: `convert` solves rotations from joint positions,
+/// so it re-fits the body, holds the twist of a straight limb (the "degenerate-input path"),
+/// splits the spine by its own rule and takes the head's twist from face points placed on the
+/// default adult. Measured on the sample bags, over the bones the source moves: walk (H3.6M-17)
+/// worst 1.19° (`r_upper_arm`), median 0.016°; wave (COCO-WholeBody) worst 1.64° (`head`),
+/// median 0.0001°. This test keeps that gap from growing (worst < 2°, median < 0.05°); the
+/// 0.01° round trip is the reader-level one above.
+#[test]
+fn bvh_through_import_and_convert_stays_within_the_measured_gap() {
+    let rig = Rig::standard();
+    let dir = tempfile::tempdir().unwrap();
+    for (name, layout) in [
+        ("bandai_walk.anim.mcap", "h36m-17"),
+        ("bandai_wave.anim.mcap", "coco-wholebody-133"),
+    ] {
+        let bag = sample(name);
+        let bvh_path = dir.path().join("x.bvh");
+        let pose_bag = dir.path().join("x.pose.mcap");
+        let anim_bag = dir.path().join("x.anim.mcap");
+        ok(&[
+            "export",
+            arg(&bag),
+            "--format",
+            "bvh",
+            "-o",
+            arg(&bvh_path),
+            "--force",
+        ]);
+        let text = ok(&[
+            "import",
+            arg(&bvh_path),
+            "--layout",
+            layout,
+            "-o",
+            arg(&pose_bag),
+        ]);
+        assert!(text.contains(layout), "{text}");
+        ok(&["convert", arg(&pose_bag), "-o", arg(&anim_bag)]);
+        let (original, _) = bag_poses(&rig, &bag, 0, 0);
+        let (converted, _) = bag_poses(&rig, &anim_bag, 0, 0);
+        let (worst, bone, k) = worst_angle_deg(&rig, &converted, &original);
+        assert!(worst < 2.0, "{name}: {bone} frame {k} is {worst}° off");
+        // Over the bones the source moves: the median is far below the worst.
+        let moving = autoact::fk::moving_bones(&original);
+        let mut errors: Vec<f64> = converted
+            .iter()
+            .zip(&original)
+            .flat_map(|(x, y)| {
+                x.local_rotations
+                    .iter()
+                    .zip(&y.local_rotations)
+                    .zip(&moving)
+                    .filter(|(_, m)| **m)
+                    .map(|((a, b), _)| rotation_distance(a, b).to_degrees())
+            })
+            .collect();
+        errors.sort_by(f64::total_cmp);
+        let median = errors[errors.len() / 2];
+        let p95 = errors[errors.len() * 95 / 100];
+        assert!(
+            median < 0.05,
+            "{name}: median {median}°, 95th percentile {p95}°, worst {worst}° ({bone})"
+        );
+        std::fs::remove_file(&bvh_path).unwrap();
+        std::fs::remove_file(&pose_bag).unwrap();
+        std::fs::remove_file(&anim_bag).unwrap();
+    }
+}
+
+#[test]
+fn every_animation_of_a_bag_goes_to_its_own_file_and_round_trips() {
+    let rig = Rig::standard();
+    let dir = tempfile::tempdir().unwrap();
+    let bag = synthetic_bag(dir.path(), 2, 2, 140);
+    let list = ok(&["export", arg(&bag), "--list"]);
+    assert_eq!(list.lines().count(), 2 + 4, "{list}");
+    assert!(
+        list.lines()
+            .nth(5)
+            .unwrap()
+            .starts_with("1      1        140"),
+        "{list}"
+    );
+
+    let out = dir.path().join("bvh");
+    let text = ok(&["export", arg(&bag), "--format", "bvh", "-o", arg(&out)]);
+    assert_eq!(text.lines().count(), 4, "{text}");
+    let mut names: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        [
+            "people_track0_v0.bvh",
+            "people_track0_v1.bvh",
+            "people_track1_v0.bvh",
+            "people_track1_v1.bvh"
+        ]
+    );
+    for (track, variant) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+        let file = bvh::read(&out.join(format!("people_track{track}_v{variant}.bvh"))).unwrap();
+        let (poses, character) = bag_poses(&rig, &bag, track, variant);
+        let (worst, bone, k) = worst_angle_deg(&rig, &read_back(&rig, &file).unwrap(), &poses);
+        assert!(
+            worst < 0.01,
+            "{track}/{variant}: {bone} frame {k}: {worst}°"
+        );
+        // Each person's own body.
+        let b = rig.bone_index("r_forearm").unwrap();
+        let j = file.joint_index("r_forearm").unwrap();
+        assert!(
+            (file.joints[j].offset.norm() / 100.0 - character.head_offset_m[b].norm()).abs() < 1e-7
+        );
+    }
+
+    // One variant of one person: OUT is the file.
+    let one = dir.path().join("one.onim");
+    ok(&[
+        "export",
+        arg(&bag),
+        "--format",
+        "onim",
+        "--animation",
+        "1",
+        "--variant",
+        "1",
+        "-o",
+        arg(&one),
+    ]);
+    let file = onim::parse(&std::fs::read_to_string(&one).unwrap(), "one.onim").unwrap();
+    assert_eq!(file.frames, 140);
+    assert_eq!(file.sequences, vec![128, 13]);
+    assert!((file.duration_secs - 140.0 / 30.0).abs() < 1e-6);
+    // The quaternions, mapped back onto the rig, are the bag's.
+    let mapping = OnimMapping::builtin(&rig).unwrap();
+    let (poses, _) = bag_poses(&rig, &bag, 1, 1);
+    let heading = rig.bones[0].constrain(&poses[0].local_rotations[0]);
+    let per_bone: Vec<Vec<Vec<f64>>> = rig
+        .bones
+        .iter()
+        .map(|b| {
+            let t = file
+                .tracks
+                .iter()
+                .find(|t| t.tag == b.gta_tag && t.kind == TrackKind::Rotation)
+                .unwrap();
+            file.samples(t)
+        })
+        .collect();
+    let back: Vec<BonePose> = (0..file.frames)
+        .map(|k| {
+            let gta: Vec<UnitQuaternion<f64>> = per_bone
+                .iter()
+                .map(|v| {
+                    let q = &v[k];
+                    UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+                        q[3], q[0], q[1], q[2],
+                    ))
+                })
+                .collect();
+            BonePose {
+                root_translation_m: Vector3::zeros(),
+                local_rotations: mapping.to_rig(&rig, &gta, &heading),
+            }
+        })
+        .collect();
+    let (worst, bone, k) = worst_angle_deg(&rig, &back, &poses);
+    assert!(worst < 0.001, "{bone} frame {k}: {worst}°");
+}
+
+#[test]
+fn sample_bag_exports_to_onim_in_the_native_layout() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("walk.onim");
+    ok(&[
+        "export",
+        arg(&sample("bandai_walk.anim.mcap")),
+        "--format",
+        "onim",
+        "-o",
+        arg(&out),
+    ]);
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(text.starts_with("Version 8 2\n{\n\tFlags FLAG_0 FLAG_4 FLAG_5 FLAG_6 FLAG_7 FLAG_8\n\tFrames 195\n\tSequenceFrameLimit 127\n\tDuration 6.500000\n"), "{}", &text[..200]);
+    let file = onim::parse(&text, "walk.onim").unwrap();
+    assert_eq!(file.sequences, vec![128, 68]);
+    // The walk has no finger data: those tracks are Static; the legs move.
+    let rig = Rig::standard();
+    let tag = |n: &str| rig.bones[rig.bone_index(n).unwrap()].gta_tag;
+    let rotation = |t: u16| {
+        file.tracks
+            .iter()
+            .find(|x| x.tag == t && x.kind == TrackKind::Rotation)
+            .unwrap()
+    };
+    assert!(rotation(tag("l_index1")).blocks.iter().all(|b| b.is_static));
+    assert!(rotation(tag("l_thigh")).blocks.iter().all(|b| !b.is_static));
+    // Deterministic: the same export twice is the same bytes.
+    let again = dir.path().join("again.onim");
+    ok(&[
+        "export",
+        arg(&sample("bandai_walk.anim.mcap")),
+        "--format",
+        "onim",
+        "-o",
+        arg(&again),
+    ]);
+    assert_eq!(std::fs::read(&again).unwrap(), text.as_bytes());
+}
+
+#[test]
+fn bad_input_gets_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let walk = sample("bandai_walk.anim.mcap");
+
+    // A bag without /animation frames.
+    let e = fails(&[
+        "export",
+        arg(&sample("bandai_walk.pose.mcap")),
+        "--format",
+        "bvh",
+        "-o",
+        arg(&dir.path().join("x.bvh")),
+    ]);
+    assert!(
+        e.contains("bandai_walk.pose.mcap: no /animation frames") && e.contains("autoact convert"),
+        "{e}"
+    );
+
+    // Frames that carry no bones.
+    let empty = dir.path().join("empty.anim.mcap");
+    let mut w = BagWriter::create(&empty, WriteConfig::default()).unwrap();
+    let frame = autoact::ros::autoact_msgs::BoneFrame {
+        rig: "autoact53".into(),
+        ..Default::default()
+    };
+    w.write("/animation", 0, &frame).unwrap();
+    w.write("/animation", 33_333_333, &frame).unwrap();
+    w.finish().unwrap();
+    let e = fails(&[
+        "export",
+        arg(&empty),
+        "--format",
+        "bvh",
+        "-o",
+        arg(&dir.path().join("x.bvh")),
+    ]);
+    assert!(e.contains("empty.anim.mcap: track 0 variant 0: /animation has 0 rotations per frame; the rig has 53 bones"), "{e}");
+
+    // Unknown animation or variant.
+    let e = fails(&[
+        "export",
+        arg(&walk),
+        "--format",
+        "bvh",
+        "--animation",
+        "4",
+        "-o",
+        arg(&dir.path().join("x.bvh")),
+    ]);
+    assert!(
+        e.contains("no animation with track 4; the bag holds: track 0 variant 0"),
+        "{e}"
+    );
+    let e = fails(&[
+        "export",
+        arg(&walk),
+        "--format",
+        "onim",
+        "--variant",
+        "2",
+        "-o",
+        arg(&dir.path().join("x.onim")),
+    ]);
+    assert!(e.contains("no animation with variant 2"), "{e}");
+
+    // An output that exists: refused without --force, left alone; replaced with it.
+    let taken = dir.path().join("taken.bvh");
+    std::fs::write(&taken, "mine").unwrap();
+    let e = fails(&["export", arg(&walk), "--format", "bvh", "-o", arg(&taken)]);
+    assert!(e.contains("taken.bvh exists; pass `--force`"), "{e}");
+    assert_eq!(std::fs::read_to_string(&taken).unwrap(), "mine");
+    ok(&[
+        "export",
+        arg(&walk),
+        "--format",
+        "bvh",
+        "-o",
+        arg(&taken),
+        "--force",
+    ]);
+    assert!(
+        std::fs::read_to_string(&taken)
+            .unwrap()
+            .starts_with("HIERARCHY\n")
+    );
+    let leftovers: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".partial"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+
+    // An output that cannot be written.
+    let e = fails(&[
+        "export",
+        arg(&walk),
+        "--format",
+        "bvh",
+        "-o",
+        "/proc/autoact/x.bvh",
+    ]);
+    assert!(e.contains("cannot write /proc/autoact/x.bvh: "), "{e}");
+
+    // Several animations into one file name.
+    let bag = synthetic_bag(dir.path(), 1, 2, 3);
+    let e = fails(&[
+        "export",
+        arg(&bag),
+        "--format",
+        "bvh",
+        "-o",
+        arg(&dir.path().join("two.bvh")),
+    ]);
+    assert!(
+        e.contains("2 animations are selected") && e.contains("--variant"),
+        "{e}"
+    );
+
+    // A mapping that does not cover the rig.
+    let template = dir.path().join("partial.toml");
+    let text: String = onim::DEFAULT_MAPPING_TOML
+        .lines()
+        .filter(|l| !l.starts_with("SKEL_R_Hand ") && !l.starts_with("SKEL_Spine2 "))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    std::fs::write(&template, text).unwrap();
+    let e = fails(&[
+        "export",
+        arg(&walk),
+        "--format",
+        "onim",
+        "--onim-template",
+        arg(&template),
+        "-o",
+        arg(&dir.path().join("x.onim")),
+    ]);
+    assert!(
+        e.contains(
+            "partial.toml does not cover 2 of rig autoact53's bones: SKEL_Spine2, SKEL_R_Hand"
+        ),
+        "{e}"
+    );
+    assert!(!dir.path().join("x.onim").exists());
+
+    // A bad --fps.
+    let e = autoact(&[
+        "export",
+        arg(&walk),
+        "--format",
+        "bvh",
+        "--fps",
+        "0",
+        "-o",
+        "x.bvh",
+    ]);
+    assert!(
+        !e.status.success() && stderr(&e).contains("--fps"),
+        "{}",
+        stderr(&e)
+    );
+}
+
+#[test]
+fn the_printed_onim_template_is_the_built_in_mapping() {
+    let rig = Rig::standard();
+    let text = ok(&["export", "--print-onim-template"]);
+    let printed = OnimMapping::from_toml(&rig, &text, "printed").unwrap();
+    let builtin = OnimMapping::builtin(&rig).unwrap();
+    assert_eq!(printed.frames, builtin.frames);
+    assert_eq!(printed.translations, builtin.translations);
+    // And as a template file it gives the same .onim as the default.
+    let dir = tempfile::tempdir().unwrap();
+    let template = dir.path().join("mine.toml");
+    std::fs::write(&template, &text).unwrap();
+    let a = dir.path().join("a.onim");
+    let b = dir.path().join("b.onim");
+    let walk = sample("bandai_wave.anim.mcap");
+    ok(&["export", arg(&walk), "--format", "onim", "-o", arg(&a)]);
+    ok(&[
+        "export",
+        arg(&walk),
+        "--format",
+        "onim",
+        "--onim-template",
+        arg(&template),
+        "-o",
+        arg(&b),
+    ]);
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+}
+
+#[test]
+fn read_animation_still_reads_variant_0() {
+    let rig = Rig::standard();
+    let dir = tempfile::tempdir().unwrap();
+    let bag = synthetic_bag(dir.path(), 1, 3, 5);
+    let readers = BagReader::open_all(&bag).unwrap();
+    let (frames, _, _) = read_animation(&rig, &readers, None).unwrap();
+    let (v0, _, _) = read_animation_variant(&rig, &readers, None, 0).unwrap();
+    let (v2, _, _) = read_animation_variant(&rig, &readers, None, 2).unwrap();
+    assert_eq!(frames, v0);
+    assert_ne!(frames, v2);
+    let (worst, bone, k) = worst_angle_deg(
+        &rig,
+        &v2.iter().map(|f| f.pose.clone()).collect::<Vec<_>>(),
+        &(0..5).map(|k| pose(&rig, 0, 2, k)).collect::<Vec<_>>(),
+    );
+    assert!(worst < 1e-9, "{bone} frame {k}: {worst}°");
+}
