@@ -16,7 +16,7 @@ use nalgebra::{Point3, Vector3};
 use crate::rig::{Measure, ROOT, Rig};
 
 /// Proportions relative to the rig's default adult (1.0 = unchanged).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Proportions {
     /// Overall height, metres (the default adult is [`Character::STANDARD_HEIGHT_M`]).
     pub height_m: f64,

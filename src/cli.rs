@@ -94,6 +94,15 @@ pub enum Command {
     /// `--flush-interval` (see `autoact recover`). Sequence gaps and undecodable messages are
     /// counted per topic, in the status line, the bag's `autoact.record` metadata and exit code 3.
     Record(crate::cmd::record::Args),
+    /// Render a capture bag with the embedded CPU renderer: H.264 video with a keyframe on every
+    /// segment boundary, a render bag mapping video frames to timeline stamps with per-frame
+    /// annotations (2D/3D joints, visibility, bounding box), PNG frames and a contact sheet.
+    ///
+    /// The character is a skinned body in its scene's look; light, sky, fog, rain, snow and
+    /// lightning follow the drawn weather and time of day; the location's ground, props and
+    /// backdrop surround it. Frames render in parallel and are encoded in order through
+    /// ffmpeg (`apt-get install ffmpeg`).
+    Render(crate::cmd::render::Args),
     /// Describe an MCAP file: channels, schemas, counts, time range, rate, layouts, labels, and
     /// whether ROS 2 tools and autoact can read all of it.
     Info(crate::cmd::info::Args),

@@ -31,6 +31,7 @@ pub mod mcap_io;
 pub mod pose;
 pub mod pose_bag;
 pub mod record;
+pub mod render;
 pub mod resample;
 pub mod rig;
 pub mod ros;

@@ -163,6 +163,47 @@ impl Intrinsics {
     fn ros_principal_point(&self) -> [f64; 2] {
         [self.cx_px - 0.5, self.cy_px - 0.5]
     }
+
+    /// The inverse of [`Intrinsics::k`]: a camera from `sensor_msgs/CameraInfo`'s size and `k`
+    /// (OpenCV pixel convention), `None` unless the focal lengths are positive and finite and
+    /// the principal point is finite.
+    #[must_use]
+    pub fn from_ros(width_px: u32, height_px: u32, k: &[f64; 9]) -> Option<Intrinsics> {
+        let ok = |v: f64| v.is_finite();
+        let (fx, fy, cx, cy) = (k[0], k[4], k[2], k[5]);
+        (ok(fx)
+            && ok(fy)
+            && fx > 0.0
+            && fy > 0.0
+            && ok(cx)
+            && ok(cy)
+            && width_px > 0
+            && height_px > 0)
+            .then_some(Intrinsics {
+                width_px,
+                height_px,
+                fx_px: fx,
+                fy_px: fy,
+                cx_px: cx + 0.5,
+                cy_px: cy + 0.5,
+            })
+    }
+
+    /// The same lens on a sensor of `width_px × height_px`: scaled by the width ratio (the
+    /// horizontal field of view is kept), the principal point moved with the image centre, so
+    /// another aspect ratio shows more or less above and below.
+    #[must_use]
+    pub fn resized(&self, width_px: u32, height_px: u32) -> Intrinsics {
+        let s = f64::from(width_px) / f64::from(self.width_px);
+        Intrinsics {
+            width_px,
+            height_px,
+            fx_px: self.fx_px * s,
+            fy_px: self.fy_px * s,
+            cx_px: self.cx_px * s,
+            cy_px: self.cy_px * s + 0.5 * (f64::from(height_px) - s * f64::from(self.height_px)),
+        }
+    }
 }
 
 #[cfg(test)]

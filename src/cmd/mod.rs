@@ -8,6 +8,7 @@ pub mod layouts;
 pub mod plan;
 pub mod record;
 pub mod recover;
+pub mod render;
 pub mod rig;
 
 use std::fs::File;
@@ -55,6 +56,7 @@ pub fn dispatch(command: Command) -> anyhow::Result<Outcome> {
         Command::Recover(args) => recover::run(args),
         Command::Record(args) => record::run(args),
         Command::Export(args) => export::run(args),
+        Command::Render(args) => render::run(args),
     }
 }
 

@@ -147,3 +147,63 @@ pub struct Segment {
 impl RosMessage for Segment {
     const TYPE_NAME: &'static str = "autoact_msgs/msg/Segment";
 }
+
+/// `autoact_msgs/msg/VideoInfo`: a rendered video and how its frames map to timeline stamps.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct VideoInfo {
+    /// Stamp of video frame 0, and the camera's optical frame.
+    pub header: Header,
+    /// Capture session.
+    pub session: String,
+    /// The capture bag rendered.
+    pub capture_bag: String,
+    /// The video, relative to the bag's folder.
+    pub video_file: String,
+    /// Container, e.g. `mp4`.
+    pub container: String,
+    /// Codec, e.g. `h264`.
+    pub codec: String,
+    /// Frames per second.
+    pub fps: f64,
+    /// Frames in the video.
+    pub frame_count: u64,
+    /// Width, pixels.
+    pub width: u32,
+    /// Height, pixels.
+    pub height: u32,
+    /// Frames made keyframes on purpose (segment boundaries and frame 0).
+    pub forced_keyframes: Vec<u64>,
+    /// Renderer and encoder settings, JSON.
+    pub settings_json: String,
+}
+
+impl RosMessage for VideoInfo {
+    const TYPE_NAME: &'static str = "autoact_msgs/msg/VideoInfo";
+}
+
+/// `autoact_msgs/msg/FrameAnnotation`: the character's keypoints and box in one rendered frame.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct FrameAnnotation {
+    /// Stamp of the timeline frame, and the camera's optical frame.
+    pub header: Header,
+    /// Index of the frame in the video.
+    pub frame_index: u64,
+    /// The clip the frame belongs to, or `""`.
+    pub segment_id: String,
+    /// Keypoint names (the rig's bones, whose heads are the joints).
+    pub keypoint_names: Vec<String>,
+    /// Keypoints in the optical frame, metres.
+    pub keypoints_3d: Vec<Point>,
+    /// Pixel coordinates, interleaved x, y (OpenCV convention).
+    pub keypoints_2d: Vec<f32>,
+    /// COCO visibility per keypoint: 0 out of view, 1 hidden by scenery, 2 visible.
+    pub visibility: Vec<u8>,
+    /// Bounding box of the rendered silhouette.
+    pub bbox: crate::ros::sensor_msgs::RegionOfInterest,
+    /// Pixels of the silhouette.
+    pub silhouette_pixels: u32,
+}
+
+impl RosMessage for FrameAnnotation {
+    const TYPE_NAME: &'static str = "autoact_msgs/msg/FrameAnnotation";
+}

@@ -11,6 +11,7 @@
 pub mod autoact_msgs;
 pub mod builtin_interfaces;
 pub mod cdr;
+pub mod foxglove_msgs;
 pub mod geometry_msgs;
 pub mod sensor_msgs;
 pub mod std_msgs;
@@ -26,7 +27,7 @@ pub trait RosMessage: Serialize + DeserializeOwned {
 }
 
 /// The `.msg` texts autoact knows: (full type name, text), compiled in from `schemas/`.
-const SCHEMAS: [(&str, &str); 25] = [
+const SCHEMAS: [(&str, &str); 28] = [
     (
         "autoact_msgs/msg/BoneFrame",
         include_str!("../../schemas/autoact_msgs/msg/BoneFrame.msg"),
@@ -38,6 +39,18 @@ const SCHEMAS: [(&str, &str); 25] = [
     (
         "autoact_msgs/msg/Segment",
         include_str!("../../schemas/autoact_msgs/msg/Segment.msg"),
+    ),
+    (
+        "autoact_msgs/msg/VideoInfo",
+        include_str!("../../schemas/autoact_msgs/msg/VideoInfo.msg"),
+    ),
+    (
+        "autoact_msgs/msg/FrameAnnotation",
+        include_str!("../../schemas/autoact_msgs/msg/FrameAnnotation.msg"),
+    ),
+    (
+        "foxglove_msgs/msg/CompressedVideo",
+        include_str!("../../schemas/foxglove_msgs/msg/CompressedVideo.msg"),
     ),
     (
         "autoact_msgs/msg/Skeleton3D",
@@ -240,6 +253,9 @@ pub fn check_decodes(type_name: &str, cdr: &[u8]) -> Option<Result<(), cdr::CdrE
         autoact_msgs::BoneFrame::TYPE_NAME => check::<autoact_msgs::BoneFrame>,
         autoact_msgs::SceneState::TYPE_NAME => check::<autoact_msgs::SceneState>,
         autoact_msgs::Segment::TYPE_NAME => check::<autoact_msgs::Segment>,
+        autoact_msgs::VideoInfo::TYPE_NAME => check::<autoact_msgs::VideoInfo>,
+        autoact_msgs::FrameAnnotation::TYPE_NAME => check::<autoact_msgs::FrameAnnotation>,
+        foxglove_msgs::CompressedVideo::TYPE_NAME => check::<foxglove_msgs::CompressedVideo>,
         geometry_msgs::PoseArray::TYPE_NAME => check::<geometry_msgs::PoseArray>,
         geometry_msgs::PoseStamped::TYPE_NAME => check::<geometry_msgs::PoseStamped>,
         geometry_msgs::TransformStamped::TYPE_NAME => check::<geometry_msgs::TransformStamped>,
@@ -316,6 +332,9 @@ mod tests {
         check::<autoact_msgs::BoneFrame>();
         check::<autoact_msgs::SceneState>();
         check::<autoact_msgs::Segment>();
+        check::<autoact_msgs::VideoInfo>();
+        check::<autoact_msgs::FrameAnnotation>();
+        check::<foxglove_msgs::CompressedVideo>();
         check::<geometry_msgs::PoseStamped>();
         check::<sensor_msgs::CameraInfo>();
         check::<sensor_msgs::Image>();

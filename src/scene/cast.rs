@@ -23,7 +23,7 @@
 //! before lighting.
 
 use rand::{Rng, RngExt};
-use serde::{Deserialize, Serialize, Serializer};
+use serde::{Deserialize, Serialize};
 
 use super::{SceneError, check_weights, standard_normal, weighted_index};
 use crate::character::{Character, Proportions};
@@ -101,7 +101,7 @@ pub struct Clothing {
 }
 
 /// One drawn character's appearance.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Look {
     /// Age group.
     pub age_group: AgeGroup,
@@ -112,7 +112,6 @@ pub struct Look {
     /// Standing height, ground to the top of the head, metres.
     pub height_m: f64,
     /// Height and the leg/arm/torso scales (relative to the rig's adult).
-    #[serde(serialize_with = "serialize_proportions")]
     pub proportions: Proportions,
     /// Scale of the head relative to the rig's adult (before the stature is normalised).
     pub head_scale: f64,
@@ -126,23 +125,6 @@ pub struct Look {
     pub hair_rgb: [f32; 3],
     /// Clothing colours.
     pub clothing: Clothing,
-}
-
-fn serialize_proportions<S: Serializer>(p: &Proportions, s: S) -> Result<S::Ok, S::Error> {
-    #[derive(Serialize)]
-    struct P {
-        height_m: f64,
-        arm_scale: f64,
-        leg_scale: f64,
-        torso_scale: f64,
-    }
-    P {
-        height_m: p.height_m,
-        arm_scale: p.arm_scale,
-        leg_scale: p.leg_scale,
-        torso_scale: p.torso_scale,
-    }
-    .serialize(s)
 }
 
 /// Body-mass index the rig's default figure stands for, kg/m² (a lean adult).

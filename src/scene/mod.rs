@@ -209,7 +209,7 @@ pub(crate) fn standard_normal(rng: &mut (impl Rng + ?Sized)) -> f64 {
 }
 
 /// One drawn scene: everything a renderer needs to set the stage, and what the dataset logs.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Scene {
     /// The weather.
     pub weather: Weather,

@@ -1,0 +1,663 @@
+//! The embedded renderer: a software rasteriser on the CPU, deterministic bit for bit.
+//!
+//! One frame, in order:
+//! 1. skin the body ([`crate::body_mesh`]) for the frame's pose;
+//! 2. shadow maps, orthographic along the key light: one fitted to the character every frame,
+//!    one over the props once per scene;
+//! 3. the character, props and backdrop, lit per vertex (hemisphere ambient + key light, fog)
+//!    and shadowed per pixel (2×2 percentage-closer filtering, a depth bias plus a normal offset
+//!    so lit surfaces show no acne);
+//! 4. every pixel left empty is the ground (ray–plane, a mip-mapped texture, shadows, wet or
+//!    water reflection of the sky, fog) or the sky;
+//! 5. rain streaks or snowflakes, depth-tested;
+//! 6. an edge-directed anti-aliasing pass over the final image.
+//!
+//! Frames are independent: parallel rendering uses one [`CpuRenderer`] per thread.
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::color::{Encoder, Rgb, add, mix, mul, scale};
+use super::environment::{Environment, fast_exp_neg};
+use super::hash::unit2;
+use super::raster::{ClipVertex, Cull, ScreenVertex, clip_near, fill_triangle};
+use super::world::Surface;
+use super::{FrameInput, Image, Renderer, Stage};
+use crate::scene::weather::Precipitation;
+
+/// Side of the character's shadow map, texels.
+const CHARACTER_SHADOW_SIZE: usize = 512;
+/// Side of the props' shadow map, texels.
+const PROP_SHADOW_SIZE: usize = 1024;
+/// Near clipping distance, metres.
+const NEAR_M: f32 = 0.05;
+/// Shadow depth bias, in texels of the map (along the light).
+const BIAS_TEXELS: f32 = 2.0;
+/// Receivers are moved this many texels along their normal before the lookup.
+const NORMAL_OFFSET_TEXELS: f32 = 1.5;
+
+/// An orthographic depth map seen from the key light.
+#[derive(Debug, Clone, Default)]
+struct ShadowMap {
+    size: usize,
+    /// Light-plane coordinates of texel (0, 0)'s corner, metres.
+    origin: [f32; 2],
+    /// Texels per metre.
+    texels_per_m: f32,
+    /// Offset that keeps stored heights ≥ 1 (0 is "nothing").
+    height_offset: f32,
+    /// Height towards the light of the nearest caster per texel (0 where none).
+    heights: Vec<f32>,
+    empty: bool,
+}
+
+impl ShadowMap {
+    /// Light visibility at light-space point `(u, v, h)`, [0, 1], or 1 outside the map.
+    #[inline]
+    fn visibility(&self, u: f32, v: f32, h: f32) -> f32 {
+        if self.empty {
+            return 1.0;
+        }
+        let x = (u - self.origin[0]) * self.texels_per_m - 0.5;
+        let y = (v - self.origin[1]) * self.texels_per_m - 0.5;
+        let n = self.size as f32;
+        if !(x >= 0.0 && y >= 0.0 && x < n - 1.0 && y < n - 1.0) {
+            return 1.0;
+        }
+        let (xi, yi) = (x as usize, y as usize);
+        let (fx, fy) = (x - xi as f32, y - yi as f32);
+        let receiver = h + self.height_offset + BIAS_TEXELS / self.texels_per_m;
+        let i = yi * self.size + xi;
+        // 0 marks a texel no caster covers.
+        let lit = |k: usize| {
+            let caster = self.heights[k];
+            f32::from(u8::from(caster == 0.0 || caster <= receiver))
+        };
+        let top = lit(i) * (1.0 - fx) + lit(i + 1) * fx;
+        let bottom = lit(i + self.size) * (1.0 - fx) + lit(i + self.size + 1) * fx;
+        top * (1.0 - fy) + bottom * fy
+    }
+}
+
+/// The light's frame: `u`, `v` across the beam, `l` towards the light.
+#[derive(Debug, Clone, Copy)]
+struct LightFrame {
+    u: Vector3<f32>,
+    v: Vector3<f32>,
+    l: Vector3<f32>,
+}
+
+impl LightFrame {
+    fn new(towards_light: [f32; 3]) -> LightFrame {
+        let l = Vector3::from(towards_light).normalize();
+        let helper = if l.z.abs() < 0.9 {
+            Vector3::z()
+        } else {
+            Vector3::x()
+        };
+        let u = helper.cross(&l).normalize();
+        let v = l.cross(&u);
+        LightFrame { u, v, l }
+    }
+    #[inline]
+    fn coords(&self, p: &Vector3<f32>) -> [f32; 3] {
+        [self.u.dot(p), self.v.dot(p), self.l.dot(p)]
+    }
+}
+
+/// Renders `triangles` of `positions` into `map`, fitted to their extent (plus `margin_m`).
+fn draw_shadow_map(
+    map: &mut ShadowMap,
+    size: usize,
+    light: &LightFrame,
+    positions: &[[f32; 3]],
+    indices: &[u32],
+    margin_m: f32,
+) {
+    map.size = size;
+    map.heights.clear();
+    map.heights.resize(size * size, 0.0);
+    map.empty = indices.is_empty();
+    if map.empty {
+        return;
+    }
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for p in positions {
+        let c = light.coords(&Vector3::from(*p));
+        for k in 0..3 {
+            lo[k] = lo[k].min(c[k]);
+            hi[k] = hi[k].max(c[k]);
+        }
+    }
+    let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]) + 2.0 * margin_m;
+    map.origin = [lo[0] - margin_m, lo[1] - margin_m];
+    map.texels_per_m = size as f32 / extent.max(1e-3);
+    map.height_offset = 1.0 - lo[2];
+    let to_map = |p: &[f32; 3]| {
+        let c = light.coords(&Vector3::from(*p));
+        ScreenVertex {
+            x: (c[0] - map.origin[0]) * map.texels_per_m,
+            y: (c[1] - map.origin[1]) * map.texels_per_m,
+            inv_z: c[2] + map.height_offset,
+        }
+    };
+    for t in indices.chunks_exact(3) {
+        let s = [
+            to_map(&positions[t[0] as usize]),
+            to_map(&positions[t[1] as usize]),
+            to_map(&positions[t[2] as usize]),
+        ];
+        fill_triangle(s, size, size, &mut map.heights, Cull::None, |_, _, _| {});
+    }
+}
+
+/// The camera of one frame, in the form the passes use.
+#[derive(Debug, Clone, Copy)]
+struct View {
+    /// optical_from_world rotation.
+    rotation: Matrix3<f32>,
+    /// optical_from_world translation.
+    translation: Vector3<f32>,
+    /// Camera centre in the world.
+    eye: Vector3<f32>,
+    /// world_from_optical rotation (columns: the optical axes in the world).
+    world_from_optical: Matrix3<f32>,
+    fx: f32,
+    fy: f32,
+    cx: f32,
+    cy: f32,
+    width: usize,
+    height: usize,
+}
+
+impl View {
+    fn new(frame: &FrameInput<'_>) -> View {
+        let iso = frame.camera.world_from_optical;
+        let r64 = iso.rotation.to_rotation_matrix().into_inner();
+        let world_from_optical: Matrix3<f32> = r64.cast();
+        let rotation = world_from_optical.transpose();
+        let eye: Vector3<f32> = iso.translation.vector.cast();
+        let k = &frame.camera.intrinsics;
+        View {
+            rotation,
+            translation: -(rotation * eye),
+            eye,
+            world_from_optical,
+            fx: k.fx_px as f32,
+            fy: k.fy_px as f32,
+            cx: k.cx_px as f32,
+            cy: k.cy_px as f32,
+            width: k.width_px as usize,
+            height: k.height_px as usize,
+        }
+    }
+    #[inline]
+    fn view_of(&self, p: &Vector3<f32>) -> [f32; 3] {
+        let q = self.rotation * p + self.translation;
+        [q.x, q.y, q.z]
+    }
+    #[inline]
+    fn project(&self, q: [f32; 3]) -> ScreenVertex {
+        let iz = 1.0 / q[2];
+        ScreenVertex {
+            x: self.fx * q[0] * iz + self.cx,
+            y: self.fy * q[1] * iz + self.cy,
+            inv_z: iz,
+        }
+    }
+}
+
+/// The CPU renderer; one per thread.
+#[derive(Debug, Default)]
+pub struct CpuRenderer {
+    encoder: Encoder,
+    skinned_positions: Vec<[f32; 3]>,
+    skinned_normals: Vec<[f32; 3]>,
+    character_shadow: ShadowMap,
+    prop_shadow: ShadowMap,
+    /// Which stage `prop_shadow` belongs to.
+    prop_shadow_stage: Option<u64>,
+    /// Lit vertices: attributes are the fogged ambient colour (3), the fogged direct colour
+    /// (3) and the light-space position (3).
+    vertices: Vec<ClipVertex<9>>,
+    polygon: Vec<ClipVertex<9>>,
+    unfiltered: Vec<u8>,
+}
+
+impl CpuRenderer {
+    /// A renderer with empty buffers (they grow on first use and are then reused).
+    #[must_use]
+    pub fn new() -> CpuRenderer {
+        CpuRenderer::default()
+    }
+
+    /// Lights and transforms one mesh's vertices into `self.vertices`.
+    #[allow(clippy::too_many_arguments)]
+    fn prepare_vertices(
+        &mut self,
+        env: &Environment,
+        view: &View,
+        light: &LightFrame,
+        positions: &[[f32; 3]],
+        normals: &[[f32; 3]],
+        albedo: &dyn Fn(usize) -> Rgb,
+        flash: f32,
+        normal_offset_m: f32,
+    ) {
+        self.vertices.clear();
+        let key = Vector3::from(env.key_dir);
+        for (i, (p, n)) in positions.iter().zip(normals).enumerate() {
+            let pw = Vector3::from(*p);
+            let nw = Vector3::from(*n);
+            let a = albedo(i);
+            let q = view.view_of(&pw);
+            let distance = (pw - view.eye).norm();
+            let keep = fast_exp_neg(env.fog_per_m * distance);
+            let ambient = add(env.ambient(nw.z), [flash; 3]);
+            let lit_ambient = add(
+                scale(mul(a, ambient), keep),
+                scale(env.horizon_rgb, 1.0 - keep),
+            );
+            let ndl = nw.dot(&key).max(0.0);
+            let direct = scale(mul(a, env.key_rgb), ndl * keep);
+            let l = light.coords(&(pw + nw * normal_offset_m));
+            self.vertices.push(ClipVertex {
+                view: q,
+                attributes: [
+                    lit_ambient[0],
+                    lit_ambient[1],
+                    lit_ambient[2],
+                    direct[0],
+                    direct[1],
+                    direct[2],
+                    l[0],
+                    l[1],
+                    l[2],
+                ],
+            });
+        }
+    }
+
+    /// Rasterises `indices` over `self.vertices` into the image; `shadowed` meshes look up the
+    /// shadow maps per pixel (the far backdrop does not).
+    fn draw(
+        &mut self,
+        view: &View,
+        indices: &[u32],
+        surface: Surface,
+        shadowed: bool,
+        image: &mut Image,
+    ) {
+        let (w, h) = (view.width, view.height);
+        let shadows = [&self.character_shadow, &self.prop_shadow];
+        let encoder = &self.encoder;
+        let polygon = &mut self.polygon;
+        let surfaces = &mut image.surface;
+        let depth = &mut image.depth;
+        let rgb = &mut image.rgb;
+        for t in indices.chunks_exact(3) {
+            let tri = [
+                self.vertices[t[0] as usize],
+                self.vertices[t[1] as usize],
+                self.vertices[t[2] as usize],
+            ];
+            if tri.iter().all(|v| v.view[2] >= NEAR_M) {
+                polygon.clear();
+                polygon.extend_from_slice(&tri);
+            } else {
+                clip_near(tri, NEAR_M, polygon);
+            }
+            // A fan over the (clipped) convex polygon: one or two triangles.
+            for k in 1..polygon.len().saturating_sub(1) {
+                let part = [polygon[0], polygon[k], polygon[k + 1]];
+                let s = part.map(|v| view.project(v.view));
+                let [a0, a1, a2] = part.map(|v| v.attributes);
+                fill_triangle(s, w, h, depth, Cull::Back, |i, _, b| {
+                    let at = |k: usize| a0[k] * b[0] + a1[k] * b[1] + a2[k] * b[2];
+                    let lit = if shadowed {
+                        let (u, v, l) = (at(6), at(7), at(8));
+                        shadows[0]
+                            .visibility(u, v, l)
+                            .min(shadows[1].visibility(u, v, l))
+                    } else {
+                        1.0
+                    };
+                    let c = encoder.encode_rgb([
+                        at(0) + lit * at(3),
+                        at(1) + lit * at(4),
+                        at(2) + lit * at(5),
+                    ]);
+                    rgb[3 * i..3 * i + 3].copy_from_slice(&c);
+                    surfaces[i] = surface as u8;
+                });
+            }
+        }
+    }
+}
+
+impl Renderer for CpuRenderer {
+    fn render(&mut self, stage: &Stage, frame: &FrameInput<'_>, image: &mut Image) {
+        let view = View::new(frame);
+        let (w, h) = (view.width, view.height);
+        image.resize(w as u32, h as u32);
+        let env = &stage.environment;
+        let light = LightFrame::new(env.key_dir);
+        let flash = env.lightning_flash(frame.time_s, stage.seed);
+
+        // 1. The body for this pose.
+        let skinning = crate::body_mesh::Skinning::new(&stage.rest_pose, frame.pose);
+        stage.body.skin_into(
+            &skinning,
+            &mut self.skinned_positions,
+            &mut self.skinned_normals,
+        );
+
+        // 2. Shadow maps.
+        if env.key_shadows {
+            draw_shadow_map(
+                &mut self.character_shadow,
+                CHARACTER_SHADOW_SIZE,
+                &light,
+                &self.skinned_positions,
+                &stage.body.indices,
+                0.1,
+            );
+            if self.prop_shadow_stage != Some(stage.id) {
+                draw_shadow_map(
+                    &mut self.prop_shadow,
+                    PROP_SHADOW_SIZE,
+                    &light,
+                    &stage.world.props.positions,
+                    &stage.world.props.indices,
+                    0.5,
+                );
+                self.prop_shadow_stage = Some(stage.id);
+            }
+        } else {
+            self.character_shadow.empty = true;
+            self.prop_shadow.empty = true;
+            self.prop_shadow_stage = None;
+        }
+
+        // 3. Character, props, backdrop: nearest first, so the depth test rejects early.
+        let character_offset = NORMAL_OFFSET_TEXELS / self.character_shadow.texels_per_m.max(1.0);
+        let positions = std::mem::take(&mut self.skinned_positions);
+        let normals = std::mem::take(&mut self.skinned_normals);
+        let body_albedo = |i: usize| stage.body_albedo[stage.body.materials[i] as usize];
+        self.prepare_vertices(
+            env,
+            &view,
+            &light,
+            &positions,
+            &normals,
+            &body_albedo,
+            flash,
+            character_offset,
+        );
+        self.draw(&view, &stage.body.indices, Surface::Character, true, image);
+        self.skinned_positions = positions;
+        self.skinned_normals = normals;
+        for (mesh, surface) in [
+            (&stage.world.props, Surface::Prop),
+            (&stage.world.backdrop, Surface::Backdrop),
+        ] {
+            let offset = NORMAL_OFFSET_TEXELS / self.prop_shadow.texels_per_m.max(1.0);
+            let albedo = |i: usize| mesh.albedo[i];
+            self.prepare_vertices(
+                env,
+                &view,
+                &light,
+                &mesh.positions,
+                &mesh.normals,
+                &albedo,
+                flash,
+                offset,
+            );
+            self.draw(
+                &view,
+                &mesh.indices,
+                surface,
+                surface == Surface::Prop,
+                image,
+            );
+        }
+
+        // 4. Ground and sky behind everything drawn.
+        self.ground_and_sky(stage, &view, &light, flash, image);
+
+        // 5. Rain or snow on top.
+        precipitation(env, stage.seed, frame.time_s, &view, image);
+
+        // 6. Anti-aliasing.
+        antialias(image, &mut self.unfiltered);
+    }
+}
+
+impl CpuRenderer {
+    /// Shades every pixel nothing was drawn on: the ground where the pixel's ray goes down,
+    /// else the sky. The ray and its light-space image are stepped along each row.
+    fn ground_and_sky(
+        &mut self,
+        stage: &Stage,
+        view: &View,
+        light: &LightFrame,
+        flash: f32,
+        image: &mut Image,
+    ) {
+        let env = &stage.environment;
+        let ground = &stage.world.ground;
+        // Ambient on the flat ground; the key light is added per pixel with its shadow.
+        let ambient = add(env.ambient(1.0), [flash; 3]);
+        let direct = scale(env.key_rgb, env.key_dir[2].max(0.0));
+        let step = view.world_from_optical.column(0).into_owned() / view.fx;
+        let step_light = [light.u.dot(&step), light.v.dot(&step), light.l.dot(&step)];
+        let eye = view.eye;
+        let eye_light = light.coords(&eye);
+        let flash_sky = [flash * 0.8, flash * 0.8, flash * 0.9];
+        let [character, props] = [&self.character_shadow, &self.prop_shadow];
+        let shadows = env.key_shadows;
+        let mirror_wet = if env.indoor { 0.0 } else { 0.55 * env.wetness };
+        let inv_fx = 1.0 / view.fx;
+        let encoder = &self.encoder;
+        let (w, h) = (view.width, view.height);
+        for row in 0..h {
+            let y = (row as f32 + 0.5 - view.cy) / view.fy;
+            // World direction through the row's first pixel centre (optical z component 1).
+            let mut d = view.world_from_optical * Vector3::new((0.5 - view.cx) / view.fx, y, 1.0);
+            let mut d_light = [light.u.dot(&d), light.v.dot(&d), light.l.dot(&d)];
+            for x in 0..w {
+                let i = row * w + x;
+                if image.depth[i] <= 0.0 {
+                    let len = d.norm();
+                    let colour = if d.z < -1e-6 {
+                        let t = -eye.z / d.z;
+                        let (px, py) = (eye.x + t * d.x, eye.y + t * d.y);
+                        let distance = t * len;
+                        let cos = -d.z / len;
+                        let footprint = distance * inv_fx / cos.max(0.05);
+                        let (albedo, water) = ground.albedo(px, py, footprint);
+                        let lit = if shadows {
+                            let c = [
+                                eye_light[0] + t * d_light[0],
+                                eye_light[1] + t * d_light[1],
+                                eye_light[2] + t * d_light[2],
+                            ];
+                            character
+                                .visibility(c[0], c[1], c[2])
+                                .min(props.visibility(c[0], c[1], c[2]))
+                        } else {
+                            1.0
+                        };
+                        let mut colour = mul(
+                            albedo,
+                            [
+                                ambient[0] + lit * direct[0],
+                                ambient[1] + lit * direct[1],
+                                ambient[2] + lit * direct[2],
+                            ],
+                        );
+                        let mirror = if water { 1.0 } else { mirror_wet };
+                        if mirror > 0.0 {
+                            let fresnel = 0.02 + 0.98 * (1.0 - cos).powi(5);
+                            let reflected = env.sky([d.x / len, d.y / len, cos]);
+                            colour = mix(colour, add(reflected, flash_sky), fresnel * mirror);
+                        }
+                        image.depth[i] = 1.0 / t;
+                        image.surface[i] = Surface::Ground as u8;
+                        mix(
+                            env.horizon_rgb,
+                            colour,
+                            fast_exp_neg(env.fog_per_m * distance),
+                        )
+                    } else {
+                        add(env.sky([d.x / len, d.y / len, d.z / len]), flash_sky)
+                    };
+                    let c = encoder.encode_rgb(colour);
+                    image.rgb[3 * i..3 * i + 3].copy_from_slice(&c);
+                }
+                d += step;
+                for k in 0..3 {
+                    d_light[k] += step_light[k];
+                }
+            }
+        }
+    }
+}
+
+/// Rain streaks or snowflakes in a box in front of the camera, falling with time and slanted
+/// by the wind, each hidden where the scene is nearer.
+fn precipitation(env: &Environment, seed: u64, time_s: f64, view: &View, image: &mut Image) {
+    let (kind, rate) = env.precipitation;
+    if kind == Precipitation::None || rate <= 0.0 || env.indoor {
+        return;
+    }
+    let rain = kind == Precipitation::Rain;
+    let count = if rain {
+        (rate * 120.0).clamp(300.0, 3000.0)
+    } else {
+        (rate * 900.0).clamp(400.0, 3000.0)
+    } as u64;
+    let fall_m_per_s = if rain { 7.0 } else { 1.0 };
+    let box_m = 16.0f32;
+    let forward = view.world_from_optical.column(2).into_owned();
+    let centre = view.eye + forward * (box_m * 0.5);
+    let t = time_s as f32;
+    let wind = env.wind_m_per_s.min(20.0);
+    let tint = add(env.sky_ambient_rgb, scale(env.key_rgb, 0.3));
+    let lum = (0.2 + tint[1]).min(1.0);
+    let (colour, alpha) = if rain {
+        (
+            [200u8, 205, 215].map(|c| (f32::from(c) * lum) as u8),
+            0.35f32,
+        )
+    } else {
+        (
+            [245u8, 247, 250].map(|c| (f32::from(c) * (0.3 + lum)).min(255.0) as u8),
+            0.85,
+        )
+    };
+    for k in 0..count {
+        let r = |j: u64| unit2(seed ^ 0x9ec1, k * 4 + j);
+        let wrap = |v: f32| v - (v / box_m).floor() * box_m;
+        let phase = r(3) * std::f32::consts::TAU;
+        let sway = if rain {
+            0.0
+        } else {
+            0.3 * (t * 1.3 + phase).sin()
+        };
+        let local = [
+            wrap(r(0) * box_m + wind * t + sway - centre.x) - box_m / 2.0,
+            wrap(r(1) * box_m - centre.y) - box_m / 2.0,
+            wrap(r(2) * box_m - fall_m_per_s * t - centre.z) - box_m / 2.0,
+        ];
+        let p = centre + Vector3::from(local);
+        if p.z < 0.0 {
+            continue;
+        }
+        let streak = if rain {
+            Vector3::new(wind, 0.0, -fall_m_per_s) * 0.035
+        } else {
+            Vector3::zeros()
+        };
+        let (a, b) = (view.view_of(&p), view.view_of(&(p + streak)));
+        if a[2] < NEAR_M || b[2] < NEAR_M {
+            continue;
+        }
+        let (sa, sb) = (view.project(a), view.project(b));
+        let steps = (sb.x - sa.x)
+            .abs()
+            .max((sb.y - sa.y).abs())
+            .ceil()
+            .clamp(1.0, 64.0) as usize;
+        let radius = if rain {
+            0
+        } else {
+            (0.015 * view.fx * sa.inv_z).clamp(0.0, 2.0) as i64
+        };
+        for s in 0..=steps {
+            let f = s as f32 / steps as f32;
+            let (x, y) = (sa.x + (sb.x - sa.x) * f, sa.y + (sb.y - sa.y) * f);
+            let iz = sa.inv_z + (sb.inv_z - sa.inv_z) * f;
+            for dy in -radius..=radius {
+                for dx in -radius..=radius {
+                    let (px, py) = (x.floor() as i64 + dx, y.floor() as i64 + dy);
+                    if px < 0 || py < 0 || px >= view.width as i64 || py >= view.height as i64 {
+                        continue;
+                    }
+                    let i = py as usize * view.width + px as usize;
+                    if image.depth[i] > iz {
+                        continue;
+                    }
+                    for (old, new) in image.rgb[3 * i..3 * i + 3].iter_mut().zip(colour) {
+                        let o = f32::from(*old);
+                        *old = (o + (f32::from(new) - o) * alpha).round() as u8;
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Edge-directed smoothing at geometric edges: where a pixel and a neighbour show different
+/// surfaces, or the same surface at clearly different depths (a limb in front of the body), it
+/// is blended with its neighbours across the edge's luma gradient (a light FXAA). Silhouettes
+/// stop stair-stepping and crawling; textures and flat areas are untouched.
+fn antialias(image: &mut Image, source: &mut Vec<u8>) {
+    let (w, h) = (image.width as usize, image.height as usize);
+    if w < 3 || h < 3 {
+        return;
+    }
+    source.clear();
+    source.extend_from_slice(&image.rgb);
+    let luma = |i: usize| {
+        i32::from(source[3 * i]) * 2
+            + i32::from(source[3 * i + 1]) * 5
+            + i32::from(source[3 * i + 2])
+    };
+    let surface = &image.surface;
+    let depth = &image.depth;
+    let edge = |i: usize, j: usize| {
+        surface[i] != surface[j] || (depth[i] - depth[j]).abs() > 0.06 * depth[i].max(depth[j])
+    };
+    for y in 1..h - 1 {
+        for x in 1..w - 1 {
+            let i = y * w + x;
+            if !(edge(i, i + 1) || edge(i, i + w) || edge(i, i - 1) || edge(i, i - w)) {
+                continue;
+            }
+            let (m, n, s, e, west) = (luma(i), luma(i - w), luma(i + w), luma(i + 1), luma(i - 1));
+            let vertical_edge = (e + west - 2 * m).abs() >= (n + s - 2 * m).abs();
+            let (a, b) = if vertical_edge {
+                (i - 1, i + 1)
+            } else {
+                (i - w, i + w)
+            };
+            for c in 0..3 {
+                let v = 2 * u16::from(source[3 * i + c])
+                    + u16::from(source[3 * a + c])
+                    + u16::from(source[3 * b + c]);
+                image.rgb[3 * i + c] = ((v + 2) / 4) as u8;
+            }
+        }
+    }
+}

@@ -1,0 +1,338 @@
+//! Light, sky, fog and weather of one scene, as numbers the rasteriser uses: a drawn
+//! [`Scene`] (time of day, weather, indoor or not) becomes a key light with its direction and
+//! colour, a hemisphere ambient, a sky gradient with the sun's glow, exponential fog, and the
+//! precipitation, ground state and lightning the frame passes draw.
+//!
+//! Units are relative: a white surface facing a clear noon sun reaches about 0.9 of full scale.
+//! The world frame is east-north-up (x east, y north, z up), the frame
+//! [`crate::scene::SunPosition::direction_enu`] is given in.
+//!
+//! Night (the sun more than a few degrees below the horizon) is lit artificially: outdoors a
+//! warm street-lamp key from high up, indoors a ceiling key; daylight fades into it through
+//! twilight, so every time of day gives a readable image.
+
+use super::color::{Rgb, add, mix, scale};
+use crate::scene::weather::Precipitation;
+use crate::scene::weather::Weather;
+use crate::scene::{Scene, sky::ambient_from_sun};
+
+/// Everything the passes need to light and colour one scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Environment {
+    /// Unit vector towards the key light (the sun by day), world frame.
+    pub key_dir: [f32; 3],
+    /// Irradiance of the key light on a surface facing it, linear RGB.
+    pub key_rgb: Rgb,
+    /// Whether the key light casts shadows (false under a closed cloud deck, where it is weak).
+    pub key_shadows: bool,
+    /// Ambient light from above (sky or ceiling), linear RGB.
+    pub sky_ambient_rgb: Rgb,
+    /// Ambient light from below (ground bounce), linear RGB.
+    pub ground_ambient_rgb: Rgb,
+    /// Sky colour straight up.
+    pub zenith_rgb: Rgb,
+    /// Sky colour at the horizon (also the fog colour).
+    pub horizon_rgb: Rgb,
+    /// Direction towards the sun, and the colour of its glow in the sky (zero when hidden).
+    pub sun_glow: ([f32; 3], Rgb),
+    /// Exponential fog: the fraction of light kept over `d` metres is `exp(−fog_per_m·d)`.
+    pub fog_per_m: f32,
+    /// Cloud cover, [0, 1].
+    pub cloud_cover: f32,
+    /// What falls, and how hard (mm/h of water).
+    pub precipitation: (Precipitation, f32),
+    /// Wind, m/s (slants rain and snow).
+    pub wind_m_per_s: f32,
+    /// Ground wetness, [0, 1].
+    pub wetness: f32,
+    /// Snow cover, [0, 1].
+    pub snow_cover: f32,
+    /// Whether lightning flashes (THUNDER).
+    pub lightning: bool,
+    /// Whether the scene is inside (walls and ceiling, no sky, no weather).
+    pub indoor: bool,
+}
+
+/// `exp(−x)` for `x ≥ 0` to about 2·10⁻⁴ relative, without a libm call: the fog factor is
+/// needed once per pixel.
+#[inline]
+#[must_use]
+pub fn fast_exp_neg(x: f32) -> f32 {
+    if x.is_nan() || x <= 0.0 {
+        return 1.0;
+    }
+    if x > 80.0 {
+        return 0.0;
+    }
+    // e^−x = 2^y with y = −x·log2(e); split y into integer k and fraction f in [0, 1).
+    let y = -x * std::f32::consts::LOG2_E;
+    let k = y.floor();
+    let f = y - k;
+    // 2^f on [0, 1): a cubic fit (max relative error ~1e-4).
+    let p = 1.0 + f * (0.695_976_1 + f * (0.224_940_72 + f * 0.079_083_07));
+    p * f32::from_bits(((k as i32 + 127) as u32) << 23)
+}
+
+/// Sun elevation, degrees, below which the sun gives no direct light.
+const SUN_SET_DEG: f64 = -1.0;
+/// Sun elevation, degrees, above which the sun's direct light is full.
+const SUN_UP_DEG: f64 = 8.0;
+
+fn smoothstep(lo: f64, hi: f64, x: f64) -> f64 {
+    let t = ((x - lo) / (hi - lo)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+fn rgb(c: [f64; 3]) -> Rgb {
+    [c[0] as f32, c[1] as f32, c[2] as f32]
+}
+
+fn unit(v: [f64; 3]) -> [f32; 3] {
+    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt().max(1e-12);
+    [(v[0] / n) as f32, (v[1] / n) as f32, (v[2] / n) as f32]
+}
+
+/// Direction from azimuth (degrees clockwise from north) and elevation (degrees), ENU.
+fn direction(azimuth_deg: f64, elevation_deg: f64) -> [f64; 3] {
+    let (az, el) = (azimuth_deg.to_radians(), elevation_deg.to_radians());
+    [az.sin() * el.cos(), az.cos() * el.cos(), el.sin()]
+}
+
+impl Environment {
+    /// The environment of a drawn scene. `layout_seed` (the scene's stream) places the night
+    /// lamp so scenes differ.
+    #[must_use]
+    pub fn from_scene(scene: &Scene, layout_seed: u64) -> Environment {
+        let w = &scene.weather_params;
+        let el = scene.sun.elevation_deg;
+        let indoor = scene.location.indoor;
+        let daylight = ambient_from_sun(el);
+        // Sun: warm and weak near the horizon, white high up; scaled by the weather.
+        let sun_up = smoothstep(SUN_SET_DEG, SUN_UP_DEG, el);
+        let warm = smoothstep(0.0, 30.0, el);
+        let sun_colour = mix(rgb([1.0, 0.52, 0.28]), rgb([1.0, 0.96, 0.9]), warm as f32);
+        let sun_strength = 0.95 * sun_up * w.direct_light_scale;
+        // Sky colours by day, at sunset and at night, greyed by cloud.
+        let day_zenith = rgb([0.16, 0.32, 0.72]);
+        let day_horizon = rgb([0.62, 0.72, 0.88]);
+        let dusk = 1.0 - smoothstep(-4.0, 14.0, el) as f32;
+        let zenith = mix(day_zenith, rgb([0.12, 0.16, 0.38]), dusk);
+        let horizon = mix(day_horizon, rgb([0.98, 0.55, 0.32]), dusk);
+        let night = rgb([0.006, 0.009, 0.022]);
+        let night_horizon = rgb([0.03, 0.032, 0.045]);
+        let d = daylight as f32;
+        let mut zenith = mix(night, zenith, d);
+        let mut horizon = mix(night_horizon, horizon, d);
+        let cloud = w.cloud_cover as f32;
+        let grey = scale(
+            [0.55, 0.57, 0.6],
+            (0.15 + 0.85 * d) * w.ambient_light_scale as f32,
+        );
+        zenith = mix(zenith, scale(grey, 0.85), cloud * cloud);
+        horizon = mix(horizon, grey, cloud * 0.8);
+        if scene.weather == Weather::Smog {
+            horizon = mix(horizon, scale([0.72, 0.62, 0.45], d), 0.6);
+            zenith = mix(zenith, horizon, 0.4);
+        }
+        // Fog thick enough to matter pulls the whole sky to its colour.
+        let fog_per_m = w.fog_density_per_m as f32;
+        let haze = (fog_per_m * 60.0).min(1.0);
+        zenith = mix(zenith, horizon, haze);
+        // Ambient: the sky's light by day (weather-scaled), and an artificial floor at night.
+        let sky_day = scale(
+            [0.30, 0.36, 0.46],
+            (daylight * w.ambient_light_scale) as f32,
+        );
+        let artificial = 1.0 - d;
+        let lamp_rgb = scale([1.0, 0.78, 0.52], 0.62 * artificial);
+        let mut sky_ambient = add(sky_day, scale([0.05, 0.055, 0.075], artificial));
+        // Key light: the sun while it gives more than the night lamp would.
+        let sun_dir = unit(scene.sun.direction_enu());
+        let lamp_azimuth = (layout_seed % 360) as f64;
+        let lamp_dir = unit(direction(lamp_azimuth, 62.0));
+        let (mut key_dir, mut key_rgb) = if sun_strength >= 0.62 * f64::from(artificial) {
+            (sun_dir, scale(sun_colour, sun_strength as f32))
+        } else {
+            (lamp_dir, lamp_rgb)
+        };
+        let mut key_shadows = key_rgb.iter().sum::<f32>() > 0.15;
+        let mut ground_ambient = scale(add(sky_ambient, scale(key_rgb, 0.25)), 0.35);
+        let sun_glow = if sun_up > 0.0 && !indoor {
+            (sun_dir, scale(sun_colour, (sun_strength * 1.4) as f32))
+        } else {
+            (sun_dir, [0.0; 3])
+        };
+        let mut env = Environment {
+            key_dir,
+            key_rgb,
+            key_shadows,
+            sky_ambient_rgb: sky_ambient,
+            ground_ambient_rgb: ground_ambient,
+            zenith_rgb: zenith,
+            horizon_rgb: horizon,
+            sun_glow,
+            fog_per_m,
+            cloud_cover: cloud,
+            precipitation: (w.precipitation, w.precipitation_rate_mm_per_h as f32),
+            wind_m_per_s: w.wind_speed_m_per_s as f32,
+            wetness: w.ground_wetness as f32,
+            snow_cover: w.snow_cover as f32,
+            lightning: w.lightning,
+            indoor,
+        };
+        if indoor {
+            // A lit room: ceiling key slightly off vertical, even ambient, no weather inside.
+            key_dir = unit(direction(lamp_azimuth, 72.0));
+            key_rgb = rgb([0.62, 0.58, 0.5]);
+            key_shadows = true;
+            sky_ambient = rgb([0.34, 0.33, 0.31]);
+            ground_ambient = rgb([0.16, 0.15, 0.14]);
+            env = Environment {
+                key_dir,
+                key_rgb,
+                key_shadows,
+                sky_ambient_rgb: sky_ambient,
+                ground_ambient_rgb: ground_ambient,
+                zenith_rgb: rgb([0.8, 0.8, 0.78]),
+                horizon_rgb: rgb([0.7, 0.7, 0.68]),
+                sun_glow: (sun_dir, [0.0; 3]),
+                fog_per_m: 0.0,
+                cloud_cover: 0.0,
+                precipitation: (Precipitation::None, 0.0),
+                wind_m_per_s: 0.0,
+                wetness: 0.0,
+                snow_cover: 0.0,
+                lightning: false,
+                indoor,
+            };
+        }
+        env
+    }
+
+    /// Ambient light on a surface whose normal has vertical component `normal_z`: the sky's
+    /// from above blended with the ground's from below.
+    #[inline]
+    #[must_use]
+    pub fn ambient(&self, normal_z: f32) -> Rgb {
+        mix(
+            self.ground_ambient_rgb,
+            self.sky_ambient_rgb,
+            0.5 + 0.5 * normal_z,
+        )
+    }
+
+    /// Sky colour in world direction `dir` (unit), before any lightning.
+    #[inline]
+    #[must_use]
+    pub fn sky(&self, dir: [f32; 3]) -> Rgb {
+        let up = dir[2].max(0.0);
+        let t = up.sqrt();
+        let mut c = mix(self.horizon_rgb, self.zenith_rgb, t);
+        let (s, glow) = self.sun_glow;
+        if glow[0] > 0.0 {
+            let cos = dir[0] * s[0] + dir[1] * s[1] + dir[2] * s[2];
+            if cos > 0.9 {
+                // A soft halo and a bright disc (0.53° wide in reality; a few pixels here).
+                let halo = ((cos - 0.9) * 10.0).powi(6) * (1.0 - 0.7 * self.cloud_cover);
+                let disc = if cos > 0.9994 {
+                    3.0 * (1.0 - self.cloud_cover)
+                } else {
+                    0.0
+                };
+                c = add(c, scale(glow, halo + disc));
+            }
+        }
+        c
+    }
+
+    /// Brightness added by lightning at scene time `t_s` (0 between flashes): a flash every few
+    /// seconds, with a second pulse, at times fixed by `seed`.
+    #[must_use]
+    pub fn lightning_flash(&self, t_s: f64, seed: u64) -> f32 {
+        if !self.lightning {
+            return 0.0;
+        }
+        // Time is cut into 5 s windows; each window flashes once at a seeded offset.
+        const WINDOW_S: f64 = 5.0;
+        let window = (t_s / WINDOW_S).floor();
+        let h = super::hash::hash2(seed, window as i64 as u64);
+        let at = (h as f64 / u64::MAX as f64) * (WINDOW_S - 0.5);
+        let dt = t_s - window * WINDOW_S - at;
+        let pulse = |start: f64, length: f64| {
+            if (start..start + length).contains(&dt) {
+                1.0 - (dt - start) / length
+            } else {
+                0.0
+            }
+        };
+        (1.6 * pulse(0.0, 0.12) + 1.2 * pulse(0.2, 0.1)) as f32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::test_scene;
+    use crate::scene::sky::ClockTime;
+
+    fn luminance(c: Rgb) -> f32 {
+        0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+    }
+
+    #[test]
+    fn noon_is_brighter_than_dusk_and_night_still_has_light() {
+        let noon = Environment::from_scene(&test_scene(Weather::Clear, ClockTime::NOON), 1);
+        let dusk = Environment::from_scene(&test_scene(Weather::Clear, ClockTime::EVENING), 1);
+        let night = Environment::from_scene(&test_scene(Weather::Clear, ClockTime::MIDNIGHT), 1);
+        let lit = |e: &Environment| luminance(add(e.key_rgb, e.sky_ambient_rgb));
+        assert!(lit(&noon) > lit(&dusk), "{noon:?} {dusk:?}");
+        assert!(lit(&dusk) > lit(&night) * 0.5);
+        assert!(lit(&night) > 0.2, "night must stay readable: {night:?}");
+        assert!(luminance(night.zenith_rgb) < 0.05);
+        // The night key is the lamp, warm: more red than blue.
+        assert!(night.key_rgb[0] > night.key_rgb[2]);
+        // Noon's key is the sun, high up.
+        assert!(noon.key_dir[2] > 0.8);
+    }
+
+    #[test]
+    fn weather_changes_fog_sky_and_ground() {
+        let clear = Environment::from_scene(&test_scene(Weather::Clear, ClockTime::NOON), 1);
+        let foggy = Environment::from_scene(&test_scene(Weather::Foggy, ClockTime::NOON), 1);
+        let rain = Environment::from_scene(&test_scene(Weather::Rain, ClockTime::NOON), 1);
+        let snow = Environment::from_scene(&test_scene(Weather::Snow, ClockTime::NOON), 1);
+        assert!(foggy.fog_per_m > 20.0 * clear.fog_per_m);
+        assert!(luminance(clear.key_rgb) > luminance(rain.key_rgb));
+        assert_eq!(rain.precipitation.0, Precipitation::Rain);
+        assert!(rain.wetness > 0.3 && snow.snow_cover > 0.3);
+        let thunder = Environment::from_scene(&test_scene(Weather::Thunder, ClockTime::NOON), 1);
+        let flashes = (0..3000)
+            .filter(|&k| thunder.lightning_flash(f64::from(k) / 30.0, 9) > 0.0)
+            .count();
+        assert!(
+            (10..300).contains(&flashes),
+            "{flashes} flash frames in 100 s"
+        );
+        assert_eq!(clear.lightning_flash(1.0, 9), 0.0);
+    }
+
+    #[test]
+    fn fast_exp_matches_exp() {
+        for i in 0..2000 {
+            let x = i as f32 * 0.02;
+            let (a, b) = (fast_exp_neg(x), (-x).exp());
+            assert!((a - b).abs() <= 3e-4 * b + 1e-30, "{x}: {a} vs {b}");
+        }
+        assert_eq!(fast_exp_neg(-1.0), 1.0);
+        assert_eq!(fast_exp_neg(f32::NAN), 1.0);
+        assert_eq!(fast_exp_neg(1000.0), 0.0);
+    }
+
+    #[test]
+    fn the_sun_glows_in_its_direction_only() {
+        let e = Environment::from_scene(&test_scene(Weather::ExtraSunny, ClockTime::NOON), 1);
+        let towards = e.sky(e.sun_glow.0);
+        let away = e.sky([-e.sun_glow.0[0], -e.sun_glow.0[1], e.sun_glow.0[2]]);
+        assert!(luminance(towards) > 2.0 * luminance(away));
+    }
+}

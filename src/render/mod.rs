@@ -1,0 +1,161 @@
+//! Rendering a capture: the character on its rig, in its drawn scene, seen by the capture's
+//! camera — the embedded stand-in for the paper's game engine.
+//!
+//! - [`Renderer`] is the seam a GPU backend would implement; [`cpu::CpuRenderer`] is the
+//!   embedded default, pure Rust and deterministic (the same inputs give the same bytes).
+//! - A [`Stage`] is one scene made ready to draw: its [`environment::Environment`] (light, sky,
+//!   fog, weather), its [`world::World`] (ground, props, backdrop) and the character's
+//!   [`crate::body_mesh::BodyMesh`]. Build it once per scene.
+//! - A [`FrameInput`] is what changes per frame: the camera and the body's pose.
+//! - [`timeline`] reads a capture bag into stages and frames; [`annotate`] projects the
+//!   character's keypoints and finds its box in the rendered mask.
+
+pub mod annotate;
+pub mod color;
+pub mod cpu;
+pub mod environment;
+pub mod hash;
+pub(crate) mod raster;
+pub mod session;
+pub mod timeline;
+pub mod world;
+
+use nalgebra::Isometry3;
+
+use crate::body_mesh::{BodyMesh, BodyShape, Material, albedo_srgb};
+use crate::camera::Intrinsics;
+use crate::fk::{BonePose, WorldPose, forward};
+use crate::rig::Rig;
+use crate::scene::Scene;
+use color::{Rgb, linear_from_srgb};
+use environment::Environment;
+use world::World;
+
+/// Draws frames. Implementations keep their own scratch buffers; use one per thread.
+pub trait Renderer {
+    /// Renders `frame` of `stage` into `image`, resizing it to the camera's resolution.
+    fn render(&mut self, stage: &Stage, frame: &FrameInput<'_>, image: &mut Image);
+}
+
+/// One scene, ready to draw.
+#[derive(Debug, Clone)]
+pub struct Stage {
+    /// Distinguishes stages for per-renderer caches; unique within a run.
+    pub id: u64,
+    /// Seeds the procedural detail (backdrop layout, textures, lightning, rain).
+    pub seed: u64,
+    /// Light, sky, fog and weather.
+    pub environment: Environment,
+    /// Ground, props and backdrop.
+    pub world: World,
+    /// The character's body at rest.
+    pub body: BodyMesh,
+    /// Linear albedo per body [`Material`] (indexed by `Material as usize`).
+    pub body_albedo: Vec<Rgb>,
+    /// The rest pose the body mesh was built in.
+    pub rest_pose: WorldPose,
+}
+
+impl Stage {
+    /// Prepares `scene` for drawing: its character (the scene's [`crate::scene::Look`] on
+    /// `rig`), environment and world. `seed` drives procedural detail; `id` must differ between
+    /// stages of one run.
+    #[must_use]
+    pub fn new(rig: &Rig, scene: &Scene, seed: u64, id: u64) -> Stage {
+        let character = scene.look.character(rig);
+        let environment = Environment::from_scene(scene, seed);
+        let world = World::build(&scene.location, &environment, seed);
+        let body = BodyMesh::build(rig, &character, &BodyShape::from_look(&scene.look));
+        let body_albedo = Material::ALL
+            .iter()
+            .map(|&m| linear_from_srgb(albedo_srgb(&scene.look, m)))
+            .collect();
+        let rest_pose = forward(rig, &character, &BonePose::rest(rig), 1.0);
+        Stage {
+            id,
+            seed,
+            environment,
+            world,
+            body,
+            body_albedo,
+            rest_pose,
+        }
+    }
+}
+
+/// A camera for one frame: where it is and its lens, at the resolution to render.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Camera {
+    /// Pose of the optical frame (z forward, x right, y down) in the world.
+    pub world_from_optical: Isometry3<f64>,
+    /// The lens, in the continuous pixel convention of [`crate::camera::Intrinsics`].
+    pub intrinsics: Intrinsics,
+}
+
+/// What changes from frame to frame.
+#[derive(Debug, Clone, Copy)]
+pub struct FrameInput<'a> {
+    /// The camera.
+    pub camera: Camera,
+    /// The character's posed skeleton (world rotations and joint positions).
+    pub pose: &'a WorldPose,
+    /// Seconds since the scene started (falling rain, lightning).
+    pub time_s: f64,
+}
+
+/// A rendered frame: colour, depth and what each pixel shows.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Image {
+    /// Width, pixels.
+    pub width: u32,
+    /// Height, pixels.
+    pub height: u32,
+    /// sRGB, 3 bytes per pixel, row-major from the top-left.
+    pub rgb: Vec<u8>,
+    /// 1 / view depth (metres⁻¹) of the surface seen at each pixel; 0 for the sky.
+    pub depth: Vec<f32>,
+    /// [`world::Surface`] per pixel, as its `u8`.
+    pub surface: Vec<u8>,
+}
+
+impl Image {
+    /// An empty image of the given size.
+    #[must_use]
+    pub fn new(width: u32, height: u32) -> Image {
+        let mut image = Image::default();
+        image.resize(width, height);
+        image
+    }
+
+    /// Resizes and clears depth and surface (colour is overwritten by every render).
+    pub fn resize(&mut self, width: u32, height: u32) {
+        let n = width as usize * height as usize;
+        self.width = width;
+        self.height = height;
+        self.rgb.resize(3 * n, 0);
+        self.depth.clear();
+        self.depth.resize(n, 0.0);
+        self.surface.clear();
+        self.surface.resize(n, world::Surface::Sky as u8);
+    }
+}
+
+/// A scene for tests: `weather` at `clock` in the open field, a drawn adult.
+#[cfg(test)]
+pub(crate) fn test_scene(
+    weather: crate::scene::weather::Weather,
+    clock: crate::scene::sky::ClockTime,
+) -> Scene {
+    use rand::SeedableRng;
+    let config = crate::scene::SceneConfig {
+        weather_weights: [(weather, 1.0)].into_iter().collect(),
+        clock_weights: [(clock, 1.0)].into_iter().collect(),
+        locations: crate::scene::location::Location::builtin_pool()
+            .into_iter()
+            .filter(|l| l.name == "open_field")
+            .collect(),
+        ..crate::scene::SceneConfig::default()
+    };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+    config.draw(&mut rng, &[]).expect("a valid config draws")
+}

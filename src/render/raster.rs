@@ -1,0 +1,285 @@
+//! Triangle rasterisation: near-plane clipping, edge functions, a `1/z` depth buffer and
+//! perspective-correct barycentrics. Shared by the shadow pass and the colour pass.
+//!
+//! Screen coordinates are continuous pixels (pixel `(i, j)` covers `[i, i+1) × [j, j+1)`, the
+//! convention of [`crate::camera::Intrinsics`]); a pixel is covered when its centre
+//! `(i + ½, j + ½)` lies inside the triangle. The depth buffer stores `1/z` (z along the view
+//! axis), so a greater value is nearer and a cleared buffer holds 0.
+
+/// A vertex after projection: continuous pixel coordinates and the reciprocal view depth.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct ScreenVertex {
+    /// x, pixels.
+    pub x: f32,
+    /// y, pixels (down).
+    pub y: f32,
+    /// 1 / z, per metre (z along the view axis, > 0).
+    pub inv_z: f32,
+}
+
+/// Which faces to skip.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Cull {
+    /// Draw both sides (shadow casters, thin props).
+    None,
+    /// Skip triangles whose vertices run clockwise as the viewer sees them: faces seen from
+    /// behind, for meshes wound counter-clockwise seen from outside.
+    Back,
+}
+
+/// Rasterises one triangle into `depth` (`width` pixels per row), calling
+/// `shade(pixel_index, inv_z, weights)` for every covered pixel that passes the depth test
+/// (`inv_z` greater than the stored value, which is then replaced). `weights` are the
+/// perspective-correct barycentric weights of the three vertices.
+#[inline]
+pub(crate) fn fill_triangle(
+    v: [ScreenVertex; 3],
+    width: usize,
+    height: usize,
+    depth: &mut [f32],
+    cull: Cull,
+    mut shade: impl FnMut(usize, f32, [f32; 3]),
+) {
+    // Twice the signed area. On a y-down screen it is negative when the vertices run
+    // counter-clockwise as the viewer sees them: a front face of a mesh wound counter-clockwise
+    // seen from outside.
+    let area = (v[1].x - v[0].x) * (v[2].y - v[0].y) - (v[1].y - v[0].y) * (v[2].x - v[0].x);
+    if area.is_nan() || area.abs() <= 1e-12 {
+        return;
+    }
+    if cull == Cull::Back && area > 0.0 {
+        return;
+    }
+    let (v, area) = if area < 0.0 {
+        ([v[0], v[2], v[1]], -area)
+    } else {
+        (v, area)
+    };
+    let swapped = v;
+    let min_x = swapped.iter().map(|p| p.x).fold(f32::INFINITY, f32::min);
+    let max_x = swapped
+        .iter()
+        .map(|p| p.x)
+        .fold(f32::NEG_INFINITY, f32::max);
+    let min_y = swapped.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
+    let max_y = swapped
+        .iter()
+        .map(|p| p.y)
+        .fold(f32::NEG_INFINITY, f32::max);
+    // Pixels whose centres can be inside.
+    let row_start = (min_y - 0.5).ceil().max(0.0);
+    let row_end = (max_y - 0.5).floor().min(height as f32 - 1.0);
+    let col_start = (min_x - 0.5).ceil().max(0.0);
+    let col_end = (max_x - 0.5).floor().min(width as f32 - 1.0);
+    if !(row_start <= row_end && col_start <= col_end) {
+        return;
+    }
+    // Edge i is opposite vertex i: e_i(x, y) = a·x + b·y + c, ≥ 0 inside, e_i(v_i) = area.
+    let edge = |p: ScreenVertex, q: ScreenVertex| (q.y - p.y, p.x - q.x, q.x * p.y - p.x * q.y);
+    let edges = [
+        edge(swapped[2], swapped[1]),
+        edge(swapped[0], swapped[2]),
+        edge(swapped[1], swapped[0]),
+    ];
+    let inv_area = 1.0 / area;
+    let iz = [swapped[0].inv_z, swapped[1].inv_z, swapped[2].inv_z];
+    let (rows, cols) = (row_start as usize, col_start as usize);
+    let (last_row, last_col) = (row_end as usize, col_end as usize);
+    for row in rows..=last_row {
+        let y = row as f32 + 0.5;
+        // The span of this row where all three edge functions are ≥ 0.
+        let (mut lo, mut hi) = (col_start, col_end);
+        for &(a, b, c) in &edges {
+            let rest = b * y + c;
+            if a > 0.0 {
+                lo = lo.max((-rest / a - 0.5).ceil());
+            } else if a < 0.0 {
+                hi = hi.min((-rest / a - 0.5).floor());
+            } else if rest < 0.0 {
+                hi = -1.0;
+            }
+        }
+        if lo > hi {
+            continue;
+        }
+        let (lo, hi) = (lo as usize, (hi as usize).min(last_col));
+        let x0 = lo as f32 + 0.5;
+        let mut e = [
+            edges[0].0 * x0 + edges[0].1 * y + edges[0].2,
+            edges[1].0 * x0 + edges[1].1 * y + edges[1].2,
+            edges[2].0 * x0 + edges[2].1 * y + edges[2].2,
+        ];
+        let base = row * width;
+        for col in lo.max(cols)..=hi {
+            let l = [
+                (e[0] * inv_area).max(0.0),
+                (e[1] * inv_area).max(0.0),
+                (e[2] * inv_area).max(0.0),
+            ];
+            let inv_z = l[0] * iz[0] + l[1] * iz[1] + l[2] * iz[2];
+            let slot = &mut depth[base + col];
+            if inv_z > *slot {
+                *slot = inv_z;
+                let k = 1.0 / inv_z;
+                shade(
+                    base + col,
+                    inv_z,
+                    [l[0] * iz[0] * k, l[1] * iz[1] * k, l[2] * iz[2] * k],
+                );
+            }
+            e[0] += edges[0].0;
+            e[1] += edges[1].0;
+            e[2] += edges[2].0;
+        }
+    }
+}
+
+/// A vertex in view space (before projection) with the attributes the caller interpolates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct ClipVertex<const N: usize> {
+    /// Position in the view frame (z forward, x right, y down), metres.
+    pub view: [f32; 3],
+    /// Attributes, interpolated linearly in view space.
+    pub attributes: [f32; N],
+}
+
+/// Clips a triangle against the plane `z = near_m` in view space; writes the resulting convex
+/// polygon (0, 3 or 4 vertices) into `out`.
+pub(crate) fn clip_near<const N: usize>(
+    tri: [ClipVertex<N>; 3],
+    near_m: f32,
+    out: &mut Vec<ClipVertex<N>>,
+) {
+    out.clear();
+    for i in 0..3 {
+        let (a, b) = (tri[i], tri[(i + 1) % 3]);
+        let (da, db) = (a.view[2] - near_m, b.view[2] - near_m);
+        if da >= 0.0 {
+            out.push(a);
+        }
+        if (da >= 0.0) != (db >= 0.0) {
+            let t = da / (da - db);
+            let mut v = a;
+            for k in 0..3 {
+                v.view[k] = a.view[k] + (b.view[k] - a.view[k]) * t;
+            }
+            for k in 0..N {
+                v.attributes[k] = a.attributes[k] + (b.attributes[k] - a.attributes[k]) * t;
+            }
+            out.push(v);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sv(x: f32, y: f32, z: f32) -> ScreenVertex {
+        ScreenVertex {
+            x,
+            y,
+            inv_z: 1.0 / z,
+        }
+    }
+
+    fn coverage(tris: &[[ScreenVertex; 3]], w: usize, h: usize) -> Vec<u32> {
+        let mut depth = vec![0.0; w * h];
+        let mut hits = vec![0u32; w * h];
+        for &t in tris {
+            // A fresh depth buffer per triangle: counts coverage, not visibility.
+            depth.iter_mut().for_each(|d| *d = 0.0);
+            fill_triangle(t, w, h, &mut depth, Cull::None, |i, _, _| hits[i] += 1);
+        }
+        hits
+    }
+
+    #[test]
+    fn a_square_of_two_triangles_covers_each_pixel_once_or_twice_on_the_diagonal_only() {
+        let (a, b, c, d) = (
+            sv(2.0, 2.0, 1.0),
+            sv(10.0, 2.0, 1.0),
+            sv(10.0, 10.0, 1.0),
+            sv(2.0, 10.0, 1.0),
+        );
+        let hits = coverage(&[[a, b, c], [a, c, d]], 16, 16);
+        for y in 0..16 {
+            for x in 0..16 {
+                let inside = (2..10).contains(&x) && (2..10).contains(&y);
+                let n = hits[y * 16 + x];
+                assert_eq!(n > 0, inside, "pixel {x},{y}");
+                if n > 1 {
+                    assert_eq!(x, y, "double coverage off the shared edge at {x},{y}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn depth_test_keeps_the_nearer_triangle_and_weights_sum_to_one() {
+        let w = 8;
+        let mut depth = vec![0.0; w * w];
+        let far = [sv(0.0, 0.0, 4.0), sv(8.0, 0.0, 4.0), sv(0.0, 8.0, 4.0)];
+        let near = [sv(0.0, 0.0, 2.0), sv(8.0, 0.0, 2.0), sv(0.0, 8.0, 2.0)];
+        let mut owner = vec![0u8; w * w];
+        fill_triangle(near, w, w, &mut depth, Cull::None, |i, _, b| {
+            assert!((b.iter().sum::<f32>() - 1.0).abs() < 1e-5);
+            owner[i] = 1;
+        });
+        fill_triangle(far, w, w, &mut depth, Cull::None, |i, _, _| owner[i] = 2);
+        assert!(owner.iter().all(|&o| o != 2));
+        assert!((depth[0] - 0.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn back_faces_are_culled_by_winding() {
+        let cw = [sv(0.0, 0.0, 1.0), sv(8.0, 0.0, 1.0), sv(0.0, 8.0, 1.0)];
+        let ccw = [cw[0], cw[2], cw[1]];
+        let count = |t| {
+            let mut depth = vec![0.0; 64];
+            let mut n = 0;
+            fill_triangle(t, 8, 8, &mut depth, Cull::Back, |_, _, _| n += 1);
+            n
+        };
+        // (0,0) → (8,0) → (0,8) runs clockwise on a y-down screen: a back face.
+        assert_eq!(count(cw), 0);
+        assert!(count(ccw) > 0);
+    }
+
+    #[test]
+    fn weights_are_perspective_correct() {
+        // A triangle receding in depth: at the screen midpoint between a near and a far vertex,
+        // the perspective-correct weight of the near vertex is larger than one half.
+        let w = 64;
+        let mut depth = vec![0.0; w * w];
+        let t = [sv(0.0, 0.0, 1.0), sv(64.0, 0.0, 3.0), sv(0.0, 64.0, 1.0)];
+        let mut seen = None;
+        fill_triangle(t, w, w, &mut depth, Cull::None, |i, _, b| {
+            if i == 31 {
+                seen = Some(b);
+            }
+        });
+        let b = seen.expect("pixel 31 of row 0 is covered");
+        // Screen barycentric of vertex 1 at x = 31.5 is ~0.49; in view space it is
+        // l1·(1/3) / (l0·1 + l1/3) ≈ 0.24.
+        assert!((b[1] - 0.245).abs() < 0.02, "{b:?}");
+    }
+
+    #[test]
+    fn near_clipping_cuts_a_crossing_triangle_into_a_quad() {
+        let v = |z: f32| ClipVertex {
+            view: [0.0, 0.0, z],
+            attributes: [z],
+        };
+        let mut out = Vec::new();
+        clip_near([v(-1.0), v(2.0), v(3.0)], 0.1, &mut out);
+        assert_eq!(out.len(), 4);
+        assert!(out.iter().all(|p| p.view[2] >= 0.1 - 1e-6));
+        assert!(
+            out.iter()
+                .all(|p| (p.attributes[0] - p.view[2]).abs() < 1e-6)
+        );
+        clip_near([v(-1.0), v(-2.0), v(-3.0)], 0.1, &mut out);
+        assert!(out.is_empty());
+    }
+}
