@@ -1,0 +1,367 @@
+//! `autoact render` on a small capture bag made here from the checked-in sample: frame count,
+//! stamps and keyframes checked with ffprobe, the render bag, determinism, joints on the
+//! silhouette, and every kind of bad input (no camera, no ffmpeg, ffmpeg dying, Ctrl-C, a full
+//! disk). Without ffmpeg the video tests print `SKIPPED` and pass; CI installs ffmpeg.
+
+#![expect(clippy::unwrap_used, reason = "test helpers fail loudly")]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+mod common;
+
+use common::{autoact, stderr, stdout};
+
+use autoact::fk;
+use autoact::mcap_io::BagReader;
+use autoact::render::annotate::{VISIBLE, annotate};
+use autoact::render::cpu::CpuRenderer;
+use autoact::render::timeline::Capture;
+use autoact::render::world::Surface;
+use autoact::render::{Camera, FrameInput, Image, Renderer, Stage};
+use autoact::rig::Rig;
+use autoact::ros::autoact_msgs::{FrameAnnotation, VideoInfo};
+use autoact::ros::cdr;
+use autoact::video::{Ffmpeg, probe};
+
+fn repo(path: &str) -> String {
+    format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn ffmpeg(test: &str) -> Option<Ffmpeg> {
+    match Ffmpeg::locate() {
+        Ok(f) => Some(f),
+        Err(e) => {
+            eprintln!("SKIPPED {test}: no ffmpeg on this machine ({e})");
+            None
+        }
+    }
+}
+
+/// A one-session capture bag: the wave in 2 scenes × 2 viewpoints (4 clips), in `dir`.
+fn capture(dir: &Path) -> PathBuf {
+    let spec = dir.join("spec.toml");
+    std::fs::write(
+        &spec,
+        format!(
+            r#"[dataset]
+name = "r"
+seed = 5
+fps = 30.0
+resolution = [320, 240]
+lead_in_s = 0.2
+lead_out_s = 0.2
+session = "dataset"
+[counts]
+variants = 1
+scenes = 2
+viewpoints = 2
+[scene]
+weather_weights = {{ RAIN = 1, CLEAR = 1 }}
+[[class]]
+category = "gesture"
+action = "wave"
+sources = ["{}"]
+"#,
+            repo("bags/bandai_wave.pose.mcap")
+        ),
+    )
+    .unwrap();
+    let out = dir.join("cap");
+    let o = autoact(&["-q", "convert", "--spec", arg(&spec), "-o", arg(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bag = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|e| e == "mcap"))
+        .unwrap();
+    bag
+}
+
+fn arg(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn files_in(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn video_has_every_timeline_frame_at_its_stamp_with_keyframes_on_every_boundary() {
+    let Some(ff) = ffmpeg("video_has_every_timeline_frame") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let bag = capture(dir.path());
+    let video = dir.path().join("cap.mp4");
+    let o = autoact(&[
+        "render",
+        arg(&bag),
+        "-o",
+        arg(&video),
+        "--resolution",
+        "160x120",
+        "--embed-video",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("rendered"), "{}", stdout(&o));
+
+    let rig = Rig::standard();
+    let cap = Capture::read(&rig, &bag).unwrap();
+    let p = probe(&ff, &video).unwrap();
+    assert_eq!(p.frames.len(), cap.frames.len());
+    assert_eq!((p.width, p.height), (160, 120));
+    assert!(!p.has_b_frames);
+    let first = cap.frames[0].stamp_ns;
+    for (k, (f, c)) in p.frames.iter().zip(&cap.frames).enumerate() {
+        // Video time k/30 s is the timeline's k-th stamp.
+        assert!((f.pts_s - k as f64 / 30.0).abs() < 1e-6, "frame {k}: {}", f.pts_s);
+        assert!(((c.stamp_ns - first) as f64 * 1e-9 - f.pts_s).abs() < 1e-6);
+    }
+    let keys = p.keyframe_indices();
+    let boundaries = cap.boundary_frames();
+    assert!(boundaries.len() >= 4, "{boundaries:?}");
+    for b in &boundaries {
+        assert!(keys.contains(b), "boundary {b} is not a keyframe: {keys:?}");
+    }
+
+    // The render bag: one VideoInfo, one annotation and one H.264 unit per frame.
+    let render_bag = dir.path().join("cap.render.mcap");
+    let r = BagReader::open(&render_bag).unwrap();
+    let (mut info, mut notes, mut units) = (Vec::new(), Vec::new(), 0);
+    for m in r.messages() {
+        let m = m.unwrap();
+        match m.channel.topic.as_str() {
+            "/render/video" => info.push(cdr::decode::<VideoInfo>(&m.data).unwrap()),
+            "/render/annotations" => notes.push(cdr::decode::<FrameAnnotation>(&m.data).unwrap()),
+            "/render/camera/h264" => units += 1,
+            other => panic!("unexpected topic {other}"),
+        }
+    }
+    assert_eq!(info.len(), 1);
+    assert_eq!(info[0].frame_count, cap.frames.len() as u64);
+    assert_eq!(info[0].video_file, "cap.mp4");
+    assert_eq!(info[0].forced_keyframes, boundaries);
+    assert_eq!(notes.len(), cap.frames.len());
+    assert_eq!(units, cap.frames.len());
+    for (k, (n, f)) in notes.iter().zip(&cap.frames).enumerate() {
+        assert_eq!(n.frame_index, k as u64);
+        assert_eq!(n.header.stamp.to_nanos(), Some(f.stamp_ns));
+        assert_eq!(n.keypoint_names.len(), rig.bones.len());
+        assert_eq!(n.keypoints_2d.len(), 2 * rig.bones.len());
+    }
+    // Inside the clips the character is in view.
+    let in_clip: Vec<&FrameAnnotation> = notes.iter().filter(|n| !n.segment_id.is_empty()).collect();
+    assert!(in_clip.len() > cap.frames.len() / 2);
+    assert!(in_clip.iter().all(|n| n.bbox.width > 0 && n.silhouette_pixels > 0));
+
+    // Outputs exist only complete: no temporary files left.
+    assert!(files_in(dir.path()).iter().all(|f| !f.ends_with(".part")), "{:?}", files_in(dir.path()));
+}
+
+#[test]
+fn two_renders_of_one_bag_are_identical_frame_for_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let bag = capture(dir.path());
+    let render = |name: &str| {
+        let out = dir.path().join(name);
+        let o = autoact(&[
+            "render",
+            arg(&bag),
+            "--frames-out",
+            arg(&out),
+            "--resolution",
+            "160x120",
+            "--limit",
+            "40",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        out
+    };
+    let (a, b) = (render("a"), render("b"));
+    let names = files_in(&a);
+    assert_eq!(names.len(), 40);
+    assert_eq!(names, files_in(&b));
+    for n in &names {
+        assert_eq!(std::fs::read(a.join(n)).unwrap(), std::fs::read(b.join(n)).unwrap(), "{n}");
+    }
+}
+
+#[test]
+fn projected_joints_lie_on_the_rendered_silhouette() {
+    let dir = tempfile::tempdir().unwrap();
+    let bag = capture(dir.path());
+    let rig = Rig::standard();
+    let cap = Capture::read(&rig, &bag).unwrap();
+    let stages: Vec<Stage> = cap
+        .scenes
+        .iter()
+        .enumerate()
+        .map(|(i, s)| Stage::new(&rig, &s.scene, s.stream, i as u64))
+        .collect();
+    let mut renderer = CpuRenderer::new();
+    let mut image = Image::default();
+    let (mut visible, mut on_silhouette) = (0usize, 0usize);
+    for f in cap.frames.iter().step_by(7) {
+        let scene = &cap.scenes[f.scene];
+        let posed = fk::forward(&rig, &scene.scene.look.character(&rig), &f.pose, 1.0);
+        let camera = Camera {
+            world_from_optical: f.world_from_optical,
+            intrinsics: cap.intrinsics,
+        };
+        let input = FrameInput {
+            camera,
+            pose: &posed,
+            time_s: 0.0,
+        };
+        renderer.render(&stages[f.scene], &input, &mut image);
+        let a = annotate(&posed, &camera, &image);
+        let w = image.width as usize;
+        for (p, &v) in a.keypoints_2d.iter().zip(&a.visibility) {
+            if v != VISIBLE {
+                continue;
+            }
+            visible += 1;
+            // The pixel under the joint, or one of its 8 neighbours, shows the character.
+            let (x, y) = (p[0] as i64, p[1] as i64);
+            let hit = (-1..=1).any(|dy| {
+                (-1..=1).any(|dx| {
+                    let (xx, yy) = (x + dx, y + dy);
+                    xx >= 0
+                        && yy >= 0
+                        && (xx as usize) < w
+                        && (yy as u32) < image.height
+                        && image.surface[yy as usize * w + xx as usize] == Surface::Character as u8
+                })
+            });
+            on_silhouette += usize::from(hit);
+        }
+    }
+    assert!(visible > 1000, "{visible} visible joints");
+    let share = on_silhouette as f64 / visible as f64;
+    assert!(share >= 0.95, "{on_silhouette}/{visible} = {share:.3} on the silhouette");
+}
+
+#[test]
+fn a_bag_without_camera_or_scene_is_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.mp4");
+    let o = autoact(&["render", &repo("bags/bandai_wave.anim.mcap"), "-o", arg(&out)]);
+    assert_eq!(o.status.code(), Some(1));
+    let e = stderr(&o);
+    assert!(e.contains("bandai_wave.anim.mcap"), "{e}");
+    assert!(e.contains("camera path (/camera/pose)"), "{e}");
+    assert!(e.contains("convert --spec"), "{e}");
+    assert!(files_in(dir.path()).is_empty());
+    let o = autoact(&["render", &repo("bags/bandai_wave.anim.mcap")]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("nothing to write"), "{}", stderr(&o));
+}
+
+#[test]
+fn missing_or_failing_ffmpeg_leaves_no_video_and_says_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let bag = capture(dir.path());
+    let out = dir.path().join("v.mp4");
+    let run = |ffmpeg: &str| {
+        Command::new(env!("CARGO_BIN_EXE_autoact"))
+            .args(["render", arg(&bag), "-o", arg(&out), "--resolution", "160x120"])
+            .env("AUTOACT_FFMPEG", ffmpeg)
+            .output()
+            .unwrap()
+    };
+    let o = run("/nonexistent/ffmpeg");
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("apt-get install ffmpeg"), "{}", stderr(&o));
+
+    // An "ffmpeg" that takes a few frames, complains and dies.
+    let fake = dir.path().join("fake-ffmpeg");
+    std::fs::write(
+        &fake,
+        "#!/bin/sh\nhead -c 200000 >/dev/null\necho 'encoder exploded: out of dilithium' >&2\nexit 1\n",
+    )
+    .unwrap();
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&fake, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+    let o = run(arg(&fake));
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("out of dilithium"), "{}", stderr(&o));
+    let left: Vec<String> = files_in(dir.path())
+        .into_iter()
+        .filter(|f| f.contains("v.") || f.contains(".part"))
+        .collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+}
+
+#[test]
+fn ctrl_c_leaves_no_file_that_looks_complete() {
+    if ffmpeg("ctrl_c_leaves_no_file_that_looks_complete").is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let bag = capture(dir.path());
+    let out = dir.path().join("v.mp4");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_autoact"))
+        .args(["render", arg(&bag), "-o", arg(&out), "--resolution", "640x480", "--threads", "1"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Wait until the encoder has started writing, then interrupt.
+    let part = dir.path().join(".v.mp4.part");
+    let started = std::time::Instant::now();
+    while !part.exists() && started.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    assert!(part.exists(), "the render never started writing");
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let pid = child.id().to_string();
+    let _ = Command::new("kill").args(["-INT", &pid]).status();
+    let o = child.wait_with_output().unwrap();
+    assert_ne!(o.status.code(), Some(0), "an interrupted render must not report success");
+    assert!(stderr(&o).contains("interrupted"), "{}", stderr(&o));
+    let left: Vec<String> = files_in(dir.path())
+        .into_iter()
+        .filter(|f| f.starts_with("v.") || f.starts_with(".v."))
+        .collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+}
+
+#[test]
+fn a_full_disk_is_an_error_and_leaves_no_complete_looking_file() {
+    if ffmpeg("a_full_disk_is_an_error").is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let bag = capture(dir.path());
+    let mount = dir.path().join("small");
+    std::fs::create_dir(&mount).unwrap();
+    // A private mount namespace with a 256 KiB tmpfs as the output folder; 77 if not allowed.
+    let script = format!(
+        "mount -t tmpfs -o size=256k autoact-test '{m}' || exit 77; \"$@\"; code=$?; echo \"left: $(ls -A '{m}')\" >&2; exit $code",
+        m = arg(&mount)
+    );
+    let out = mount.join("v.mp4");
+    let o = Command::new("unshare")
+        .args(["-m", "--propagation", "private", "sh", "-c", &script, "sh"])
+        .arg(env!("CARGO_BIN_EXE_autoact"))
+        .args(["render", arg(&bag), "-o", arg(&out), "--resolution", "320x240", "--crf", "0"])
+        .output()
+        .unwrap();
+    if o.status.code() == Some(77) || stderr(&o).contains("unshare failed") {
+        eprintln!("SKIPPED a_full_disk_is_an_error: cannot mount a tmpfs here");
+        return;
+    }
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(e.contains("No space left on device"), "{e}");
+    // What the full folder holds afterwards: nothing.
+    assert!(e.lines().any(|l| l.trim_end() == "left:"), "{e}");
+}
