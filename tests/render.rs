@@ -120,7 +120,11 @@ fn video_has_every_timeline_frame_at_its_stamp_with_keyframes_on_every_boundary(
     let first = cap.frames[0].stamp_ns;
     for (k, (f, c)) in p.frames.iter().zip(&cap.frames).enumerate() {
         // Video time k/30 s is the timeline's k-th stamp.
-        assert!((f.pts_s - k as f64 / 30.0).abs() < 1e-6, "frame {k}: {}", f.pts_s);
+        assert!(
+            (f.pts_s - k as f64 / 30.0).abs() < 1e-6,
+            "frame {k}: {}",
+            f.pts_s
+        );
         assert!(((c.stamp_ns - first) as f64 * 1e-9 - f.pts_s).abs() < 1e-6);
     }
     let keys = p.keyframe_indices();
@@ -156,12 +160,21 @@ fn video_has_every_timeline_frame_at_its_stamp_with_keyframes_on_every_boundary(
         assert_eq!(n.keypoints_2d.len(), 2 * rig.bones.len());
     }
     // Inside the clips the character is in view.
-    let in_clip: Vec<&FrameAnnotation> = notes.iter().filter(|n| !n.segment_id.is_empty()).collect();
+    let in_clip: Vec<&FrameAnnotation> =
+        notes.iter().filter(|n| !n.segment_id.is_empty()).collect();
     assert!(in_clip.len() > cap.frames.len() / 2);
-    assert!(in_clip.iter().all(|n| n.bbox.width > 0 && n.silhouette_pixels > 0));
+    assert!(
+        in_clip
+            .iter()
+            .all(|n| n.bbox.width > 0 && n.silhouette_pixels > 0)
+    );
 
     // Outputs exist only complete: no temporary files left.
-    assert!(files_in(dir.path()).iter().all(|f| !f.ends_with(".part")), "{:?}", files_in(dir.path()));
+    assert!(
+        files_in(dir.path()).iter().all(|f| !f.ends_with(".part")),
+        "{:?}",
+        files_in(dir.path())
+    );
 }
 
 #[test]
@@ -188,7 +201,11 @@ fn two_renders_of_one_bag_are_identical_frame_for_frame() {
     assert_eq!(names.len(), 40);
     assert_eq!(names, files_in(&b));
     for n in &names {
-        assert_eq!(std::fs::read(a.join(n)).unwrap(), std::fs::read(b.join(n)).unwrap(), "{n}");
+        assert_eq!(
+            std::fs::read(a.join(n)).unwrap(),
+            std::fs::read(b.join(n)).unwrap(),
+            "{n}"
+        );
     }
 }
 
@@ -244,14 +261,22 @@ fn projected_joints_lie_on_the_rendered_silhouette() {
     }
     assert!(visible > 1000, "{visible} visible joints");
     let share = on_silhouette as f64 / visible as f64;
-    assert!(share >= 0.95, "{on_silhouette}/{visible} = {share:.3} on the silhouette");
+    assert!(
+        share >= 0.95,
+        "{on_silhouette}/{visible} = {share:.3} on the silhouette"
+    );
 }
 
 #[test]
 fn a_bag_without_camera_or_scene_is_refused_by_name() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x.mp4");
-    let o = autoact(&["render", &repo("bags/bandai_wave.anim.mcap"), "-o", arg(&out)]);
+    let o = autoact(&[
+        "render",
+        &repo("bags/bandai_wave.anim.mcap"),
+        "-o",
+        arg(&out),
+    ]);
     assert_eq!(o.status.code(), Some(1));
     let e = stderr(&o);
     assert!(e.contains("bandai_wave.anim.mcap"), "{e}");
@@ -270,14 +295,25 @@ fn missing_or_failing_ffmpeg_leaves_no_video_and_says_why() {
     let out = dir.path().join("v.mp4");
     let run = |ffmpeg: &str| {
         Command::new(env!("CARGO_BIN_EXE_autoact"))
-            .args(["render", arg(&bag), "-o", arg(&out), "--resolution", "160x120"])
+            .args([
+                "render",
+                arg(&bag),
+                "-o",
+                arg(&out),
+                "--resolution",
+                "160x120",
+            ])
             .env("AUTOACT_FFMPEG", ffmpeg)
             .output()
             .unwrap()
     };
     let o = run("/nonexistent/ffmpeg");
     assert_eq!(o.status.code(), Some(1));
-    assert!(stderr(&o).contains("apt-get install ffmpeg"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("apt-get install ffmpeg"),
+        "{}",
+        stderr(&o)
+    );
 
     // An "ffmpeg" that takes a few frames, complains and dies.
     let fake = dir.path().join("fake-ffmpeg");
@@ -310,7 +346,16 @@ fn ctrl_c_leaves_no_file_that_looks_complete() {
     let bag = capture(dir.path());
     let out = dir.path().join("v.mp4");
     let mut child = Command::new(env!("CARGO_BIN_EXE_autoact"))
-        .args(["render", arg(&bag), "-o", arg(&out), "--resolution", "640x480", "--threads", "1"])
+        .args([
+            "render",
+            arg(&bag),
+            "-o",
+            arg(&out),
+            "--resolution",
+            "640x480",
+            "--threads",
+            "1",
+        ])
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
@@ -325,7 +370,11 @@ fn ctrl_c_leaves_no_file_that_looks_complete() {
     let pid = child.id().to_string();
     let _ = Command::new("kill").args(["-INT", &pid]).status();
     let o = child.wait_with_output().unwrap();
-    assert_ne!(o.status.code(), Some(0), "an interrupted render must not report success");
+    assert_ne!(
+        o.status.code(),
+        Some(0),
+        "an interrupted render must not report success"
+    );
     assert!(stderr(&o).contains("interrupted"), "{}", stderr(&o));
     let left: Vec<String> = files_in(dir.path())
         .into_iter()
@@ -352,7 +401,16 @@ fn a_full_disk_is_an_error_and_leaves_no_complete_looking_file() {
     let o = Command::new("unshare")
         .args(["-m", "--propagation", "private", "sh", "-c", &script, "sh"])
         .arg(env!("CARGO_BIN_EXE_autoact"))
-        .args(["render", arg(&bag), "-o", arg(&out), "--resolution", "320x240", "--crf", "0"])
+        .args([
+            "render",
+            arg(&bag),
+            "-o",
+            arg(&out),
+            "--resolution",
+            "320x240",
+            "--crf",
+            "0",
+        ])
         .output()
         .unwrap();
     if o.status.code() == Some(77) || stderr(&o).contains("unshare failed") {

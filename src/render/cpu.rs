@@ -24,7 +24,8 @@ use super::world::Surface;
 use super::{FrameInput, Image, Renderer, Stage};
 use crate::scene::weather::Precipitation;
 
-/// Side of the character's shadow map, texels.
+/// Side of the character's shadow map, texels, at most: smaller images use a map about as many
+/// texels across as the image is tall (at least 256), which keeps its texels near pixel size.
 const CHARACTER_SHADOW_SIZE: usize = 512;
 /// Side of the props' shadow map, texels.
 const PROP_SHADOW_SIZE: usize = 1024;
@@ -356,7 +357,7 @@ impl Renderer for CpuRenderer {
         if env.key_shadows {
             draw_shadow_map(
                 &mut self.character_shadow,
-                CHARACTER_SHADOW_SIZE,
+                CHARACTER_SHADOW_SIZE.min(h.max(256)),
                 &light,
                 &self.skinned_positions,
                 &stage.body.indices,

@@ -17,6 +17,27 @@ pub(crate) struct ScreenVertex {
     pub inv_z: f32,
 }
 
+/// Largest magnitude [`floor`] and [`ceil`] handle exactly; beyond it they saturate, which only
+/// ever moves a bound further off screen.
+const ROUNDING_LIMIT: f32 = 1.0e9;
+
+/// `⌊v⌋` through an integer cast (the default x86-64 target has no rounding instruction, and a
+/// libm call per row of every triangle is measurable). NaN gives 0.
+#[inline]
+fn floor(v: f32) -> f32 {
+    let v = v.clamp(-ROUNDING_LIMIT, ROUNDING_LIMIT);
+    let i = v as i64 as f32;
+    if i > v { i - 1.0 } else { i }
+}
+
+/// `⌈v⌉`, as [`floor`].
+#[inline]
+fn ceil(v: f32) -> f32 {
+    let v = v.clamp(-ROUNDING_LIMIT, ROUNDING_LIMIT);
+    let i = v as i64 as f32;
+    if i < v { i + 1.0 } else { i }
+}
+
 /// Which faces to skip.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Cull {
@@ -67,10 +88,10 @@ pub(crate) fn fill_triangle(
         .map(|p| p.y)
         .fold(f32::NEG_INFINITY, f32::max);
     // Pixels whose centres can be inside.
-    let row_start = (min_y - 0.5).ceil().max(0.0);
-    let row_end = (max_y - 0.5).floor().min(height as f32 - 1.0);
-    let col_start = (min_x - 0.5).ceil().max(0.0);
-    let col_end = (max_x - 0.5).floor().min(width as f32 - 1.0);
+    let row_start = ceil(min_y - 0.5).max(0.0);
+    let row_end = floor(max_y - 0.5).min(height as f32 - 1.0);
+    let col_start = ceil(min_x - 0.5).max(0.0);
+    let col_end = floor(max_x - 0.5).min(width as f32 - 1.0);
     if !(row_start <= row_end && col_start <= col_end) {
         return;
     }
@@ -92,9 +113,9 @@ pub(crate) fn fill_triangle(
         for &(a, b, c) in &edges {
             let rest = b * y + c;
             if a > 0.0 {
-                lo = lo.max((-rest / a - 0.5).ceil());
+                lo = lo.max(ceil(-rest / a - 0.5));
             } else if a < 0.0 {
-                hi = hi.min((-rest / a - 0.5).floor());
+                hi = hi.min(floor(-rest / a - 0.5));
             } else if rest < 0.0 {
                 hi = -1.0;
             }
@@ -263,6 +284,27 @@ mod tests {
         // Screen barycentric of vertex 1 at x = 31.5 is ~0.49; in view space it is
         // l1·(1/3) / (l0·1 + l1/3) ≈ 0.24.
         assert!((b[1] - 0.245).abs() < 0.02, "{b:?}");
+    }
+
+    #[test]
+    fn fast_rounding_matches_the_standard_library() {
+        for v in [
+            -3.5f32,
+            -3.0,
+            -0.2,
+            0.0,
+            0.2,
+            2.0,
+            2.7,
+            1e7 + 0.5,
+            -1e7,
+            123.999,
+        ] {
+            assert_eq!(floor(v), v.floor(), "{v}");
+            assert_eq!(ceil(v), v.ceil(), "{v}");
+        }
+        assert_eq!(floor(f32::NAN), 0.0);
+        assert_eq!(ceil(f32::INFINITY), 1.0e9);
     }
 
     #[test]

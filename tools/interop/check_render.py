@@ -1,0 +1,67 @@
+#!/usr/bin/env python3
+"""Check a render bag (`autoact render`) with independent readers: every message decodes with
+mcap-ros2-support; /render/video says as many frames as the video has (ffprobe) and as many
+as there are /render/annotations, whose frame indices run 0..N-1 at increasing stamps; every
+annotation has 2 coordinates and one visibility per keypoint; /render/camera/h264 (if present)
+holds one Annex B access unit per frame, starting with a start code.
+
+Usage: check_render.py RENDER_BAG VIDEO
+"""
+
+import json
+import subprocess
+import sys
+
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+
+
+def main() -> int:
+    bag, video = sys.argv[1], sys.argv[2]
+    infos, notes, units = [], [], []
+    with open(bag, "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        for _schema, channel, message, ros in reader.iter_decoded_messages(log_time_order=True):
+            if channel.topic == "/render/video":
+                infos.append(ros)
+            elif channel.topic == "/render/annotations":
+                notes.append((message.log_time, ros))
+            elif channel.topic == "/render/camera/h264":
+                units.append(ros)
+    probe = json.loads(subprocess.run(
+        ["ffprobe", "-v", "error", "-count_frames", "-select_streams", "v:0", "-show_entries",
+         "stream=nb_read_frames,width,height", "-of", "json", video],
+        check=True, capture_output=True, text=True).stdout)["streams"][0]
+    problems = []
+    if len(infos) != 1:
+        problems.append(f"{len(infos)} /render/video messages, expected 1")
+    info = infos[0]
+    frames = int(probe["nb_read_frames"])
+    if info.frame_count != frames or len(notes) != frames:
+        problems.append(f"frame_count {info.frame_count}, ffprobe {frames}, annotations {len(notes)}")
+    if (info.width, info.height) != (probe["width"], probe["height"]):
+        problems.append(f"size {info.width}x{info.height} vs ffprobe {probe['width']}x{probe['height']}")
+    last = -1
+    for k, (stamp, n) in enumerate(notes):
+        if n.frame_index != k or stamp <= last:
+            problems.append(f"annotation {k}: index {n.frame_index}, stamp {stamp} after {last}")
+            break
+        last = stamp
+        names = len(n.keypoint_names)
+        if len(n.keypoints_2d) != 2 * names or len(n.visibility) != names or len(n.keypoints_3d) != names:
+            problems.append(f"annotation {k}: {names} names, {len(n.keypoints_2d)} coordinates")
+            break
+    if units:
+        if len(units) != frames:
+            problems.append(f"{len(units)} H.264 units for {frames} frames")
+        if any(not bytes(u.data).startswith((b"\x00\x00\x00\x01", b"\x00\x00\x01")) or u.format != "h264" for u in units):
+            problems.append("an H.264 unit does not start with an Annex B start code")
+    for p in problems:
+        print(f"FAIL {bag}: {p}")
+    if not problems:
+        print(f"ok {bag}: {frames} frames, {len(notes)} annotations, {len(units)} H.264 units, decoded by mcap-ros2-support")
+    return 1 if problems else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
