@@ -1,6 +1,7 @@
 //! `autoact export` end to end: BVH and `.onim` files from the sample bags and from bags with
 //! several people and variants made here, read back with autoact's BVH reader and `.onim`
-//! parser, and every kind of bad input.
+//! parser, glTF/GLB read back with the `gltf` crate (plain and capture bags), and every kind of
+//! bad input.
 
 #![expect(clippy::unwrap_used, reason = "test helpers fail loudly")]
 
@@ -601,4 +602,255 @@ fn read_animation_still_reads_variant_0() {
         &(0..5).map(|k| pose(&rig, 0, 2, k)).collect::<Vec<_>>(),
     );
     assert!(worst < 1e-9, "{bone} frame {k}: {worst}°");
+}
+
+/// The GLB's JSON chunk.
+fn glb_json(bytes: &[u8]) -> serde_json::Value {
+    let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    assert_eq!(&bytes[16..20], b"JSON");
+    serde_json::from_slice(&bytes[20..20 + len]).unwrap()
+}
+
+/// Per animated node: its rotations (x y z w) or translations, per frame, and the keyframe times.
+struct GlbAnimation {
+    times: Vec<f32>,
+    rotations: BTreeMap<usize, Vec<[f32; 4]>>,
+    translations: BTreeMap<usize, Vec<[f32; 3]>>,
+    channels: usize,
+}
+
+fn glb_animation(bytes: &[u8]) -> GlbAnimation {
+    let doc = gltf::Gltf::from_slice(bytes).unwrap();
+    let blob = doc.blob.clone().unwrap();
+    assert_eq!(doc.animations().count(), 1);
+    let animation = doc.animations().next().unwrap();
+    let mut out = GlbAnimation {
+        times: Vec::new(),
+        rotations: BTreeMap::new(),
+        translations: BTreeMap::new(),
+        channels: animation.channels().count(),
+    };
+    for channel in animation.channels() {
+        assert_eq!(
+            channel.sampler().interpolation(),
+            gltf::animation::Interpolation::Linear
+        );
+        let node = channel.target().node().index();
+        let reader = channel.reader(|_| Some(&blob));
+        out.times = reader.read_inputs().unwrap().collect();
+        match reader.read_outputs().unwrap() {
+            gltf::animation::util::ReadOutputs::Rotations(r) => {
+                assert!(out.rotations.insert(node, r.into_f32().collect()).is_none());
+            }
+            gltf::animation::util::ReadOutputs::Translations(t) => {
+                assert!(out.translations.insert(node, t.collect()).is_none());
+            }
+            _ => panic!("a channel that is neither rotation nor translation"),
+        }
+    }
+    out
+}
+
+/// `q` (x y z w, f32) is `want` or `−want` within `tol` per component.
+fn same_rotation(q: [f32; 4], want: &UnitQuaternion<f64>, tol: f64) -> bool {
+    let w = want.coords;
+    let close = |sign: f64| (0..4).all(|i| (f64::from(q[i]) - sign * w[i]).abs() < tol);
+    close(1.0) || close(-1.0)
+}
+
+#[test]
+fn sample_bags_export_to_glb_with_the_rig_skin_and_the_bags_rotations() {
+    let rig = Rig::standard();
+    let dir = tempfile::tempdir().unwrap();
+    for (name, label) in [
+        ("bandai_walk.anim.mcap", "walk"),
+        ("bandai_wave.anim.mcap", "wave"),
+    ] {
+        let bag = sample(name);
+        let out = dir.path().join(format!("{label}.glb"));
+        ok(&["export", arg(&bag), "--format", "glb", "-o", arg(&out)]);
+        let bytes = std::fs::read(&out).unwrap();
+        let (poses, character) = bag_poses(&rig, &bag, 0, 0);
+        let doc = gltf::Gltf::from_slice(&bytes).unwrap();
+        let blob = doc.blob.clone().unwrap();
+        let skin = doc.skins().next().unwrap();
+        assert_eq!(skin.joints().count(), 53);
+        for (b, joint) in skin.joints().enumerate() {
+            assert_eq!(joint.name(), Some(rig.bones[b].name.as_str()));
+        }
+        let rest = autoact::fk::forward(&rig, &character, &BonePose::rest(&rig), 1.0);
+        let ibm: Vec<[[f32; 4]; 4]> = skin
+            .reader(|_| Some(&blob))
+            .read_inverse_bind_matrices()
+            .unwrap()
+            .collect();
+        assert_eq!(ibm.len(), 53);
+        for (b, m) in ibm.iter().enumerate() {
+            // Columns: the identity, then the translation by minus the bone's rest head.
+            let h = rest.heads_m[b];
+            let want = [
+                [1.0, 0.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0, 0.0],
+                [0.0, 0.0, 1.0, 0.0],
+                [-h.x, -h.y, -h.z, 1.0],
+            ];
+            let worst = m
+                .iter()
+                .flatten()
+                .zip(want.iter().flatten())
+                .map(|(got, want)| (f64::from(*got) - want).abs())
+                .fold(0.0, f64::max);
+            assert!(worst < 1e-6, "{name}: bone {b}: {m:?}");
+        }
+        assert_eq!(
+            doc.cameras().count(),
+            0,
+            "{name}: a plain bag has no camera"
+        );
+
+        let a = glb_animation(&bytes);
+        assert_eq!(a.channels, 53 + 1, "{name}: a rotation per bone + the root");
+        assert_eq!(a.times.len(), poses.len());
+        #[expect(clippy::cast_precision_loss, reason = "frame counts")]
+        let last = (poses.len() - 1) as f64 / 30.0;
+        assert!((f64::from(*a.times.last().unwrap()) - last).abs() < 1e-5);
+        for b in 0..53 {
+            let rotations = &a.rotations[&(b + 1)];
+            assert_eq!(rotations.len(), poses.len());
+            for (k, q) in rotations.iter().enumerate() {
+                assert!(
+                    same_rotation(*q, &poses[k].local_rotations[b], 1e-6),
+                    "{name}: bone {b} frame {k}"
+                );
+            }
+        }
+        for (k, t) in a.translations[&1].iter().enumerate() {
+            let want = rest.heads_m[0].coords + poses[k].root_translation_m;
+            for axis in 0..3 {
+                assert!(
+                    (f64::from(t[axis]) - want[axis]).abs() < 1e-5,
+                    "{name}: frame {k}"
+                );
+            }
+        }
+        let json = glb_json(&bytes);
+        let extras = &json["scenes"][0]["extras"]["autoact"];
+        assert_eq!(extras["label"], label, "{name}");
+        assert_eq!(extras["frames"], poses.len());
+        assert_eq!(extras["fps"], 30.0);
+
+        // Deterministic, and the .gltf holds the same document.
+        let again = dir.path().join(format!("{label}_again.glb"));
+        ok(&["export", arg(&bag), "--format", "glb", "-o", arg(&again)]);
+        assert_eq!(bytes, std::fs::read(&again).unwrap(), "{name}");
+        let text_path = dir.path().join(format!("{label}.gltf"));
+        ok(&[
+            "export",
+            arg(&bag),
+            "--format",
+            "gltf",
+            "-o",
+            arg(&text_path),
+        ]);
+        let mut text: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&text_path).unwrap()).unwrap();
+        text["buffers"][0].as_object_mut().unwrap().remove("uri");
+        assert_eq!(text, json, "{name}");
+    }
+}
+
+#[test]
+fn capture_bag_exports_its_camera_path_and_its_labels_seed_and_scenes() {
+    use autoact::ros::geometry_msgs::PoseStamped;
+    use autoact::ros::{RosMessage, cdr};
+
+    let rig = Rig::standard();
+    let dir = tempfile::tempdir().unwrap();
+    let repo = |p: &str| format!("{}/{p}", env!("CARGO_MANIFEST_DIR"));
+    let spec = dir.path().join("s.toml");
+    std::fs::write(
+        &spec,
+        format!(
+            "[dataset]\nname = \"t\"\nseed = 11\nfps = 30.0\nresolution = [640, 360]\n\
+             [counts]\nvariants = 1\nscenes = 2\nviewpoints = 1\nshot = \"moving\"\n\
+             [[class]]\ncategory = \"gesture\"\naction = \"wave\"\nsources = [\"{}\"]\n",
+            repo("bags/bandai_wave.pose.mcap")
+        ),
+    )
+    .unwrap();
+    let capture = dir.path().join("capture");
+    ok(&["convert", "--spec", arg(&spec), "-o", arg(&capture)]);
+    let bag = std::fs::read_dir(&capture)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|e| e == "mcap"))
+        .unwrap();
+    let out = dir.path().join("capture.glb");
+    ok(&["export", arg(&bag), "--format", "glb", "-o", arg(&out)]);
+    let bytes = std::fs::read(&out).unwrap();
+
+    let readers = BagReader::open_all(&bag).unwrap();
+    let (frames, _, _) = read_animation_variant(&rig, &readers, Some(0), 0).unwrap();
+    let mut cameras = BTreeMap::new();
+    for m in readers.iter().flat_map(BagReader::messages) {
+        let m = m.unwrap();
+        if m.channel.topic == "/camera/pose" && m.channel.schema_name() == PoseStamped::TYPE_NAME {
+            let p: PoseStamped = cdr::decode(&m.data).unwrap();
+            cameras.insert(p.header.stamp.to_nanos().unwrap(), p.pose);
+        }
+    }
+
+    let doc = gltf::Gltf::from_slice(&bytes).unwrap();
+    let camera = doc.nodes().find(|n| n.camera().is_some()).unwrap();
+    let a = glb_animation(&bytes);
+    assert_eq!(
+        a.channels,
+        53 + 1 + 2,
+        "bones, root, camera translation and rotation"
+    );
+    assert_eq!(a.times.len(), frames.len());
+    let positions = &a.translations[&camera.index()];
+    let rotations = &a.rotations[&camera.index()];
+    for (k, f) in frames.iter().enumerate() {
+        let pose = &cameras[&f.stamp_nanos];
+        let p = pose.position;
+        let t = positions[k];
+        assert!(
+            (f64::from(t[0]) - p.x).abs() < 1e-5
+                && (f64::from(t[1]) - p.y).abs() < 1e-5
+                && (f64::from(t[2]) - p.z).abs() < 1e-5,
+            "frame {k}"
+        );
+        // glTF's camera looks down its −z, the optical frame down its +z.
+        let optical = UnitQuaternion::try_from(pose.orientation).unwrap();
+        let q = rotations[k];
+        let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+            f64::from(q[3]),
+            f64::from(q[0]),
+            f64::from(q[1]),
+            f64::from(q[2]),
+        ));
+        assert!(
+            (q * -Vector3::z() - optical * Vector3::z()).norm() < 1e-5,
+            "frame {k}"
+        );
+        assert!(
+            (q * Vector3::y() - optical * -Vector3::y()).norm() < 1e-5,
+            "frame {k}"
+        );
+        assert!(same_rotation(
+            a.rotations[&1][k],
+            &f.pose.local_rotations[0],
+            1e-6
+        ));
+    }
+    let extras = &glb_json(&bytes)["scenes"][0]["extras"]["autoact"];
+    assert_eq!(extras["label"], "wave");
+    assert_eq!(extras["seed"], 11);
+    assert_eq!(extras["scenes"].as_array().unwrap().len(), 2);
+    assert!(extras["scenes"][0]["lighting"]["key_dir_world"].is_array());
+    let segments = extras["segments"].as_array().unwrap();
+    assert_eq!(segments.len(), 2);
+    assert_eq!(segments[0]["start_frame"], 0);
+    assert_eq!(segments[0]["action"], "wave");
 }

@@ -4,6 +4,7 @@
 //! disk). Without ffmpeg the video tests print `SKIPPED` and pass; CI installs ffmpeg.
 
 #![expect(clippy::unwrap_used, reason = "test helpers fail loudly")]
+#![allow(clippy::print_stderr, reason = "tests say loudly when they skip")]
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -70,12 +71,11 @@ sources = ["{}"]
     let out = dir.join("cap");
     let o = autoact(&["-q", "convert", "--spec", arg(&spec), "-o", arg(&out)]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let bag = std::fs::read_dir(&out)
+    std::fs::read_dir(&out)
         .unwrap()
         .map(|e| e.unwrap().path())
         .find(|p| p.extension().is_some_and(|e| e == "mcap"))
-        .unwrap();
-    bag
+        .unwrap()
 }
 
 fn arg(p: &Path) -> &str {
@@ -345,7 +345,7 @@ fn ctrl_c_leaves_no_file_that_looks_complete() {
     let dir = tempfile::tempdir().unwrap();
     let bag = capture(dir.path());
     let out = dir.path().join("v.mp4");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_autoact"))
+    let child = Command::new(env!("CARGO_BIN_EXE_autoact"))
         .args([
             "render",
             arg(&bag),

@@ -1,4 +1,4 @@
-//! `autoact export`: animations of an animation bag → BVH or GTA V `.onim` files.
+//! `autoact export`: animations of an animation bag → BVH, GTA V `.onim` or glTF/GLB files.
 
 use std::path::{Path, PathBuf};
 
@@ -25,7 +25,14 @@ BVH: joints named as `autoact rig` names the bones, offsets in centimetres, Y up
   (SequenceFrameLimit 127), Duration = frames / fps, Static blocks for constant tracks, tracks
   by bone tag, rotations x y z w in GTA ped bone frames, the root moving from the ped's spot.
   The bone frames and bind translations come from --onim-template (the built-in default is
-  printed by --print-onim-template, with the source of every choice).";
+  printed by --print-onim-template, with the source of every choice).
+
+glTF/GLB: the renderer's body as a skinned mesh (one primitive per material), the rig as joints,
+  one animation (a rotation per bone and the root's translation per frame, LINEAR, k / fps s),
+  and for capture bags the camera path as an animated camera; extras carry the label, scene
+  and seed. The autoact frame (metres, Z up) sits under node `autoact_world`, turned -90 deg
+  about x to glTF's Y up, so Blender shows autoact's coordinates. tools/render_blender.py
+  renders it.";
 
 /// Arguments of `autoact export`.
 #[derive(Debug, clap::Args)]
@@ -116,8 +123,9 @@ pub fn run(args: Args) -> Result<Outcome> {
         onim_mapping: match (format, &args.onim_template) {
             (ExportFormat::Onim, Some(path)) => Some(onim::OnimMapping::load(&rig, path)?),
             (ExportFormat::Onim, None) => Some(onim::OnimMapping::builtin(&rig)?),
-            (ExportFormat::Bvh, _) => None,
+            (_, _) => None,
         },
+        gltf_scene: None,
     };
     if args.onim_template.is_some() && format != ExportFormat::Onim {
         tracing::warn!("--onim-template is only used with --format onim");
@@ -134,7 +142,16 @@ pub fn run(args: Args) -> Result<Outcome> {
     let mut text = String::new();
     for (key, path) in keys.iter().zip(&targets) {
         let clip = export::read_clip(&rig, input, &readers, *key, args.fps)?;
-        let bytes = export::encode(&rig, &clip, format, &options)?;
+        let bytes = if matches!(format, ExportFormat::Gltf | ExportFormat::Glb) {
+            let scene = export::gltf::SceneContext::read(&rig, input, &readers, &clip)?;
+            let options = EncodeOptions {
+                gltf_scene: Some(scene),
+                ..options.clone()
+            };
+            export::encode(&rig, &clip, format, &options)?
+        } else {
+            export::encode(&rig, &clip, format, &options)?
+        };
         export::write_atomically(path, &bytes, args.force)?;
         if args.write_expected_json {
             let json = serde_json::to_vec(&export::bvh::expected_json(&rig, &clip))

@@ -10,8 +10,9 @@
 //!
 //! **Formats.** Each format is a module that turns a [`Clip`] into the bytes of one file and
 //! knows nothing of paths: [`bvh`] (Biovision Hierarchy, for Blender, MotionBuilder, Maya) and
-//! [`onim`] (GTA V's text animation, for OpenIV/CodeWalker → `.ycd`). [`ExportFormat`] lists them;
-//! a new format (glTF) is a module with the same shape and one more variant there.
+//! [`onim`] (GTA V's text animation, for OpenIV/CodeWalker → `.ycd`) and [`gltf`] (glTF 2.0 /
+//! GLB: the skinned body, its animation and a capture's camera, for Blender and other engines).
+//! [`ExportFormat`] lists them.
 //!
 //! **Output files.** [`write_atomically`] writes through a temporary file in the target folder
 //! and renames it into place, so an interrupted export never leaves a complete-looking file; an
@@ -19,6 +20,7 @@
 //! several are exported into a folder.
 
 pub mod bvh;
+pub mod gltf;
 pub mod onim;
 
 use std::io::Write;
@@ -95,6 +97,10 @@ pub enum ExportFormat {
     Bvh,
     /// GTA V `.onim` text (Version 8 2), for OpenIV/CodeWalker to make a `.ycd`.
     Onim,
+    /// glTF 2.0 JSON (buffer embedded): the skinned body, its animation, the capture's camera.
+    Gltf,
+    /// glTF 2.0 binary (`.glb`), the same content as `gltf`.
+    Glb,
 }
 
 impl ExportFormat {
@@ -104,6 +110,8 @@ impl ExportFormat {
         match self {
             ExportFormat::Bvh => "bvh",
             ExportFormat::Onim => "onim",
+            ExportFormat::Gltf => "gltf",
+            ExportFormat::Glb => "glb",
         }
     }
 }
@@ -119,6 +127,9 @@ pub struct Clip {
     pub character: Character,
     /// The poses, one per frame, in order.
     pub poses: Vec<BonePose>,
+    /// The bag's stamp of every frame (same length as `poses`), ns: what ties a frame to the
+    /// rest of the bag (camera, scenes, segments).
+    pub stamps_nanos: Vec<u64>,
 }
 
 /// Every animation of the bag, ordered by track id, then variant.
@@ -262,6 +273,7 @@ pub fn read_clip(
         fps_hz,
         character,
         poses: frames.into_iter().map(|f| f.pose).collect(),
+        stamps_nanos: stamps,
     })
 }
 
@@ -354,6 +366,9 @@ pub fn write_atomically(path: &Path, bytes: &[u8], force: bool) -> Result<(), Ex
 pub struct EncodeOptions {
     /// The `.onim` bone mapping (the built-in default when `None`).
     pub onim_mapping: Option<onim::OnimMapping>,
+    /// The glTF camera, look and extras of the clip ([`gltf::SceneContext::read`]); none: the
+    /// body and animation only.
+    pub gltf_scene: Option<gltf::SceneContext>,
 }
 
 /// The bytes of `clip` in `format`.
@@ -378,6 +393,20 @@ pub fn encode(
                 }
             };
             onim::write(rig, clip, mapping)?.into_bytes()
+        }
+        ExportFormat::Gltf | ExportFormat::Glb => {
+            let container = if format == ExportFormat::Glb {
+                gltf::Container::Glb
+            } else {
+                gltf::Container::Gltf
+            };
+            let plain = gltf::SceneContext::default();
+            gltf::write(
+                rig,
+                clip,
+                options.gltf_scene.as_ref().unwrap_or(&plain),
+                container,
+            )
         }
     })
 }

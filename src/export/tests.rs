@@ -7,7 +7,7 @@ use crate::rig::ROOT;
 /// knee, a twisting spine, everything else still.
 pub(crate) fn moving_clip(rig: &Rig, frames: usize) -> Clip {
     let bone = |n: &str| rig.bone_index(n).unwrap();
-    let poses = (0..frames)
+    let poses: Vec<BonePose> = (0..frames)
         .map(|k| {
             #[expect(clippy::cast_precision_loss, reason = "test")]
             let t = k as f64 / 30.0;
@@ -32,6 +32,9 @@ pub(crate) fn moving_clip(rig: &Rig, frames: usize) -> Clip {
         },
         fps_hz: 30.0,
         character: Character::standard(rig),
+        stamps_nanos: (0..poses.len() as u64)
+            .map(|k| 1_000 + k * 33_333_333)
+            .collect(),
         poses,
     }
 }
