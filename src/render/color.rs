@@ -42,7 +42,7 @@ const TABLE_SIZE: usize = 4096;
 /// the shading). Values above 1 clip to white.
 #[derive(Debug, Clone)]
 pub struct Encoder {
-    table: Vec<u8>,
+    table: Box<[u8; TABLE_SIZE]>,
 }
 
 impl Default for Encoder {
@@ -55,12 +55,11 @@ impl Encoder {
     /// Builds the table.
     #[must_use]
     pub fn new() -> Encoder {
-        let table = (0..TABLE_SIZE)
-            .map(|i| {
-                let linear = i as f32 / (TABLE_SIZE - 1) as f32;
-                (linear_to_srgb(linear) * 255.0 + 0.5) as u8
-            })
-            .collect();
+        let mut table = Box::new([0u8; TABLE_SIZE]);
+        for (i, t) in table.iter_mut().enumerate() {
+            let linear = i as f32 / (TABLE_SIZE - 1) as f32;
+            *t = (linear_to_srgb(linear) * 255.0 + 0.5) as u8;
+        }
         Encoder { table }
     }
 
@@ -68,8 +67,9 @@ impl Encoder {
     #[inline]
     #[must_use]
     pub fn encode(&self, linear: f32) -> u8 {
-        // NaN casts to 0: black, never a panic.
-        let i = (linear.clamp(0.0, 1.0) * (TABLE_SIZE - 1) as f32 + 0.5) as usize;
+        // Float-to-integer casts saturate: negative and NaN give 0 (black), above 1 clips to
+        // white; never a panic.
+        let i = (linear * (TABLE_SIZE - 1) as f32 + 0.5) as usize;
         self.table[i.min(TABLE_SIZE - 1)]
     }
 

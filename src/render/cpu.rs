@@ -637,13 +637,27 @@ fn antialias(image: &mut Image, source: &mut Vec<u8>) {
     };
     let surface = &image.surface;
     let depth = &image.depth;
-    let edge = |i: usize, j: usize| {
-        surface[i] != surface[j] || (depth[i] - depth[j]).abs() > 0.06 * depth[i].max(depth[j])
-    };
+    // The ground is one plane and the sky has no depth: only objects can hide parts of
+    // themselves, so only their pixels need the depth test.
+    let flat = [Surface::Sky as u8, Surface::Ground as u8];
+    let depth_edge =
+        |i: usize, j: usize| (depth[i] - depth[j]).abs() > 0.06 * depth[i].max(depth[j]);
     for y in 1..h - 1 {
+        let row = y * w;
         for x in 1..w - 1 {
-            let i = y * w + x;
-            if !(edge(i, i + 1) || edge(i, i + w) || edge(i, i - 1) || edge(i, i - w)) {
+            let i = row + x;
+            let s = surface[i];
+            let same = s == surface[i + 1]
+                && s == surface[i - 1]
+                && s == surface[i + w]
+                && s == surface[i - w];
+            if same
+                && (flat.contains(&s)
+                    || !(depth_edge(i, i + 1)
+                        || depth_edge(i, i - 1)
+                        || depth_edge(i, i + w)
+                        || depth_edge(i, i - w)))
+            {
                 continue;
             }
             let (m, n, s, e, west) = (luma(i), luma(i - w), luma(i + w), luma(i + 1), luma(i - 1));

@@ -64,6 +64,10 @@ pub fn fast_exp_neg(x: f32) -> f32 {
     if x > 80.0 {
         return 0.0;
     }
+    if x < 1e-3 {
+        // Thin air (most fog-free pixels): the series is exact to 2e-10 here.
+        return 1.0 - x + 0.5 * x * x;
+    }
     // e^−x = 2^y with y = −x·log2(e); split y into integer k and fraction f in [0, 1).
     let y = -x * std::f32::consts::LOG2_E;
     let k = y.floor();
