@@ -32,6 +32,7 @@
 pub mod lists;
 pub mod manifest;
 pub mod plan;
+pub mod run;
 pub mod split;
 
 use std::path::PathBuf;

@@ -267,6 +267,76 @@ fn run_and_check(
     })
 }
 
+/// Decodes every frame of `video` into `dir` as `img_00001.jpg` … (MMAction2's rawframe
+/// naming, 1-based), through a hidden `.<dir>.part` sibling folder renamed once it holds exactly
+/// `frame_count` images (an existing `dir` is replaced only then).
+///
+/// # Errors
+/// [`VideoError::Exited`], [`VideoError::FrameCountMismatch`], [`VideoError::Io`]; the partial
+/// folder is removed on every error.
+pub fn extract_frames(
+    ffmpeg: &Ffmpeg,
+    video: &Path,
+    dir: &Path,
+    frame_count: u64,
+) -> Result<(), VideoError> {
+    let invalid = |detail: String| VideoError::InvalidSettings {
+        path: dir.to_path_buf(),
+        detail,
+    };
+    let part = part_path(dir).ok_or_else(|| invalid("the folder has no name".into()))?;
+    let io = |action: &'static str, path: &Path| {
+        let path = path.to_path_buf();
+        move |source| VideoError::Io {
+            action,
+            path,
+            source,
+        }
+    };
+    let _ = std::fs::remove_dir_all(&part);
+    std::fs::create_dir_all(&part).map_err(io("create", &part))?;
+    let result = (|| {
+        let mut command = FfmpegCommand::new_with_path(ffmpeg.ffmpeg_path());
+        command
+            .hide_banner()
+            .args(["-nostdin", "-nostats", "-loglevel", "level+warning"])
+            .input(ffmpeg_path_arg(video))
+            .args(["-map", "0:v:0", "-fps_mode", "passthrough", "-q:v", "2"])
+            .args(["-start_number", "1", "-f", "image2"])
+            .overwrite()
+            .output(part.join("img_%05d.jpg").as_os_str());
+        let inner = command.as_inner_mut();
+        inner.stdin(Stdio::null());
+        let out = inner
+            .output()
+            .map_err(|source| spawn_error("ffmpeg", ffmpeg.ffmpeg_path(), source))?;
+        if !out.status.success() {
+            return Err(VideoError::Exited {
+                program: "ffmpeg",
+                status: out.status,
+                path: dir.to_path_buf(),
+                stderr_tail: tail_of_text(&out.stderr),
+            });
+        }
+        let found = std::fs::read_dir(&part).map_err(io("list", &part))?.count() as u64;
+        if found != frame_count {
+            return Err(VideoError::FrameCountMismatch {
+                path: dir.to_path_buf(),
+                written: frame_count,
+                found,
+            });
+        }
+        if dir.exists() {
+            std::fs::remove_dir_all(dir).map_err(io("replace", dir))?;
+        }
+        std::fs::rename(&part, dir).map_err(io("rename into place", dir))
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_dir_all(&part);
+    }
+    result
+}
+
 #[cfg(test)]
 mod tests {
     use super::{Rational, frames_nanos, seconds_floor_us};

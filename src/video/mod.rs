@@ -49,13 +49,15 @@ use std::path::PathBuf;
 use std::process::ExitStatus;
 
 pub use annexb::{AccessUnit, annexb_access_units, split_access_units};
-pub use cut::{CutClip, CutMethod, CutRequest, ReencodeSettings, cut, keyframe_frames};
+pub use cut::{
+    CutClip, CutMethod, CutRequest, ReencodeSettings, cut, extract_frames, keyframe_frames,
+};
 pub use encode::{
     DEFAULT_CRF, DEFAULT_GOP_SECS, DEFAULT_PRESET, EncodeSettings, EncodedVideo, VideoEncoder,
     force_key_frames_arg,
 };
 pub use image::{Tile, contact_sheet, read_png, write_png};
-pub use probe::{ProbedFrame, ProbedPacket, VideoProbe, probe, probe_packets};
+pub use probe::{ProbedFrame, ProbedPacket, VideoProbe, probe, probe_packets, probe_size};
 pub use rational::Rational;
 pub use tools::{Ffmpeg, INSTALL_HINT, download_cache_dir};
 
