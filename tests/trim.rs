@@ -625,10 +625,7 @@ fn trim_sanitises_label_paths_and_keeps_the_label_in_the_csv() {
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
-    assert!(
-        dirs.contains(&"air_drumming_ñandú".to_owned()),
-        "{dirs:?}"
-    );
+    assert!(dirs.contains(&"air_drumming_ñandú".to_owned()), "{dirs:?}");
     let classes = std::fs::read_to_string(out.join("annotations/classes.txt")).unwrap();
     assert_eq!(classes, format!("{label}\nwalk\n"));
     let csv = std::fs::read_to_string(out.join("annotations/kinetics_train.csv")).unwrap();
