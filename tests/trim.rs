@@ -669,3 +669,91 @@ fn trim_without_ffmpeg_or_with_a_corrupt_video_fails_clearly() {
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("--video-start"), "{}", stderr(&o));
 }
+
+#[test]
+#[expect(clippy::print_stderr, reason = "a loud skip")]
+fn trim_on_a_full_disk_fails_and_no_list_names_an_incomplete_clip() {
+    let Some(ffmpeg) = ffmpeg() else { return };
+    let s = setup("wave");
+    let video = s.dir.path().join("capture.mp4");
+    coded_video(
+        &ffmpeg,
+        &video,
+        s.capture.frames.len() as u64,
+        &s.capture.boundary_frames(),
+    );
+    // How much a full run writes.
+    let full = s.dir.path().join("full");
+    assert!(
+        run_trim(&s.bag, &video, &full, &["--video-start", "0"])
+            .status
+            .success()
+    );
+    let bytes: u64 = std::fs::read_dir(full.join("videos"))
+        .unwrap()
+        .flat_map(|d| std::fs::read_dir(d.unwrap().path()).unwrap())
+        .map(|f| f.unwrap().metadata().unwrap().len())
+        .sum();
+    // A tmpfs with room for about half the clips, in a private mount namespace; the result is
+    // copied out before the namespace (and its tmpfs) goes away.
+    let mount = s.dir.path().join("mnt");
+    let copy = s.dir.path().join("copy");
+    std::fs::create_dir(&mount).unwrap();
+    let size = (bytes / 2).max(16 * 1024);
+    let script = format!(
+        "mount -t tmpfs -o size={size} autoact-test \"$1\" || exit 77; \
+         \"$2\" trim \"$3\" \"$4\" -o \"$1/ds\" --video-start 0; echo \"rc=$?\" >&2; \
+         cp -a \"$1/ds\" \"$5\""
+    );
+    let o = Command::new("unshare")
+        .args(["-m", "--propagation", "private", "sh", "-c", &script, "sh"])
+        .arg(&mount)
+        .arg(env!("CARGO_BIN_EXE_autoact"))
+        .arg(&s.bag)
+        .arg(&video)
+        .arg(&copy)
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    if o.status.code() == Some(77) || !copy.exists() {
+        eprintln!("SKIPPED trim_on_a_full_disk…: cannot mount a tmpfs here: {err}");
+        return;
+    }
+    assert!(err.contains("rc=1"), "{err}");
+    assert!(err.contains("No space left"), "{err}");
+    // Whatever lists exist name only clips that are complete: every one decodes fully.
+    let clips = std::fs::read_to_string(copy.join("manifest.jsonl")).unwrap_or_default();
+    let records: BTreeMap<String, u64> = clips
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .map(|v| {
+            (
+                v["video"].as_str().unwrap().to_owned(),
+                v["frame_count"].as_u64().unwrap(),
+            )
+        })
+        .collect();
+    assert!(
+        records.len() < s.capture.segments.len(),
+        "the disk was not full"
+    );
+    for split in ["train", "val", "test"] {
+        let Ok(text) =
+            std::fs::read_to_string(copy.join(format!("annotations/{split}_list_videos.txt")))
+        else {
+            continue;
+        };
+        for line in text.lines() {
+            let path = line.split(' ').next().unwrap();
+            let (count, _) = keyframe_frames(&ffmpeg, &copy.join(path)).unwrap();
+            assert_eq!(Some(&count), records.get(path), "{line}");
+        }
+    }
+    // No partial files left visible.
+    for d in std::fs::read_dir(copy.join("videos")).unwrap() {
+        for f in std::fs::read_dir(d.unwrap().path()).unwrap() {
+            let name = f.unwrap().file_name().to_string_lossy().into_owned();
+            assert!(!name.starts_with('.'), "{name} left behind");
+        }
+    }
+}

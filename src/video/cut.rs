@@ -229,7 +229,18 @@ fn run_and_check(
             stderr_tail: tail_of_text(&out.stderr),
         });
     }
-    let packets = probe_packets(ffmpeg, part)?;
+    // ffmpeg can exit 0 after a failed write (a full disk): then its words are the useful ones.
+    let packets = probe_packets(ffmpeg, part).map_err(|e| {
+        let said = tail_of_text(&out.stderr);
+        if said.trim().is_empty() {
+            e
+        } else {
+            VideoError::Probe {
+                path: output.to_path_buf(),
+                detail: format!("ffmpeg wrote an unreadable file ({e}); ffmpeg said:\n{said}"),
+            }
+        }
+    })?;
     let found = packets.len() as u64;
     if found != request.frame_count {
         return Err(VideoError::FrameCountMismatch {
