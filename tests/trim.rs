@@ -509,6 +509,20 @@ fn trim_reencodes_a_foreign_video_placed_with_video_start() {
     check_lists(&out);
 }
 
+/// Every annotation file's bytes, by name.
+fn annotation_files(out: &Path) -> BTreeMap<String, Vec<u8>> {
+    std::fs::read_dir(out.join("annotations"))
+        .unwrap()
+        .map(|e| {
+            let e = e.unwrap();
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                std::fs::read(e.path()).unwrap(),
+            )
+        })
+        .collect()
+}
+
 #[test]
 fn trim_resumes_without_duplicates_and_relists_only_complete_clips() {
     let Some(ffmpeg) = ffmpeg() else { return };
@@ -527,6 +541,7 @@ fn trim_resumes_without_duplicates_and_relists_only_complete_clips() {
             .success()
     );
     let lists_before = check_lists(&out);
+    let files_before = annotation_files(&out);
     let manifest = out.join("manifest.jsonl");
     let lines = std::fs::read_to_string(&manifest).unwrap().lines().count();
 
@@ -542,6 +557,11 @@ fn trim_resumes_without_duplicates_and_relists_only_complete_clips() {
         lines
     );
     assert_eq!(check_lists(&out), lists_before, "same seed, same splits");
+    assert_eq!(
+        annotation_files(&out),
+        files_before,
+        "a re-run rewrites identical bytes"
+    );
 
     // A half-finished run: one clip gone, a torn manifest line.
     let victim = out.join(lists_before.values().flatten().next().unwrap());

@@ -263,10 +263,11 @@ pub fn run(args: Args) -> Result<Outcome> {
         })
         .collect();
     text.push_str(&format!(
-        "  dataset {}: {} (split by {:?}, seed {})\n",
+        "  dataset {}: {} (split by {}, seed {})\n",
         args.output.display(),
         counts.join(", "),
-        options.split.by,
+        clap::ValueEnum::to_possible_value(&options.split.by)
+            .map_or_else(String::new, |v| v.get_name().to_owned()),
         options.split.seed
     ));
     super::print_stdout(&text).context("writing to stdout")?;
