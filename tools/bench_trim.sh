@@ -14,7 +14,7 @@ fps = 30.0
 resolution = [640, 360]
 session = "dataset"
 [counts]
-variants = 4
+variants = 2
 scenes = 4
 viewpoints = 5
 [[class]]
