@@ -277,3 +277,32 @@ pub fn run(args: Args) -> Result<Outcome> {
         Outcome::DataLost
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{parse_hold_out, parse_ratios};
+    use crate::trim::split::Key;
+
+    #[test]
+    fn ratios_and_hold_outs_parse_or_say_what_is_expected() {
+        assert_eq!(parse_ratios("0.8,0.1,0.1").unwrap(), [0.8, 0.1, 0.1]);
+        assert_eq!(parse_ratios("1, 0, 0").unwrap(), [1.0, 0.0, 0.0]);
+        assert!(
+            parse_ratios("0.8,0.2")
+                .unwrap_err()
+                .contains("TRAIN,VAL,TEST")
+        );
+        assert!(parse_ratios("0,0,0").is_err());
+        assert!(parse_ratios("-1,1,1").is_err());
+        assert_eq!(
+            parse_hold_out("weather=RAIN").unwrap(),
+            (Key::Weather, "RAIN".to_owned())
+        );
+        assert_eq!(
+            parse_hold_out("time=23:00").unwrap(),
+            (Key::Time, "23:00".to_owned())
+        );
+        assert!(parse_hold_out("weather").unwrap_err().contains("KEY=VALUE"));
+        assert!(parse_hold_out("colour=red").is_err());
+    }
+}
