@@ -103,6 +103,16 @@ pub enum Command {
     /// backdrop surround it. Frames render in parallel and are encoded in order through
     /// ffmpeg (`apt-get install ffmpeg`).
     Render(crate::cmd::render::Args),
+    /// Cut a rendered capture into one clip per leaf segment (frame-exact), with the
+    /// annotation lists action-recognition code reads: Kinetics CSV, MMAction2 video and
+    /// rawframe lists, ActivityNet JSON, per-clip metadata, one shared class list.
+    ///
+    /// Clips go to `DATASET_DIR/videos/<label>/<clip_id>.mp4`; splits (train/val/test) are drawn
+    /// by source animation (`--split-by`), seeded and stratified by class, so no motion is in
+    /// two splits. Stream copy where a clip starts on a keyframe, re-encoding elsewhere (videos
+    /// from other engines or screen recorders, placed with `--video-start`). Re-runs resume.
+    /// Exit code 3 when segments were left out because the video does not cover them.
+    Trim(crate::cmd::trim::Args),
     /// Describe an MCAP file: channels, schemas, counts, time range, rate, layouts, labels, and
     /// whether ROS 2 tools and autoact can read all of it.
     Info(crate::cmd::info::Args),

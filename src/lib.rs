@@ -36,4 +36,5 @@ pub mod resample;
 pub mod rig;
 pub mod ros;
 pub mod scene;
+pub mod trim;
 pub mod video;

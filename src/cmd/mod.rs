@@ -10,6 +10,7 @@ pub mod record;
 pub mod recover;
 pub mod render;
 pub mod rig;
+pub mod trim;
 
 use std::fs::File;
 use std::io::BufWriter;
@@ -57,6 +58,7 @@ pub fn dispatch(command: Command) -> anyhow::Result<Outcome> {
         Command::Record(args) => record::run(args),
         Command::Export(args) => export::run(args),
         Command::Render(args) => render::run(args),
+        Command::Trim(args) => trim::run(args),
     }
 }
 

@@ -121,6 +121,19 @@ pub fn run(args: Args) -> Result<Outcome> {
             bail!("`{}` exists; pass `--force` to replace it", path.display());
         }
     }
+    for path in [
+        outputs.video.as_ref(),
+        outputs.preview.as_ref(),
+        args.render_bag.as_ref(),
+    ]
+    .into_iter()
+    .flatten()
+    {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("cannot create the folder `{}`", dir.display()))?;
+        }
+    }
     let ffmpeg = if args.output.is_some() {
         Some(match Ffmpeg::locate() {
             Ok(f) => f,

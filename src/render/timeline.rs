@@ -92,6 +92,11 @@ pub struct Capture {
     pub session: String,
     /// Frame rate of the timeline, frames per second.
     pub fps: f64,
+    /// The dataset's class labels, sorted (a segment's `label_id` indexes them), from the
+    /// `autoact.dataset` record; empty if the bag has none.
+    pub labels: Vec<String>,
+    /// The dataset's seed, from the `autoact.dataset` record.
+    pub seed: Option<u64>,
     /// The camera's lens as recorded.
     pub intrinsics: Intrinsics,
     /// Scenes in time order.
@@ -123,12 +128,28 @@ impl Capture {
             what: what.to_owned(),
         };
         let mut fps = None;
+        let mut labels = Vec::new();
+        let mut seed = None;
         for r in &readers {
             for (name, meta) in r.metadata() {
-                if name.ends_with(".dataset")
-                    && let Some(v) = meta.get("fps").and_then(|v| v.parse::<f64>().ok())
-                {
+                if !name.ends_with(".dataset") {
+                    continue;
+                }
+                if let Some(v) = meta.get("fps").and_then(|v| v.parse::<f64>().ok()) {
                     fps = Some(v);
+                }
+                if let Some(v) = meta.get("seed").and_then(|v| v.parse::<u64>().ok()) {
+                    seed = Some(v);
+                }
+                if let Some(text) = meta.get("labels") {
+                    labels = serde_json::from_str::<Vec<String>>(text).map_err(|e| {
+                        TimelineError::Read {
+                            path: path.to_path_buf(),
+                            message: format!(
+                                "metadata `{name}`: `labels` is not a JSON list of strings: {e}"
+                            ),
+                        }
+                    })?;
                 }
             }
         }
@@ -273,6 +294,8 @@ impl Capture {
             path: path.to_path_buf(),
             session,
             fps,
+            labels,
+            seed,
             intrinsics,
             scenes,
             segments,

@@ -702,7 +702,7 @@ fn stop(
     (status, written, tail)
 }
 
-fn remove_part(part: &Path) {
+pub(super) fn remove_part(part: &Path) {
     match std::fs::remove_file(part) {
         Ok(()) => {}
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
@@ -757,7 +757,7 @@ fn validate(settings: &EncodeSettings) -> Result<Rational, String> {
     Ok(rate)
 }
 
-fn container_for(output: &Path) -> Result<&'static str, String> {
+pub(super) fn container_for(output: &Path) -> Result<&'static str, String> {
     let ext = output
         .extension()
         .and_then(|e| e.to_str())
@@ -777,7 +777,7 @@ fn container_for(output: &Path) -> Result<&'static str, String> {
 }
 
 /// `dir/name` → `dir/.name.part`.
-fn part_path(output: &Path) -> Option<PathBuf> {
+pub(super) fn part_path(output: &Path) -> Option<PathBuf> {
     let name = output.file_name()?;
     let mut part = OsString::from(".");
     part.push(name);

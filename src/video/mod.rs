@@ -8,6 +8,7 @@
 //!   writes a hidden `.<name>.part` sibling that is renamed only once `ffmpeg` exited 0 and
 //!   `ffprobe` counted every frame and found every requested keyframe. On any error, on
 //!   [`VideoEncoder::abort`] and on drop, `ffmpeg` is killed and the partial file removed.
+//! - [`cut`] cuts a clip of whole frames, by stream copy or re-encoding, checked frame-exact.
 //! - [`probe`] and [`probe_packets`] read what a video file really holds, frame by frame.
 //! - [`annexb_access_units`] turns an encoded file into one Annex B access unit per frame.
 //! - [`write_png`], [`read_png`] and [`contact_sheet`] cover stills.
@@ -35,6 +36,7 @@
 //! [`std::process::Command`] because `ffmpeg-sidecar` has no `ffprobe` wrapper.
 
 mod annexb;
+mod cut;
 mod encode;
 mod font;
 mod image;
@@ -47,12 +49,15 @@ use std::path::PathBuf;
 use std::process::ExitStatus;
 
 pub use annexb::{AccessUnit, annexb_access_units, split_access_units};
+pub use cut::{
+    CutClip, CutMethod, CutRequest, ReencodeSettings, cut, extract_frames, keyframe_frames,
+};
 pub use encode::{
     DEFAULT_CRF, DEFAULT_GOP_SECS, DEFAULT_PRESET, EncodeSettings, EncodedVideo, VideoEncoder,
     force_key_frames_arg,
 };
 pub use image::{Tile, contact_sheet, read_png, write_png};
-pub use probe::{ProbedFrame, ProbedPacket, VideoProbe, probe, probe_packets};
+pub use probe::{ProbedFrame, ProbedPacket, VideoProbe, probe, probe_packets, probe_size};
 pub use rational::Rational;
 pub use tools::{Ffmpeg, INSTALL_HINT, download_cache_dir};
 

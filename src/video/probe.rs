@@ -191,6 +191,21 @@ pub fn probe_packets(ffmpeg: &Ffmpeg, path: &Path) -> Result<Vec<ProbedPacket>, 
         .collect())
 }
 
+/// The first video stream's width and height (no decoding).
+///
+/// # Errors
+/// As [`probe_packets`].
+pub fn probe_size(ffmpeg: &Ffmpeg, path: &Path) -> Result<(u32, u32), VideoError> {
+    let json = run_json(ffmpeg, path, "stream=codec_name,width,height")?;
+    json.streams
+        .first()
+        .and_then(|s| Some((s.width?, s.height?)))
+        .ok_or_else(|| VideoError::Probe {
+            path: path.to_path_buf(),
+            detail: "no video stream with a size".into(),
+        })
+}
+
 fn run_json(ffmpeg: &Ffmpeg, path: &Path, entries: &str) -> Result<ProbeJson, VideoError> {
     let input = ffmpeg_path_arg(path);
     let args: [&OsStr; 9] = [

@@ -1,0 +1,362 @@
+//! The annotation files, all written from one class list and the manifest's complete clips, each
+//! atomically (a hidden temporary sibling, synced, then renamed), so a list is either the old
+//! one or the new one, never half of one.
+//!
+//! Formats (paths relative to the dataset folder, which is MMAction2's `data_prefix`):
+//! - `classes.txt`: one label per line, sorted; line index = class id (0-based). Written once:
+//!   a later run with other classes is refused ([`ensure_classes`]). `label_map.json`:
+//!   `{label: id}` in id order.
+//! - `kinetics_<split>.csv`: Kinetics-700's header `label,youtube_id,time_start,time_end,split`;
+//!   `label` is the original label, CSV-quoted when it holds a space, comma, quote or line break
+//!   (RFC 4180); `youtube_id` is the clip id; the times are the clip's start and end in its
+//!   capture video, seconds with three decimals (not Kinetics' whole seconds: our clips are
+//!   shorter than a second's rounding can describe).
+//! - `<split>_list_videos.txt`: MMAction2 `VideoDataset` lines `<path> <label_id>`, single
+//!   space, no trailing space, LF; paths never contain spaces (they are sanitised).
+//! - `<split>_list_rawframes.txt`: MMAction2 `RawframeDataset` lines
+//!   `<dir> <total_frames> <label_id>`, frames `img_00001.jpg` … (1-based).
+//! - `activitynet.json`: ActivityNet 1.3's ground-truth shape, one entry per capture video with
+//!   every trimmed segment; `subset` is the split when all its segments share one, else `mixed`
+//!   (each annotation also carries its own `subset`).
+//! - `clips.jsonl`: every clip's record (source animation, variant, weather, time, location,
+//!   character, camera, seed, …) plus its `split`.
+
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use serde_json::{Value, json};
+
+use super::split::Split;
+use super::{ClipRecord, TrimError};
+
+/// The annotations folder inside the dataset folder.
+pub const ANNOTATIONS_DIR: &str = "annotations";
+
+fn io(action: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> TrimError {
+    let path = path.to_path_buf();
+    move |source| TrimError::Io {
+        action,
+        path,
+        source,
+    }
+}
+
+/// Writes `bytes` to `path` through a hidden temporary sibling, synced, then renamed.
+///
+/// # Errors
+/// [`TrimError::Io`]; the temporary file is removed and `path` left as it was.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), TrimError> {
+    let name = path
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let tmp = path.with_file_name(format!(".{name}.tmp"));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp).map_err(io("create", &tmp))?;
+        f.write_all(bytes).map_err(io("write", &tmp))?;
+        f.sync_all().map_err(io("sync", &tmp))?;
+        std::fs::rename(&tmp, path).map_err(io("rename into place", path))
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// Makes sure `dir/annotations/classes.txt` lists exactly `labels` (sorted, unique): writes it
+/// if absent, refuses if it lists others.
+///
+/// # Errors
+/// [`TrimError::ClassesChanged`], [`TrimError::Invalid`] for unsorted or duplicate labels or a
+/// label with a line break, [`TrimError::Io`].
+pub fn ensure_classes(dir: &Path, labels: &[String]) -> Result<(), TrimError> {
+    if labels.is_empty() {
+        return Err(TrimError::Invalid(
+            "the capture bag lists no class labels (its `autoact.dataset` record has no `labels`)"
+                .into(),
+        ));
+    }
+    if labels.windows(2).any(|w| w[0] >= w[1]) {
+        return Err(TrimError::Invalid(format!(
+            "the class labels {labels:?} are not sorted and unique"
+        )));
+    }
+    if let Some(l) = labels.iter().find(|l| l.contains(['\n', '\r'])) {
+        return Err(TrimError::Invalid(format!(
+            "the class label {l:?} holds a line break"
+        )));
+    }
+    let ann = dir.join(ANNOTATIONS_DIR);
+    std::fs::create_dir_all(&ann).map_err(io("create", &ann))?;
+    let path = ann.join("classes.txt");
+    match std::fs::read_to_string(&path) {
+        Ok(text) => {
+            let existing: Vec<String> = text.lines().map(str::to_owned).collect();
+            if existing != labels {
+                return Err(TrimError::ClassesChanged {
+                    path,
+                    existing,
+                    new: labels.to_vec(),
+                });
+            }
+            Ok(())
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            let mut text = labels.join("\n");
+            text.push('\n');
+            write_atomic(&path, text.as_bytes())?;
+            let map: serde_json::Map<String, Value> = labels
+                .iter()
+                .enumerate()
+                .map(|(i, l)| (l.clone(), json!(i)))
+                .collect();
+            let mut text = serde_json::to_string_pretty(&Value::Object(map))
+                .map_err(|e| TrimError::Invalid(e.to_string()))?;
+            text.push('\n');
+            write_atomic(&ann.join("label_map.json"), text.as_bytes())
+        }
+        Err(e) => Err(io("read", &path)(e)),
+    }
+}
+
+/// `field` as a CSV field: quoted (with `"` doubled) when it holds a space, comma, quote or line
+/// break.
+#[must_use]
+pub fn csv_field(field: &str) -> String {
+    if field.contains([' ', ',', '"', '\n', '\r']) {
+        format!("\"{}\"", field.replace('"', "\"\""))
+    } else {
+        field.to_owned()
+    }
+}
+
+/// What [`write_lists`] wrote.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct ListSummary {
+    /// Clips per split.
+    pub clips: BTreeMap<Split, usize>,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+}
+
+/// Writes every list into `dir/annotations` from `clips` (complete clips, by id) and their
+/// splits. Lists for a split without clips are written empty, so stale ones never survive.
+///
+/// # Errors
+/// [`TrimError::Io`]; [`TrimError::Invalid`] if a clip has no split.
+pub fn write_lists(
+    dir: &Path,
+    clips: &BTreeMap<String, ClipRecord>,
+    splits: &BTreeMap<String, Split>,
+) -> Result<ListSummary, TrimError> {
+    let ann = dir.join(ANNOTATIONS_DIR);
+    std::fs::create_dir_all(&ann).map_err(io("create", &ann))?;
+    let split_of = |c: &ClipRecord| {
+        splits
+            .get(&c.clip_id)
+            .copied()
+            .ok_or_else(|| TrimError::Invalid(format!("clip `{}` was given no split", c.clip_id)))
+    };
+    let mut summary = ListSummary::default();
+    let any_rawframes = clips.values().any(|c| c.rawframes.is_some());
+    for split in Split::ALL {
+        let mut csv = String::from("label,youtube_id,time_start,time_end,split\n");
+        let mut videos = String::new();
+        let mut frames = String::new();
+        let mut n = 0;
+        for c in clips.values() {
+            if split_of(c)? != split {
+                continue;
+            }
+            n += 1;
+            csv.push_str(&format!(
+                "{},{},{:.3},{:.3},{}\n",
+                csv_field(&c.label),
+                c.clip_id,
+                c.start_s,
+                c.end_s,
+                split.name()
+            ));
+            videos.push_str(&format!("{} {}\n", c.video, c.label_id));
+            if let Some(dir) = &c.rawframes {
+                frames.push_str(&format!("{dir} {} {}\n", c.frame_count, c.label_id));
+            }
+        }
+        summary.clips.insert(split, n);
+        let mut files = vec![
+            (format!("kinetics_{}.csv", split.name()), csv),
+            (format!("{}_list_videos.txt", split.name()), videos),
+        ];
+        if any_rawframes {
+            files.push((format!("{}_list_rawframes.txt", split.name()), frames));
+        }
+        for (name, text) in files {
+            let path = ann.join(name);
+            write_atomic(&path, text.as_bytes())?;
+            summary.files.push(path);
+        }
+    }
+
+    // Per-clip metadata.
+    let mut jsonl = String::new();
+    for c in clips.values() {
+        let mut v = serde_json::to_value(c).map_err(|e| TrimError::Invalid(e.to_string()))?;
+        if let Value::Object(m) = &mut v {
+            m.insert("split".into(), json!(split_of(c)?.name()));
+        }
+        jsonl.push_str(&v.to_string());
+        jsonl.push('\n');
+    }
+    let path = ann.join("clips.jsonl");
+    write_atomic(&path, jsonl.as_bytes())?;
+    summary.files.push(path);
+
+    // ActivityNet: untrimmed captures.
+    let mut database: BTreeMap<String, (Vec<Value>, Vec<Split>, &ClipRecord)> = BTreeMap::new();
+    let mut taxonomy: BTreeMap<u32, Value> = BTreeMap::new();
+    for c in clips.values() {
+        let split = split_of(c)?;
+        let key = Path::new(&c.capture_video).file_stem().map_or_else(
+            || c.capture_video.clone(),
+            |s| s.to_string_lossy().into_owned(),
+        );
+        let entry = database
+            .entry(key)
+            .or_insert_with(|| (Vec::new(), Vec::new(), c));
+        entry.0.push(json!({
+            "segment": [c.start_s, c.end_s],
+            "label": c.label,
+            "label_id": c.label_id,
+            "clip_id": c.clip_id,
+            "subset": split.activitynet_subset(),
+        }));
+        entry.1.push(split);
+        taxonomy.entry(c.label_id).or_insert_with(
+            || json!({"nodeId": c.label_id, "nodeName": c.label, "parentName": c.category}),
+        );
+    }
+    let mut db = serde_json::Map::new();
+    for (key, (mut annotations, splits, first)) in database {
+        annotations.sort_by(|a, b| {
+            a["segment"][0]
+                .as_f64()
+                .partial_cmp(&b["segment"][0].as_f64())
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+        let subset = if splits.iter().all(|s| *s == splits[0]) {
+            splits[0].activitynet_subset()
+        } else {
+            "mixed"
+        };
+        db.insert(
+            key,
+            json!({
+                "subset": subset,
+                "duration": first.capture_duration_s,
+                "resolution": first.capture_resolution,
+                "url": first.capture_video,
+                "annotations": annotations,
+            }),
+        );
+    }
+    let doc = json!({
+        "version": "VERSION 1.3",
+        "taxonomy": taxonomy.into_values().collect::<Vec<_>>(),
+        "database": db,
+    });
+    let mut text =
+        serde_json::to_string_pretty(&doc).map_err(|e| TrimError::Invalid(e.to_string()))?;
+    text.push('\n');
+    let path = ann.join("activitynet.json");
+    write_atomic(&path, text.as_bytes())?;
+    summary.files.push(path);
+    Ok(summary)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::BTreeMap;
+
+    use super::{csv_field, ensure_classes, write_lists};
+    use crate::trim::split::Split;
+    use crate::trim::split::tests::record;
+
+    #[test]
+    fn labels_are_quoted_only_when_needed() {
+        assert_eq!(csv_field("wave"), "wave");
+        assert_eq!(csv_field("air drumming"), "\"air drumming\"");
+        assert_eq!(
+            csv_field("say \"hi\", then go"),
+            "\"say \"\"hi\"\", then go\""
+        );
+        assert_eq!(csv_field("ñandú"), "ñandú");
+    }
+
+    #[test]
+    fn classes_are_written_once_and_never_change() {
+        let dir = tempfile::tempdir().unwrap();
+        let labels = vec!["air drumming".to_owned(), "wave".to_owned()];
+        ensure_classes(dir.path(), &labels).unwrap();
+        ensure_classes(dir.path(), &labels).unwrap();
+        let text = std::fs::read_to_string(dir.path().join("annotations/classes.txt")).unwrap();
+        assert_eq!(text, "air drumming\nwave\n");
+        let map: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(dir.path().join("annotations/label_map.json")).unwrap(),
+        )
+        .unwrap();
+        assert_eq!(map["wave"], 1);
+        let err = ensure_classes(dir.path(), &["wave".to_owned()]).unwrap_err();
+        assert!(err.to_string().contains("classes.txt"), "{err}");
+        assert!(ensure_classes(dir.path(), &["b".to_owned(), "a".to_owned()]).is_err());
+    }
+
+    #[test]
+    fn lists_have_the_exact_formats() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut a = record("a1", "air drumming", "a0", "CLEAR");
+        a.label_dir = "air_drumming".into();
+        a.video = "videos/air_drumming/a1.mp4".into();
+        a.start_s = 1.5;
+        a.end_s = 2.5;
+        let mut b = record("b1", "wave", "b0", "RAIN");
+        b.label_id = 1;
+        b.rawframes = Some("rawframes/wave/b1".into());
+        let clips: BTreeMap<String, _> =
+            [a, b].into_iter().map(|c| (c.clip_id.clone(), c)).collect();
+        let splits = BTreeMap::from([
+            ("a1".to_owned(), Split::Train),
+            ("b1".to_owned(), Split::Test),
+        ]);
+        let s = write_lists(dir.path(), &clips, &splits).unwrap();
+        assert_eq!(s.clips[&Split::Train], 1);
+        assert_eq!(s.clips[&Split::Val], 0);
+        let read =
+            |n: &str| std::fs::read_to_string(dir.path().join("annotations").join(n)).unwrap();
+        assert_eq!(
+            read("kinetics_train.csv"),
+            "label,youtube_id,time_start,time_end,split\n\"air drumming\",a1,1.500,2.500,train\n"
+        );
+        assert_eq!(
+            read("train_list_videos.txt"),
+            "videos/air_drumming/a1.mp4 0\n"
+        );
+        assert_eq!(read("test_list_videos.txt"), "videos/wave/b1.mp4 1\n");
+        assert_eq!(read("val_list_videos.txt"), "");
+        assert_eq!(read("test_list_rawframes.txt"), "rawframes/wave/b1 30 1\n");
+        assert_eq!(read("train_list_rawframes.txt"), "");
+        let anet: serde_json::Value = serde_json::from_str(&read("activitynet.json")).unwrap();
+        assert_eq!(anet["version"], "VERSION 1.3");
+        assert_eq!(anet["database"]["c"]["subset"], "mixed");
+        assert_eq!(anet["database"]["c"]["annotations"][0]["label"], "wave");
+        assert_eq!(anet["database"]["c"]["annotations"][1]["segment"][0], 1.5);
+        let meta = read("clips.jsonl");
+        assert_eq!(meta.lines().count(), 2);
+        let first: serde_json::Value = serde_json::from_str(meta.lines().next().unwrap()).unwrap();
+        assert_eq!(first["split"], "train");
+        assert_eq!(first["weather"], "CLEAR");
+        // No temporary files left behind.
+        for e in std::fs::read_dir(dir.path().join("annotations")).unwrap() {
+            assert!(!e.unwrap().file_name().to_string_lossy().starts_with('.'));
+        }
+    }
+}

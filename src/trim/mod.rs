@@ -1,0 +1,229 @@
+//! Trimming a rendered capture into a clip dataset: one clip per leaf segment of the recording
+//! hierarchy, frame-exact, with the annotation lists action-recognition codebases read.
+//!
+//! - [`plan`]: segments (timeline stamps) → video frame ranges, given when video frame 0 is on
+//!   the timeline; clips the video does not fully cover are reported, never cut.
+//! - [`split`]: train/val/test by a hierarchy level (default: source animation), seeded,
+//!   stratified by class, with whole weathers, locations or characters held out on request.
+//! - [`manifest`]: the journal of complete clips (`manifest.jsonl`); re-runs skip what it
+//!   lists, and every list is written from it, so no list names a clip that is not on disk.
+//! - [`lists`]: `classes.txt`, `label_map.json`, Kinetics CSV, MMAction2 `VideoDataset` and
+//!   `RawframeDataset` lists, ActivityNet JSON and the per-clip metadata JSONL.
+//!
+//! The cut itself is [`crate::video::cut`].
+//!
+//! # Layout
+//! ```text
+//! DATASET_DIR/
+//!   manifest.jsonl                      journal: one line per complete clip
+//!   videos/<label>/<clip_id>.mp4        every clip, whatever its split
+//!   rawframes/<label>/<clip_id>/img_00001.jpg …   with --rawframes
+//!   annotations/
+//!     classes.txt  label_map.json       one class list, 0-based, shared by all splits
+//!     kinetics_{train,val,test}.csv     label,youtube_id,time_start,time_end,split
+//!     {train,val,test}_list_videos.txt  videos/<label>/<clip_id>.mp4 <label_id>
+//!     {train,val,test}_list_rawframes.txt  rawframes/<label>/<clip_id> <frames> <label_id>
+//!     activitynet.json                  the untrimmed captures with every segment
+//!     clips.jsonl                       per-clip metadata
+//! ```
+//! The split is not part of a clip's path: splits are drawn over every clip in the manifest, so
+//! a dataset can grow capture by capture (or be re-split with other ratios) without moving files.
+
+pub mod lists;
+pub mod manifest;
+pub mod plan;
+pub mod run;
+pub mod split;
+
+use std::path::PathBuf;
+
+use serde::{Deserialize, Serialize};
+
+use crate::video::CutMethod;
+
+/// Why trimming failed.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum TrimError {
+    /// A file could not be read or written.
+    #[error("cannot {action} `{path}`")]
+    Io {
+        /// What was being done.
+        action: &'static str,
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A file autoact wrote earlier holds something else than expected.
+    #[error("`{path}` line {line}: {detail}")]
+    Corrupt {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// What is wrong.
+        detail: String,
+    },
+    /// The dataset folder's class list differs from this capture's.
+    #[error(
+        "`{path}` lists the classes {existing:?}, but this capture's dataset has {new:?}; class ids must not change between runs, so trim into another folder"
+    )]
+    ClassesChanged {
+        /// `classes.txt`.
+        path: PathBuf,
+        /// What it lists.
+        existing: Vec<String>,
+        /// What the capture has.
+        new: Vec<String>,
+    },
+    /// The settings cannot be used.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// One complete clip: everything every list needs (a line of `manifest.jsonl` and of
+/// `annotations/clips.jsonl`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ClipRecord {
+    /// Unique clip id (file stem; the Kinetics `youtube_id` column): the sanitised segment id.
+    pub clip_id: String,
+    /// The clip, relative to the dataset folder (`videos/<label_dir>/<clip_id>.mp4`).
+    pub video: String,
+    /// Its frames, relative to the dataset folder, with `--rawframes`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rawframes: Option<String>,
+    /// The class label as in the dataset spec (unsanitised).
+    pub label: String,
+    /// The class id: line index in `classes.txt`.
+    pub label_id: u32,
+    /// The label's folder name (sanitised).
+    pub label_dir: String,
+    /// Frames in the clip.
+    pub frame_count: u64,
+    /// Frames per second.
+    pub fps: f64,
+    /// Start of the clip in the capture video, seconds (frame `start_frame` / fps).
+    pub start_s: f64,
+    /// End (exclusive) of the clip in the capture video, seconds.
+    pub end_s: f64,
+    /// First frame in the capture video.
+    pub start_frame: u64,
+    /// How it was cut.
+    pub method: CutMethod,
+    /// The capture video's file name.
+    pub capture_video: String,
+    /// The capture video's length, seconds.
+    pub capture_duration_s: f64,
+    /// The capture video's size, `WxH` (empty if unknown).
+    pub capture_resolution: String,
+    /// The capture bag's file name.
+    pub capture_bag: String,
+    /// The capture session.
+    pub session: String,
+    /// The segment's id in the hierarchy `<category>/<action>/<animation>/v<variant>/s<scene>/c<viewpoint>`.
+    pub segment_id: String,
+    /// Category.
+    pub category: String,
+    /// Source animation (`<bag>#<track>`).
+    pub animation: String,
+    /// Variant index.
+    pub variant: u32,
+    /// Scene index within the variant.
+    pub scene: u32,
+    /// Viewpoint index within the scene.
+    pub viewpoint: u32,
+    /// Scene id.
+    pub scene_id: String,
+    /// Weather name.
+    pub weather: String,
+    /// Clock time, `HH:MM`.
+    pub time: String,
+    /// Location name.
+    pub location: String,
+    /// Character id: a hash of the drawn look (see `character_look`).
+    pub character: String,
+    /// The drawn look.
+    pub character_look: serde_json::Value,
+    /// The camera path of this viewpoint, as recorded in the capture bag (`/camera/pose`),
+    /// identified by the segment's viewpoint index.
+    pub camera: String,
+    /// The dataset seed.
+    pub seed: Option<u64>,
+}
+
+/// `text` as a file or folder name: letters and digits of any script, `-`, `_` and `.` are
+/// kept; everything else (spaces, `/`, `\`, `:`, quotes, control characters, …) becomes `_`;
+/// a leading `.` becomes `_` (no hidden files, no `..`); empty → `_`. At most 120 characters.
+///
+/// The only way a label or id becomes a path.
+#[must_use]
+pub fn sanitize_name(text: &str) -> String {
+    let mut out: String = text
+        .chars()
+        .map(|c| {
+            if c.is_alphanumeric() || matches!(c, '-' | '_' | '.') {
+                c
+            } else {
+                '_'
+            }
+        })
+        .take(120)
+        .collect();
+    if out.starts_with('.') {
+        out.replace_range(0..1, "_");
+    }
+    if out.is_empty() {
+        out.push('_');
+    }
+    out
+}
+
+/// Folder names for `labels` (sorted classes): [`sanitize_name`], with `_<id>` added to labels
+/// whose sanitised names would collide.
+#[must_use]
+pub fn label_dirs(labels: &[String]) -> Vec<String> {
+    let names: Vec<String> = labels.iter().map(|l| sanitize_name(l)).collect();
+    names
+        .iter()
+        .enumerate()
+        .map(|(i, n)| {
+            if names.iter().filter(|m| *m == n).count() > 1 {
+                format!("{n}_{i}")
+            } else {
+                n.clone()
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{label_dirs, sanitize_name};
+
+    #[test]
+    fn sanitised_names_cannot_leave_the_folder_or_hide() {
+        assert_eq!(sanitize_name("air drumming"), "air_drumming");
+        assert_eq!(sanitize_name("../../etc/passwd"), "_._.._etc_passwd");
+        assert_eq!(sanitize_name(".."), "_.");
+        assert_eq!(sanitize_name(".hidden"), "_hidden");
+        assert_eq!(sanitize_name(""), "_");
+        assert_eq!(sanitize_name("größe/ñandú"), "größe_ñandú");
+        assert_eq!(sanitize_name("a,b\"c\nd"), "a_b_c_d");
+        assert_eq!(sanitize_name(&"x".repeat(500)).len(), 120);
+        for s in ["..", ".", "a/../b", "/abs", "c:\\x"] {
+            let n = sanitize_name(s);
+            assert!(
+                !n.contains('/') && !n.contains('\\') && !n.starts_with('.'),
+                "{n}"
+            );
+        }
+    }
+
+    #[test]
+    fn colliding_labels_get_distinct_folders() {
+        let labels = vec!["a b".to_owned(), "a/b".to_owned(), "c".to_owned()];
+        assert_eq!(label_dirs(&labels), vec!["a_b_0", "a_b_1", "c"]);
+    }
+}

@@ -1,0 +1,139 @@
+//! Segments on the capture timeline → frame ranges in the capture video.
+//!
+//! Video frame `k` shows the timeline at `frame0_ns + k / fps`. A segment `[start, end)` becomes
+//! the frames whose times are nearest its ends: `round((start − frame0) · fps)` up to
+//! `round((end − frame0) · fps)` (exclusive). A clip that starts before frame 0 or ends after the
+//! video's last frame is *truncated*: reported, never cut, never listed.
+
+use crate::ros::autoact_msgs::Segment;
+use crate::video::Rational;
+
+/// How the capture video lines up with the capture bag's timeline.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VideoTiming {
+    /// Timeline stamp of video frame 0, nanoseconds (may be before the timeline starts).
+    pub frame0_ns: i128,
+    /// The video's constant frame rate.
+    pub fps: Rational,
+    /// Frames in the video.
+    pub frame_count: u64,
+}
+
+impl VideoTiming {
+    /// The video frame nearest timeline stamp `stamp_ns` (may be negative or past the end).
+    #[must_use]
+    pub fn frame_at(&self, stamp_ns: u64) -> i128 {
+        let num = i128::from(self.fps.num);
+        let den = i128::from(self.fps.den) * 1_000_000_000;
+        let x = (i128::from(stamp_ns) - self.frame0_ns) * num;
+        // round half up, for negative values too
+        (2 * x + den).div_euclid(2 * den)
+    }
+}
+
+/// A segment's frames in the video.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FrameRange {
+    /// Index into the segment list.
+    pub segment: usize,
+    /// First frame.
+    pub start_frame: u64,
+    /// Frames.
+    pub frame_count: u64,
+}
+
+/// A segment the video does not fully hold.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Truncated {
+    /// The segment's id.
+    pub segment_id: String,
+    /// Its first frame in the video (negative: before the video starts).
+    pub start_frame: i128,
+    /// Its end frame (exclusive).
+    pub end_frame: i128,
+    /// Frames in the video.
+    pub video_frames: u64,
+}
+
+impl std::fmt::Display for Truncated {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "segment `{}` needs video frames [{}, {}), but the video holds frames [0, {}): left out",
+            self.segment_id, self.start_frame, self.end_frame, self.video_frames
+        )
+    }
+}
+
+/// Frame ranges of every segment the video fully holds, and the others.
+#[must_use]
+pub fn frame_ranges(
+    segments: &[Segment],
+    timing: &VideoTiming,
+) -> (Vec<FrameRange>, Vec<Truncated>) {
+    let mut ranges = Vec::new();
+    let mut truncated = Vec::new();
+    for (i, s) in segments.iter().enumerate() {
+        let start = timing.frame_at(s.start.to_nanos().unwrap_or(0));
+        let end = timing.frame_at(s.end.to_nanos().unwrap_or(0));
+        match (u64::try_from(start), u64::try_from(end)) {
+            (Ok(a), Ok(b)) if a < b && b <= timing.frame_count => ranges.push(FrameRange {
+                segment: i,
+                start_frame: a,
+                frame_count: b - a,
+            }),
+            _ => truncated.push(Truncated {
+                segment_id: s.id.clone(),
+                start_frame: start,
+                end_frame: end,
+                video_frames: timing.frame_count,
+            }),
+        }
+    }
+    (ranges, truncated)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{VideoTiming, frame_ranges};
+    use crate::ros::autoact_msgs::Segment;
+    use crate::ros::builtin_interfaces::Time;
+    use crate::video::Rational;
+
+    fn seg(id: &str, start_ns: u64, end_ns: u64) -> Segment {
+        Segment {
+            id: id.to_owned(),
+            start: Time::from_nanos(start_ns),
+            end: Time::from_nanos(end_ns),
+            ..Segment::default()
+        }
+    }
+
+    #[test]
+    fn segments_map_to_nearest_frames_and_overhangs_are_truncated() {
+        let fps = Rational::new(30, 1).unwrap();
+        let ns = |k: u64| fps.frame_time_nanos(k);
+        let timing = VideoTiming {
+            frame0_ns: i128::from(ns(10)),
+            fps,
+            frame_count: 100,
+        };
+        let segments = vec![
+            seg("before", ns(5), ns(20)),
+            seg("a", ns(10), ns(40)),
+            seg("b", ns(40) + 1, ns(70) - 1),
+            seg("tail", ns(100), ns(110)),
+            seg("after", ns(100), ns(111)),
+        ];
+        let (ranges, truncated) = frame_ranges(&segments, &timing);
+        let got: Vec<(usize, u64, u64)> = ranges
+            .iter()
+            .map(|r| (r.segment, r.start_frame, r.frame_count))
+            .collect();
+        assert_eq!(got, vec![(1, 0, 30), (2, 30, 30), (3, 90, 10)]);
+        let ids: Vec<&str> = truncated.iter().map(|t| t.segment_id.as_str()).collect();
+        assert_eq!(ids, vec!["before", "after"]);
+        assert_eq!(truncated[0].start_frame, -5);
+        assert!(truncated[1].to_string().contains("[90, 101)"));
+    }
+}

@@ -1,0 +1,364 @@
+//! Cutting a clip of whole frames out of a video, frame-exact: stream copy when the clip starts
+//! on a keyframe, re-encoding otherwise, and a check of the result either way.
+//!
+//! Measured with ffmpeg 5.1 (see `docs` / the reference measurements):
+//! - Stream copy with `-ss T` **before** `-i` starts at the keyframe at or before `T`; if `T` is
+//!   not on a keyframe, the mp4 silently holds the earlier frames behind an edit list. So copy is
+//!   used only when the first frame is a keyframe, `T` is that frame's time rounded *down* to the
+//!   microsecond, and the output's packets are counted afterwards: a file holding any other
+//!   number of packets than the clip's frames is rejected ([`VideoError::FrameCountMismatch`]).
+//! - The end is `-t (N − ½)/fps`: half a frame short of the next frame, so rounding cannot take
+//!   one frame more or less. `-frames:v` is never used with copy (it counts packets in decode
+//!   order, which breaks with B-frames).
+//! - Re-encoding seeks to half a frame before the first frame (`-ss (k − ½)/fps` before `-i`),
+//!   decodes from the keyframe before it, and keeps exactly `-frames:v N` frames, restamped from
+//!   zero (`setpts=PTS-STARTPTS`).
+//!
+//! The output goes to a hidden `.<name>.part` sibling, synced and renamed only once checked;
+//! every error removes it. Arguments are passed as a vector through `ffmpeg-sidecar`'s command
+//! builder, never through a shell.
+
+use std::path::{Path, PathBuf};
+use std::process::Stdio;
+
+use ffmpeg_sidecar::command::FfmpegCommand;
+
+use super::encode::{container_for, part_path, remove_part};
+use super::probe::probe_packets;
+use super::stderr_tail::tail_of_text;
+use super::tools::{ffmpeg_path_arg, spawn_error};
+use super::{Ffmpeg, Rational, VideoError};
+
+/// How a clip is cut.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CutMethod {
+    /// The compressed frames are copied (the first frame must be a keyframe). Fast, lossless.
+    StreamCopy,
+    /// The frames are decoded and encoded again with libx264.
+    Reencode,
+}
+
+/// Encoder settings for [`CutMethod::Reencode`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ReencodeSettings {
+    /// x264 preset.
+    pub preset: String,
+    /// x264 constant rate factor.
+    pub crf: u8,
+}
+
+impl Default for ReencodeSettings {
+    fn default() -> ReencodeSettings {
+        ReencodeSettings {
+            preset: "veryfast".to_owned(),
+            crf: 18,
+        }
+    }
+}
+
+/// Which frames of which video to cut.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CutRequest<'a> {
+    /// The source video.
+    pub input: &'a Path,
+    /// The clip to write (`.mp4`, `.mov` or `.mkv`).
+    pub output: &'a Path,
+    /// Index of the clip's first frame in the source (0-based, presentation order).
+    pub start_frame: u64,
+    /// Frames in the clip.
+    pub frame_count: u64,
+    /// The source's constant frame rate: frame k is at k / fps.
+    pub fps: Rational,
+    /// Copy or re-encode.
+    pub method: CutMethod,
+}
+
+/// A clip written and checked.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CutClip {
+    /// Its final path.
+    pub path: PathBuf,
+    /// Frames in it (= the request's).
+    pub frame_count: u64,
+    /// How it was cut.
+    pub method: CutMethod,
+    /// Its size.
+    pub bytes: u64,
+}
+
+/// Indices (presentation order) of a video's keyframes, from its packets (no decoding).
+///
+/// # Errors
+/// As [`probe_packets`]; [`VideoError::Probe`] if a packet has no timestamp.
+pub fn keyframe_frames(ffmpeg: &Ffmpeg, path: &Path) -> Result<(u64, Vec<u64>), VideoError> {
+    let packets = probe_packets(ffmpeg, path)?;
+    let mut by_pts = Vec::with_capacity(packets.len());
+    for (i, p) in packets.iter().enumerate() {
+        let pts = p.pts.ok_or_else(|| VideoError::Probe {
+            path: path.to_path_buf(),
+            detail: format!("packet {i} has no timestamp"),
+        })?;
+        by_pts.push((pts, p.key));
+    }
+    by_pts.sort_unstable();
+    let keys = (0_u64..)
+        .zip(&by_pts)
+        .filter(|(_, (_, key))| *key)
+        .map(|(i, _)| i)
+        .collect();
+    Ok((by_pts.len() as u64, keys))
+}
+
+/// `seconds` with six decimals, rounded down to the microsecond (ffmpeg's time unit).
+fn seconds_floor_us(nanos: u128) -> String {
+    let micros = nanos / 1000;
+    format!("{}.{:06}", micros / 1_000_000, micros % 1_000_000)
+}
+
+/// Time of `frames` frames at `fps`, in nanoseconds (exact rational arithmetic, rounded down).
+fn frames_nanos(frames: u128, fps: Rational) -> u128 {
+    // fps = num/den → t = frames·den/num seconds.
+    let num = u128::try_from(fps.num).unwrap_or(1).max(1);
+    let den = u128::try_from(fps.den).unwrap_or(1).max(1);
+    frames * den * 1_000_000_000 / num
+}
+
+/// Cuts `request.frame_count` frames starting at `request.start_frame` into `request.output`,
+/// through a hidden `.part` file renamed once ffmpeg succeeded and `ffprobe` counted exactly
+/// that many packets (an existing output is replaced only then).
+///
+/// # Errors
+/// [`VideoError::FrameCountMismatch`] when the cut holds another number of frames (for stream
+/// copy: the start was not a keyframe, or the source is shorter), [`VideoError::Exited`] with
+/// ffmpeg's last messages (corrupt input, full disk), [`VideoError::NotFound`] without ffmpeg,
+/// [`VideoError::Io`], [`VideoError::InvalidSettings`] for a zero-length clip or an unknown
+/// extension. On every error no output and no `.part` file is left.
+pub fn cut(
+    ffmpeg: &Ffmpeg,
+    request: &CutRequest<'_>,
+    reencode: &ReencodeSettings,
+) -> Result<CutClip, VideoError> {
+    let output = request.output;
+    let invalid = |detail: String| VideoError::InvalidSettings {
+        path: output.to_path_buf(),
+        detail,
+    };
+    if request.frame_count == 0 {
+        return Err(invalid("a clip needs at least one frame".into()));
+    }
+    if request.fps.num <= 0 || request.fps.den <= 0 {
+        return Err(invalid(format!(
+            "frame rate {} is not positive",
+            request.fps
+        )));
+    }
+    let container = container_for(output).map_err(invalid)?;
+    let part = part_path(output).ok_or_else(|| invalid("the output has no file name".into()))?;
+    let start = u128::from(request.start_frame);
+    let count = u128::from(request.frame_count);
+    let mut command = FfmpegCommand::new_with_path(ffmpeg.ffmpeg_path());
+    command
+        .hide_banner()
+        .args(["-nostdin", "-nostats", "-loglevel", "level+warning"]);
+    match request.method {
+        CutMethod::StreamCopy => {
+            let ss = seconds_floor_us(frames_nanos(start, request.fps));
+            // Half a frame short of the frame after the last.
+            let t = seconds_floor_us(frames_nanos(2 * count - 1, request.fps) / 2);
+            command
+                .args(["-ss", &ss])
+                .input(ffmpeg_path_arg(request.input))
+                .args(["-map", "0:v:0", "-an", "-sn", "-dn", "-c", "copy", "-t", &t]);
+        }
+        CutMethod::Reencode => {
+            let ss = if start == 0 {
+                "0".to_owned()
+            } else {
+                seconds_floor_us(frames_nanos(2 * start - 1, request.fps) / 2)
+            };
+            command
+                .args(["-ss", &ss])
+                .input(ffmpeg_path_arg(request.input))
+                .args(["-map", "0:v:0", "-an", "-sn", "-dn"])
+                .args(["-frames:v".to_owned(), request.frame_count.to_string()])
+                .args(["-vf", "setpts=PTS-STARTPTS", "-fps_mode", "passthrough"])
+                .codec_video("libx264")
+                .preset(&reencode.preset)
+                .crf(u32::from(reencode.crf))
+                .pix_fmt("yuv420p")
+                .args(["-bf", "0"]);
+        }
+    }
+    command
+        .format(container)
+        .overwrite()
+        .output(part.as_os_str());
+    let inner = command.as_inner_mut();
+    inner.stdin(Stdio::null());
+    tracing::debug!(
+        command = %std::iter::once(inner.get_program())
+            .chain(inner.get_args())
+            .map(|a| a.to_string_lossy().into_owned())
+            .collect::<Vec<_>>()
+            .join(" "),
+        "cutting"
+    );
+    let result = run_and_check(ffmpeg, inner, request, &part);
+    if result.is_err() {
+        remove_part(&part);
+    }
+    result
+}
+
+fn run_and_check(
+    ffmpeg: &Ffmpeg,
+    command: &mut std::process::Command,
+    request: &CutRequest<'_>,
+    part: &Path,
+) -> Result<CutClip, VideoError> {
+    let output = request.output;
+    let out = command
+        .output()
+        .map_err(|source| spawn_error("ffmpeg", ffmpeg.ffmpeg_path(), source))?;
+    if !out.status.success() {
+        return Err(VideoError::Exited {
+            program: "ffmpeg",
+            status: out.status,
+            path: output.to_path_buf(),
+            stderr_tail: tail_of_text(&out.stderr),
+        });
+    }
+    // ffmpeg can exit 0 after a failed write (a full disk): then its words are the useful ones.
+    let packets = probe_packets(ffmpeg, part).map_err(|e| {
+        let said = tail_of_text(&out.stderr);
+        if said.trim().is_empty() {
+            e
+        } else {
+            VideoError::Probe {
+                path: output.to_path_buf(),
+                detail: format!("ffmpeg wrote an unreadable file ({e}); ffmpeg said:\n{said}"),
+            }
+        }
+    })?;
+    let found = packets.len() as u64;
+    if found != request.frame_count {
+        return Err(VideoError::FrameCountMismatch {
+            path: output.to_path_buf(),
+            written: request.frame_count,
+            found,
+        });
+    }
+    if !packets.first().is_some_and(|p| p.key) {
+        return Err(VideoError::Probe {
+            path: output.to_path_buf(),
+            detail: "the clip does not start with a keyframe".into(),
+        });
+    }
+    let io = |action: &'static str, path: &Path| {
+        let path = path.to_path_buf();
+        move |source| VideoError::Io {
+            action,
+            path,
+            source,
+        }
+    };
+    std::fs::File::open(part)
+        .and_then(|f| f.sync_all())
+        .map_err(io("sync", part))?;
+    std::fs::rename(part, output).map_err(io("rename into place", output))?;
+    let bytes = std::fs::metadata(output)
+        .map_err(io("read the size of", output))?
+        .len();
+    Ok(CutClip {
+        path: output.to_path_buf(),
+        frame_count: found,
+        method: request.method,
+        bytes,
+    })
+}
+
+/// Decodes every frame of `video` into `dir` as `img_00001.jpg` … (MMAction2's rawframe
+/// naming, 1-based), through a hidden `.<dir>.part` sibling folder renamed once it holds exactly
+/// `frame_count` images (an existing `dir` is replaced only then).
+///
+/// # Errors
+/// [`VideoError::Exited`], [`VideoError::FrameCountMismatch`], [`VideoError::Io`]; the partial
+/// folder is removed on every error.
+pub fn extract_frames(
+    ffmpeg: &Ffmpeg,
+    video: &Path,
+    dir: &Path,
+    frame_count: u64,
+) -> Result<(), VideoError> {
+    let invalid = |detail: String| VideoError::InvalidSettings {
+        path: dir.to_path_buf(),
+        detail,
+    };
+    let part = part_path(dir).ok_or_else(|| invalid("the folder has no name".into()))?;
+    let io = |action: &'static str, path: &Path| {
+        let path = path.to_path_buf();
+        move |source| VideoError::Io {
+            action,
+            path,
+            source,
+        }
+    };
+    let _ = std::fs::remove_dir_all(&part);
+    std::fs::create_dir_all(&part).map_err(io("create", &part))?;
+    let result = (|| {
+        let mut command = FfmpegCommand::new_with_path(ffmpeg.ffmpeg_path());
+        command
+            .hide_banner()
+            .args(["-nostdin", "-nostats", "-loglevel", "level+warning"])
+            .input(ffmpeg_path_arg(video))
+            .args(["-map", "0:v:0", "-fps_mode", "passthrough", "-q:v", "2"])
+            .args(["-start_number", "1", "-f", "image2"])
+            .overwrite()
+            .output(part.join("img_%05d.jpg").as_os_str());
+        let inner = command.as_inner_mut();
+        inner.stdin(Stdio::null());
+        let out = inner
+            .output()
+            .map_err(|source| spawn_error("ffmpeg", ffmpeg.ffmpeg_path(), source))?;
+        if !out.status.success() {
+            return Err(VideoError::Exited {
+                program: "ffmpeg",
+                status: out.status,
+                path: dir.to_path_buf(),
+                stderr_tail: tail_of_text(&out.stderr),
+            });
+        }
+        let found = std::fs::read_dir(&part).map_err(io("list", &part))?.count() as u64;
+        if found != frame_count {
+            return Err(VideoError::FrameCountMismatch {
+                path: dir.to_path_buf(),
+                written: frame_count,
+                found,
+            });
+        }
+        if dir.exists() {
+            std::fs::remove_dir_all(dir).map_err(io("replace", dir))?;
+        }
+        std::fs::rename(&part, dir).map_err(io("rename into place", dir))
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_dir_all(&part);
+    }
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Rational, frames_nanos, seconds_floor_us};
+
+    #[test]
+    fn times_round_down_to_the_microsecond() {
+        let fps = Rational::new(30, 1).unwrap();
+        assert_eq!(seconds_floor_us(frames_nanos(45, fps)), "1.500000");
+        assert_eq!(seconds_floor_us(frames_nanos(1, fps)), "0.033333");
+        let ntsc = Rational::new(30000, 1001).unwrap();
+        assert_eq!(seconds_floor_us(frames_nanos(30, ntsc)), "1.001000");
+        assert_eq!(seconds_floor_us(frames_nanos(89, fps) / 2), "1.483333");
+    }
+}

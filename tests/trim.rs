@@ -1,0 +1,779 @@
+//! `autoact trim` and the cuts under it: frame exactness (every clip holds exactly its
+//! segment's frames, checked by decoding frames whose grey levels code their index), by stream
+//! copy and by re-encoding.
+
+#![expect(clippy::unwrap_used, reason = "test helpers fail loudly")]
+
+use std::path::Path;
+use std::process::Command;
+
+use autoact::video::{
+    CutMethod, CutRequest, EncodeSettings, Ffmpeg, Rational, ReencodeSettings, VideoEncoder, cut,
+    keyframe_frames,
+};
+
+const W: u32 = 160;
+const H: u32 = 96;
+
+#[expect(clippy::print_stderr, reason = "a loud skip")]
+fn ffmpeg() -> Option<Ffmpeg> {
+    match Ffmpeg::locate() {
+        Ok(f) => Some(f),
+        Err(e) => {
+            eprintln!("SKIPPED: ffmpeg is not installed ({e})");
+            None
+        }
+    }
+}
+
+/// Frame `k` as three flat grey strips: the nibbles of `k` (low first), 16 grey levels apart.
+fn coded_frame(k: u64) -> Vec<u8> {
+    let level = |n: u64| u8::try_from((n % 16) * 16 + 8).unwrap();
+    let nibbles = [level(k), level(k / 16), level(k / 256)];
+    let mut rgb = Vec::with_capacity((W * H * 3) as usize);
+    for _y in 0..H {
+        for x in 0..W {
+            let v = nibbles[(x * 3 / W) as usize];
+            rgb.extend_from_slice(&[v, v, v]);
+        }
+    }
+    rgb
+}
+
+/// Encodes `frames` coded frames at 30 fps with keyframes at `keyframes`.
+fn coded_video(ffmpeg: &Ffmpeg, path: &Path, frames: u64, keyframes: &[u64]) {
+    let settings = EncodeSettings::new(W, H, 30.0).with_keyframes(keyframes.iter().copied());
+    let mut enc = VideoEncoder::start(ffmpeg, path, &settings).unwrap();
+    for k in 0..frames {
+        enc.write_frame(&coded_frame(k)).unwrap();
+    }
+    enc.finish().unwrap();
+}
+
+/// Decodes a video and reads each frame's index back from its grey levels.
+fn decoded_indices(ffmpeg: &Ffmpeg, path: &Path) -> Vec<u64> {
+    let out = Command::new(ffmpeg.ffmpeg_path())
+        .args(["-v", "error", "-i"])
+        .arg(path)
+        .args(["-f", "rawvideo", "-pix_fmt", "gray", "-"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let size = (W * H) as usize;
+    assert_eq!(out.stdout.len() % size, 0);
+    out.stdout
+        .chunks(size)
+        .map(|f| {
+            let at = |strip: u32| u64::from(f[(H / 2 * W + W * (2 * strip + 1) / 6) as usize]) / 16;
+            at(0) + 16 * at(1) + 256 * at(2)
+        })
+        .collect()
+}
+
+fn fps30() -> Rational {
+    Rational::new(30, 1).unwrap()
+}
+
+#[test]
+fn coded_frames_decode_back_to_their_index() {
+    let Some(ffmpeg) = ffmpeg() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("src.mp4");
+    coded_video(&ffmpeg, &src, 600, &[]);
+    assert_eq!(decoded_indices(&ffmpeg, &src), (0..600).collect::<Vec<_>>());
+}
+
+#[test]
+fn stream_copy_at_keyframes_is_frame_exact() {
+    let Some(ffmpeg) = ffmpeg() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("src.mp4");
+    let boundaries = [0, 37, 45, 90, 91, 150, 199];
+    coded_video(&ffmpeg, &src, 200, &boundaries);
+    let (count, keys) = keyframe_frames(&ffmpeg, &src).unwrap();
+    assert_eq!(count, 200);
+    for b in boundaries {
+        assert!(keys.contains(&b), "{b} is not a keyframe: {keys:?}");
+    }
+    for w in boundaries.windows(2) {
+        let out = dir.path().join(format!("copy_{}.mp4", w[0]));
+        let clip = cut(
+            &ffmpeg,
+            &CutRequest {
+                input: &src,
+                output: &out,
+                start_frame: w[0],
+                frame_count: w[1] - w[0],
+                fps: fps30(),
+                method: CutMethod::StreamCopy,
+            },
+            &ReencodeSettings::default(),
+        )
+        .unwrap();
+        assert_eq!(clip.frame_count, w[1] - w[0]);
+        assert_eq!(
+            decoded_indices(&ffmpeg, &out),
+            (w[0]..w[1]).collect::<Vec<_>>(),
+            "clip [{}, {})",
+            w[0],
+            w[1]
+        );
+    }
+    // The last segment runs to the end of the video.
+    let out = dir.path().join("tail.mp4");
+    cut(
+        &ffmpeg,
+        &CutRequest {
+            input: &src,
+            output: &out,
+            start_frame: 199,
+            frame_count: 1,
+            fps: fps30(),
+            method: CutMethod::StreamCopy,
+        },
+        &ReencodeSettings::default(),
+    )
+    .unwrap();
+    assert_eq!(decoded_indices(&ffmpeg, &out), vec![199]);
+}
+
+#[test]
+fn stream_copy_off_a_keyframe_is_rejected_and_leaves_nothing() {
+    let Some(ffmpeg) = ffmpeg() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("src.mp4");
+    coded_video(&ffmpeg, &src, 120, &[60]);
+    let out = dir.path().join("clip.mp4");
+    let err = cut(
+        &ffmpeg,
+        &CutRequest {
+            input: &src,
+            output: &out,
+            start_frame: 30,
+            frame_count: 20,
+            fps: fps30(),
+            method: CutMethod::StreamCopy,
+        },
+        &ReencodeSettings::default(),
+    )
+    .unwrap_err();
+    assert!(
+        matches!(err, autoact::video::VideoError::FrameCountMismatch { .. }),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        1,
+        "only src.mp4 left"
+    );
+}
+
+#[test]
+fn reencode_anywhere_is_frame_exact() {
+    let Some(ffmpeg) = ffmpeg() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("src.mp4");
+    // Keyframes only every 250 frames: nothing below lands on one except frame 0.
+    coded_video(&ffmpeg, &src, 240, &[]);
+    for (start, count) in [(0, 10), (1, 1), (17, 33), (100, 77), (239, 1)] {
+        let out = dir.path().join(format!("re_{start}.mp4"));
+        cut(
+            &ffmpeg,
+            &CutRequest {
+                input: &src,
+                output: &out,
+                start_frame: start,
+                frame_count: count,
+                fps: fps30(),
+                method: CutMethod::Reencode,
+            },
+            &ReencodeSettings::default(),
+        )
+        .unwrap();
+        assert_eq!(
+            decoded_indices(&ffmpeg, &out),
+            (start..start + count).collect::<Vec<_>>(),
+            "clip at {start}"
+        );
+    }
+}
+
+#[test]
+fn a_cut_past_the_end_is_an_error_naming_the_clip() {
+    let Some(ffmpeg) = ffmpeg() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("src.mp4");
+    coded_video(&ffmpeg, &src, 60, &[]);
+    let out = dir.path().join("late.mp4");
+    let err = cut(
+        &ffmpeg,
+        &CutRequest {
+            input: &src,
+            output: &out,
+            start_frame: 50,
+            frame_count: 30,
+            fps: fps30(),
+            method: CutMethod::Reencode,
+        },
+        &ReencodeSettings::default(),
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("late.mp4"), "{err}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn a_corrupt_video_is_an_error_with_ffmpegs_words() {
+    let Some(ffmpeg) = ffmpeg() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("broken.mp4");
+    std::fs::write(&src, b"not a video at all").unwrap();
+    let out = dir.path().join("clip.mp4");
+    let err = cut(
+        &ffmpeg,
+        &CutRequest {
+            input: &src,
+            output: &out,
+            start_frame: 0,
+            frame_count: 3,
+            fps: fps30(),
+            method: CutMethod::StreamCopy,
+        },
+        &ReencodeSettings::default(),
+    )
+    .unwrap_err();
+    let text = err.to_string();
+    assert!(
+        text.contains("clip.mp4") && text.contains("broken.mp4"),
+        "{text}"
+    );
+    assert!(!out.exists());
+}
+
+// ---------------------------------------------------------------------------------------------
+// `autoact trim` end to end, on a capture bag from a tiny spec and a synthetic capture video whose
+// frame k carries k.
+
+mod common;
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::PathBuf;
+
+use autoact::render::timeline::Capture;
+use autoact::rig::Rig;
+use common::{autoact, stderr, stdout};
+
+fn repo(path: &str) -> String {
+    format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A one-session capture bag with two classes; the wave class is labelled `wave_label`.
+fn capture_bag(dir: &Path, wave_label: &str) -> PathBuf {
+    let spec = format!(
+        r#"[dataset]
+name = "t"
+seed = 5
+fps = 30.0
+resolution = [320, 240]
+lead_in_s = 0.1
+lead_out_s = 0.1
+session = "dataset"
+[counts]
+variants = 1
+scenes = 1
+viewpoints = 2
+[[class]]
+category = "gesture"
+action = {wave_label:?}
+sources = ["{wave}"]
+
+[[class]]
+category = "locomotion"
+action = "walk"
+sources = ["{walk}"]
+"#,
+        wave = repo("bags/bandai_wave.pose.mcap"),
+        walk = repo("bags/bandai_walk.pose.mcap"),
+    );
+    let spec_path = dir.join("spec.toml");
+    std::fs::write(&spec_path, spec).unwrap();
+    let out = dir.join("capture");
+    let o = autoact(&[
+        "-q",
+        "convert",
+        "--spec",
+        spec_path.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bags: Vec<PathBuf> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "mcap"))
+        .collect();
+    assert_eq!(bags.len(), 1, "{bags:?}");
+    bags[0].clone()
+}
+
+/// The capture's frame index for every segment: (segment id, start frame, end frame).
+fn segment_frames(capture: &Capture) -> Vec<(String, u64, u64)> {
+    let index = |ns: u64| {
+        capture
+            .frames
+            .binary_search_by_key(&ns, |f| f.stamp_ns)
+            .map_or_else(|i| i as u64, |i| i as u64)
+    };
+    capture
+        .segments
+        .iter()
+        .map(|s| {
+            (
+                s.id.clone(),
+                index(s.start.to_nanos().unwrap()),
+                index(s.end.to_nanos().unwrap()),
+            )
+        })
+        .collect()
+}
+
+struct Setup {
+    dir: tempfile::TempDir,
+    bag: PathBuf,
+    capture: Capture,
+}
+
+fn setup(wave_label: &str) -> Setup {
+    let dir = tempfile::tempdir().unwrap();
+    let bag = capture_bag(dir.path(), wave_label);
+    let capture = Capture::read(&Rig::standard(), &bag).unwrap();
+    Setup { dir, bag, capture }
+}
+
+fn run_trim(bag: &Path, video: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec![
+        "trim",
+        bag.to_str().unwrap(),
+        video.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    autoact(&args)
+}
+
+fn read_jsonl(path: &Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+/// Every list line names a complete clip on disk; returns the clips listed per split.
+fn check_lists(out: &Path) -> BTreeMap<String, Vec<String>> {
+    let mut listed = BTreeMap::new();
+    for split in ["train", "val", "test"] {
+        let text =
+            std::fs::read_to_string(out.join(format!("annotations/{split}_list_videos.txt")))
+                .unwrap();
+        let mut clips = Vec::new();
+        for line in text.lines() {
+            let parts: Vec<&str> = line.split(' ').collect();
+            assert_eq!(parts.len(), 2, "{line:?}");
+            assert!(out.join(parts[0]).is_file(), "{line} names a missing clip");
+            parts[1].parse::<u32>().unwrap();
+            clips.push(parts[0].to_owned());
+        }
+        let csv =
+            std::fs::read_to_string(out.join(format!("annotations/kinetics_{split}.csv"))).unwrap();
+        assert!(csv.starts_with("label,youtube_id,time_start,time_end,split\n"));
+        assert_eq!(csv.lines().count() - 1, clips.len());
+        listed.insert(split.to_owned(), clips);
+    }
+    listed
+}
+
+#[test]
+fn trim_cuts_every_segment_frame_exact_by_stream_copy() {
+    let Some(ffmpeg) = ffmpeg() else { return };
+    let s = setup("wave");
+    let video = s.dir.path().join("capture.mp4");
+    let n = s.capture.frames.len() as u64;
+    coded_video(&ffmpeg, &video, n, &s.capture.boundary_frames());
+    let out = s.dir.path().join("ds");
+    let o = run_trim(&s.bag, &video, &out, &["--video-start", "0"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("by stream copy"), "{}", stdout(&o));
+    let clips = read_jsonl(&out.join("annotations/clips.jsonl"));
+    let expected = segment_frames(&s.capture);
+    assert_eq!(clips.len(), expected.len());
+    for (id, start, end) in &expected {
+        let c = clips
+            .iter()
+            .find(|c| c["segment_id"] == id.as_str())
+            .unwrap();
+        assert_eq!(c["method"], "stream_copy", "{c}");
+        assert_eq!(c["frame_count"], end - start);
+        let path = out.join(c["video"].as_str().unwrap());
+        assert_eq!(
+            decoded_indices(&ffmpeg, &path),
+            (*start..*end).collect::<Vec<_>>(),
+            "{id}"
+        );
+        for key in [
+            "animation",
+            "variant",
+            "weather",
+            "time",
+            "location",
+            "character",
+            "camera",
+            "seed",
+            "split",
+        ] {
+            assert!(!c[key].is_null(), "{key} missing in {c}");
+        }
+    }
+    let listed = check_lists(&out);
+    assert_eq!(listed.values().map(Vec::len).sum::<usize>(), expected.len());
+    assert_eq!(
+        std::fs::read_to_string(out.join("annotations/classes.txt")).unwrap(),
+        "walk\nwave\n"
+    );
+    // No source animation in two splits.
+    let mut by_anim: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for c in &clips {
+        by_anim
+            .entry(c["animation"].as_str().unwrap().to_owned())
+            .or_default()
+            .insert(c["split"].as_str().unwrap().to_owned());
+    }
+    assert!(by_anim.values().all(|s| s.len() == 1), "{by_anim:?}");
+    let anet: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("annotations/activitynet.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(
+        anet["database"]["capture"]["annotations"]
+            .as_array()
+            .unwrap()
+            .len(),
+        expected.len()
+    );
+}
+
+#[test]
+fn trim_reencodes_a_foreign_video_placed_with_video_start() {
+    let Some(ffmpeg) = ffmpeg() else { return };
+    let s = setup("wave");
+    // A "screen recording" that starts 10 frames into the timeline, keyframes every 2 s only.
+    let video = s.dir.path().join("recording.mp4");
+    let n = s.capture.frames.len() as u64;
+    let settings = EncodeSettings::new(W, H, 30.0);
+    let mut enc = VideoEncoder::start(&ffmpeg, &video, &settings).unwrap();
+    for k in 10..n {
+        enc.write_frame(&coded_frame(k)).unwrap();
+    }
+    enc.finish().unwrap();
+    let out = s.dir.path().join("ds");
+    let o = run_trim(&s.bag, &video, &out, &["--video-start", "0.3333333333"]);
+    let expected = segment_frames(&s.capture);
+    let lost = expected.iter().filter(|(_, a, _)| *a < 10).count();
+    assert!(
+        lost > 0,
+        "the first segment starts at frame {}",
+        expected[0].1
+    );
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(stderr(&o).contains("left out"), "{}", stderr(&o));
+    let clips = read_jsonl(&out.join("annotations/clips.jsonl"));
+    assert_eq!(clips.len(), expected.len() - lost);
+    for c in &clips {
+        let (_, start, end) = expected
+            .iter()
+            .find(|(id, ..)| c["segment_id"] == id.as_str())
+            .unwrap();
+        let path = out.join(c["video"].as_str().unwrap());
+        // The clip's frames, by their index on the capture timeline.
+        assert_eq!(
+            decoded_indices(&ffmpeg, &path),
+            (*start..*end).collect::<Vec<_>>()
+        );
+    }
+    assert!(clips.iter().any(|c| c["method"] == "reencode"));
+    check_lists(&out);
+}
+
+/// Every annotation file's bytes, by name.
+fn annotation_files(out: &Path) -> BTreeMap<String, Vec<u8>> {
+    std::fs::read_dir(out.join("annotations"))
+        .unwrap()
+        .map(|e| {
+            let e = e.unwrap();
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                std::fs::read(e.path()).unwrap(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn trim_resumes_without_duplicates_and_relists_only_complete_clips() {
+    let Some(ffmpeg) = ffmpeg() else { return };
+    let s = setup("wave");
+    let video = s.dir.path().join("capture.mp4");
+    coded_video(
+        &ffmpeg,
+        &video,
+        s.capture.frames.len() as u64,
+        &s.capture.boundary_frames(),
+    );
+    let out = s.dir.path().join("ds");
+    assert!(
+        run_trim(&s.bag, &video, &out, &["--video-start", "0"])
+            .status
+            .success()
+    );
+    let lists_before = check_lists(&out);
+    let files_before = annotation_files(&out);
+    let manifest = out.join("manifest.jsonl");
+    let lines = std::fs::read_to_string(&manifest).unwrap().lines().count();
+
+    let o = run_trim(&s.bag, &video, &out, &["--video-start", "0"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("0 by stream copy, 0 re-encoded"),
+        "{}",
+        stdout(&o)
+    );
+    assert_eq!(
+        std::fs::read_to_string(&manifest).unwrap().lines().count(),
+        lines
+    );
+    assert_eq!(check_lists(&out), lists_before, "same seed, same splits");
+    assert_eq!(
+        annotation_files(&out),
+        files_before,
+        "a re-run rewrites identical bytes"
+    );
+
+    // A half-finished run: one clip gone, a torn manifest line.
+    let victim = out.join(lists_before.values().flatten().next().unwrap());
+    std::fs::remove_file(&victim).unwrap();
+    let mut text = std::fs::read_to_string(&manifest).unwrap();
+    text.push_str("{\"clip_id\":\"torn");
+    std::fs::write(&manifest, text).unwrap();
+    let o = run_trim(&s.bag, &video, &out, &["--video-start", "0"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("1 by stream copy"), "{}", stdout(&o));
+    assert!(victim.is_file());
+    assert_eq!(check_lists(&out), lists_before);
+    let clips = read_jsonl(&out.join("annotations/clips.jsonl"));
+    let ids: BTreeSet<&str> = clips
+        .iter()
+        .map(|c| c["clip_id"].as_str().unwrap())
+        .collect();
+    assert_eq!(ids.len(), clips.len(), "no duplicated clip");
+}
+
+#[test]
+fn trim_same_seed_gives_identical_lists_in_another_folder() {
+    let Some(ffmpeg) = ffmpeg() else { return };
+    let s = setup("wave");
+    let video = s.dir.path().join("capture.mp4");
+    coded_video(
+        &ffmpeg,
+        &video,
+        s.capture.frames.len() as u64,
+        &s.capture.boundary_frames(),
+    );
+    let read = |d: &Path| {
+        [
+            "classes.txt",
+            "train_list_videos.txt",
+            "val_list_videos.txt",
+            "test_list_videos.txt",
+            "kinetics_train.csv",
+        ]
+        .map(|n| std::fs::read_to_string(d.join("annotations").join(n)).unwrap())
+    };
+    let a = s.dir.path().join("a");
+    let b = s.dir.path().join("b");
+    for d in [&a, &b] {
+        let o = run_trim(
+            &s.bag,
+            &video,
+            d,
+            &[
+                "--video-start",
+                "0",
+                "--split-by",
+                "clip",
+                "--split-ratios",
+                "0.5,0,0.5",
+            ],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    assert_eq!(read(&a), read(&b));
+}
+
+#[test]
+fn trim_sanitises_label_paths_and_keeps_the_label_in_the_csv() {
+    let Some(ffmpeg) = ffmpeg() else { return };
+    // `autoact convert` refuses labels with `/` or a leading `.`; `sanitize_name`'s unit test
+    // covers `../`.
+    let label = "air drumming ñandú";
+    let s = setup(label);
+    let video = s.dir.path().join("capture.mp4");
+    coded_video(
+        &ffmpeg,
+        &video,
+        s.capture.frames.len() as u64,
+        &s.capture.boundary_frames(),
+    );
+    let out = s.dir.path().join("ds");
+    let o = run_trim(&s.bag, &video, &out, &["--video-start", "0"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let dirs: Vec<String> = std::fs::read_dir(out.join("videos"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(dirs.contains(&"air_drumming_ñandú".to_owned()), "{dirs:?}");
+    let classes = std::fs::read_to_string(out.join("annotations/classes.txt")).unwrap();
+    assert_eq!(classes, format!("{label}\nwalk\n"));
+    let csv = std::fs::read_to_string(out.join("annotations/kinetics_train.csv")).unwrap();
+    assert!(csv.contains("\"air drumming ñandú\","), "{csv}");
+    check_lists(&out);
+}
+
+#[test]
+fn trim_without_ffmpeg_or_with_a_corrupt_video_fails_clearly() {
+    let s = setup("wave");
+    let video = s.dir.path().join("capture.mp4");
+    std::fs::write(&video, b"garbage").unwrap();
+    let out = s.dir.path().join("ds");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_autoact"))
+        .args([
+            "trim",
+            s.bag.to_str().unwrap(),
+            video.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--video-start",
+            "0",
+        ])
+        .env("AUTOACT_FFMPEG", "/nonexistent/ffmpeg")
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("apt-get install ffmpeg"),
+        "{}",
+        stderr(&o)
+    );
+    if ffmpeg().is_none() {
+        return;
+    }
+    let o = run_trim(&s.bag, &video, &out, &["--video-start", "0"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("capture.mp4"), "{}", stderr(&o));
+    // Without a render bag or --video-start: told what to pass.
+    let o = run_trim(&s.bag, &video, &out, &[]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("--video-start"), "{}", stderr(&o));
+}
+
+#[test]
+#[expect(clippy::print_stderr, reason = "a loud skip")]
+fn trim_on_a_full_disk_fails_and_no_list_names_an_incomplete_clip() {
+    let Some(ffmpeg) = ffmpeg() else { return };
+    let s = setup("wave");
+    let video = s.dir.path().join("capture.mp4");
+    coded_video(
+        &ffmpeg,
+        &video,
+        s.capture.frames.len() as u64,
+        &s.capture.boundary_frames(),
+    );
+    // How much a full run writes.
+    let full = s.dir.path().join("full");
+    assert!(
+        run_trim(&s.bag, &video, &full, &["--video-start", "0"])
+            .status
+            .success()
+    );
+    let bytes: u64 = std::fs::read_dir(full.join("videos"))
+        .unwrap()
+        .flat_map(|d| std::fs::read_dir(d.unwrap().path()).unwrap())
+        .map(|f| f.unwrap().metadata().unwrap().len())
+        .sum();
+    // A tmpfs with room for about half the clips, in a private mount namespace; the result is
+    // copied out before the namespace (and its tmpfs) goes away.
+    let mount = s.dir.path().join("mnt");
+    let copy = s.dir.path().join("copy");
+    std::fs::create_dir(&mount).unwrap();
+    let size = (bytes / 2).max(16 * 1024);
+    let script = format!(
+        "mount -t tmpfs -o size={size} autoact-test \"$1\" || exit 77; \
+         \"$2\" trim \"$3\" \"$4\" -o \"$1/ds\" --video-start 0; echo \"rc=$?\" >&2; \
+         cp -a \"$1/ds\" \"$5\""
+    );
+    let o = Command::new("unshare")
+        .args(["-m", "--propagation", "private", "sh", "-c", &script, "sh"])
+        .arg(&mount)
+        .arg(env!("CARGO_BIN_EXE_autoact"))
+        .arg(&s.bag)
+        .arg(&video)
+        .arg(&copy)
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    if o.status.code() == Some(77) || !copy.exists() {
+        eprintln!("SKIPPED trim_on_a_full_disk…: cannot mount a tmpfs here: {err}");
+        return;
+    }
+    assert!(err.contains("rc=1"), "{err}");
+    assert!(err.contains("No space left"), "{err}");
+    // Whatever lists exist name only clips that are complete: every one decodes fully.
+    let clips = std::fs::read_to_string(copy.join("manifest.jsonl")).unwrap_or_default();
+    let records: BTreeMap<String, u64> = clips
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .map(|v| {
+            (
+                v["video"].as_str().unwrap().to_owned(),
+                v["frame_count"].as_u64().unwrap(),
+            )
+        })
+        .collect();
+    assert!(
+        records.len() < s.capture.segments.len(),
+        "the disk was not full"
+    );
+    for split in ["train", "val", "test"] {
+        let Ok(text) =
+            std::fs::read_to_string(copy.join(format!("annotations/{split}_list_videos.txt")))
+        else {
+            continue;
+        };
+        for line in text.lines() {
+            let path = line.split(' ').next().unwrap();
+            let (count, _) = keyframe_frames(&ffmpeg, &copy.join(path)).unwrap();
+            assert_eq!(Some(&count), records.get(path), "{line}");
+        }
+    }
+    // No partial files left visible.
+    for d in std::fs::read_dir(copy.join("videos")).unwrap() {
+        for f in std::fs::read_dir(d.unwrap().path()).unwrap() {
+            let name = f.unwrap().file_name().to_string_lossy().into_owned();
+            assert!(!name.starts_with('.'), "{name} left behind");
+        }
+    }
+}

@@ -1,0 +1,151 @@
+#!/usr/bin/env python3
+"""Reads a dataset `autoact trim` wrote the way its consumers do, and checks it.
+
+    check_trim.py DATASET_DIR [--split-key animation] [--expect-clips N]
+
+- MMAction2 `VideoDataset` / `RawframeDataset` rules (mmaction/datasets/video_dataset.py,
+  rawframe_dataset.py): `line.strip().split(' ')`, paths joined to the data prefix (DATASET_DIR),
+  label ids ints; rawframes `img_{:05}.jpg` from 1.
+- PyTorchVideo `LabeledVideoPaths.from_csv` rule: `line.rsplit(None, 1)`.
+- Kinetics CSV through Python's csv module: header `label,youtube_id,time_start,time_end,split`.
+- Every listed clip decoded with PyAV: frame count, duration, label id = its label's line in
+  classes.txt; class ids identical across splits; no value of the split key in two splits;
+  ActivityNet JSON segments match the clips.
+Exits non-zero with a message on the first failure.
+"""
+
+import argparse
+import csv
+import json
+import os
+import sys
+
+import av
+
+
+def fail(msg):
+    print(f"check_trim: FAIL: {msg}", file=sys.stderr)
+    sys.exit(1)
+
+
+def decode_count(path):
+    with av.open(path) as c:
+        stream = c.streams.video[0]
+        n = sum(1 for _ in c.decode(stream))
+        rate = stream.average_rate or stream.guessed_rate
+        return n, float(rate) if rate else None
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("dataset")
+    ap.add_argument("--split-key", default="animation")
+    ap.add_argument("--expect-clips", type=int)
+    a = ap.parse_args()
+    root = a.dataset
+    ann = os.path.join(root, "annotations")
+    classes = open(os.path.join(ann, "classes.txt"), encoding="utf-8").read().split("\n")
+    if classes[-1] != "":
+        fail("classes.txt does not end with a newline")
+    classes = classes[:-1]
+    if classes != sorted(classes) or len(set(classes)) != len(classes):
+        fail(f"classes.txt is not sorted and unique: {classes}")
+    label_map = json.load(open(os.path.join(ann, "label_map.json"), encoding="utf-8"))
+    if label_map != {c: i for i, c in enumerate(classes)}:
+        fail(f"label_map.json {label_map} disagrees with classes.txt")
+    meta = {}
+    for line in open(os.path.join(ann, "clips.jsonl"), encoding="utf-8"):
+        r = json.loads(line)
+        meta[r["video"]] = r
+
+    seen = {}
+    key_splits = {}
+    decoded = 0
+    for split in ["train", "val", "test"]:
+        vids = open(os.path.join(ann, f"{split}_list_videos.txt"), encoding="utf-8").read()
+        if vids and not vids.endswith("\n"):
+            fail(f"{split}_list_videos.txt does not end with a newline")
+        rows = list(csv.DictReader(open(os.path.join(ann, f"kinetics_{split}.csv"), encoding="utf-8", newline="")))
+        with open(os.path.join(ann, f"kinetics_{split}.csv"), encoding="utf-8") as f:
+            if f.readline().rstrip("\n") != "label,youtube_id,time_start,time_end,split":
+                fail(f"kinetics_{split}.csv header")
+        by_id = {r["youtube_id"]: r for r in rows}
+        lines = vids.splitlines()
+        if len(rows) != len(lines):
+            fail(f"{split}: {len(lines)} list lines but {len(rows)} CSV rows")
+        for line in lines:
+            # MMAction2
+            parts = line.strip().split(" ")
+            if len(parts) != 2 or line != line.strip():
+                fail(f"{split}: MMAction2 would not read {line!r} as <path> <label>")
+            mm_path, mm_label = os.path.join(root, parts[0]), int(parts[1])
+            # PyTorchVideo
+            ptv_path, ptv_label = line.rsplit(None, 1)
+            if os.path.join(root, ptv_path) != mm_path or int(ptv_label) != mm_label:
+                fail(f"{split}: PyTorchVideo and MMAction2 read {line!r} differently")
+            rel = parts[0]
+            if rel not in meta:
+                fail(f"{split}: {rel} is not in clips.jsonl")
+            m = meta[rel]
+            if m["split"] != split:
+                fail(f"{rel}: clips.jsonl says split {m['split']}, listed in {split}")
+            if classes[mm_label] != m["label"]:
+                fail(f"{rel}: label id {mm_label} is {classes[mm_label]!r}, but the clip is {m['label']!r}")
+            if rel in seen:
+                fail(f"{rel} is listed in {seen[rel]} and {split}")
+            seen[rel] = split
+            n, rate = decode_count(mm_path)
+            decoded += 1
+            if n != m["frame_count"]:
+                fail(f"{rel}: PyAV decoded {n} frames, expected {m['frame_count']}")
+            if rate and abs(rate - m["fps"]) > 1e-3:
+                fail(f"{rel}: {rate} fps, expected {m['fps']}")
+            row = by_id.get(m["clip_id"])
+            if row is None:
+                fail(f"{split}: clip {m['clip_id']} is not in kinetics_{split}.csv")
+            if row["label"] != m["label"] or row["split"] != split:
+                fail(f"kinetics_{split}.csv row {row} disagrees with {m}")
+            dur = float(row["time_end"]) - float(row["time_start"])
+            if abs(dur - n / m["fps"]) > 0.0015:
+                fail(f"{rel}: CSV duration {dur} s, decoded {n / m['fps']} s")
+            key = m[a.split_key]
+            key_splits.setdefault(key, set()).add(split)
+        raw_path = os.path.join(ann, f"{split}_list_rawframes.txt")
+        if os.path.exists(raw_path):
+            for line in open(raw_path, encoding="utf-8").read().splitlines():
+                parts = line.strip().split(" ")
+                if len(parts) != 3:
+                    fail(f"{split}: RawframeDataset would not read {line!r}")
+                d, total, label = os.path.join(root, parts[0]), int(parts[1]), int(parts[2])
+                names = sorted(os.listdir(d))
+                expect = [f"img_{i:05d}.jpg" for i in range(1, total + 1)]
+                if names != expect:
+                    fail(f"{parts[0]}: {len(names)} frames on disk, list says {total}")
+                if not 0 <= label < len(classes):
+                    fail(f"{line!r}: label out of range")
+    leaks = {k: s for k, s in key_splits.items() if len(s) > 1}
+    if leaks:
+        fail(f"{a.split_key} values in more than one split: {leaks}")
+    if len(seen) != len(meta):
+        fail(f"{len(meta)} clips in clips.jsonl, {len(seen)} listed")
+    if a.expect_clips is not None and len(seen) != a.expect_clips:
+        fail(f"{len(seen)} clips listed, expected {a.expect_clips}")
+    anet = json.load(open(os.path.join(ann, "activitynet.json"), encoding="utf-8"))
+    n_anet = 0
+    for vid, v in anet["database"].items():
+        for s in v["annotations"]:
+            n_anet += 1
+            lo, hi = s["segment"]
+            if not (0 <= lo < hi <= v["duration"] + 1e-6):
+                fail(f"activitynet {vid}: segment {s['segment']} outside [0, {v['duration']}]")
+            if s["label"] not in classes:
+                fail(f"activitynet {vid}: label {s['label']!r} not in classes.txt")
+    if n_anet != len(meta):
+        fail(f"activitynet.json has {n_anet} segments, clips.jsonl {len(meta)}")
+    counts = {s: sum(1 for v in seen.values() if v == s) for s in ["train", "val", "test"]}
+    print(f"ok check_trim {root}: {decoded} clips decoded with PyAV {av.__version__}, {counts}, "
+          f"{len(classes)} classes, no {a.split_key} in two splits")
+
+
+if __name__ == "__main__":
+    main()
