@@ -4,7 +4,6 @@
 //! disk). Without ffmpeg the video tests print `SKIPPED` and pass; CI installs ffmpeg.
 
 #![expect(clippy::unwrap_used, reason = "test helpers fail loudly")]
-#![allow(clippy::print_stderr, reason = "tests say loudly when they skip")]
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -23,20 +22,10 @@ use autoact::render::{Camera, FrameInput, Image, Renderer, Stage};
 use autoact::rig::Rig;
 use autoact::ros::autoact_msgs::{FrameAnnotation, VideoInfo};
 use autoact::ros::cdr;
-use autoact::video::{Ffmpeg, probe};
+use autoact::video::probe;
 
 fn repo(path: &str) -> String {
     format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
-}
-
-fn ffmpeg(test: &str) -> Option<Ffmpeg> {
-    match Ffmpeg::locate() {
-        Ok(f) => Some(f),
-        Err(e) => {
-            eprintln!("SKIPPED {test}: no ffmpeg on this machine ({e})");
-            None
-        }
-    }
 }
 
 /// A one-session capture bag: the wave in 2 scenes × 2 viewpoints (4 clips), in `dir`.
@@ -93,7 +82,7 @@ fn files_in(dir: &Path) -> Vec<String> {
 
 #[test]
 fn video_has_every_timeline_frame_at_its_stamp_with_keyframes_on_every_boundary() {
-    let Some(ff) = ffmpeg("video_has_every_timeline_frame") else {
+    let Some(ff) = common::ffmpeg_or_skip("video_has_every_timeline_frame") else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
@@ -339,7 +328,7 @@ fn missing_or_failing_ffmpeg_leaves_no_video_and_says_why() {
 
 #[test]
 fn ctrl_c_leaves_no_file_that_looks_complete() {
-    if ffmpeg("ctrl_c_leaves_no_file_that_looks_complete").is_none() {
+    if common::ffmpeg_or_skip("ctrl_c_leaves_no_file_that_looks_complete").is_none() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
@@ -384,8 +373,9 @@ fn ctrl_c_leaves_no_file_that_looks_complete() {
 }
 
 #[test]
+#[expect(clippy::print_stderr, reason = "a loud skip")]
 fn a_full_disk_is_an_error_and_leaves_no_complete_looking_file() {
-    if ffmpeg("a_full_disk_is_an_error").is_none() {
+    if common::ffmpeg_or_skip("a_full_disk_is_an_error").is_none() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();

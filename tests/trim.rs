@@ -15,17 +15,6 @@ use autoact::video::{
 const W: u32 = 160;
 const H: u32 = 96;
 
-#[expect(clippy::print_stderr, reason = "a loud skip")]
-fn ffmpeg() -> Option<Ffmpeg> {
-    match Ffmpeg::locate() {
-        Ok(f) => Some(f),
-        Err(e) => {
-            eprintln!("SKIPPED: ffmpeg is not installed ({e})");
-            None
-        }
-    }
-}
-
 /// Frame `k` as three flat grey strips: the nibbles of `k` (low first), 16 grey levels apart.
 fn coded_frame(k: u64) -> Vec<u8> {
     let level = |n: u64| u8::try_from((n % 16) * 16 + 8).unwrap();
@@ -80,7 +69,9 @@ fn fps30() -> Rational {
 
 #[test]
 fn coded_frames_decode_back_to_their_index() {
-    let Some(ffmpeg) = ffmpeg() else { return };
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     let src = dir.path().join("src.mp4");
     coded_video(&ffmpeg, &src, 600, &[]);
@@ -89,7 +80,9 @@ fn coded_frames_decode_back_to_their_index() {
 
 #[test]
 fn stream_copy_at_keyframes_is_frame_exact() {
-    let Some(ffmpeg) = ffmpeg() else { return };
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     let src = dir.path().join("src.mp4");
     let boundaries = [0, 37, 45, 90, 91, 150, 199];
@@ -143,7 +136,9 @@ fn stream_copy_at_keyframes_is_frame_exact() {
 
 #[test]
 fn stream_copy_off_a_keyframe_is_rejected_and_leaves_nothing() {
-    let Some(ffmpeg) = ffmpeg() else { return };
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     let src = dir.path().join("src.mp4");
     coded_video(&ffmpeg, &src, 120, &[60]);
@@ -174,7 +169,9 @@ fn stream_copy_off_a_keyframe_is_rejected_and_leaves_nothing() {
 
 #[test]
 fn reencode_anywhere_is_frame_exact() {
-    let Some(ffmpeg) = ffmpeg() else { return };
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     let src = dir.path().join("src.mp4");
     // Keyframes only every 250 frames: nothing below lands on one except frame 0.
@@ -204,7 +201,9 @@ fn reencode_anywhere_is_frame_exact() {
 
 #[test]
 fn a_cut_past_the_end_is_an_error_naming_the_clip() {
-    let Some(ffmpeg) = ffmpeg() else { return };
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     let src = dir.path().join("src.mp4");
     coded_video(&ffmpeg, &src, 60, &[]);
@@ -228,7 +227,9 @@ fn a_cut_past_the_end_is_an_error_naming_the_clip() {
 
 #[test]
 fn a_corrupt_video_is_an_error_with_ffmpegs_words() {
-    let Some(ffmpeg) = ffmpeg() else { return };
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     let src = dir.path().join("broken.mp4");
     std::fs::write(&src, b"not a video at all").unwrap();
@@ -400,7 +401,9 @@ fn check_lists(out: &Path) -> BTreeMap<String, Vec<String>> {
 
 #[test]
 fn trim_cuts_every_segment_frame_exact_by_stream_copy() {
-    let Some(ffmpeg) = ffmpeg() else { return };
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
     let s = setup("wave");
     let video = s.dir.path().join("capture.mp4");
     let n = s.capture.frames.len() as u64;
@@ -469,7 +472,9 @@ fn trim_cuts_every_segment_frame_exact_by_stream_copy() {
 
 #[test]
 fn trim_reencodes_a_foreign_video_placed_with_video_start() {
-    let Some(ffmpeg) = ffmpeg() else { return };
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
     let s = setup("wave");
     // A "screen recording" that starts 10 frames into the timeline, keyframes every 2 s only.
     let video = s.dir.path().join("recording.mp4");
@@ -525,7 +530,9 @@ fn annotation_files(out: &Path) -> BTreeMap<String, Vec<u8>> {
 
 #[test]
 fn trim_resumes_without_duplicates_and_relists_only_complete_clips() {
-    let Some(ffmpeg) = ffmpeg() else { return };
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
     let s = setup("wave");
     let video = s.dir.path().join("capture.mp4");
     coded_video(
@@ -584,7 +591,9 @@ fn trim_resumes_without_duplicates_and_relists_only_complete_clips() {
 
 #[test]
 fn trim_same_seed_gives_identical_lists_in_another_folder() {
-    let Some(ffmpeg) = ffmpeg() else { return };
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
     let s = setup("wave");
     let video = s.dir.path().join("capture.mp4");
     coded_video(
@@ -626,7 +635,9 @@ fn trim_same_seed_gives_identical_lists_in_another_folder() {
 
 #[test]
 fn trim_sanitises_label_paths_and_keeps_the_label_in_the_csv() {
-    let Some(ffmpeg) = ffmpeg() else { return };
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
     // `autoact convert` refuses labels with `/` or a leading `.`; `sanitize_name`'s unit test
     // covers `../`.
     let label = "air drumming ñandú";
@@ -678,7 +689,7 @@ fn trim_without_ffmpeg_or_with_a_corrupt_video_fails_clearly() {
         "{}",
         stderr(&o)
     );
-    if ffmpeg().is_none() {
+    if common::ffmpeg_or_skip(module_path!()).is_none() {
         return;
     }
     let o = run_trim(&s.bag, &video, &out, &["--video-start", "0"]);
@@ -693,7 +704,9 @@ fn trim_without_ffmpeg_or_with_a_corrupt_video_fails_clearly() {
 #[test]
 #[expect(clippy::print_stderr, reason = "a loud skip")]
 fn trim_on_a_full_disk_fails_and_no_list_names_an_incomplete_clip() {
-    let Some(ffmpeg) = ffmpeg() else { return };
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
     let s = setup("wave");
     let video = s.dir.path().join("capture.mp4");
     coded_video(

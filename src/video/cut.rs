@@ -255,14 +255,7 @@ fn run_and_check(
             detail: "the clip does not start with a keyframe".into(),
         });
     }
-    let io = |action: &'static str, path: &Path| {
-        let path = path.to_path_buf();
-        move |source| VideoError::Io {
-            action,
-            path,
-            source,
-        }
-    };
+    let io = VideoError::io;
     std::fs::File::open(part)
         .and_then(|f| f.sync_all())
         .map_err(io("sync", part))?;
@@ -296,14 +289,7 @@ pub fn extract_frames(
         detail,
     };
     let part = part_path(dir).ok_or_else(|| invalid("the folder has no name".into()))?;
-    let io = |action: &'static str, path: &Path| {
-        let path = path.to_path_buf();
-        move |source| VideoError::Io {
-            action,
-            path,
-            source,
-        }
-    };
+    let io = VideoError::io;
     let _ = std::fs::remove_dir_all(&part);
     std::fs::create_dir_all(&part).map_err(io("create", &part))?;
     let result = (|| {

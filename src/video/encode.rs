@@ -538,14 +538,7 @@ impl VideoEncoder {
             });
         }
 
-        let io = |action: &'static str, path: &Path| {
-            let path = path.to_path_buf();
-            move |source| VideoError::Io {
-                action,
-                path,
-                source,
-            }
-        };
+        let io = VideoError::io;
         std::fs::File::open(&self.part)
             .and_then(|f| f.sync_all())
             .map_err(io("sync", &self.part))?;

@@ -45,7 +45,7 @@ mod rational;
 mod stderr_tail;
 mod tools;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitStatus;
 
 pub use annexb::{AccessUnit, annexb_access_units, split_access_units};
@@ -60,6 +60,22 @@ pub use image::{Tile, contact_sheet, read_png, write_png};
 pub use probe::{ProbedFrame, ProbedPacket, VideoProbe, probe, probe_packets, probe_size};
 pub use rational::Rational;
 pub use tools::{Ffmpeg, INSTALL_HINT, download_cache_dir};
+
+impl VideoError {
+    /// A mapper from an I/O error to [`VideoError::Io`] for `action` on `path`
+    /// (`file.write_all(..).map_err(VideoError::io("write", &path))`).
+    pub fn io(
+        action: &'static str,
+        path: &Path,
+    ) -> impl FnOnce(std::io::Error) -> VideoError + use<> {
+        let path = path.to_path_buf();
+        move |source| VideoError::Io {
+            action,
+            path,
+            source,
+        }
+    }
+}
 
 /// Number of `ffmpeg` stderr lines kept for error messages.
 pub const STDERR_TAIL_LINES: usize = 20;

@@ -20,3 +20,16 @@ pub fn stdout(o: &Output) -> String {
 pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
+
+/// ffmpeg, or `None` after saying loudly on stderr that `test` is skipped (CI installs ffmpeg).
+#[allow(dead_code, reason = "only the tests that encode video use it")]
+#[allow(clippy::print_stderr, reason = "a loud skip")]
+pub fn ffmpeg_or_skip(test: &str) -> Option<autoact::video::Ffmpeg> {
+    match autoact::video::Ffmpeg::locate() {
+        Ok(found) => Some(found),
+        Err(e) => {
+            eprintln!("SKIPPED {test}: no ffmpeg on this machine ({e})");
+            None
+        }
+    }
+}
