@@ -12,6 +12,7 @@
 //! ```
 
 pub mod animation_bag;
+pub mod atomic_file;
 pub mod body_mesh;
 pub mod camera;
 pub mod character;

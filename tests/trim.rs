@@ -284,7 +284,7 @@ lead_in_s = 0.1
 lead_out_s = 0.1
 session = "dataset"
 [counts]
-variants = 1
+variants = 3
 scenes = 1
 viewpoints = 2
 [[class]]
@@ -409,7 +409,21 @@ fn trim_cuts_every_segment_frame_exact_by_stream_copy() {
     let n = s.capture.frames.len() as u64;
     coded_video(&ffmpeg, &video, n, &s.capture.boundary_frames());
     let out = s.dir.path().join("ds");
-    let o = run_trim(&s.bag, &video, &out, &["--video-start", "0"]);
+    // Split by variant: three variants per class, so all three splits get clips and a variant
+    // seen in two splits would show.
+    let o = run_trim(
+        &s.bag,
+        &video,
+        &out,
+        &[
+            "--video-start",
+            "0",
+            "--split-by",
+            "variant",
+            "--split-ratios",
+            "0.34,0.33,0.33",
+        ],
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stdout(&o).contains("by stream copy"), "{}", stdout(&o));
     let clips = read_jsonl(&out.join("annotations/clips.jsonl"));
@@ -448,15 +462,25 @@ fn trim_cuts_every_segment_frame_exact_by_stream_copy() {
         std::fs::read_to_string(out.join("annotations/classes.txt")).unwrap(),
         "walk\nwave\n"
     );
-    // No source animation in two splits.
-    let mut by_anim: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    // No variant of a source animation in two splits, and every split used.
+    let mut by_variant: BTreeMap<(String, String), BTreeSet<String>> = BTreeMap::new();
     for c in &clips {
-        by_anim
-            .entry(c["animation"].as_str().unwrap().to_owned())
+        by_variant
+            .entry((
+                c["animation"].as_str().unwrap().to_owned(),
+                c["variant"].to_string(),
+            ))
             .or_default()
             .insert(c["split"].as_str().unwrap().to_owned());
     }
-    assert!(by_anim.values().all(|s| s.len() == 1), "{by_anim:?}");
+    assert_eq!(by_variant.len(), 6, "{by_variant:?}");
+    assert!(by_variant.values().all(|s| s.len() == 1), "{by_variant:?}");
+    let used: BTreeSet<&String> = by_variant.values().flatten().collect();
+    assert_eq!(
+        used.len(),
+        3,
+        "train, val and test all hold clips: {by_variant:?}"
+    );
     let anet: serde_json::Value = serde_json::from_str(
         &std::fs::read_to_string(out.join("annotations/activitynet.json")).unwrap(),
     )

@@ -26,7 +26,7 @@ category = "locomotion"
 action = "walk"
 sources = ["$PWD/bags/bandai_walk.pose.mcap"]
 SPEC
-cargo build --release --quiet --example trim_bench
+cargo build --release --quiet --bin autoact --example trim_bench
 target/release/autoact -q convert --spec "$work/spec.toml" -o "$work/capture" >/dev/null
 bag=$(ls "$work"/capture/*.mcap | head -n 1)
 target/release/examples/trim_bench "$bag" "$work/bench"

@@ -62,6 +62,22 @@ pub fn dispatch(command: Command) -> anyhow::Result<Outcome> {
     }
 }
 
+/// ffmpeg from `AUTOACT_FFMPEG` or PATH; if absent and the user allowed it (`--download-ffmpeg`),
+/// a downloaded static build.
+///
+/// # Errors
+/// ffmpeg missing (with the install command) or the download failing.
+pub(crate) fn locate_ffmpeg(download: bool) -> anyhow::Result<crate::video::Ffmpeg> {
+    match crate::video::Ffmpeg::locate() {
+        Ok(found) => Ok(found),
+        Err(e) if download => {
+            tracing::warn!("{e}; downloading ffmpeg as --download-ffmpeg allows");
+            Ok(crate::video::Ffmpeg::download()?)
+        }
+        Err(e) => Err(e.into()),
+    }
+}
+
 /// Writes `text` to stdout (results go to stdout, diagnostics to stderr).
 pub(crate) fn print_stdout(text: &str) -> std::io::Result<()> {
     use std::io::Write;

@@ -11,7 +11,6 @@ use super::Outcome;
 use crate::render::session::{Outputs, RenderSettings, render_capture};
 use crate::render::timeline::Capture;
 use crate::rig::Rig;
-use crate::video::Ffmpeg;
 
 /// Render a capture bag's timeline with the embedded CPU renderer and encode it to H.264.
 #[derive(Debug, clap::Args)]
@@ -135,14 +134,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         }
     }
     let ffmpeg = if args.output.is_some() {
-        Some(match Ffmpeg::locate() {
-            Ok(f) => f,
-            Err(e) if args.download_ffmpeg => {
-                tracing::warn!("{e}; downloading ffmpeg as --download-ffmpeg allows");
-                Ffmpeg::download()?
-            }
-            Err(e) => return Err(e.into()),
-        })
+        Some(super::locate_ffmpeg(args.download_ffmpeg)?)
     } else {
         None
     };

@@ -12,7 +12,7 @@ use crate::render::timeline::Capture;
 use crate::rig::Rig;
 use crate::trim::run::{RunError, TrimOptions, VideoSource, timing_from_render_bag, trim_capture};
 use crate::trim::split::{Key, Split, SplitConfig};
-use crate::video::{Ffmpeg, Rational, ReencodeSettings};
+use crate::video::{Rational, ReencodeSettings};
 
 /// Cut a rendered capture into one clip per leaf segment and write the annotation lists.
 #[derive(Debug, clap::Args)]
@@ -87,6 +87,10 @@ pub struct Args {
     /// Also extract every clip's frames (`img_00001.jpg` …) and write RawframeDataset lists.
     #[arg(long)]
     pub rawframes: bool,
+    /// If ffmpeg is not installed, download a static build into the user cache (needs the
+    /// `download-ffmpeg` build feature and network access).
+    #[arg(long)]
+    pub download_ffmpeg: bool,
 }
 
 fn parse_ratios(s: &str) -> Result<[f64; 3], String> {
@@ -130,7 +134,7 @@ fn parse_hold_out(s: &str) -> Result<(Key, String), String> {
 /// Unreadable capture bag or video, ffmpeg missing or failing, an unwritable dataset folder, a
 /// dataset folder holding another class list.
 pub fn run(args: Args) -> Result<Outcome> {
-    let ffmpeg = Ffmpeg::locate()?;
+    let ffmpeg = super::locate_ffmpeg(args.download_ffmpeg)?;
     let rig = Rig::standard();
     let capture = Capture::read(&rig, &args.capture)?;
     if !args.video.is_file() {
@@ -157,7 +161,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         let bag = args
             .render_bag
             .clone()
-            .unwrap_or_else(|| args.video.with_extension("render.mcap"));
+            .unwrap_or_else(|| crate::render::session::render_bag_beside(&args.video));
         if !bag.exists() {
             bail!(
                 "no render bag `{}` beside the video, so its frame 0 cannot be placed on the capture's timeline: pass `--video-start SECONDS` (and `--video-fps`) for a video autoact did not render, or `--render-bag`",

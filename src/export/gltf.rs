@@ -263,12 +263,16 @@ fn base_extras(path: &Path, clip: &Clip) -> BTreeMap<String, Value> {
 #[must_use]
 pub fn write(rig: &Rig, clip: &Clip, context: &SceneContext, container: Container) -> Vec<u8> {
     let mut b = Builder::default();
-    let rest = fk::forward(rig, &clip.character, &BonePose::rest(rig), 1.0);
+    // The body the renderer draws: the scene's look on the rig when the bag has one (a capture),
+    // else the body the bag's rest offsets describe.
+    let looked = context.look.as_ref().map(|look| look.character(rig));
+    let character = looked.as_ref().unwrap_or(&clip.character);
+    let rest = fk::forward(rig, character, &BonePose::rest(rig), 1.0);
     let shape = context
         .look
         .as_ref()
         .map_or_else(BodyShape::standard, BodyShape::from_look);
-    let body = BodyMesh::build(rig, &clip.character, &shape);
+    let body = BodyMesh::build(rig, character, &shape);
 
     // Node 0: the Z-up → Y-up turn; nodes 1..=n: the joints.
     let n = rig.bones.len();
@@ -288,7 +292,7 @@ pub fn write(rig: &Rig, clip: &Clip, context: &SceneContext, container: Containe
             .collect();
         let translation = match bone.parent {
             None => rest.heads_m[i].coords,
-            Some(_) => clip.character.head_offset_m[i],
+            Some(_) => character.head_offset_m[i],
         };
         b.root.nodes.push(json::Node {
             name: Some(bone.name.clone()),
@@ -570,12 +574,9 @@ fn animation(
 fn continuous(rotations: impl Iterator<Item = UnitQuaternion<f64>>) -> Vec<UnitQuaternion<f64>> {
     let mut out: Vec<UnitQuaternion<f64>> = Vec::new();
     for q in rotations {
-        let q = match out.last() {
-            Some(prev) if prev.coords.dot(&q.coords) < 0.0 => {
-                UnitQuaternion::new_unchecked(-q.into_inner())
-            }
-            _ => q,
-        };
+        let q = out
+            .last()
+            .map_or(q, |previous| crate::geom::align_hemisphere(q, previous));
         out.push(q);
     }
     out

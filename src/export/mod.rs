@@ -14,7 +14,7 @@
 //! GLB: the skinned body, its animation and a capture's camera, for Blender and other engines).
 //! [`ExportFormat`] lists them.
 //!
-//! **Output files.** [`write_atomically`] writes through a temporary file in the target folder
+//! **Output files.** [`write_atomically`] writes through a hidden temporary file in the target folder
 //! and renames it into place, so an interrupted export never leaves a complete-looking file; an
 //! existing file is replaced only when asked. [`output_name`] names one file per animation when
 //! several are exported into a folder.
@@ -23,7 +23,6 @@ pub mod bvh;
 pub mod gltf;
 pub mod onim;
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 pub use crate::animation_bag::{AnimationKey, AnimationListing};
@@ -319,46 +318,29 @@ pub fn check_writable(path: &Path, force: bool) -> Result<(), ExportError> {
     Ok(())
 }
 
-/// Writes `bytes` to `path` through a temporary file beside it (`.<name>.partial`), renamed into
-/// place once complete: an interrupted export leaves no file that looks finished. An existing
-/// `path` is replaced only with `force`.
+/// Writes `bytes` to `path` so that it appears only complete ([`crate::atomic_file::write`]):
+/// an interrupted export leaves no file that looks finished. An existing `path` is replaced only
+/// with `force`.
 ///
 /// # Errors
 /// [`ExportError::OutputExists`], or [`ExportError::Io`] naming the file.
 pub fn write_atomically(path: &Path, bytes: &[u8], force: bool) -> Result<(), ExportError> {
     check_writable(path, force)?;
-    let io = |action: &'static str, at: &Path| {
-        let at = at.to_path_buf();
-        move |source| ExportError::Io {
-            action,
-            path: at,
-            source,
-        }
+    let written = if force {
+        crate::atomic_file::write(path, bytes)
+    } else {
+        crate::atomic_file::write_new(path, bytes)
     };
-    let name = path
-        .file_name()
-        .ok_or_else(|| ExportError::Io {
+    match written {
+        // Made by someone else while this export was writing: still not replaced.
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => check_writable(path, false),
+        Err(source) => Err(ExportError::Io {
             action: "write",
             path: path.to_path_buf(),
-            source: std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file name"),
-        })?
-        .to_string_lossy()
-        .into_owned();
-    let partial = path.with_file_name(format!(".{name}.partial"));
-    // Errors name the file asked for; the temporary one is an implementation detail.
-    let result = (|| {
-        let mut file = std::fs::File::create(&partial).map_err(io("write", path))?;
-        file.write_all(bytes).map_err(io("write", path))?;
-        file.sync_all().map_err(io("write", path))?;
-        drop(file);
-        // Checked again right before the rename: another process may have made it meanwhile.
-        check_writable(path, force)?;
-        std::fs::rename(&partial, path).map_err(io("move into place", path))
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&partial);
+            source,
+        }),
+        Ok(()) => Ok(()),
     }
-    result
 }
 
 /// What [`encode`] needs besides the clip, per format.

@@ -107,9 +107,12 @@ impl Environment {
     /// lamp so scenes differ.
     #[must_use]
     pub fn from_scene(scene: &Scene, layout_seed: u64) -> Environment {
+        let lamp_azimuth = (layout_seed % 360) as f64;
+        if scene.location.indoor {
+            return Environment::room(unit(direction(lamp_azimuth, 72.0)));
+        }
         let w = &scene.weather_params;
         let el = scene.sun.elevation_deg;
-        let indoor = scene.location.indoor;
         let daylight = ambient_from_sun(el);
         // Sun: warm and weak near the horizon, white high up; scaled by the weather.
         let sun_up = smoothstep(SUN_SET_DEG, SUN_UP_DEG, el);
@@ -149,24 +152,23 @@ impl Environment {
         );
         let artificial = 1.0 - d;
         let lamp_rgb = scale([1.0, 0.78, 0.52], 0.62 * artificial);
-        let mut sky_ambient = add(sky_day, scale([0.05, 0.055, 0.075], artificial));
+        let sky_ambient = add(sky_day, scale([0.05, 0.055, 0.075], artificial));
         // Key light: the sun while it gives more than the night lamp would.
         let sun_dir = unit(scene.sun.direction_enu());
-        let lamp_azimuth = (layout_seed % 360) as f64;
         let lamp_dir = unit(direction(lamp_azimuth, 62.0));
-        let (mut key_dir, mut key_rgb) = if sun_strength >= 0.62 * f64::from(artificial) {
+        let (key_dir, key_rgb) = if sun_strength >= 0.62 * f64::from(artificial) {
             (sun_dir, scale(sun_colour, sun_strength as f32))
         } else {
             (lamp_dir, lamp_rgb)
         };
-        let mut key_shadows = key_rgb.iter().sum::<f32>() > 0.15;
-        let mut ground_ambient = scale(add(sky_ambient, scale(key_rgb, 0.25)), 0.35);
-        let sun_glow = if sun_up > 0.0 && !indoor {
+        let key_shadows = key_rgb.iter().sum::<f32>() > 0.15;
+        let ground_ambient = scale(add(sky_ambient, scale(key_rgb, 0.25)), 0.35);
+        let sun_glow = if sun_up > 0.0 {
             (sun_dir, scale(sun_colour, (sun_strength * 1.4) as f32))
         } else {
             (sun_dir, [0.0; 3])
         };
-        let mut env = Environment {
+        Environment {
             key_dir,
             key_rgb,
             key_shadows,
@@ -182,35 +184,30 @@ impl Environment {
             wetness: w.ground_wetness as f32,
             snow_cover: w.snow_cover as f32,
             lightning: w.lightning,
-            indoor,
-        };
-        if indoor {
-            // A lit room: ceiling key slightly off vertical, even ambient, no weather inside.
-            key_dir = unit(direction(lamp_azimuth, 72.0));
-            key_rgb = rgb([0.62, 0.58, 0.5]);
-            key_shadows = true;
-            sky_ambient = rgb([0.34, 0.33, 0.31]);
-            ground_ambient = rgb([0.16, 0.15, 0.14]);
-            env = Environment {
-                key_dir,
-                key_rgb,
-                key_shadows,
-                sky_ambient_rgb: sky_ambient,
-                ground_ambient_rgb: ground_ambient,
-                zenith_rgb: rgb([0.8, 0.8, 0.78]),
-                horizon_rgb: rgb([0.7, 0.7, 0.68]),
-                sun_glow: (sun_dir, [0.0; 3]),
-                fog_per_m: 0.0,
-                cloud_cover: 0.0,
-                precipitation: (Precipitation::None, 0.0),
-                wind_m_per_s: 0.0,
-                wetness: 0.0,
-                snow_cover: 0.0,
-                lightning: false,
-                indoor,
-            };
+            indoor: false,
         }
-        env
+    }
+
+    /// A lit room: a ceiling key from `key_dir`, even ambient, no sky and no weather inside.
+    fn room(key_dir: [f32; 3]) -> Environment {
+        Environment {
+            key_dir,
+            key_rgb: rgb([0.62, 0.58, 0.5]),
+            key_shadows: true,
+            sky_ambient_rgb: rgb([0.34, 0.33, 0.31]),
+            ground_ambient_rgb: rgb([0.16, 0.15, 0.14]),
+            zenith_rgb: rgb([0.8, 0.8, 0.78]),
+            horizon_rgb: rgb([0.7, 0.7, 0.68]),
+            sun_glow: (key_dir, [0.0; 3]),
+            fog_per_m: 0.0,
+            cloud_cover: 0.0,
+            precipitation: (Precipitation::None, 0.0),
+            wind_m_per_s: 0.0,
+            wetness: 0.0,
+            snow_cover: 0.0,
+            lightning: false,
+            indoor: true,
+        }
     }
 
     /// Ambient light on a surface whose normal has vertical component `normal_z`: the sky's

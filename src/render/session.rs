@@ -100,8 +100,15 @@ impl Outputs {
     pub fn render_bag_path(&self) -> Option<PathBuf> {
         self.render_bag
             .clone()
-            .or_else(|| self.video.as_ref().map(|v| v.with_extension("render.mcap")))
+            .or_else(|| self.video.as_deref().map(render_bag_beside))
     }
+}
+
+/// Where `autoact render` puts the render bag of `video` unless told otherwise:
+/// `<video stem>.render.mcap` beside it. `autoact trim` looks there.
+#[must_use]
+pub fn render_bag_beside(video: &Path) -> PathBuf {
+    video.with_extension("render.mcap")
 }
 
 /// What a render produced.
@@ -542,7 +549,8 @@ fn write_render_bag(
     units: Option<&[crate::video::AccessUnit]>,
     rig: &Rig,
 ) -> Result<(), RenderError> {
-    let part = path.with_extension("mcap.part");
+    let part = crate::atomic_file::temporary_sibling(path)
+        .ok_or_else(|| RenderError::Settings(format!("`{}`: not a file name", path.display())))?;
     let result = (|| -> Result<(), McapIoError> {
         let mut w = BagWriter::create(&part, WriteConfig::default())?;
         let header = |stamp_ns: u64| Header {

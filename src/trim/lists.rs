@@ -22,7 +22,6 @@
 //!   character, camera, seed, …) plus its `split`.
 
 use std::collections::BTreeMap;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use serde_json::{Value, json};
@@ -33,34 +32,12 @@ use super::{ClipRecord, TrimError};
 /// The annotations folder inside the dataset folder.
 pub const ANNOTATIONS_DIR: &str = "annotations";
 
-fn io(action: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> TrimError {
-    let path = path.to_path_buf();
-    move |source| TrimError::Io {
-        action,
-        path,
-        source,
-    }
-}
-
-/// Writes `bytes` to `path` through a hidden temporary sibling, synced, then renamed.
+/// Writes `bytes` to `path` so that it appears only complete ([`crate::atomic_file::write`]).
 ///
 /// # Errors
-/// [`TrimError::Io`]; the temporary file is removed and `path` left as it was.
+/// [`TrimError::Io`] naming `path`; `path` is left as it was.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), TrimError> {
-    let name = path
-        .file_name()
-        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-    let tmp = path.with_file_name(format!(".{name}.tmp"));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp).map_err(io("create", &tmp))?;
-        f.write_all(bytes).map_err(io("write", &tmp))?;
-        f.sync_all().map_err(io("sync", &tmp))?;
-        std::fs::rename(&tmp, path).map_err(io("rename into place", path))
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    crate::atomic_file::write(path, bytes).map_err(TrimError::io("write", path))
 }
 
 /// Makes sure `dir/annotations/classes.txt` lists exactly `labels` (sorted, unique): writes it
@@ -87,7 +64,7 @@ pub fn ensure_classes(dir: &Path, labels: &[String]) -> Result<(), TrimError> {
         )));
     }
     let ann = dir.join(ANNOTATIONS_DIR);
-    std::fs::create_dir_all(&ann).map_err(io("create", &ann))?;
+    std::fs::create_dir_all(&ann).map_err(TrimError::io("create", &ann))?;
     let path = ann.join("classes.txt");
     match std::fs::read_to_string(&path) {
         Ok(text) => {
@@ -115,7 +92,7 @@ pub fn ensure_classes(dir: &Path, labels: &[String]) -> Result<(), TrimError> {
             text.push('\n');
             write_atomic(&ann.join("label_map.json"), text.as_bytes())
         }
-        Err(e) => Err(io("read", &path)(e)),
+        Err(e) => Err(TrimError::io("read", &path)(e)),
     }
 }
 
@@ -150,7 +127,7 @@ pub fn write_lists(
     splits: &BTreeMap<String, Split>,
 ) -> Result<ListSummary, TrimError> {
     let ann = dir.join(ANNOTATIONS_DIR);
-    std::fs::create_dir_all(&ann).map_err(io("create", &ann))?;
+    std::fs::create_dir_all(&ann).map_err(TrimError::io("create", &ann))?;
     let split_of = |c: &ClipRecord| {
         splits
             .get(&c.clip_id)

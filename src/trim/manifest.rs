@@ -30,14 +30,7 @@ impl Manifest {
     /// [`TrimError::Io`]; [`TrimError::Corrupt`] for a complete line that is not a clip record.
     pub fn open(dir: &Path) -> Result<Manifest, TrimError> {
         let path = dir.join(Self::FILE_NAME);
-        let io = |action: &'static str| {
-            let path = path.clone();
-            move |source| TrimError::Io {
-                action,
-                path,
-                source,
-            }
-        };
+        let io = |action: &'static str| TrimError::io(action, &path);
         let mut file = OpenOptions::new()
             .read(true)
             .append(true)
@@ -89,13 +82,12 @@ impl Manifest {
         let mut line =
             serde_json::to_vec(&record).map_err(|e| TrimError::Invalid(e.to_string()))?;
         line.push(b'\n');
-        let io = |source| TrimError::Io {
-            action: "append to",
-            path: self.path.clone(),
-            source,
-        };
-        self.file.write_all(&line).map_err(io)?;
-        self.file.sync_data().map_err(io)?;
+        self.file
+            .write_all(&line)
+            .map_err(TrimError::io("append to", &self.path))?;
+        self.file
+            .sync_data()
+            .map_err(TrimError::io("append to", &self.path))?;
         self.records.insert(record.clip_id.clone(), record);
         Ok(())
     }

@@ -83,6 +83,21 @@ pub enum TrimError {
     Invalid(String),
 }
 
+impl TrimError {
+    /// A mapper from an I/O error to [`TrimError::Io`] for `action` on `path`.
+    pub fn io(
+        action: &'static str,
+        path: &std::path::Path,
+    ) -> impl FnOnce(std::io::Error) -> TrimError + use<> {
+        let path = path.to_path_buf();
+        move |source| TrimError::Io {
+            action,
+            path,
+            source,
+        }
+    }
+}
+
 /// One complete clip: everything every list needs (a line of `manifest.jsonl` and of
 /// `annotations/clips.jsonl`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -1,7 +1,7 @@
 //! One trim run: a capture bag and its video → clips in the dataset folder, the manifest
 //! extended, every list rewritten from it.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::lists::{ListSummary, ensure_classes, write_lists};
@@ -130,11 +130,7 @@ pub fn trim_capture(
         fps,
         frame_count,
     };
-    std::fs::create_dir_all(dir).map_err(|source| TrimError::Io {
-        action: "create",
-        path: dir.to_path_buf(),
-        source,
-    })?;
+    std::fs::create_dir_all(dir).map_err(TrimError::io("create", dir))?;
     ensure_classes(dir, &capture.labels)?;
     let dirs = label_dirs(&capture.labels);
     let mut manifest = Manifest::open(dir)?;
@@ -193,8 +189,22 @@ pub fn trim_capture(
         let rel = format!("{VIDEOS_DIR}/{label_dir}/{clip_id}.mp4");
         let out = dir.join(&rel);
         if let Some(r) = manifest.records().get(&clip_id)
+            && r.capture_bag != capture_bag
+        {
+            result = Err(TrimError::Invalid(format!(
+                "clip `{clip_id}` in `{}` was cut from capture `{}`, not `{capture_bag}`: trim each dataset of captures into its own folder",
+                dir.display(),
+                r.capture_bag
+            ))
+            .into());
+            break;
+        }
+        // Complete from an earlier run: the same clip of the same video, at the same place.
+        if let Some(r) = manifest.records().get(&clip_id)
             && r.video == rel
             && r.frame_count == range.frame_count
+            && r.start_frame == range.start_frame
+            && r.capture_video == capture_video
             && out.is_file()
             && (!options.rawframes || r.rawframes.is_some())
         {
@@ -204,12 +214,7 @@ pub fn trim_capture(
         if let Some(parent) = out.parent()
             && let Err(source) = std::fs::create_dir_all(parent)
         {
-            result = Err(TrimError::Io {
-                action: "create",
-                path: parent.to_path_buf(),
-                source,
-            }
-            .into());
+            result = Err(TrimError::io("create", parent)(source).into());
             break;
         }
         let copy_ok =
@@ -354,10 +359,4 @@ pub enum RunError {
         "interrupted; the lists name the clips complete so far — run the same command again to finish"
     )]
     Interrupted,
-}
-
-/// The dataset folder's path for a clip (for callers that report).
-#[must_use]
-pub fn clip_path(dir: &Path, record: &ClipRecord) -> PathBuf {
-    dir.join(&record.video)
 }

@@ -118,13 +118,8 @@ impl Default for SplitConfig {
     }
 }
 
-/// FNV-1a, 64-bit: a stable hash of text.
-#[must_use]
-pub fn fnv1a(text: &str) -> u64 {
-    text.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
-    })
-}
+/// FNV-1a, 64-bit: a stable hash of text (the one the dataset plan draws scene streams with).
+pub use crate::dataset::plan::stream_of as fnv1a;
 
 /// The split of every clip, by clip id.
 ///

@@ -23,11 +23,12 @@ use std::process::Stdio;
 
 use ffmpeg_sidecar::command::FfmpegCommand;
 
-use super::encode::{container_for, part_path, remove_part};
+use super::encode::{container_for, remove_part};
 use super::probe::probe_packets;
 use super::stderr_tail::tail_of_text;
 use super::tools::{ffmpeg_path_arg, spawn_error};
 use super::{Ffmpeg, Rational, VideoError};
+use crate::atomic_file::temporary_sibling as part_path;
 
 /// How a clip is cut.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]

@@ -1,7 +1,6 @@
 //! Encoding rendered `rgb24` frames to H.264 with `ffmpeg` (libx264), frame-exact; the
 //! details are on [`VideoEncoder`].
 
-use std::ffi::OsString;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ChildStdin;
@@ -299,8 +298,8 @@ impl VideoEncoder {
             }
             None => None,
         };
-        let part =
-            part_path(output).ok_or_else(|| invalid("the output has no file name".into()))?;
+        let part = crate::atomic_file::temporary_sibling(output)
+            .ok_or_else(|| invalid("the output has no file name".into()))?;
         let dir = part.parent().unwrap_or(Path::new("."));
         if !dir.as_os_str().is_empty() && !dir.is_dir() {
             return Err(VideoError::Io {
@@ -769,15 +768,6 @@ pub(super) fn container_for(output: &Path) -> Result<&'static str, String> {
     }
 }
 
-/// `dir/name` → `dir/.name.part`.
-pub(super) fn part_path(output: &Path) -> Option<PathBuf> {
-    let name = output.file_name()?;
-    let mut part = OsString::from(".");
-    part.push(name);
-    part.push(".part");
-    Some(output.with_file_name(part))
-}
-
 fn sorted_keyframes(keyframes: &[u64]) -> Vec<u64> {
     let mut frames = keyframes.to_vec();
     frames.sort_unstable();
@@ -796,7 +786,7 @@ fn command_line(command: &mut FfmpegCommand) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::{EncodeSettings, force_key_frames_arg, keyframe_time, part_path, validate};
+    use super::{EncodeSettings, force_key_frames_arg, keyframe_time, validate};
     use crate::video::Rational;
 
     fn rate(num: i64, den: i64) -> Rational {
@@ -893,17 +883,5 @@ mod tests {
         ] {
             assert!(validate(&bad).is_err(), "{bad:?}");
         }
-    }
-
-    #[test]
-    fn part_file_is_a_hidden_sibling() {
-        assert_eq!(
-            part_path(std::path::Path::new("/a/b/capture.mp4")).unwrap(),
-            std::path::Path::new("/a/b/.capture.mp4.part")
-        );
-        assert_eq!(
-            part_path(std::path::Path::new("x.mkv")).unwrap(),
-            std::path::Path::new(".x.mkv.part")
-        );
     }
 }

@@ -51,7 +51,11 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgb24: &[u8]) -> Result<(
             got: rgb24.len(),
         });
     }
-    let part = part_path(path);
+    let part =
+        crate::atomic_file::temporary_sibling(path).ok_or_else(|| VideoError::InvalidSettings {
+            path: path.to_path_buf(),
+            detail: "not a file name".into(),
+        })?;
     let result = encode_png(&part, width, height, rgb24).and_then(|()| {
         std::fs::rename(&part, path).map_err(|source| VideoError::Io {
             action: "rename into place",
@@ -312,14 +316,6 @@ fn draw_label(
         let at = ((y0 + dy) as usize * sheet_width as usize + x0 as usize) * 3;
         sheet[at..at + row.len()].copy_from_slice(row);
     }
-}
-
-/// `dir/name` → `dir/.name.part`.
-fn part_path(path: &Path) -> PathBuf {
-    let mut name = std::ffi::OsString::from(".");
-    name.push(path.file_name().unwrap_or(path.as_os_str()));
-    name.push(".part");
-    path.with_file_name(name)
 }
 
 #[cfg(test)]

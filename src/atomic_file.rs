@@ -1,0 +1,88 @@
+//! How outputs appear only when complete: every file autoact writes that a reader could mistake
+//! for finished (videos, clips, PNGs, render bags, exports, annotation lists) is written under a
+//! hidden temporary sibling, `.<name>.part`, and renamed into place when complete. An interrupted
+//! or failed run leaves at most a `.part` file, never a complete-looking one. The one place that
+//! knows the convention.
+
+use std::ffi::OsString;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// The temporary sibling `dir/.<name>.part` of `dir/<name>`; `None` when `path` has no file name.
+#[must_use]
+pub fn temporary_sibling(path: &Path) -> Option<PathBuf> {
+    let name = path.file_name()?;
+    let mut part = OsString::from(".");
+    part.push(name);
+    part.push(".part");
+    Some(path.with_file_name(part))
+}
+
+/// Writes `bytes` to `path` through its [`temporary_sibling`], synced, then renamed over `path`.
+///
+/// # Errors
+/// The I/O error (the temporary file is removed and `path` left as it was); callers name `path`.
+pub fn write(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    write_through_sibling(path, bytes, |part| std::fs::rename(part, path))
+}
+
+/// As [`write`], but never replaces a file: if `path` exists when the new one is complete
+/// (another process made it meanwhile), the error is [`std::io::ErrorKind::AlreadyExists`] and
+/// `path` is untouched. The new file appears by a hard link, which fails rather than replaces.
+///
+/// # Errors
+/// As [`write`], or `AlreadyExists`.
+pub fn write_new(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    write_through_sibling(path, bytes, |part| {
+        std::fs::hard_link(part, path)?;
+        std::fs::remove_file(part)
+    })
+}
+
+fn write_through_sibling(
+    path: &Path,
+    bytes: &[u8],
+    commit: impl FnOnce(&Path) -> std::io::Result<()>,
+) -> std::io::Result<()> {
+    let part = temporary_sibling(path)
+        .ok_or_else(|| std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file name"))?;
+    let result = (|| {
+        let mut file = std::fs::File::create(&part)?;
+        file.write_all(bytes)?;
+        file.sync_all()?;
+        drop(file);
+        commit(&part)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&part);
+    }
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn writes_through_a_hidden_sibling_and_leaves_nothing_on_failure() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.csv");
+        assert_eq!(
+            temporary_sibling(&path).unwrap(),
+            dir.path().join(".a.csv.part")
+        );
+        write(&path, b"one").unwrap();
+        write(&path, b"two").unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"two");
+        let missing = dir.path().join("no/such/dir/b.csv");
+        assert!(write(&missing, b"x").is_err());
+        let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+        assert_eq!(names.len(), 1, "only a.csv: no temporary file left");
+        assert!(temporary_sibling(Path::new("/")).is_none());
+        let e = write_new(&path, b"three").unwrap_err();
+        assert_eq!(e.kind(), std::io::ErrorKind::AlreadyExists);
+        assert_eq!(std::fs::read(&path).unwrap(), b"two");
+        write_new(&dir.path().join("c.csv"), b"new").unwrap();
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+    }
+}
