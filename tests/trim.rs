@@ -79,6 +79,38 @@ fn coded_frames_decode_back_to_their_index() {
 }
 
 #[test]
+fn a_stream_with_b_frames_offers_no_keyframes_to_copy_from() {
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("b.mp4");
+    // x264's default preset reorders frames (B-frames); frames are then stored out of order.
+    let o = std::process::Command::new(ffmpeg.ffmpeg_path())
+        .args([
+            "-v",
+            "error",
+            "-nostdin",
+            "-y",
+            "-f",
+            "lavfi",
+            "-i",
+            "testsrc=size=160x96:rate=30",
+        ])
+        .args(["-frames:v", "90", "-c:v", "libx264", "-bf", "2", "-g", "30"])
+        .arg(&src)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (count, keys) = keyframe_frames(&ffmpeg, &src).unwrap();
+    assert_eq!(count, 90);
+    assert!(
+        keys.is_empty(),
+        "a reordered stream must be re-encoded: {keys:?}"
+    );
+}
+
+#[test]
 fn stream_copy_at_keyframes_is_frame_exact() {
     let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
         return;

@@ -88,7 +88,10 @@ pub struct CutClip {
     pub bytes: u64,
 }
 
-/// Indices (presentation order) of a video's keyframes, from its packets (no decoding).
+/// The frame count and the indices (presentation order) of a video's keyframes that a stream
+/// copy can start a clip on, from its packets (no decoding). A stream whose decode order is not
+/// its presentation order (B-frames) offers none: a copy cut by time there can hold the right
+/// number of packets and still the wrong frames, so every clip of it is re-encoded.
 ///
 /// # Errors
 /// As [`probe_packets`]; [`VideoError::Probe`] if a packet has no timestamp.
@@ -102,7 +105,11 @@ pub fn keyframe_frames(ffmpeg: &Ffmpeg, path: &Path) -> Result<(u64, Vec<u64>), 
         })?;
         by_pts.push((pts, p.key));
     }
+    let reordered = by_pts.windows(2).any(|w| w[1].0 < w[0].0);
     by_pts.sort_unstable();
+    if reordered {
+        return Ok((by_pts.len() as u64, Vec::new()));
+    }
     let keys = (0_u64..)
         .zip(&by_pts)
         .filter(|(_, (_, key))| *key)
