@@ -176,7 +176,6 @@ pub fn read_pose_topics(
         .enumerate()
         .flat_map(|(i, r)| r.messages().map(move |m| (i, r, m)))
     {
-        let path_s = reader.path().display().to_string();
         let msg = match item {
             Ok(m) => m,
             Err(issue) => {
@@ -184,19 +183,20 @@ pub fn read_pose_topics(
                 continue;
             }
         };
-        let type_name = msg.channel.schema_name().to_string();
-        seen_topics
-            .entry(msg.channel.topic.clone())
-            .or_insert_with(|| type_name.clone());
+        let type_name = msg.channel.schema_name();
+        if !seen_topics.contains_key(&msg.channel.topic) {
+            seen_topics.insert(msg.channel.topic.clone(), type_name.to_string());
+        }
         let wanted = match topic {
             Some(t) => msg.channel.topic == t,
-            None => POSE_TYPES.contains(&type_name.as_str()),
+            None => POSE_TYPES.contains(&type_name),
         };
         if !wanted {
             continue;
         }
+        let path_s = || reader.path().display().to_string();
         let skip = |reason: String| SkippedMessage {
-            path: path_s.clone(),
+            path: path_s(),
             topic: msg.channel.topic.clone(),
             index: msg.index_on_channel,
             log_time: msg.log_time,
@@ -209,7 +209,7 @@ pub fn read_pose_topics(
             )));
             continue;
         }
-        let people = match decode_people(&msg, &type_name, layout) {
+        let people = match decode_people(&msg, type_name, layout) {
             Ok(p) => p,
             Err(DecodeProblem::Skip(reason)) => {
                 skipped.push(skip(reason));
@@ -217,14 +217,14 @@ pub fn read_pose_topics(
             }
             Err(DecodeProblem::NeedsLayout) => {
                 return Err(PoseBagError::LayoutNeeded {
-                    path: path_s,
+                    path: path_s(),
                     topic: msg.channel.topic.clone(),
-                    type_name,
+                    type_name: type_name.to_string(),
                 });
             }
             Err(DecodeProblem::NotPose) => {
                 return Err(PoseBagError::NoPoseTopic {
-                    path: path_s,
+                    path: path_s(),
                     why: format!(
                         "{} carries {type_name}, not a pose type ({})",
                         msg.channel.topic,
@@ -248,7 +248,7 @@ pub fn read_pose_topics(
             let key = (msg.channel.topic.clone(), person.track_id);
             let entry = tracks.entry(key).or_insert_with(|| Collected {
                 seq: PoseSequence {
-                    source: path_s.clone(),
+                    source: path_s(),
                     track_id: person.track_id,
                     joint_names: person.joint_names.clone(),
                     frames: Vec::new(),
