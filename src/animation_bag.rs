@@ -156,7 +156,7 @@ pub fn list_animations(readers: &[crate::mcap_io::BagReader]) -> Vec<AnimationLi
             track_id: f.track_id,
             variant: f.variant,
         };
-        let stamp = f.header.stamp.to_nanos().unwrap_or(m.log_time);
+        let stamp = frame_stamp(&f, m.log_time);
         let entry = found.entry(key).or_insert_with(|| AnimationListing {
             key,
             rig: f.rig.clone(),
@@ -206,43 +206,19 @@ pub fn read_animation_variant(
                 if f.variant != variant || *chosen.get_or_insert(f.track_id) != f.track_id {
                     continue;
                 }
-                if f.local_rotations.len() != rig.bones.len() {
-                    return Err(format!(
-                        "/animation has {} rotations per frame; the rig has {} bones",
-                        f.local_rotations.len(),
-                        rig.bones.len()
-                    ));
-                }
-                if !f.bone_names.is_empty()
-                    && let Some((k, (bag, ours))) = f
-                        .bone_names
-                        .iter()
-                        .zip(&rig.bones)
-                        .enumerate()
-                        .find(|(_, (bag, ours))| **bag != ours.name)
-                {
-                    return Err(format!(
-                        "/animation (rig `{}`) names bone {k} `{bag}`, where rig {} has `{}`",
-                        f.rig, rig.name, ours.name
-                    ));
-                }
-                let stamp = f.header.stamp.to_nanos().unwrap_or(m.log_time);
+                let stamp = frame_stamp(&f, m.log_time);
                 if keys.last().is_some_and(|k| k.stamp_nanos >= stamp) {
                     continue;
                 }
+                let pose = bone_pose(rig, &f).map_err(|e| {
+                    format!(
+                        "{ANIMATION_TOPIC} message {} (stamp {stamp} ns): {e}",
+                        m.index_on_channel
+                    )
+                })?;
                 keys.push(crate::convert::AnimationFrame {
                     stamp_nanos: stamp,
-                    pose: BonePose {
-                        root_translation_m: nalgebra::Vector3::from(f.root_translation),
-                        local_rotations: f
-                            .local_rotations
-                            .iter()
-                            .map(|q| {
-                                nalgebra::UnitQuaternion::try_from(*q)
-                                    .unwrap_or_else(|_| nalgebra::UnitQuaternion::identity())
-                            })
-                            .collect(),
-                    },
+                    pose,
                 });
             }
             s if s == TFMessage::TYPE_NAME
@@ -298,6 +274,62 @@ pub fn read_animation_variant(
         at_rest: names(false),
     };
     Ok((keys, character, coverage))
+}
+
+/// A bone frame's time: its header stamp, or `log_time_nanos` where the header has none.
+#[must_use]
+pub fn frame_stamp(frame: &BoneFrame, log_time_nanos: u64) -> u64 {
+    frame.header.stamp.to_nanos().unwrap_or(log_time_nanos)
+}
+
+/// The pose a bone frame carries, on `rig`: one rotation per bone in rig order (names, where the
+/// frame has them, must be the rig's), each a usable quaternion (normalised here). The one place
+/// a `BoneFrame` becomes a [`BonePose`].
+///
+/// # Errors
+/// What does not fit the rig, naming the bone.
+pub fn bone_pose(rig: &Rig, frame: &BoneFrame) -> Result<BonePose, String> {
+    if frame.local_rotations.len() != rig.bones.len() {
+        return Err(format!(
+            "{} rotations; rig {} has {} bones",
+            frame.local_rotations.len(),
+            rig.name,
+            rig.bones.len()
+        ));
+    }
+    if !frame.bone_names.is_empty() {
+        if frame.bone_names.len() != rig.bones.len() {
+            return Err(format!(
+                "{} bone names for {} rotations",
+                frame.bone_names.len(),
+                frame.local_rotations.len()
+            ));
+        }
+        if let Some((k, (theirs, ours))) = frame
+            .bone_names
+            .iter()
+            .zip(&rig.bones)
+            .enumerate()
+            .find(|(_, (theirs, ours))| **theirs != ours.name)
+        {
+            return Err(format!(
+                "rig `{}` names bone {k} `{theirs}`, where rig {} has `{}`",
+                frame.rig, rig.name, ours.name
+            ));
+        }
+    }
+    let local_rotations = frame
+        .local_rotations
+        .iter()
+        .zip(&rig.bones)
+        .map(|(&q, bone)| {
+            nalgebra::UnitQuaternion::try_from(q).map_err(|e| format!("bone `{}`: {e}", bone.name))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(BonePose {
+        root_translation_m: nalgebra::Vector3::from(frame.root_translation),
+        local_rotations,
+    })
 }
 
 fn frame_name(prefix: &str, rig: &Rig, bone: usize) -> String {
@@ -474,5 +506,84 @@ mod tests {
             );
         }
         assert_eq!(parse_frame_name("root"), (None, 0, "root"));
+    }
+
+    /// A frame as `TrackWriter` writes it for `pose`.
+    fn frame_of(rig: &Rig, pose: &BonePose) -> BoneFrame {
+        BoneFrame {
+            rig: rig.name.to_string(),
+            bone_names: rig.bones.iter().map(|b| b.name.clone()).collect(),
+            local_rotations: pose
+                .local_rotations
+                .iter()
+                .map(|&q| Quaternion::from(q))
+                .collect(),
+            root_translation: Vector3::from(pose.root_translation_m),
+            ..BoneFrame::default()
+        }
+    }
+
+    #[test]
+    fn bone_pose_reads_back_what_was_written_and_names_what_does_not_fit() {
+        let rig = Rig::standard();
+        let mut pose = BonePose::rest(&rig);
+        let elbow = rig.bone_index("l_forearm").unwrap();
+        pose.local_rotations[elbow] =
+            nalgebra::UnitQuaternion::from_axis_angle(&nalgebra::Vector3::x_axis(), 0.7);
+        pose.root_translation_m = nalgebra::Vector3::new(0.5, -1.0, 0.02);
+        let frame = frame_of(&rig, &pose);
+        assert_eq!(bone_pose(&rig, &frame).unwrap(), pose);
+        // Names may be left out (rig order), but not half given.
+        let unnamed = BoneFrame {
+            bone_names: Vec::new(),
+            ..frame.clone()
+        };
+        assert_eq!(bone_pose(&rig, &unnamed).unwrap(), pose);
+        let short = BoneFrame {
+            bone_names: frame.bone_names[..3].to_vec(),
+            ..frame.clone()
+        };
+        assert_eq!(
+            bone_pose(&rig, &short).unwrap_err(),
+            "3 bone names for 53 rotations"
+        );
+
+        let mut renamed = frame.clone();
+        renamed.bone_names[elbow] = "forearm_L".into();
+        let e = bone_pose(&rig, &renamed).unwrap_err();
+        assert!(
+            e.contains(&format!(
+                "names bone {elbow} `forearm_L`, where rig autoact53 has `l_forearm`"
+            )),
+            "{e}"
+        );
+
+        // A zero or NaN quaternion is an error naming the bone, never a silent rest pose.
+        for bad in [
+            Quaternion {
+                x: 0.0,
+                y: 0.0,
+                z: 0.0,
+                w: 0.0,
+            },
+            Quaternion {
+                x: f64::NAN,
+                ..Quaternion::default()
+            },
+        ] {
+            let mut broken = frame.clone();
+            broken.local_rotations[elbow] = bad;
+            let e = bone_pose(&rig, &broken).unwrap_err();
+            assert!(e.starts_with("bone `l_forearm`: "), "{e}");
+        }
+        let e = bone_pose(
+            &rig,
+            &BoneFrame {
+                local_rotations: vec![Quaternion::default(); 2],
+                ..frame
+            },
+        )
+        .unwrap_err();
+        assert_eq!(e, "2 rotations; rig autoact53 has 53 bones");
     }
 }

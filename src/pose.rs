@@ -95,6 +95,32 @@ impl PoseSequence {
     }
 }
 
+/// The frame rate of frames stamped `stamps_nanos`: `stated` when given, else measured as one
+/// over the median step between stamps. `None` with no statement and fewer than two frames.
+#[must_use]
+pub fn frame_rate(stated: Option<f64>, stamps_nanos: &[u64]) -> Option<f64> {
+    if stated.is_some() {
+        return stated;
+    }
+    let mut steps: Vec<f64> = stamps_nanos
+        .windows(2)
+        .map(|w| nanos_to_secs(w[1].saturating_sub(w[0])))
+        .filter(|s| *s > 0.0)
+        .collect();
+    let step = crate::character::median(&mut steps)?;
+    Some(1.0 / step)
+}
+
+/// Nanoseconds as seconds.
+#[must_use]
+#[expect(
+    clippy::cast_precision_loss,
+    reason = "stamps are below 2^53 ns (104 days) apart"
+)]
+pub fn nanos_to_secs(nanos: u64) -> f64 {
+    nanos as f64 * 1e-9
+}
+
 /// The stamp of frame `index` of a clip sampled at a constant `fps`, in nanoseconds.
 ///
 /// The one place where a frame index and a rate become a time.

@@ -430,7 +430,7 @@ fn bad_input_gets_clear_errors() {
         "-o",
         arg(&dir.path().join("x.bvh")),
     ]);
-    assert!(e.contains("empty.anim.mcap: track 0 variant 0: /animation has 0 rotations per frame; the rig has 53 bones"), "{e}");
+    assert!(e.contains("empty.anim.mcap: track 0 variant 0: /animation message 0 (stamp 0 ns): 0 rotations; rig autoact53 has 53 bones"), "{e}");
 
     // Unknown animation or variant.
     let e = fails(&[

@@ -29,6 +29,7 @@ pub use crate::animation_bag::{AnimationKey, AnimationListing};
 use crate::character::Character;
 use crate::fk::BonePose;
 use crate::mcap_io::BagReader;
+use crate::pose::{frame_rate, nanos_to_secs};
 use crate::rig::Rig;
 
 /// Why an export failed. Every variant names the file it is about.
@@ -194,30 +195,6 @@ pub fn stated_frame_rate(readers: &[BagReader]) -> Option<f64> {
         })
         .find_map(|(_, record)| record.get("fps").and_then(|v| v.parse::<f64>().ok()))
         .filter(|f| f.is_finite() && *f > 0.0)
-}
-
-/// The frame rate of frames stamped `stamps_nanos`: `stated` when given, else measured as one
-/// over the median step between stamps. `None` with no statement and fewer than two frames.
-#[must_use]
-pub fn frame_rate(stated: Option<f64>, stamps_nanos: &[u64]) -> Option<f64> {
-    if stated.is_some() {
-        return stated;
-    }
-    let mut steps: Vec<f64> = stamps_nanos
-        .windows(2)
-        .map(|w| nanos_to_secs(w[1].saturating_sub(w[0])))
-        .filter(|s| *s > 0.0)
-        .collect();
-    let step = crate::character::median(&mut steps)?;
-    Some(1.0 / step)
-}
-
-#[expect(
-    clippy::cast_precision_loss,
-    reason = "stamps are below 2^53 ns (104 days) apart"
-)]
-fn nanos_to_secs(nanos: u64) -> f64 {
-    nanos as f64 * 1e-9
 }
 
 /// The first frame whose stamp is more than half a frame away from `first + k / fps_hz`, as

@@ -8,8 +8,9 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion};
 
+use crate::animation_bag;
 use crate::camera::Intrinsics;
 use crate::dataset::capture::{CAMERA_INFO_TOPIC, CAMERA_POSE_TOPIC, SCENE_TOPIC, SEGMENTS_TOPIC};
 use crate::fk::BonePose;
@@ -187,29 +188,9 @@ impl Capture {
                 }
                 (_, BoneFrame::TYPE_NAME) => {
                     let f: BoneFrame = cdr::decode(&m.data).map_err(|e| decode_error(&e))?;
-                    if f.local_rotations.len() != rig.bones.len() {
-                        return Err(bad(
-                            topic,
-                            stamp,
-                            format!(
-                                "{} rotations; the rig has {} bones",
-                                f.local_rotations.len(),
-                                rig.bones.len()
-                            ),
-                        ));
-                    }
-                    let local_rotations = f
-                        .local_rotations
-                        .iter()
-                        .map(|&q| UnitQuaternion::try_from(q))
-                        .collect::<Result<Vec<_>, _>>()
-                        .map_err(|e| bad(topic, stamp, e.to_string()))?;
-                    let t = f.root_translation;
-                    let pose = BonePose {
-                        root_translation_m: Vector3::new(t.x, t.y, t.z),
-                        local_rotations,
-                    };
-                    let at = f.header.stamp.to_nanos().unwrap_or(stamp);
+                    let pose =
+                        animation_bag::bone_pose(rig, &f).map_err(|e| bad(topic, stamp, e))?;
+                    let at = animation_bag::frame_stamp(&f, stamp);
                     if poses.insert(at, pose).is_some() {
                         return Err(bad(topic, at, "two animation frames at one stamp (several tracks or variants: a capture bag has one)".into()));
                     }
@@ -250,22 +231,12 @@ impl Capture {
         }
         scenes.sort_by_key(|s| s.start_ns);
         segments.sort_by_key(|s| s.start.to_nanos().unwrap_or(0));
-        let fps = match fps {
-            Some(f) if f.is_finite() && f > 0.0 => f,
-            _ => {
-                // Without the dataset record, the median spacing of the frames.
-                let stamps: Vec<u64> = poses.keys().copied().collect();
-                let mut gaps: Vec<u64> = stamps.windows(2).map(|w| w[1] - w[0]).collect();
-                gaps.sort_unstable();
-                let median = gaps.get(gaps.len() / 2).copied().unwrap_or(0);
-                if median == 0 {
-                    return Err(missing(
-                        "frame rate (the autoact.dataset record's fps, or two frames)",
-                    ));
-                }
-                1e9 / median as f64
-            }
-        };
+        // Without the dataset record, the median spacing of the frames.
+        let stamps: Vec<u64> = poses.keys().copied().collect();
+        let fps = crate::pose::frame_rate(fps.filter(|f| f.is_finite() && *f > 0.0), &stamps)
+            .ok_or_else(|| {
+                missing("frame rate (the autoact.dataset record's fps, or two frames)")
+            })?;
         let mut frames = Vec::with_capacity(poses.len());
         for (stamp_ns, pose) in poses {
             let world_from_optical = *cameras.get(&stamp_ns).ok_or_else(|| {
