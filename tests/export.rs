@@ -42,6 +42,14 @@ fn ok(args: &[&str]) -> String {
 }
 
 /// Runs `autoact` and requires exit code 1; returns stderr.
+/// `autoact export BAG --format FORMAT EXTRA... -o OUT`, which must fail with exit 1; its stderr.
+fn export_fails(bag: &Path, format: &str, extra: &[&str], out: &Path) -> String {
+    let mut args = vec!["export", arg(bag), "--format", format];
+    args.extend_from_slice(extra);
+    args.extend_from_slice(&["-o", arg(out)]);
+    fails(&args)
+}
+
 fn fails(args: &[&str]) -> String {
     let out = autoact(args);
     assert_eq!(
@@ -399,14 +407,12 @@ fn bad_input_gets_clear_errors() {
     let walk = sample("bandai_walk.anim.mcap");
 
     // A bag without /animation frames.
-    let e = fails(&[
-        "export",
-        arg(&sample("bandai_walk.pose.mcap")),
-        "--format",
+    let e = export_fails(
+        &sample("bandai_walk.pose.mcap"),
         "bvh",
-        "-o",
-        arg(&dir.path().join("x.bvh")),
-    ]);
+        &[],
+        &dir.path().join("x.bvh"),
+    );
     assert!(
         e.contains("bandai_walk.pose.mcap: no /animation frames") && e.contains("autoact convert"),
         "{e}"
@@ -422,47 +428,53 @@ fn bad_input_gets_clear_errors() {
     w.write("/animation", 0, &frame).unwrap();
     w.write("/animation", 33_333_333, &frame).unwrap();
     w.finish().unwrap();
-    let e = fails(&[
-        "export",
-        arg(&empty),
-        "--format",
-        "bvh",
-        "-o",
-        arg(&dir.path().join("x.bvh")),
-    ]);
+    let e = export_fails(&empty, "bvh", &[], &dir.path().join("x.bvh"));
     assert!(e.contains("empty.anim.mcap: track 0 variant 0: /animation message 0 (stamp 0 ns): 0 rotations; rig autoact53 has 53 bones"), "{e}");
 
+    // Two such animations into a folder: refused before the folder is made.
+    let two = dir.path().join("two_empty.anim.mcap");
+    let mut w = BagWriter::create(&two, WriteConfig::default()).unwrap();
+    for variant in [0, 1] {
+        let frame = autoact::ros::autoact_msgs::BoneFrame {
+            variant,
+            ..frame.clone()
+        };
+        w.write("/animation", 0, &frame).unwrap();
+        w.write("/animation", 33_333_333, &frame).unwrap();
+    }
+    w.finish().unwrap();
+    let folder = dir.path().join("two_out");
+    let e = export_fails(&two, "bvh", &[], &folder);
+    assert!(e.contains("0 rotations"), "{e}");
+    assert!(
+        !folder.exists(),
+        "a refused export made {}",
+        folder.display()
+    );
+
     // Unknown animation or variant.
-    let e = fails(&[
-        "export",
-        arg(&walk),
-        "--format",
+    let e = export_fails(
+        &walk,
         "bvh",
-        "--animation",
-        "4",
-        "-o",
-        arg(&dir.path().join("x.bvh")),
-    ]);
+        &["--animation", "4"],
+        &dir.path().join("x.bvh"),
+    );
     assert!(
         e.contains("no animation with track 4; the bag holds: track 0 variant 0"),
         "{e}"
     );
-    let e = fails(&[
-        "export",
-        arg(&walk),
-        "--format",
+    let e = export_fails(
+        &walk,
         "onim",
-        "--variant",
-        "2",
-        "-o",
-        arg(&dir.path().join("x.onim")),
-    ]);
+        &["--variant", "2"],
+        &dir.path().join("x.onim"),
+    );
     assert!(e.contains("no animation with variant 2"), "{e}");
 
     // An output that exists: refused without --force, left alone; replaced with it.
     let taken = dir.path().join("taken.bvh");
     std::fs::write(&taken, "mine").unwrap();
-    let e = fails(&["export", arg(&walk), "--format", "bvh", "-o", arg(&taken)]);
+    let e = export_fails(&walk, "bvh", &[], &taken);
     assert!(e.contains("taken.bvh exists; pass `--force`"), "{e}");
     assert_eq!(std::fs::read_to_string(&taken).unwrap(), "mine");
     ok(&[
@@ -487,26 +499,12 @@ fn bad_input_gets_clear_errors() {
     assert!(leftovers.is_empty(), "{leftovers:?}");
 
     // An output that cannot be written.
-    let e = fails(&[
-        "export",
-        arg(&walk),
-        "--format",
-        "bvh",
-        "-o",
-        "/proc/autoact/x.bvh",
-    ]);
+    let e = export_fails(&walk, "bvh", &[], Path::new("/proc/autoact/x.bvh"));
     assert!(e.contains("cannot write /proc/autoact/x.bvh: "), "{e}");
 
     // Several animations into one file name.
     let bag = synthetic_bag(dir.path(), 1, 2, 3);
-    let e = fails(&[
-        "export",
-        arg(&bag),
-        "--format",
-        "bvh",
-        "-o",
-        arg(&dir.path().join("two.bvh")),
-    ]);
+    let e = export_fails(&bag, "bvh", &[], &dir.path().join("two.bvh"));
     assert!(
         e.contains("2 animations are selected") && e.contains("--variant"),
         "{e}"
@@ -520,16 +518,12 @@ fn bad_input_gets_clear_errors() {
         .map(|l| format!("{l}\n"))
         .collect();
     std::fs::write(&template, text).unwrap();
-    let e = fails(&[
-        "export",
-        arg(&walk),
-        "--format",
+    let e = export_fails(
+        &walk,
         "onim",
-        "--onim-template",
-        arg(&template),
-        "-o",
-        arg(&dir.path().join("x.onim")),
-    ]);
+        &["--onim-template", arg(&template)],
+        &dir.path().join("x.onim"),
+    );
     assert!(
         e.contains(
             "partial.toml does not cover 2 of rig autoact53's bones: SKEL_Spine2, SKEL_R_Hand"

@@ -131,14 +131,16 @@ pub fn run(args: Args) -> Result<Outcome> {
         tracing::warn!("--onim-template is only used with --format onim");
     }
     let keys = export::select(input, &available, args.animation, args.variant)?;
-    let targets = targets(input, output, &keys, format)?;
-    // Every target is checked before anything is written, so a refused export writes nothing.
+    let (targets, folder) = targets(input, output, &keys, format)?;
+    // Every target is checked before anything is written, and the folder is made only when the
+    // first file is ready, so a refused export writes nothing.
     for path in &targets {
         export::check_writable(path, args.force)?;
         if args.write_expected_json {
             export::check_writable(&expected_path(path), args.force)?;
         }
     }
+    let mut folder = folder;
     let mut text = String::new();
     for (key, path) in keys.iter().zip(&targets) {
         let clip = export::read_clip(&rig, input, &readers, *key, args.fps)?;
@@ -152,6 +154,10 @@ pub fn run(args: Args) -> Result<Outcome> {
         } else {
             export::encode(&rig, &clip, format, &options)?
         };
+        if let Some(folder) = folder.take() {
+            std::fs::create_dir_all(folder)
+                .with_context(|| format!("cannot create the output folder {}", folder.display()))?;
+        }
         export::write_atomically(path, &bytes, args.force)?;
         if args.write_expected_json {
             let json = serde_json::to_vec(&export::bvh::expected_json(&rig, &clip))
@@ -169,15 +175,16 @@ pub fn run(args: Args) -> Result<Outcome> {
     Ok(Outcome::Success)
 }
 
-/// The file each animation goes to (see "Output naming" in the help).
-fn targets(
+/// The file each animation goes to (see "Output naming" in the help), and the folder they go in
+/// when `output` names one (created only once every target is known to be writable).
+fn targets<'o>(
     input: &Path,
-    output: &Path,
+    output: &'o Path,
     keys: &[export::AnimationKey],
     format: ExportFormat,
-) -> Result<Vec<PathBuf>> {
+) -> Result<(Vec<PathBuf>, Option<&'o Path>)> {
     if keys.len() == 1 && !output.is_dir() {
-        return Ok(vec![output.to_path_buf()]);
+        return Ok((vec![output.to_path_buf()], None));
     }
     if keys.len() > 1
         && output
@@ -191,12 +198,11 @@ fn targets(
             format.extension()
         );
     }
-    std::fs::create_dir_all(output)
-        .with_context(|| format!("cannot create the output folder {}", output.display()))?;
-    Ok(keys
+    let paths = keys
         .iter()
         .map(|k| output.join(export::output_name(input, *k, format)))
-        .collect())
+        .collect();
+    Ok((paths, Some(output)))
 }
 
 /// `X.bvh` → `X.expected.json`.
