@@ -219,13 +219,9 @@ impl OnimMapping {
         local: &[UnitQuaternion<f64>],
         heading: &UnitQuaternion<f64>,
     ) -> Vec<UnitQuaternion<f64>> {
-        rig.bones
-            .iter()
-            .enumerate()
-            .map(|(b, bone)| {
-                let parent = bone.parent.map_or(*heading, |p| self.frames[p]);
-                parent.inverse() * local[b] * self.frames[b]
-            })
+        self.bone_frames(rig, heading)
+            .zip(local)
+            .map(|((parent, own), l)| parent.inverse() * l * own)
             .collect()
     }
 
@@ -237,14 +233,25 @@ impl OnimMapping {
         gta: &[UnitQuaternion<f64>],
         heading: &UnitQuaternion<f64>,
     ) -> Vec<UnitQuaternion<f64>> {
-        rig.bones
-            .iter()
-            .enumerate()
-            .map(|(b, bone)| {
-                let parent = bone.parent.map_or(*heading, |p| self.frames[p]);
-                parent * gta[b] * self.frames[b].inverse()
-            })
+        self.bone_frames(rig, heading)
+            .zip(gta)
+            .map(|((parent, own), g)| parent * g * own.inverse())
             .collect()
+    }
+
+    /// Per bone in rig order, `(G_parent, G_bone)`: the GTA frame of its parent (`heading` for
+    /// the root) and its own.
+    fn bone_frames<'a>(
+        &'a self,
+        rig: &'a Rig,
+        heading: &'a UnitQuaternion<f64>,
+    ) -> impl Iterator<Item = (UnitQuaternion<f64>, UnitQuaternion<f64>)> + 'a {
+        rig.bones.iter().enumerate().map(move |(b, bone)| {
+            (
+                bone.parent.map_or(*heading, |p| self.frames[p]),
+                self.frames[b],
+            )
+        })
     }
 }
 

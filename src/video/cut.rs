@@ -19,14 +19,13 @@
 //! builder, never through a shell.
 
 use std::path::{Path, PathBuf};
-use std::process::Stdio;
 
 use ffmpeg_sidecar::command::FfmpegCommand;
 
 use super::encode::{container_for, remove_part};
 use super::probe::probe_packets;
 use super::stderr_tail::tail_of_text;
-use super::tools::{ffmpeg_path_arg, spawn_error};
+use super::tools::{ffmpeg_path_arg, run};
 use super::{Ffmpeg, Rational, VideoError};
 use crate::atomic_file::temporary_sibling as part_path;
 
@@ -203,7 +202,6 @@ pub fn cut(
         .overwrite()
         .output(part.as_os_str());
     let inner = command.as_inner_mut();
-    inner.stdin(Stdio::null());
     tracing::debug!(
         command = %std::iter::once(inner.get_program())
             .chain(inner.get_args())
@@ -226,17 +224,7 @@ fn run_and_check(
     part: &Path,
 ) -> Result<CutClip, VideoError> {
     let output = request.output;
-    let out = command
-        .output()
-        .map_err(|source| spawn_error("ffmpeg", ffmpeg.ffmpeg_path(), source))?;
-    if !out.status.success() {
-        return Err(VideoError::Exited {
-            program: "ffmpeg",
-            status: out.status,
-            path: output.to_path_buf(),
-            stderr_tail: tail_of_text(&out.stderr),
-        });
-    }
+    let out = run("ffmpeg", command, output)?;
     // ffmpeg can exit 0 after a failed write (a full disk): then its words are the useful ones.
     let packets = probe_packets(ffmpeg, part).map_err(|e| {
         let said = tail_of_text(&out.stderr);
@@ -310,19 +298,7 @@ pub fn extract_frames(
             .args(["-start_number", "1", "-f", "image2"])
             .overwrite()
             .output(part.join("img_%05d.jpg").as_os_str());
-        let inner = command.as_inner_mut();
-        inner.stdin(Stdio::null());
-        let out = inner
-            .output()
-            .map_err(|source| spawn_error("ffmpeg", ffmpeg.ffmpeg_path(), source))?;
-        if !out.status.success() {
-            return Err(VideoError::Exited {
-                program: "ffmpeg",
-                status: out.status,
-                path: dir.to_path_buf(),
-                stderr_tail: tail_of_text(&out.stderr),
-            });
-        }
+        run("ffmpeg", command.as_inner_mut(), dir)?;
         let found = std::fs::read_dir(&part).map_err(io("list", &part))?.count() as u64;
         if found != frame_count {
             return Err(VideoError::FrameCountMismatch {

@@ -271,14 +271,26 @@ where
     I: IntoIterator<Item = S>,
     S: AsRef<OsStr>,
 {
+    let mut command = Command::new(binary);
+    command.args(args);
+    run(program, &mut command, file).map(|output| output.stdout)
+}
+
+/// Runs `command` (the program `program`, working on `file`) to the end with stdin closed, and
+/// returns its output; a program that cannot start or exits unsuccessfully is an error with the
+/// tail of what it wrote to stderr.
+pub(crate) fn run(
+    program: &'static str,
+    command: &mut Command,
+    file: &Path,
+) -> Result<std::process::Output, VideoError> {
     // `output()` reads stdout and stderr concurrently, so neither pipe can fill up and block.
-    let output = Command::new(binary)
-        .args(args)
+    let output = command
         .stdin(Stdio::null())
         .output()
-        .map_err(|source| spawn_error(program, binary, source))?;
+        .map_err(|source| spawn_error(program, Path::new(command.get_program()), source))?;
     if output.status.success() {
-        Ok(output.stdout)
+        Ok(output)
     } else {
         Err(VideoError::Exited {
             program,
