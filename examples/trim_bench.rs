@@ -66,46 +66,37 @@ fn main() -> Result<()> {
         reencode: ReencodeSettings::default(),
         rawframes: false,
     };
-    let t = Instant::now();
-    let s = trim_capture(
-        &ffmpeg,
-        &capture,
-        &source,
-        &work.join("copy"),
-        &options,
-        &|_, _| {},
-        &stop,
-    )?;
-    let secs = t.elapsed().as_secs_f64();
-    let cut_s = s.frames_cut as f64 / capture.fps;
-    println!(
-        "stream copy: {} clips ({} copied, {} re-encoded), {:.1} s of video in {secs:.2} s = {:.0}x real time (target >= 50x)",
-        s.copied + s.reencoded,
-        s.copied,
-        s.reencoded,
-        cut_s,
-        cut_s / secs
-    );
-    let t = Instant::now();
-    let s = trim_capture(
-        &ffmpeg,
-        &capture,
-        &source,
-        &work.join("reencode"),
-        &TrimOptions {
-            force_reencode: true,
-            ..options
-        },
-        &|_, _| {},
-        &stop,
-    )?;
-    let secs = t.elapsed().as_secs_f64();
-    let cut_s = s.frames_cut as f64 / capture.fps;
-    println!(
-        "re-encode (libx264 veryfast crf 18): {} clips, {:.1} s of video in {secs:.1} s = {:.1}x real time",
-        s.reencoded,
-        cut_s,
-        cut_s / secs
-    );
+    let reencode_all = TrimOptions {
+        force_reencode: true,
+        ..options.clone()
+    };
+    for (name, folder, opts) in [
+        ("stream copy (target >= 50x)", "copy", &options),
+        (
+            "re-encode (libx264 veryfast crf 18)",
+            "reencode",
+            &reencode_all,
+        ),
+    ] {
+        let t = Instant::now();
+        let s = trim_capture(
+            &ffmpeg,
+            &capture,
+            &source,
+            &work.join(folder),
+            opts,
+            &|_, _| {},
+            &stop,
+        )?;
+        let secs = t.elapsed().as_secs_f64();
+        let cut_s = s.frames_cut as f64 / capture.fps;
+        println!(
+            "{name}: {} clips ({} copied, {} re-encoded), {cut_s:.1} s of video in {secs:.2} s = {:.1}x real time",
+            s.copied + s.reencoded,
+            s.copied,
+            s.reencoded,
+            cut_s / secs
+        );
+    }
     Ok(())
 }

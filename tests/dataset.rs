@@ -20,10 +20,6 @@ use autoact::ros::sensor_msgs::CameraInfo;
 use autoact::ros::visualization_msgs::MarkerArray;
 use nalgebra::{Point3, UnitQuaternion};
 
-fn repo(path: &str) -> String {
-    format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
-}
-
 /// A spec over the two sample bags, with `dataset`, `counts` and extra sections.
 fn spec_text(seed: u64, counts: &str, extra: &str) -> String {
     format!(
@@ -45,8 +41,8 @@ category = "locomotion"
 action = "walk"
 sources = ["{walk}"]
 "#,
-        wave = repo("bags/bandai_wave.pose.mcap"),
-        walk = repo("bags/bandai_walk.pose.mcap"),
+        wave = common::repo("bags/bandai_wave.pose.mcap"),
+        walk = common::repo("bags/bandai_walk.pose.mcap"),
     )
 }
 
@@ -230,7 +226,7 @@ fn bad_specs_are_clear_errors_naming_the_key() {
         (
             "no sources",
             good.replace(
-                &format!("[\"{}\"]", repo("bags/bandai_walk.pose.mcap")),
+                &format!("[\"{}\"]", common::repo("bags/bandai_walk.pose.mcap")),
                 "[]",
             ),
             "class[1].sources",
@@ -273,7 +269,7 @@ fn the_papers_ntu_scale_plan_has_exact_counts_and_unique_ids() {
     // 1,566 animations × 4 positions × 3 viewpoints = 18,792 clips (the paper's NTU-like plan).
     // Every source a copy of the walking sample (its summary is all a plan reads).
     let dir = tempfile::tempdir().unwrap();
-    let bag = PathBuf::from(repo("bags/bandai_walk.pose.mcap"));
+    let bag = PathBuf::from(common::repo("bags/bandai_walk.pose.mcap"));
     let mut classes = String::new();
     let mut n = 0;
     for c in 0..54 {

@@ -24,16 +24,11 @@ use autoact::ros::autoact_msgs::{FrameAnnotation, VideoInfo};
 use autoact::ros::cdr;
 use autoact::video::probe;
 
-fn repo(path: &str) -> String {
-    format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
-}
-
 /// A one-session capture bag: the wave in 2 scenes × 2 viewpoints (4 clips), in `dir`.
 fn capture(dir: &Path) -> PathBuf {
-    let spec = dir.join("spec.toml");
-    std::fs::write(
-        &spec,
-        format!(
+    common::capture_bag_from_spec(
+        dir,
+        &format!(
             r#"[dataset]
 name = "r"
 seed = 5
@@ -53,22 +48,22 @@ category = "gesture"
 action = "wave"
 sources = ["{}"]
 "#,
-            repo("bags/bandai_wave.pose.mcap")
+            common::repo("bags/bandai_wave.pose.mcap")
         ),
     )
-    .unwrap();
-    let out = dir.join("cap");
-    let o = autoact(&["-q", "convert", "--spec", arg(&spec), "-o", arg(&out)]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    std::fs::read_dir(&out)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .find(|p| p.extension().is_some_and(|e| e == "mcap"))
-        .unwrap()
 }
 
 fn arg(p: &Path) -> &str {
     p.to_str().unwrap()
+}
+
+/// Nothing of a render to `v.mp4` in `dir`: no video, render bag or `.v.mp4.part`.
+fn assert_no_render_left(dir: &Path) {
+    let left: Vec<String> = files_in(dir)
+        .into_iter()
+        .filter(|f| f.starts_with("v.") || f.starts_with(".v."))
+        .collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
 }
 
 fn files_in(dir: &Path) -> Vec<String> {
@@ -262,7 +257,7 @@ fn a_bag_without_camera_or_scene_is_refused_by_name() {
     let out = dir.path().join("x.mp4");
     let o = autoact(&[
         "render",
-        &repo("bags/bandai_wave.anim.mcap"),
+        &common::repo("bags/bandai_wave.anim.mcap"),
         "-o",
         arg(&out),
     ]);
@@ -272,7 +267,7 @@ fn a_bag_without_camera_or_scene_is_refused_by_name() {
     assert!(e.contains("camera path (/camera/pose)"), "{e}");
     assert!(e.contains("convert --spec"), "{e}");
     assert!(files_in(dir.path()).is_empty());
-    let o = autoact(&["render", &repo("bags/bandai_wave.anim.mcap")]);
+    let o = autoact(&["render", &common::repo("bags/bandai_wave.anim.mcap")]);
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("nothing to write"), "{}", stderr(&o));
 }
@@ -319,11 +314,7 @@ fn missing_or_failing_ffmpeg_leaves_no_video_and_says_why() {
     let o = run(arg(&fake));
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("out of dilithium"), "{}", stderr(&o));
-    let left: Vec<String> = files_in(dir.path())
-        .into_iter()
-        .filter(|f| f.contains("v.") || f.contains(".part"))
-        .collect();
-    assert!(left.is_empty(), "left behind: {left:?}");
+    assert_no_render_left(dir.path());
 }
 
 #[test]
@@ -365,11 +356,7 @@ fn ctrl_c_leaves_no_file_that_looks_complete() {
         "an interrupted render must not report success"
     );
     assert!(stderr(&o).contains("interrupted"), "{}", stderr(&o));
-    let left: Vec<String> = files_in(dir.path())
-        .into_iter()
-        .filter(|f| f.starts_with("v.") || f.starts_with(".v."))
-        .collect();
-    assert!(left.is_empty(), "left behind: {left:?}");
+    assert_no_render_left(dir.path());
 }
 
 #[test]

@@ -8,8 +8,8 @@ use std::path::Path;
 use std::process::Command;
 
 use autoact::video::{
-    CutMethod, CutRequest, EncodeSettings, Ffmpeg, Rational, ReencodeSettings, VideoEncoder, cut,
-    keyframe_frames,
+    CutClip, CutMethod, CutRequest, EncodeSettings, Ffmpeg, Rational, ReencodeSettings,
+    VideoEncoder, VideoError, cut, keyframe_frames,
 };
 
 const W: u32 = 160;
@@ -63,8 +63,24 @@ fn decoded_indices(ffmpeg: &Ffmpeg, path: &Path) -> Vec<u64> {
         .collect()
 }
 
-fn fps30() -> Rational {
-    Rational::new(30, 1).unwrap()
+/// Cuts `frame_count` frames from `start_frame` of a 30 fps `input` into `output`.
+fn cut30(
+    ffmpeg: &Ffmpeg,
+    input: &Path,
+    output: &Path,
+    start_frame: u64,
+    frame_count: u64,
+    method: CutMethod,
+) -> Result<CutClip, VideoError> {
+    let request = CutRequest {
+        input,
+        output,
+        start_frame,
+        frame_count,
+        fps: Rational::new(30, 1).unwrap(),
+        method,
+    };
+    cut(ffmpeg, &request, &ReencodeSettings::default())
 }
 
 #[test]
@@ -126,17 +142,13 @@ fn stream_copy_at_keyframes_is_frame_exact() {
     }
     for w in boundaries.windows(2) {
         let out = dir.path().join(format!("copy_{}.mp4", w[0]));
-        let clip = cut(
+        let clip = cut30(
             &ffmpeg,
-            &CutRequest {
-                input: &src,
-                output: &out,
-                start_frame: w[0],
-                frame_count: w[1] - w[0],
-                fps: fps30(),
-                method: CutMethod::StreamCopy,
-            },
-            &ReencodeSettings::default(),
+            &src,
+            &out,
+            w[0],
+            w[1] - w[0],
+            CutMethod::StreamCopy,
         )
         .unwrap();
         assert_eq!(clip.frame_count, w[1] - w[0]);
@@ -150,19 +162,7 @@ fn stream_copy_at_keyframes_is_frame_exact() {
     }
     // The last segment runs to the end of the video.
     let out = dir.path().join("tail.mp4");
-    cut(
-        &ffmpeg,
-        &CutRequest {
-            input: &src,
-            output: &out,
-            start_frame: 199,
-            frame_count: 1,
-            fps: fps30(),
-            method: CutMethod::StreamCopy,
-        },
-        &ReencodeSettings::default(),
-    )
-    .unwrap();
+    cut30(&ffmpeg, &src, &out, 199, 1, CutMethod::StreamCopy).unwrap();
     assert_eq!(decoded_indices(&ffmpeg, &out), vec![199]);
 }
 
@@ -175,21 +175,9 @@ fn stream_copy_off_a_keyframe_is_rejected_and_leaves_nothing() {
     let src = dir.path().join("src.mp4");
     coded_video(&ffmpeg, &src, 120, &[60]);
     let out = dir.path().join("clip.mp4");
-    let err = cut(
-        &ffmpeg,
-        &CutRequest {
-            input: &src,
-            output: &out,
-            start_frame: 30,
-            frame_count: 20,
-            fps: fps30(),
-            method: CutMethod::StreamCopy,
-        },
-        &ReencodeSettings::default(),
-    )
-    .unwrap_err();
+    let err = cut30(&ffmpeg, &src, &out, 30, 20, CutMethod::StreamCopy).unwrap_err();
     assert!(
-        matches!(err, autoact::video::VideoError::FrameCountMismatch { .. }),
+        matches!(err, VideoError::FrameCountMismatch { .. }),
         "{err}"
     );
     assert_eq!(
@@ -210,19 +198,7 @@ fn reencode_anywhere_is_frame_exact() {
     coded_video(&ffmpeg, &src, 240, &[]);
     for (start, count) in [(0, 10), (1, 1), (17, 33), (100, 77), (239, 1)] {
         let out = dir.path().join(format!("re_{start}.mp4"));
-        cut(
-            &ffmpeg,
-            &CutRequest {
-                input: &src,
-                output: &out,
-                start_frame: start,
-                frame_count: count,
-                fps: fps30(),
-                method: CutMethod::Reencode,
-            },
-            &ReencodeSettings::default(),
-        )
-        .unwrap();
+        cut30(&ffmpeg, &src, &out, start, count, CutMethod::Reencode).unwrap();
         assert_eq!(
             decoded_indices(&ffmpeg, &out),
             (start..start + count).collect::<Vec<_>>(),
@@ -240,19 +216,7 @@ fn a_cut_past_the_end_is_an_error_naming_the_clip() {
     let src = dir.path().join("src.mp4");
     coded_video(&ffmpeg, &src, 60, &[]);
     let out = dir.path().join("late.mp4");
-    let err = cut(
-        &ffmpeg,
-        &CutRequest {
-            input: &src,
-            output: &out,
-            start_frame: 50,
-            frame_count: 30,
-            fps: fps30(),
-            method: CutMethod::Reencode,
-        },
-        &ReencodeSettings::default(),
-    )
-    .unwrap_err();
+    let err = cut30(&ffmpeg, &src, &out, 50, 30, CutMethod::Reencode).unwrap_err();
     assert!(err.to_string().contains("late.mp4"), "{err}");
     assert!(!out.exists());
 }
@@ -266,19 +230,7 @@ fn a_corrupt_video_is_an_error_with_ffmpegs_words() {
     let src = dir.path().join("broken.mp4");
     std::fs::write(&src, b"not a video at all").unwrap();
     let out = dir.path().join("clip.mp4");
-    let err = cut(
-        &ffmpeg,
-        &CutRequest {
-            input: &src,
-            output: &out,
-            start_frame: 0,
-            frame_count: 3,
-            fps: fps30(),
-            method: CutMethod::StreamCopy,
-        },
-        &ReencodeSettings::default(),
-    )
-    .unwrap_err();
+    let err = cut30(&ffmpeg, &src, &out, 0, 3, CutMethod::StreamCopy).unwrap_err();
     let text = err.to_string();
     assert!(
         text.contains("clip.mp4") && text.contains("broken.mp4"),
@@ -299,10 +251,6 @@ use std::path::PathBuf;
 use autoact::render::timeline::Capture;
 use autoact::rig::Rig;
 use common::{autoact, stderr, stdout};
-
-fn repo(path: &str) -> String {
-    format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
-}
 
 /// A one-session capture bag with two classes; the wave class is labelled `wave_label`.
 fn capture_bag(dir: &Path, wave_label: &str) -> PathBuf {
@@ -329,28 +277,10 @@ category = "locomotion"
 action = "walk"
 sources = ["{walk}"]
 "#,
-        wave = repo("bags/bandai_wave.pose.mcap"),
-        walk = repo("bags/bandai_walk.pose.mcap"),
+        wave = common::repo("bags/bandai_wave.pose.mcap"),
+        walk = common::repo("bags/bandai_walk.pose.mcap"),
     );
-    let spec_path = dir.join("spec.toml");
-    std::fs::write(&spec_path, spec).unwrap();
-    let out = dir.join("capture");
-    let o = autoact(&[
-        "-q",
-        "convert",
-        "--spec",
-        spec_path.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let bags: Vec<PathBuf> = std::fs::read_dir(&out)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "mcap"))
-        .collect();
-    assert_eq!(bags.len(), 1, "{bags:?}");
-    bags[0].clone()
+    common::capture_bag_from_spec(dir, &spec)
 }
 
 /// The capture's frame index for every segment: (segment id, start frame, end frame).
@@ -385,6 +315,17 @@ fn setup(wave_label: &str) -> Setup {
     let bag = capture_bag(dir.path(), wave_label);
     let capture = Capture::read(&Rig::standard(), &bag).unwrap();
     Setup { dir, bag, capture }
+}
+
+impl Setup {
+    /// `capture.mp4` beside the bag: one index-coded frame per timeline frame, keyframes on
+    /// every boundary (what `autoact render` makes).
+    fn coded_capture_video(&self, ffmpeg: &Ffmpeg) -> PathBuf {
+        let video = self.dir.path().join("capture.mp4");
+        let frames = self.capture.frames.len() as u64;
+        coded_video(ffmpeg, &video, frames, &self.capture.boundary_frames());
+        video
+    }
 }
 
 fn run_trim(bag: &Path, video: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
@@ -437,9 +378,7 @@ fn trim_cuts_every_segment_frame_exact_by_stream_copy() {
         return;
     };
     let s = setup("wave");
-    let video = s.dir.path().join("capture.mp4");
-    let n = s.capture.frames.len() as u64;
-    coded_video(&ffmpeg, &video, n, &s.capture.boundary_frames());
+    let video = s.coded_capture_video(&ffmpeg);
     let out = s.dir.path().join("ds");
     // Split by variant: three variants per class, so all three splits get clips and a variant
     // seen in two splits would show.
@@ -590,13 +529,7 @@ fn trim_resumes_without_duplicates_and_relists_only_complete_clips() {
         return;
     };
     let s = setup("wave");
-    let video = s.dir.path().join("capture.mp4");
-    coded_video(
-        &ffmpeg,
-        &video,
-        s.capture.frames.len() as u64,
-        &s.capture.boundary_frames(),
-    );
+    let video = s.coded_capture_video(&ffmpeg);
     let out = s.dir.path().join("ds");
     assert!(
         run_trim(&s.bag, &video, &out, &["--video-start", "0"])
@@ -651,13 +584,7 @@ fn trim_same_seed_gives_identical_lists_in_another_folder() {
         return;
     };
     let s = setup("wave");
-    let video = s.dir.path().join("capture.mp4");
-    coded_video(
-        &ffmpeg,
-        &video,
-        s.capture.frames.len() as u64,
-        &s.capture.boundary_frames(),
-    );
+    let video = s.coded_capture_video(&ffmpeg);
     let read = |d: &Path| {
         [
             "classes.txt",
@@ -698,13 +625,7 @@ fn trim_sanitises_label_paths_and_keeps_the_label_in_the_csv() {
     // covers `../`.
     let label = "air drumming ñandú";
     let s = setup(label);
-    let video = s.dir.path().join("capture.mp4");
-    coded_video(
-        &ffmpeg,
-        &video,
-        s.capture.frames.len() as u64,
-        &s.capture.boundary_frames(),
-    );
+    let video = s.coded_capture_video(&ffmpeg);
     let out = s.dir.path().join("ds");
     let o = run_trim(&s.bag, &video, &out, &["--video-start", "0"]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -764,13 +685,7 @@ fn trim_on_a_full_disk_fails_and_no_list_names_an_incomplete_clip() {
         return;
     };
     let s = setup("wave");
-    let video = s.dir.path().join("capture.mp4");
-    coded_video(
-        &ffmpeg,
-        &video,
-        s.capture.frames.len() as u64,
-        &s.capture.boundary_frames(),
-    );
+    let video = s.coded_capture_video(&ffmpeg);
     // How much a full run writes.
     let full = s.dir.path().join("full");
     assert!(

@@ -19,16 +19,9 @@ use autoact::video::{
     self, EncodeSettings, Ffmpeg, Rational, VideoEncoder, VideoError, annexb_access_units, probe,
 };
 
-/// The real ffmpeg, or `None` after a loud skip message.
-fn ffmpeg_or_skip(test: &str) -> Option<Ffmpeg> {
-    match Ffmpeg::locate() {
-        Ok(found) => Some(found),
-        Err(e) => {
-            eprintln!("SKIPPED {test}: no ffmpeg on this machine ({e})");
-            None
-        }
-    }
-}
+mod common;
+
+use common::ffmpeg_or_skip;
 
 /// Bits of the frame index painted as a 4×4 grid of black/white blocks (bit 0 top-left), over a
 /// colour that changes with the index so consecutive frames differ everywhere.
@@ -406,11 +399,7 @@ fn ffmpeg_failing_mid_stream_reports_its_stderr_tail_and_leaves_no_file() {
         "only the last 20 lines: {stderr_tail}"
     );
     assert!(err.to_string().contains("fake ffmpeg line 24"));
-    assert!(
-        dir_entries(dir.path()).is_empty(),
-        "{:?}",
-        dir_entries(dir.path())
-    );
+    assert_eq!(dir_entries(dir.path()), Vec::<String>::new());
 }
 
 #[cfg(unix)]
@@ -449,11 +438,7 @@ fn ffmpeg_killed_mid_stream_is_an_error_and_leaves_no_file() {
         panic!("expected Exited, got {err:?}");
     };
     assert!(!status.success());
-    assert!(
-        dir_entries(dir.path()).is_empty(),
-        "{:?}",
-        dir_entries(dir.path())
-    );
+    assert_eq!(dir_entries(dir.path()), Vec::<String>::new());
 }
 
 #[cfg(unix)]
@@ -497,11 +482,7 @@ fn ffmpeg_exiting_0_with_a_wrong_file_is_caught_and_leaves_no_file() {
         ),
         "{err:?}"
     );
-    assert!(
-        dir_entries(dir.path()).is_empty(),
-        "{:?}",
-        dir_entries(dir.path())
-    );
+    assert_eq!(dir_entries(dir.path()), Vec::<String>::new());
 
     let with_key = settings.clone().with_keyframes([3]);
     let mut encoder = VideoEncoder::start(&ffmpeg, &output, &with_key).unwrap();
@@ -513,11 +494,7 @@ fn ffmpeg_exiting_0_with_a_wrong_file_is_caught_and_leaves_no_file() {
         matches!(err, VideoError::KeyframeMissing { frame: 3, .. }),
         "{err:?}"
     );
-    assert!(
-        dir_entries(dir.path()).is_empty(),
-        "{:?}",
-        dir_entries(dir.path())
-    );
+    assert_eq!(dir_entries(dir.path()), Vec::<String>::new());
 }
 
 #[cfg(unix)]
@@ -595,11 +572,7 @@ fn dropped_or_aborted_encoders_leave_no_file_and_keep_an_old_output() {
         encoder.write_frame(&index_frame(320, 240, k)).unwrap();
     }
     drop(encoder);
-    assert!(
-        dir_entries(dir.path()).is_empty(),
-        "{:?}",
-        dir_entries(dir.path())
-    );
+    assert_eq!(dir_entries(dir.path()), Vec::<String>::new());
 
     std::fs::write(&output, b"old").unwrap();
     let mut encoder = VideoEncoder::start(&ffmpeg, &output, &settings).unwrap();
@@ -640,12 +613,12 @@ fn bad_input_is_reported_and_stops_the_encoder() {
     );
     assert!(err.to_string().contains("out.mp4"), "{err}");
     assert!(matches!(encoder.finish(), Err(VideoError::Stopped { .. })));
-    assert!(dir_entries(dir.path()).is_empty());
+    assert_eq!(dir_entries(dir.path()), Vec::<String>::new());
 
     // No frames at all.
     let encoder = VideoEncoder::start(&ffmpeg, &output, &settings).unwrap();
     assert!(encoder.finish().is_err());
-    assert!(dir_entries(dir.path()).is_empty());
+    assert_eq!(dir_entries(dir.path()), Vec::<String>::new());
 
     // A missing directory, odd sizes, unknown containers and presets are refused up front.
     let err =
@@ -664,7 +637,7 @@ fn bad_input_is_reported_and_stops_the_encoder() {
     };
     let err = VideoEncoder::start(&ffmpeg, &output, &slow).unwrap_err();
     assert!(err.to_string().contains("superfast"), "{err}");
-    assert!(dir_entries(dir.path()).is_empty());
+    assert_eq!(dir_entries(dir.path()), Vec::<String>::new());
 }
 
 #[test]
@@ -766,7 +739,7 @@ fn full_disk_is_an_error_and_leaves_no_file() {
         };
         eprintln!("disk full reported as: {err}");
         assert!(err.to_string().contains("No space left on device"), "{err}");
-        assert!(dir_entries(&dir).is_empty(), "{:?}", dir_entries(&dir));
+        assert_eq!(dir_entries(&dir), Vec::<String>::new());
         return;
     }
     if ffmpeg_or_skip("full_disk_is_an_error…").is_none() {

@@ -1,8 +1,13 @@
 //! Helpers shared by the integration tests that run the `autoact` binary.
 
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 /// Runs `autoact` with `args`.
+#[allow(
+    dead_code,
+    reason = "the library-only test binaries do not run the binary"
+)]
 pub fn autoact(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_autoact"))
         .args(args)
@@ -17,6 +22,10 @@ pub fn stdout(o: &Output) -> String {
 }
 
 /// A run's stderr as text.
+#[allow(
+    dead_code,
+    reason = "the library-only test binaries do not run the binary"
+)]
 pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
@@ -32,4 +41,35 @@ pub fn ffmpeg_or_skip(test: &str) -> Option<autoact::video::Ffmpeg> {
             None
         }
     }
+}
+
+/// A file of the repository, as an absolute path (for specs that name the sample bags).
+#[allow(dead_code, reason = "only the tests that write specs use it")]
+pub fn repo(path: &str) -> String {
+    format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Writes `spec` (a dataset spec of one session) into `dir`, runs `autoact convert --spec` on it
+/// into `dir/capture`, and returns the one capture bag it made.
+#[allow(dead_code, reason = "only the tests that need a capture bag use it")]
+pub fn capture_bag_from_spec(dir: &Path, spec: &str) -> PathBuf {
+    let spec_path = dir.join("spec.toml");
+    std::fs::write(&spec_path, spec).expect("write the spec");
+    let out = dir.join("capture");
+    let o = autoact(&[
+        "-q",
+        "convert",
+        "--spec",
+        spec_path.to_str().expect("UTF-8 path"),
+        "-o",
+        out.to_str().expect("UTF-8 path"),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bags: Vec<PathBuf> = std::fs::read_dir(&out)
+        .expect("the capture folder")
+        .map(|e| e.expect("a folder entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "mcap"))
+        .collect();
+    assert_eq!(bags.len(), 1, "{bags:?}");
+    bags.into_iter().next().expect("one bag")
 }
