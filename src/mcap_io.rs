@@ -96,8 +96,9 @@ pub struct BagWriter<W: Write + Seek> {
     sequences: BTreeMap<u16, u32>,
     stats: BagStats,
     journal: Option<Journal>,
-    /// Reused encoding buffer.
-    payload: Vec<u8>,
+    /// Per channel id, the last message encoded for it: its buffer, and the bytes
+    /// [`ros::cdr::encode_over`] writes the next message over.
+    payloads: Vec<Vec<u8>>,
 }
 
 /// What a finished bag holds, per topic (for `metadata.yaml` and reports).
@@ -202,7 +203,7 @@ impl<W: Write + Seek> BagWriter<W> {
             sequences: BTreeMap::new(),
             stats: BagStats::default(),
             journal: None,
-            payload: Vec::with_capacity(4096),
+            payloads: Vec::new(),
         })
     }
 
@@ -265,12 +266,14 @@ impl<W: Write + Seek> BagWriter<W> {
     ) -> Result<(), McapIoError> {
         let sequence = self.sequences.entry(channel_id).or_insert(0);
         *sequence += 1;
-        let entry = self
-            .stats
-            .topics
-            .entry(topic.to_string())
-            .or_insert_with(|| (type_name.to_string(), 0));
-        entry.1 += 1;
+        match self.stats.topics.get_mut(topic) {
+            Some(entry) => entry.1 += 1,
+            None => {
+                self.stats
+                    .topics
+                    .insert(topic.to_string(), (type_name.to_string(), 1));
+            }
+        }
         self.stats.time_range = Some(match self.stats.time_range {
             Some((a, b)) => (a.min(log_time_nanos), b.max(log_time_nanos)),
             None => (log_time_nanos, log_time_nanos),
@@ -341,8 +344,12 @@ impl<W: Write + Seek> BagWriter<W> {
         msg: &M,
     ) -> Result<(), McapIoError> {
         let channel_id = self.channel_for(topic, M::TYPE_NAME, ros::definition_of::<M>)?;
-        let mut payload = std::mem::take(&mut self.payload);
-        ros::cdr::encode_into(msg, &mut payload).map_err(|source| McapIoError::Encode {
+        let slot = usize::from(channel_id);
+        if self.payloads.len() <= slot {
+            self.payloads.resize_with(slot + 1, Vec::new);
+        }
+        let mut payload = std::mem::take(&mut self.payloads[slot]);
+        ros::cdr::encode_over(msg, &mut payload).map_err(|source| McapIoError::Encode {
             path: self.path.clone(),
             topic: topic.to_string(),
             type_name: M::TYPE_NAME,
@@ -365,7 +372,7 @@ impl<W: Write + Seek> BagWriter<W> {
             log_time_nanos,
             &payload,
         );
-        self.payload = payload;
+        self.payloads[slot] = payload;
         result
     }
 

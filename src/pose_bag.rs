@@ -165,7 +165,9 @@ pub fn read_pose_topics(
     layout: Option<&crate::layout::Layout>,
 ) -> Result<PoseTopics, PoseBagError> {
     let readers = BagReader::open_all(path)?;
-    let mut tracks: BTreeMap<(String, u64), Collected> = BTreeMap::new();
+    // (topic, track id) → the track; a handful, searched in order, sorted at the end.
+    let mut tracks: Vec<((String, u64), Collected)> = Vec::new();
+    let mut skeleton = Skeleton3D::default();
     let mut skipped = Vec::new();
     let mut issues = Vec::new();
     let mut nan_first = Vec::new();
@@ -209,7 +211,7 @@ pub fn read_pose_topics(
             )));
             continue;
         }
-        let people = match decode_people(&msg, type_name, layout) {
+        let people = match decode_people(&msg, type_name, layout, &mut skeleton) {
             Ok(p) => p,
             Err(DecodeProblem::Skip(reason)) => {
                 skipped.push(skip(reason));
@@ -245,17 +247,30 @@ pub fn read_pose_topics(
                     nan_first.push((msg.channel.topic.clone(), msg.index_on_channel));
                 }
             }
-            let key = (msg.channel.topic.clone(), person.track_id);
-            let entry = tracks.entry(key).or_insert_with(|| Collected {
-                seq: PoseSequence {
-                    source: path_s(),
-                    track_id: person.track_id,
-                    joint_names: person.joint_names.clone(),
-                    frames: Vec::new(),
-                },
-                layout: person.layout.clone(),
-                clocks: Vec::new(),
-            });
+            let topic = msg.channel.topic.as_str();
+            let index = match tracks
+                .iter()
+                .position(|((t, id), _)| *id == person.track_id && t == topic)
+            {
+                Some(k) => k,
+                None => {
+                    tracks.push((
+                        (topic.to_string(), person.track_id),
+                        Collected {
+                            seq: PoseSequence {
+                                source: path_s(),
+                                track_id: person.track_id,
+                                joint_names: person.joint_names.to_vec(),
+                                frames: Vec::new(),
+                            },
+                            layout: person.layout.to_string(),
+                            clocks: Vec::new(),
+                        },
+                    ));
+                    tracks.len() - 1
+                }
+            };
+            let entry = &mut tracks[index].1;
             if entry.seq.joint_names != person.joint_names {
                 skipped.push(skip(format!(
                     "track {}: joint names differ from the track's earlier messages",
@@ -272,6 +287,7 @@ pub fn read_pose_topics(
             });
         }
     }
+    tracks.sort_by(|(a, _), (b, _)| a.cmp(b));
     for ((topic, _), c) in &mut tracks {
         c.settle_stamps(topic, &readers, &mut skipped);
     }
@@ -379,12 +395,14 @@ impl Collected {
     }
 }
 
-struct Person {
+/// One person of one message. Names are borrowed (from the decoded message or the layout): a
+/// track copies them once, when it starts.
+struct Person<'a> {
     /// The message's header stamp, `None` when zero (the publisher may not have stamped).
     header_stamp: Option<u64>,
     track_id: u64,
-    layout: String,
-    joint_names: Vec<String>,
+    layout: &'a str,
+    joint_names: &'a [String],
     frame: PoseFrame,
 }
 
@@ -399,16 +417,20 @@ fn header_stamp(header: &Header) -> Option<u64> {
     header.stamp.to_nanos().filter(|&n| n != 0)
 }
 
-fn decode_people(
+/// Decodes the people of one message. Skeletons are decoded into `skeleton`, reused from one
+/// message to the next so that reading allocates only each frame's own arrays.
+fn decode_people<'a>(
     msg: &BagMessage,
     type_name: &str,
-    layout: Option<&crate::layout::Layout>,
-) -> Result<Vec<Person>, DecodeProblem> {
+    layout: Option<&'a crate::layout::Layout>,
+    skeleton: &'a mut Skeleton3D,
+) -> Result<Vec<Person<'a>>, DecodeProblem> {
     let bad =
         |e: ros::cdr::CdrError| DecodeProblem::Skip(format!("does not decode as {type_name}: {e}"));
     match type_name {
         t if t == Skeleton3D::TYPE_NAME => {
-            let s: Skeleton3D = ros::cdr::decode(&msg.data).map_err(bad)?;
+            ros::cdr::decode_in_place(&msg.data, skeleton).map_err(bad)?;
+            let s: &'a Skeleton3D = skeleton;
             let n = s.joint_names.len();
             if s.positions.len() != n || s.confidence.len() != n {
                 return Err(DecodeProblem::Skip(format!(
@@ -423,11 +445,10 @@ fn decode_people(
             {
                 return Err(DecodeProblem::Skip(e.to_string()));
             }
-            let layout_name = layout.map_or_else(|| s.layout.clone(), |l| l.name.clone());
             Ok(vec![Person {
                 header_stamp: header_stamp(&s.header),
                 track_id: s.track_id,
-                layout: layout_name,
+                layout: layout.map_or(s.layout.as_str(), |l| l.name.as_str()),
                 frame: PoseFrame {
                     stamp_nanos: 0,
                     positions_m: s.positions.iter().map(|p| Point3::from(*p)).collect(),
@@ -443,7 +464,7 @@ fn decode_people(
                         })
                         .collect(),
                 },
-                joint_names: s.joint_names,
+                joint_names: &s.joint_names,
             }])
         }
         t if t == MarkerArray::TYPE_NAME => {
@@ -465,8 +486,8 @@ fn decode_people(
             Ok(vec![Person {
                 header_stamp: header_stamp(&p.header),
                 track_id: 0,
-                layout: layout.name.clone(),
-                joint_names: layout.joints.clone(),
+                layout: &layout.name,
+                joint_names: &layout.joints,
                 frame: PoseFrame {
                     stamp_nanos: 0,
                     positions_m: p
@@ -493,10 +514,10 @@ fn decode_people(
 }
 
 /// Markers → people: one person per namespace, in namespace order; track id = its index.
-fn markers_to_people(
+fn markers_to_people<'a>(
     m: &MarkerArray,
-    layout: &crate::layout::Layout,
-) -> Result<Vec<Person>, DecodeProblem> {
+    layout: &'a crate::layout::Layout,
+) -> Result<Vec<Person<'a>>, DecodeProblem> {
     let n = layout.joints.len();
     let mut by_ns: BTreeMap<&str, Vec<&Marker>> = BTreeMap::new();
     for marker in m.markers.iter().filter(|mk| mk.action == Marker::ADD) {
@@ -544,8 +565,8 @@ fn markers_to_people(
         people.push(Person {
             header_stamp: markers.first().and_then(|mk| header_stamp(&mk.header)),
             track_id,
-            layout: layout.name.clone(),
-            joint_names: layout.joints.clone(),
+            layout: &layout.name,
+            joint_names: &layout.joints,
             frame: PoseFrame {
                 stamp_nanos: 0,
                 positions_m: positions,

@@ -406,6 +406,126 @@ mod tests {
         ));
     }
 
+    fn arb_bone_frame() -> impl proptest::strategy::Strategy<Value = autoact_msgs::BoneFrame> {
+        use proptest::prelude::*;
+        let name = prop::sample::select(vec!["", "hips", "spine_01", "neck"]);
+        let quaternion =
+            (any::<f64>(), -1.0..1.0f64).prop_map(|(x, w)| geometry_msgs::Quaternion {
+                x,
+                y: -x,
+                z: 0.5,
+                w,
+            });
+        (
+            (any::<i32>(), any::<u32>(), name.clone()),
+            (any::<u64>(), any::<u32>()),
+            prop::collection::vec(name.prop_map(String::from), 0..4),
+            prop::collection::vec(quaternion, 0..4),
+            any::<f64>(),
+        )
+            .prop_map(
+                |((sec, nanosec, rig), (track_id, variant), bone_names, rotations, x)| {
+                    autoact_msgs::BoneFrame {
+                        header: std_msgs::Header {
+                            stamp: builtin_interfaces::Time { sec, nanosec },
+                            frame_id: "world".into(),
+                        },
+                        rig: rig.into(),
+                        track_id,
+                        variant,
+                        bone_names,
+                        local_rotations: rotations,
+                        root_translation: geometry_msgs::Vector3 { x, y: 1.0, z: -x },
+                    }
+                },
+            )
+    }
+
+    fn arb_markers() -> impl proptest::strategy::Strategy<Value = visualization_msgs::MarkerArray> {
+        use proptest::prelude::*;
+        let point = (-5.0..5.0f64).prop_map(|x| geometry_msgs::Point {
+            x,
+            y: 2.0 * x,
+            z: 1.0,
+        });
+        let marker = (
+            prop::sample::select(vec!["skeleton", "skeleton/v1"]),
+            any::<i32>(),
+            any::<bool>(),
+            any::<f32>(),
+            prop::collection::vec(point, 0..5),
+            prop::collection::vec(any::<u8>(), 0..3),
+        )
+            .prop_map(|(ns, id, frame_locked, a, points, mesh)| {
+                visualization_msgs::Marker {
+                    ns: ns.into(),
+                    id,
+                    type_: visualization_msgs::Marker::LINE_LIST,
+                    frame_locked,
+                    color: std_msgs::ColorRGBA {
+                        r: 1.0,
+                        g: 0.5,
+                        b: 0.0,
+                        a,
+                    },
+                    points,
+                    mesh_file: visualization_msgs::MeshFile {
+                        filename: String::new(),
+                        data: mesh,
+                    },
+                    ..visualization_msgs::Marker::default()
+                }
+            });
+        prop::collection::vec(marker, 0..3)
+            .prop_map(|markers| visualization_msgs::MarkerArray { markers })
+    }
+
+    proptest::proptest! {
+        /// Law: `encode_over` gives a fresh encoding's bytes, whatever its buffer held before
+        /// (the previous message of the stream, of the same shape or not, or another type).
+        #[test]
+        fn encoding_over_the_previous_message_gives_a_fresh_encoding(
+            frames in proptest::collection::vec(arb_bone_frame(), 1..6),
+            markers in proptest::collection::vec(arb_markers(), 1..6),
+        ) {
+            let mut buf = Vec::new();
+            for f in &frames {
+                cdr::encode_over(f, &mut buf).unwrap();
+                proptest::prop_assert_eq!(&buf, &cdr::encode(f).unwrap());
+            }
+            // Same shape, new numbers: the fast path.
+            let mut moved = frames[0].clone();
+            cdr::encode_over(&moved, &mut buf).unwrap();
+            moved.header.stamp.sec = moved.header.stamp.sec.wrapping_add(1);
+            moved.root_translation.x = 0.25;
+            cdr::encode_over(&moved, &mut buf).unwrap();
+            proptest::prop_assert_eq!(&buf, &cdr::encode(&moved).unwrap());
+            // The buffer of a bone frame, then markers (another type) over it.
+            for m in &markers {
+                cdr::encode_over(m, &mut buf).unwrap();
+                proptest::prop_assert_eq!(&buf, &cdr::encode(m).unwrap());
+            }
+        }
+
+        /// Law: decoding into a value that held another message gives what `decode` gives.
+        #[test]
+        fn decoding_in_place_gives_what_decoding_gives(
+            frames in proptest::collection::vec(arb_bone_frame(), 1..6),
+        ) {
+            let mut place = autoact_msgs::BoneFrame::default();
+            for f in &frames {
+                let bytes = cdr::encode(f).unwrap();
+                cdr::decode_in_place(&bytes, &mut place).unwrap();
+                let fresh: autoact_msgs::BoneFrame = cdr::decode(&bytes).unwrap();
+                // Compared as bytes: NaN is not equal to itself.
+                proptest::prop_assert_eq!(cdr::encode(&place).unwrap(), cdr::encode(&fresh).unwrap());
+                // A cut message (its last float short) is an error, not a partial success.
+                proptest::prop_assert!(cdr::decode_in_place(&bytes[..bytes.len() - 1], &mut place).is_err());
+                cdr::decode_in_place(&bytes, &mut place).unwrap();
+            }
+        }
+    }
+
     #[test]
     fn check_decodes_knows_the_message_types_and_rejects_damage() {
         let ok = cdr::encode(&sensor_msgs::CameraInfo::default()).unwrap();
