@@ -1,7 +1,9 @@
 //! CDR, the ROS 2 wire format, in one place: a 4-byte encapsulation header (`00 01 00 00`,
 //! little-endian plain CDR) followed by the serde encoding from `cdr-encoding` (the crate RustDDS
 //! and ros2-client use). Alignment counts from the first byte after the header, so the header is
-//! written before the serializer runs, never through it.
+//! written before the serializer runs, never through it. [`encode_over`] adds a fast path for
+//! streams of messages of one shape, which writes the numbers of a message over the previous
+//! one's bytes; it gives `cdr-encoding`'s bytes exactly, and falls back to it for anything else.
 
 use serde::{Deserialize, Serialize, de::DeserializeOwned};
 
