@@ -188,6 +188,15 @@ impl Overwriter<'_> {
     }
 }
 
+/// A number: little-endian, aligned to its size.
+macro_rules! overwrite_numbers {
+    ($($method:ident : $t:ty),*) => {$(
+        fn $method(self, v: $t) -> Result<(), ShapeChanged> {
+            self.put(v.to_le_bytes())
+        }
+    )*};
+}
+
 impl serde::Serializer for &mut Overwriter<'_> {
     type Ok = ();
     type Error = ShapeChanged;
@@ -202,36 +211,18 @@ impl serde::Serializer for &mut Overwriter<'_> {
     fn serialize_bool(self, v: bool) -> Result<(), ShapeChanged> {
         self.put([u8::from(v)])
     }
-    fn serialize_i8(self, v: i8) -> Result<(), ShapeChanged> {
-        self.put(v.to_le_bytes())
-    }
-    fn serialize_i16(self, v: i16) -> Result<(), ShapeChanged> {
-        self.put(v.to_le_bytes())
-    }
-    fn serialize_i32(self, v: i32) -> Result<(), ShapeChanged> {
-        self.put(v.to_le_bytes())
-    }
-    fn serialize_i64(self, v: i64) -> Result<(), ShapeChanged> {
-        self.put(v.to_le_bytes())
-    }
-    fn serialize_u8(self, v: u8) -> Result<(), ShapeChanged> {
-        self.put([v])
-    }
-    fn serialize_u16(self, v: u16) -> Result<(), ShapeChanged> {
-        self.put(v.to_le_bytes())
-    }
-    fn serialize_u32(self, v: u32) -> Result<(), ShapeChanged> {
-        self.put(v.to_le_bytes())
-    }
-    fn serialize_u64(self, v: u64) -> Result<(), ShapeChanged> {
-        self.put(v.to_le_bytes())
-    }
-    fn serialize_f32(self, v: f32) -> Result<(), ShapeChanged> {
-        self.put(v.to_le_bytes())
-    }
-    fn serialize_f64(self, v: f64) -> Result<(), ShapeChanged> {
-        self.put(v.to_le_bytes())
-    }
+    overwrite_numbers!(
+        serialize_i8: i8,
+        serialize_i16: i16,
+        serialize_i32: i32,
+        serialize_i64: i64,
+        serialize_u8: u8,
+        serialize_u16: u16,
+        serialize_u32: u32,
+        serialize_u64: u64,
+        serialize_f32: f32,
+        serialize_f64: f64
+    );
     fn serialize_char(self, _: char) -> Result<(), ShapeChanged> {
         Err(ShapeChanged)
     }
@@ -318,38 +309,27 @@ impl serde::Serializer for &mut Overwriter<'_> {
     }
 }
 
-impl serde::ser::SerializeSeq for &mut Overwriter<'_> {
-    type Ok = ();
-    type Error = ShapeChanged;
-    fn serialize_element<T: ?Sized + Serialize>(&mut self, value: &T) -> Result<(), ShapeChanged> {
-        value.serialize(&mut **self)
-    }
-    fn end(self) -> Result<(), ShapeChanged> {
-        Ok(())
-    }
+/// Sequences, fixed arrays and tuple structs: their elements, one after the other.
+macro_rules! overwrite_elements {
+    ($($trait:ident :: $method:ident),*) => {$(
+        impl serde::ser::$trait for &mut Overwriter<'_> {
+            type Ok = ();
+            type Error = ShapeChanged;
+            fn $method<T: ?Sized + Serialize>(&mut self, value: &T) -> Result<(), ShapeChanged> {
+                value.serialize(&mut **self)
+            }
+            fn end(self) -> Result<(), ShapeChanged> {
+                Ok(())
+            }
+        }
+    )*};
 }
 
-impl serde::ser::SerializeTuple for &mut Overwriter<'_> {
-    type Ok = ();
-    type Error = ShapeChanged;
-    fn serialize_element<T: ?Sized + Serialize>(&mut self, value: &T) -> Result<(), ShapeChanged> {
-        value.serialize(&mut **self)
-    }
-    fn end(self) -> Result<(), ShapeChanged> {
-        Ok(())
-    }
-}
-
-impl serde::ser::SerializeTupleStruct for &mut Overwriter<'_> {
-    type Ok = ();
-    type Error = ShapeChanged;
-    fn serialize_field<T: ?Sized + Serialize>(&mut self, value: &T) -> Result<(), ShapeChanged> {
-        value.serialize(&mut **self)
-    }
-    fn end(self) -> Result<(), ShapeChanged> {
-        Ok(())
-    }
-}
+overwrite_elements!(
+    SerializeSeq::serialize_element,
+    SerializeTuple::serialize_element,
+    SerializeTupleStruct::serialize_field
+);
 
 impl serde::ser::SerializeStruct for &mut Overwriter<'_> {
     type Ok = ();
