@@ -96,14 +96,19 @@ fn split_header(payload: &[u8]) -> Result<(&[u8], &[u8]), CdrError> {
     }
 }
 
-/// Encodes `msg` into `out`, which holds the previous message encoded into it (or nothing): a
-/// writer that sends message after message of one shape (a stream whose strings and array
+/// Encodes `msg` into `out`, which holds nothing or the previous message of type `M` encoded into
+/// it: a writer that sends message after message of one shape (a stream whose strings and array
 /// lengths stay the same from one message to the next, such as a skeleton's bone names) keeps
 /// one buffer per stream and pays only for its numbers. The numbers are written over the
 /// previous encoding; when a string or an array length differs, or the message has a part this
 /// fast path does not take (options, maps, enums), it encodes afresh with [`encode_into`]. The
-/// bytes are the same either way, whatever `out` held (every byte of the result is written or
-/// checked, padding included), and debug builds check every message against a fresh encoding.
+/// bytes are the same either way: every number is written and every string and length checked,
+/// and the padding, which sits where the previous encoding of the same shape had its (zero)
+/// padding, is left as it is. Debug builds check every message against a fresh encoding.
+///
+/// `out` must not hold another type's encoding: its padding could then survive a shape that
+/// happens to match. [`crate::mcap_io::BagWriter`] keeps one buffer per topic, and a topic keeps
+/// its type.
 ///
 /// # Errors
 /// As [`encode`].
@@ -154,27 +159,18 @@ struct Overwriter<'b> {
 }
 
 impl Overwriter<'_> {
-    /// Zero padding up to the next multiple of `align`; the position after it.
-    fn pad(&mut self, align: usize) -> Result<usize, ShapeChanged> {
-        let start = self.pos.next_multiple_of(align);
-        self.body
-            .get_mut(self.pos..start)
-            .ok_or(ShapeChanged)?
-            .fill(0);
-        Ok(start)
-    }
-
+    /// Writes `bytes` aligned to their size (the padding before them is left as it is).
     fn put<const N: usize>(&mut self, bytes: [u8; N]) -> Result<(), ShapeChanged> {
-        let start = self.pad(N)?;
+        let start = self.pos.next_multiple_of(N);
         let slot = self.body.get_mut(start..start + N).ok_or(ShapeChanged)?;
         slot.copy_from_slice(&bytes);
         self.pos = start + N;
         Ok(())
     }
 
-    /// Checks that the body holds `bytes` at the current position (after padding to `align`).
+    /// Checks that the body holds `bytes` at the current position (after aligning to `align`).
     fn expect(&mut self, align: usize, bytes: &[u8]) -> Result<(), ShapeChanged> {
-        let start = self.pad(align)?;
+        let start = self.pos.next_multiple_of(align);
         if self.body.get(start..start + bytes.len()) != Some(bytes) {
             return Err(ShapeChanged);
         }
