@@ -85,6 +85,20 @@ pub enum McapIoError {
     /// The file does not start with the MCAP magic.
     #[error("{0} is not an MCAP file (it does not start with the MCAP magic bytes)")]
     NotMcap(PathBuf),
+    /// A message of one type on a topic that already carries another.
+    #[error(
+        "cannot write a {type_name} on {topic} in {path}: the topic already carries {existing}"
+    )]
+    TopicType {
+        /// The file.
+        path: PathBuf,
+        /// The topic.
+        topic: String,
+        /// The type of the message refused.
+        type_name: String,
+        /// The type the topic was created with.
+        existing: String,
+    },
 }
 
 /// Writes ROS 2 messages to an MCAP file.
@@ -92,13 +106,26 @@ pub struct BagWriter<W: Write + Seek> {
     path: PathBuf,
     writer: mcap::Writer<W>,
     schemas: BTreeMap<String, u16>,
-    channels: BTreeMap<String, u16>,
-    sequences: BTreeMap<u16, u32>,
-    stats: BagStats,
+    /// Topic → index in `channels`.
+    topics: BTreeMap<String, usize>,
+    channels: Vec<Channel>,
+    /// Earliest and latest log time written, nanoseconds.
+    time_range: Option<(u64, u64)>,
     journal: Option<Journal>,
-    /// Per channel id, the last message encoded for it: its buffer, and the bytes
-    /// [`ros::cdr::encode_over`] writes the next message over.
-    payloads: Vec<Vec<u8>>,
+}
+
+/// One topic of a [`BagWriter`].
+#[derive(Debug)]
+struct Channel {
+    /// The MCAP channel id.
+    id: u16,
+    topic: String,
+    type_name: String,
+    /// Messages written (the last one's MCAP sequence number, which wraps).
+    messages: u64,
+    /// The last message encoded for it: the bytes [`ros::cdr::encode_over`] writes the next
+    /// message over.
+    payload: Vec<u8>,
 }
 
 /// What a finished bag holds, per topic (for `metadata.yaml` and reports).
@@ -131,7 +158,7 @@ impl std::fmt::Debug for BagWriter<BufWriter<File>> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("BagWriter")
             .field("path", &self.path)
-            .field("channels", &self.channels)
+            .field("topics", &self.topics)
             .finish_non_exhaustive()
     }
 }
@@ -199,11 +226,10 @@ impl<W: Write + Seek> BagWriter<W> {
             path: path.to_path_buf(),
             writer,
             schemas: BTreeMap::new(),
-            channels: BTreeMap::new(),
-            sequences: BTreeMap::new(),
-            stats: BagStats::default(),
+            topics: BTreeMap::new(),
+            channels: Vec::new(),
+            time_range: None,
             journal: None,
-            payloads: Vec::new(),
         })
     }
 
@@ -212,16 +238,28 @@ impl<W: Write + Seek> BagWriter<W> {
         self.journal = Some(Journal::default());
     }
 
-    /// The channel of `topic` (created with `type_name`'s schema on first use; `definition`
-    /// gives the schema text then).
+    /// The channel of `topic` (an index into `channels`), created with `type_name`'s schema on
+    /// first use (`definition` gives the schema text then).
+    ///
+    /// # Errors
+    /// [`McapIoError::TopicType`] if the topic carries another type.
     fn channel_for(
         &mut self,
         topic: &str,
         type_name: &str,
         definition: impl FnOnce() -> String,
-    ) -> Result<u16, McapIoError> {
-        if let Some(&id) = self.channels.get(topic) {
-            return Ok(id);
+    ) -> Result<usize, McapIoError> {
+        if let Some(&k) = self.topics.get(topic) {
+            let existing = &self.channels[k].type_name;
+            if existing != type_name {
+                return Err(McapIoError::TopicType {
+                    path: self.path.clone(),
+                    topic: topic.to_string(),
+                    type_name: type_name.to_string(),
+                    existing: existing.clone(),
+                });
+            }
+            return Ok(k);
         }
         let schema_id = match self.schemas.get(type_name) {
             Some(&id) => id,
@@ -250,37 +288,35 @@ impl<W: Write + Seek> BagWriter<W> {
                 path: self.path.clone(),
                 source,
             })?;
-        self.channels.insert(topic.to_string(), id);
-        Ok(id)
+        self.topics.insert(topic.to_string(), self.channels.len());
+        self.channels.push(Channel {
+            id,
+            topic: topic.to_string(),
+            type_name: type_name.to_string(),
+            messages: 0,
+            payload: Vec::new(),
+        });
+        Ok(self.channels.len() - 1)
     }
 
-    /// Appends one encoded message (CDR with its encapsulation header) to its channel.
+    /// Appends one encoded message (CDR with its encapsulation header) to channel `k`.
     fn append(
         &mut self,
-        channel_id: u16,
-        topic: &str,
-        type_name: &str,
+        k: usize,
         log_time_nanos: u64,
         publish_time_nanos: u64,
         payload: &[u8],
     ) -> Result<(), McapIoError> {
-        let sequence = self.sequences.entry(channel_id).or_insert(0);
-        *sequence += 1;
-        match self.stats.topics.get_mut(topic) {
-            Some(entry) => entry.1 += 1,
-            None => {
-                self.stats
-                    .topics
-                    .insert(topic.to_string(), (type_name.to_string(), 1));
-            }
-        }
-        self.stats.time_range = Some(match self.stats.time_range {
+        let channel = &mut self.channels[k];
+        channel.messages += 1;
+        self.time_range = Some(match self.time_range {
             Some((a, b)) => (a.min(log_time_nanos), b.max(log_time_nanos)),
             None => (log_time_nanos, log_time_nanos),
         });
         let header = mcap::records::MessageHeader {
-            channel_id,
-            sequence: *sequence,
+            channel_id: channel.id,
+            // MCAP sequence numbers are 32 bits and may wrap.
+            sequence: (channel.messages % (1 << 32)) as u32,
             log_time: log_time_nanos,
             publish_time: publish_time_nanos,
         };
@@ -308,15 +344,8 @@ impl<W: Write + Seek> BagWriter<W> {
         publish_time_nanos: u64,
         cdr: &[u8],
     ) -> Result<(), McapIoError> {
-        let channel_id = self.channel_for(topic, type_name, definition)?;
-        self.append(
-            channel_id,
-            topic,
-            type_name,
-            log_time_nanos,
-            publish_time_nanos,
-            cdr,
-        )
+        let k = self.channel_for(topic, type_name, definition)?;
+        self.append(k, log_time_nanos, publish_time_nanos, cdr)
     }
 
     /// Ends the current chunk and hands everything written so far to the operating system, so
@@ -343,12 +372,8 @@ impl<W: Write + Seek> BagWriter<W> {
         log_time_nanos: u64,
         msg: &M,
     ) -> Result<(), McapIoError> {
-        let channel_id = self.channel_for(topic, M::TYPE_NAME, ros::definition_of::<M>)?;
-        let slot = usize::from(channel_id);
-        if self.payloads.len() <= slot {
-            self.payloads.resize_with(slot + 1, Vec::new);
-        }
-        let mut payload = std::mem::take(&mut self.payloads[slot]);
+        let k = self.channel_for(topic, M::TYPE_NAME, ros::definition_of::<M>)?;
+        let mut payload = std::mem::take(&mut self.channels[k].payload);
         ros::cdr::encode_over(msg, &mut payload).map_err(|source| McapIoError::Encode {
             path: self.path.clone(),
             topic: topic.to_string(),
@@ -364,15 +389,8 @@ impl<W: Write + Seek> BagWriter<W> {
                 "message": serde_json::to_value(msg).unwrap_or(serde_json::Value::Null),
             }));
         }
-        let result = self.append(
-            channel_id,
-            topic,
-            M::TYPE_NAME,
-            log_time_nanos,
-            log_time_nanos,
-            &payload,
-        );
-        self.payloads[slot] = payload;
+        let result = self.append(k, log_time_nanos, log_time_nanos, &payload);
+        self.channels[k].payload = payload;
         result
     }
 
@@ -416,7 +434,15 @@ impl<W: Write + Seek> BagWriter<W> {
             path,
             source,
         })?;
-        Ok(std::mem::take(&mut self.stats))
+        Ok(BagStats {
+            topics: self
+                .channels
+                .iter()
+                .filter(|c| c.messages > 0)
+                .map(|c| (c.topic.clone(), (c.type_name.clone(), c.messages)))
+                .collect(),
+            time_range: self.time_range,
+        })
     }
 
     /// Finishes the file and writes the journal (see [`BagWriter::keep_journal`]) to

@@ -110,6 +110,38 @@ fn written_bags_read_back_in_order_with_schemas_and_metadata() {
 }
 
 #[test]
+fn stats_count_each_topic_and_a_topic_keeps_its_type() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("x.mcap");
+    let mut w = BagWriter::create(&path, WriteConfig::default()).unwrap();
+    for i in 0..3 {
+        w.write("/a", 10 + i, &point(i)).unwrap();
+    }
+    w.write("/tf", 5, &TFMessage::default()).unwrap();
+    let e = w.write("/a", 20, &TFMessage::default()).unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        format!(
+            "cannot write a tf2_msgs/msg/TFMessage on /a in {}: the topic already carries geometry_msgs/msg/Point",
+            path.display()
+        )
+    );
+    let stats = w.finish().unwrap();
+    assert_eq!(
+        stats.topics,
+        [
+            ("/a".to_string(), ("geometry_msgs/msg/Point".to_string(), 3)),
+            ("/tf".to_string(), ("tf2_msgs/msg/TFMessage".to_string(), 1)),
+        ]
+        .into()
+    );
+    assert_eq!(stats.time_range, Some((5, 12)));
+    let (msgs, issues) = read_all(&path);
+    assert!(issues.is_empty(), "{issues:?}");
+    assert_eq!(msgs.len(), 4, "the refused message is not in the file");
+}
+
+#[test]
 fn same_input_gives_byte_identical_files() {
     let dir = tempfile::tempdir().unwrap();
     let (a, b) = (dir.path().join("a.mcap"), dir.path().join("b.mcap"));
