@@ -165,8 +165,8 @@ pub fn read_pose_topics(
     layout: Option<&crate::layout::Layout>,
 ) -> Result<PoseTopics, PoseBagError> {
     let readers = BagReader::open_all(path)?;
-    // (topic, track id) → the track; a handful, searched in order, sorted at the end.
-    let mut tracks: Vec<((String, u64), Collected)> = Vec::new();
+    // Topic → track id → the track.
+    let mut tracks: BTreeMap<String, BTreeMap<u64, Collected>> = BTreeMap::new();
     let mut skeleton = Skeleton3D::default();
     let mut skipped = Vec::new();
     let mut issues = Vec::new();
@@ -247,30 +247,20 @@ pub fn read_pose_topics(
                     nan_first.push((msg.channel.topic.clone(), msg.index_on_channel));
                 }
             }
-            let topic = msg.channel.topic.as_str();
-            let index = match tracks
-                .iter()
-                .position(|((t, id), _)| *id == person.track_id && t == topic)
-            {
-                Some(k) => k,
-                None => {
-                    tracks.push((
-                        (topic.to_string(), person.track_id),
-                        Collected {
-                            seq: PoseSequence {
-                                source: path_s(),
-                                track_id: person.track_id,
-                                joint_names: person.joint_names.to_vec(),
-                                frames: Vec::new(),
-                            },
-                            layout: person.layout.to_string(),
-                            clocks: Vec::new(),
-                        },
-                    ));
-                    tracks.len() - 1
-                }
-            };
-            let entry = &mut tracks[index].1;
+            let entry = tracks
+                .entry(msg.channel.topic.clone())
+                .or_default()
+                .entry(person.track_id)
+                .or_insert_with(|| Collected {
+                    seq: PoseSequence {
+                        source: path_s(),
+                        track_id: person.track_id,
+                        joint_names: person.joint_names.to_vec(),
+                        frames: Vec::new(),
+                    },
+                    layout: person.layout.to_string(),
+                    clocks: Vec::new(),
+                });
             if entry.seq.joint_names != person.joint_names {
                 skipped.push(skip(format!(
                     "track {}: joint names differ from the track's earlier messages",
@@ -287,9 +277,10 @@ pub fn read_pose_topics(
             });
         }
     }
-    tracks.sort_by(|(a, _), (b, _)| a.cmp(b));
-    for ((topic, _), c) in &mut tracks {
-        c.settle_stamps(topic, &readers, &mut skipped);
+    for (topic, by_track) in &mut tracks {
+        for c in by_track.values_mut() {
+            c.settle_stamps(topic, &readers, &mut skipped);
+        }
     }
     if tracks.is_empty() && skipped.is_empty() {
         let why = match topic {
@@ -321,9 +312,11 @@ pub fn read_pose_topics(
     }
     let mut sequences = Vec::new();
     let mut layouts = Vec::new();
-    for ((topic, _), c) in tracks {
-        sequences.push((topic, c.seq));
-        layouts.push(c.layout);
+    for (topic, by_track) in tracks {
+        for c in by_track.into_values() {
+            sequences.push((topic.clone(), c.seq));
+            layouts.push(c.layout);
+        }
     }
     Ok(PoseTopics {
         sequences,
