@@ -18,6 +18,17 @@ pub fn temporary_sibling(path: &Path) -> Option<PathBuf> {
     Some(path.with_file_name(part))
 }
 
+/// Puts a complete temporary sibling that something else wrote (ffmpeg, an encoder, a bag
+/// writer) in place: synced to disk, then renamed over `path`. Callers remove `part` if this
+/// fails.
+///
+/// # Errors
+/// The I/O error of the sync or the rename.
+pub fn commit(part: &Path, path: &Path) -> std::io::Result<()> {
+    std::fs::File::open(part)?.sync_all()?;
+    std::fs::rename(part, path)
+}
+
 /// Writes `bytes` to `path` through its [`temporary_sibling`], synced, then renamed over `path`.
 ///
 /// # Errors

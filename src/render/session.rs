@@ -172,8 +172,8 @@ fn samples(capture: &Capture, fps: Option<f64>, limit: Option<usize>) -> Vec<Sam
     };
     let mut out = Vec::new();
     let mut i = 0;
-    for k in 0u64.. {
-        let t = first.stamp_ns + (k as f64 * 1e9 / fps).round() as u64;
+    for k in 0.. {
+        let t = first.stamp_ns + crate::pose::stamp_nanos_at(k, fps);
         if t > last.stamp_ns || out.len() >= max {
             break;
         }
@@ -303,7 +303,7 @@ pub fn render_capture(
         let input = FrameInput {
             camera,
             pose: &posed,
-            time_s: s.stamp_ns.saturating_sub(scene_start) as f64 * 1e-9,
+            time_s: crate::pose::nanos_to_secs(s.stamp_ns.saturating_sub(scene_start)),
         };
         renderer.render(&stages[s.scene], &input, image);
         annotate(&posed, &camera, image)
@@ -617,13 +617,15 @@ fn write_render_bag(
         w.finish()?;
         Ok(())
     })();
-    if let Err(e) = result {
+    let result = result.map_err(RenderError::from).and_then(|()| {
+        crate::atomic_file::commit(&part, path).map_err(|source| RenderError::Io {
+            action: "sync and rename the render bag into",
+            path: path.to_path_buf(),
+            source,
+        })
+    });
+    if result.is_err() {
         let _ = std::fs::remove_file(&part);
-        return Err(e.into());
     }
-    std::fs::rename(&part, path).map_err(|source| RenderError::Io {
-        action: "rename the render bag into",
-        path: path.to_path_buf(),
-        source,
-    })
+    result
 }

@@ -252,10 +252,7 @@ fn run_and_check(
         });
     }
     let io = VideoError::io;
-    std::fs::File::open(part)
-        .and_then(|f| f.sync_all())
-        .map_err(io("sync", part))?;
-    std::fs::rename(part, output).map_err(io("rename into place", output))?;
+    crate::atomic_file::commit(part, output).map_err(io("sync and rename into place", output))?;
     let bytes = std::fs::metadata(output)
         .map_err(io("read the size of", output))?
         .len();

@@ -538,10 +538,8 @@ impl VideoEncoder {
         }
 
         let io = VideoError::io;
-        std::fs::File::open(&self.part)
-            .and_then(|f| f.sync_all())
-            .map_err(io("sync", &self.part))?;
-        std::fs::rename(&self.part, &self.output).map_err(io("rename into place", &self.output))?;
+        crate::atomic_file::commit(&self.part, &self.output)
+            .map_err(io("sync and rename into place", &self.output))?;
         let bytes = std::fs::metadata(&self.output)
             .map_err(io("read the size of", &self.output))?
             .len();

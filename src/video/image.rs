@@ -57,11 +57,8 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgb24: &[u8]) -> Result<(
             detail: "not a file name".into(),
         })?;
     let result = encode_png(&part, width, height, rgb24).and_then(|()| {
-        std::fs::rename(&part, path).map_err(|source| VideoError::Io {
-            action: "rename into place",
-            path: path.to_path_buf(),
-            source,
-        })
+        crate::atomic_file::commit(&part, path)
+            .map_err(VideoError::io("sync and rename into place", path))
     });
     if result.is_err() {
         let _ = std::fs::remove_file(&part);
@@ -96,12 +93,12 @@ fn encode_png(part: &Path, width: u32, height: u32, rgb24: &[u8]) -> Result<(), 
     let mut writer = encoder.write_header().map_err(png_error)?;
     writer.write_image_data(rgb24).map_err(png_error)?;
     writer.finish().map_err(png_error)?;
-    let file = out.into_inner().map_err(|e| VideoError::Io {
+    out.into_inner().map_err(|e| VideoError::Io {
         action: "write",
         path: part.to_path_buf(),
         source: e.into_error(),
     })?;
-    file.sync_all().map_err(io("sync"))
+    Ok(())
 }
 
 /// Reads a PNG as `(width, height, rgb24)`: 16-bit channels are reduced to 8, palettes and grey
