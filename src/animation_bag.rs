@@ -122,7 +122,7 @@ impl std::fmt::Display for AnimationKey {
 }
 
 /// What [`list_animations`] finds of one animation.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct AnimationListing {
     /// Which animation.
     pub key: AnimationKey,
@@ -134,6 +134,9 @@ pub struct AnimationListing {
     pub first_stamp_nanos: u64,
     /// Stamp of the last frame, nanoseconds.
     pub last_stamp_nanos: u64,
+    /// The rate its stamps show, as export measures it ([`crate::pose::frame_rate`]: one over
+    /// the median step); `None` below two frames.
+    pub frame_rate_hz: Option<f64>,
 }
 
 /// Every animation (person × variant) of an animation bag's `/animation` frames, ordered by
@@ -142,35 +145,43 @@ pub struct AnimationListing {
 #[must_use]
 pub fn list_animations(readers: &[crate::mcap_io::BagReader]) -> Vec<AnimationListing> {
     use crate::ros::{RosMessage, cdr};
-    let mut found: std::collections::BTreeMap<AnimationKey, AnimationListing> =
+    // Per animation: its rig, and its stamps as the reader keeps them (increasing only).
+    let mut found: std::collections::BTreeMap<AnimationKey, (String, Vec<u64>)> =
         std::collections::BTreeMap::new();
+    let mut f = BoneFrame::default();
     for m in readers
         .iter()
         .flat_map(|r| r.messages().filter_map(Result::ok))
         .filter(|m| m.channel.schema_name() == BoneFrame::TYPE_NAME)
     {
-        let Ok(f) = cdr::decode::<BoneFrame>(&m.data) else {
+        if cdr::decode_in_place(&m.data, &mut f).is_err() {
             continue;
-        };
+        }
         let key = AnimationKey {
             track_id: f.track_id,
             variant: f.variant,
         };
         let stamp = frame_stamp(&f, m.log_time);
-        let entry = found.entry(key).or_insert_with(|| AnimationListing {
-            key,
-            rig: f.rig.clone(),
-            frames: 0,
-            first_stamp_nanos: stamp,
-            last_stamp_nanos: stamp,
-        });
-        if entry.frames > 0 && stamp <= entry.last_stamp_nanos {
-            continue;
+        let (_, stamps) = found
+            .entry(key)
+            .or_insert_with(|| (f.rig.clone(), Vec::new()));
+        if stamps.last().is_none_or(|&last| stamp > last) {
+            stamps.push(stamp);
         }
-        entry.frames += 1;
-        entry.last_stamp_nanos = stamp;
     }
-    found.into_values().collect()
+    found
+        .into_iter()
+        .filter_map(|(key, (rig, stamps))| {
+            Some(AnimationListing {
+                key,
+                rig,
+                frames: stamps.len(),
+                first_stamp_nanos: *stamps.first()?,
+                last_stamp_nanos: *stamps.last()?,
+                frame_rate_hz: crate::pose::frame_rate(None, &stamps),
+            })
+        })
+        .collect()
 }
 
 /// Reads one animation back from an animation bag: the `/animation` frames of `track` (`None`:
@@ -194,15 +205,16 @@ pub fn read_animation_variant(
     type OffsetKey = (Option<u64>, u32, usize);
     let mut offsets: std::collections::BTreeMap<OffsetKey, nalgebra::Vector3<f64>> =
         std::collections::BTreeMap::new();
+    let mut f = BoneFrame::default();
     for m in readers
         .iter()
         .flat_map(|r| r.messages().filter_map(Result::ok))
     {
         match m.channel.schema_name() {
             s if s == BoneFrame::TYPE_NAME => {
-                let Ok(f) = cdr::decode::<BoneFrame>(&m.data) else {
+                if cdr::decode_in_place(&m.data, &mut f).is_err() {
                     continue;
-                };
+                }
                 if f.variant != variant || *chosen.get_or_insert(f.track_id) != f.track_id {
                     continue;
                 }
@@ -521,6 +533,39 @@ mod tests {
             root_translation: Vector3::from(pose.root_translation_m),
             ..BoneFrame::default()
         }
+    }
+
+    #[test]
+    fn a_listing_measures_the_rate_as_export_does_and_counts_what_export_reads() {
+        let rig = Rig::standard();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.mcap");
+        let mut w =
+            crate::mcap_io::BagWriter::create(&path, crate::mcap_io::WriteConfig::default())
+                .unwrap();
+        let mut frame = frame_of(&rig, &BonePose::rest(&rig));
+        // 30 fps with a 2 s hole (a mean over first and last stamps would say about 9 fps),
+        // and one repeated stamp, which the reader skips.
+        let mut stamps: Vec<u64> = (0..10)
+            .map(|k| crate::pose::stamp_nanos_at(k, 30.0))
+            .collect();
+        stamps.push(stamps[9]);
+        stamps.extend((70..80).map(|k| crate::pose::stamp_nanos_at(k, 30.0)));
+        for &t in &stamps {
+            frame.header.stamp = Time::from_nanos(t);
+            w.write(ANIMATION_TOPIC, t, &frame).unwrap();
+        }
+        w.finish().unwrap();
+        let readers = [crate::mcap_io::BagReader::open(&path).unwrap()];
+        let [listing] = list_animations(&readers).try_into().unwrap();
+        assert_eq!(listing.frames, 20);
+        assert_eq!(listing.last_stamp_nanos, stamps[20]);
+        assert!(
+            (listing.frame_rate_hz.unwrap() - 30.0).abs() < 1e-6,
+            "{listing:?}"
+        );
+        let (read, _, _) = read_animation(&rig, &readers, None).unwrap();
+        assert_eq!(read.len(), listing.frames);
     }
 
     #[test]

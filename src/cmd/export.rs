@@ -215,16 +215,14 @@ fn listing(available: &[export::AnimationListing], fps: Option<f64>) -> String {
     let rows: Vec<Vec<String>> = available
         .iter()
         .map(|a| {
-            #[expect(clippy::cast_precision_loss, reason = "display only")]
-            let seconds = a.last_stamp_nanos.saturating_sub(a.first_stamp_nanos) as f64 / 1e9;
-            #[expect(clippy::cast_precision_loss, reason = "display only")]
-            let measured = (a.frames > 1 && seconds > 0.0).then(|| (a.frames - 1) as f64 / seconds);
+            let seconds =
+                crate::pose::nanos_to_secs(a.last_stamp_nanos.saturating_sub(a.first_stamp_nanos));
             vec![
                 a.key.track_id.to_string(),
                 a.key.variant.to_string(),
                 a.frames.to_string(),
                 format!("{seconds:.3}"),
-                fps.or(measured)
+                fps.or(a.frame_rate_hz)
                     .map_or_else(|| "-".to_string(), |f| format!("{f:.2}")),
                 a.rig.clone(),
             ]

@@ -130,8 +130,7 @@ pub fn run(args: Args) -> Result<Outcome> {
     let written = pose_bag::write_pose_bag(&mut out.writer, &sequences, &layout_name, metadata)?;
     let stats = out.finish()?;
     let (start, end) = stats.time_range.unwrap_or((0, 0));
-    #[expect(clippy::cast_precision_loss, reason = "display only")]
-    let seconds = (end - start) as f64 / 1e9;
+    let seconds = crate::pose::nanos_to_secs(end - start);
     print_stdout(&format!(
         "wrote {}: {written} skeletons ({} track{}), layout {layout_name}, {seconds:.2} s\n",
         output.output.display(),

@@ -269,8 +269,7 @@ pub fn run(args: Args) -> Result<Outcome> {
 
     let rate = |c: &ChannelStats| -> Option<f64> {
         let first = c.first?;
-        #[expect(clippy::cast_precision_loss, reason = "display only")]
-        let span = (c.last - first) as f64 / 1e9;
+        let span = crate::pose::nanos_to_secs(c.last - first);
         #[expect(clippy::cast_precision_loss, reason = "display only")]
         let n = c.count.saturating_sub(1) as f64;
         (span > 0.0).then(|| n / span)
@@ -306,8 +305,7 @@ pub fn run(args: Args) -> Result<Outcome> {
                 input.display()
             );
             if let (Some(a), Some(b)) = (start, end) {
-                #[expect(clippy::cast_precision_loss, reason = "display only")]
-                let span = (b - a) as f64 / 1e9;
+                let span = crate::pose::nanos_to_secs(b - a);
                 s.push_str(&format!("time: {a} .. {b} ns ({span:.3} s)\n"));
             }
             s.push_str(&format!(

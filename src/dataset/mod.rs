@@ -38,12 +38,12 @@ pub fn estimated_frames(spec: &Spec) -> Result<Vec<Vec<u64>>, String> {
                     }
                     let (a, b) = range.unwrap_or((0, 0));
                     #[expect(
-                        clippy::cast_precision_loss,
                         clippy::cast_possible_truncation,
                         clippy::cast_sign_loss,
-                        reason = "durations and frame counts far inside f64's exact range"
+                        reason = "frame counts far inside f64's exact range"
                     )]
-                    let frames = ((b - a) as f64 * 1e-9 * fps / speed).round() as u64 + 1;
+                    let frames =
+                        (crate::pose::nanos_to_secs(b - a) * fps / speed).round() as u64 + 1;
                     Ok(frames)
                 })
                 .collect()

@@ -202,13 +202,9 @@ pub fn run(
     {
         return Err(DsiError::NonMonotonic { index: index + 1 });
     }
-    #[expect(
-        clippy::cast_precision_loss,
-        reason = "stamp differences within a clip are far below 2^52 ns"
-    )]
     let times_s: Vec<f64> = keys
         .iter()
-        .map(|k| (k.stamp_nanos - first.stamp_nanos) as f64 * 1e-9)
+        .map(|k| crate::pose::nanos_to_secs(k.stamp_nanos - first.stamp_nanos))
         .collect();
     let poses: Vec<BonePose> = keys.iter().map(|k| k.pose.clone()).collect();
     let plan = plan::plan(&poses, &times_s, options)?;

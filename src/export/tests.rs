@@ -46,6 +46,7 @@ fn listing(track_id: u64, variant: u32) -> AnimationListing {
         frames: 10,
         first_stamp_nanos: 0,
         last_stamp_nanos: 300_000_000,
+        frame_rate_hz: Some(30.0),
     }
 }
 
