@@ -12,15 +12,13 @@ pub mod render;
 pub mod rig;
 pub mod trim;
 
-use std::fs::File;
-use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
 
 use crate::cli::{Command, EXIT_DATA_LOST};
-use crate::mcap_io::{BagStats, BagWriter, Compression, WriteConfig};
+use crate::mcap_io::{BagStats, BagWriter, Compression, FileSink, WriteConfig};
 
 /// How a command ended, when it did not fail.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -142,7 +140,7 @@ pub struct OutputArgs {
 
 /// An open output bag and how to finish it.
 pub(crate) struct BagOutput {
-    pub writer: BagWriter<BufWriter<File>>,
+    pub writer: BagWriter<FileSink>,
     mcap_path: PathBuf,
     args: OutputArgs,
 }

@@ -88,7 +88,7 @@ pub struct RecordWriter {
     config: WriteConfig,
     split: SplitPolicy,
     flush_every: Duration,
-    current: Option<BagWriter<std::io::BufWriter<std::fs::File>>>,
+    current: Option<BagWriter<crate::mcap_io::FileSink>>,
     current_bytes: u64,
     current_start_ns: Option<u64>,
     last_flush: Instant,
