@@ -9,7 +9,7 @@
 //!   `bench_mcap read IN.mcap`           — read and CDR-decode every message; prints `read_s BYTES`
 //!   `bench_mcap json FRAMES OUT.json [FPS]` — the same skeletons as JSON lines, for Python
 //!
-//! Timing is the best of three runs (the machine is shared); the printed seconds are wall time.
+//! Timing is the median of three runs (the machine is shared); the printed seconds are wall time.
 
 #![expect(
     clippy::print_stdout,
@@ -64,14 +64,15 @@ fn synthesize(frames: usize, fps: f64) -> PoseSequence {
     }
 }
 
-fn best_of_three(mut f: impl FnMut() -> Result<()>) -> Result<f64> {
-    let mut best = f64::INFINITY;
-    for _ in 0..3 {
+fn median_of_three(mut f: impl FnMut() -> Result<()>) -> Result<f64> {
+    let mut seconds = [0.0; 3];
+    for s in &mut seconds {
         let t = Instant::now();
         f()?;
-        best = best.min(t.elapsed().as_secs_f64());
+        *s = t.elapsed().as_secs_f64();
     }
-    Ok(best)
+    seconds.sort_by(f64::total_cmp);
+    Ok(seconds[1])
 }
 
 fn main() -> Result<()> {
@@ -91,7 +92,7 @@ fn main() -> Result<()> {
                 .iter()
                 .map(|m| cdr::encode(m).map(|b| b.len()).unwrap_or(0))
                 .sum();
-            let seconds = best_of_three(|| {
+            let seconds = median_of_three(|| {
                 let mut w = BagWriter::create(out, WriteConfig::default())?;
                 for (m, f) in messages.iter().zip(&seq.frames) {
                     w.write("/skeleton", f.stamp_nanos, m)?;
@@ -105,7 +106,7 @@ fn main() -> Result<()> {
         Some("read") => {
             let input = Path::new(args.get(2).context("IN")?);
             let mut count = 0usize;
-            let seconds = best_of_three(|| {
+            let seconds = median_of_three(|| {
                 count = 0;
                 let reader = BagReader::open(input)?;
                 for m in reader.messages() {

@@ -239,3 +239,36 @@ fn header_only_garbage_never_panics() {
         assert!(msgs.len() <= 55);
     }
 }
+
+/// Writes and seeks as the MCAP writer does (a write larger than the buffer, a seek back over
+/// buffered bytes to patch a header, on to the end); returns every position reported.
+fn write_and_seek(w: &mut (impl Write + Seek)) -> Vec<u64> {
+    let mut positions = Vec::new();
+    w.write_all(b"header--").unwrap();
+    positions.push(w.stream_position().unwrap());
+    w.write_all(&vec![7u8; 200 * 1024]).unwrap();
+    positions.push(w.stream_position().unwrap());
+    positions.push(w.seek(SeekFrom::Start(2)).unwrap());
+    w.write_all(b"XY").unwrap();
+    positions.push(w.stream_position().unwrap());
+    positions.push(w.seek(SeekFrom::End(0)).unwrap());
+    w.write_all(b"tail").unwrap();
+    positions.push(w.seek(SeekFrom::Current(-3)).unwrap());
+    w.write_all(b"!").unwrap();
+    positions.push(w.stream_position().unwrap());
+    positions.push(w.seek(SeekFrom::End(0)).unwrap());
+    w.flush().unwrap();
+    positions
+}
+
+#[test]
+fn file_sink_tracks_its_position_through_writes_and_seeks() {
+    // Against an in-memory cursor, whose position is exact: the same positions, the same bytes.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("sink.bin");
+    let mut sink = FileSink::new(File::create(&path).unwrap());
+    let mut cursor = std::io::Cursor::new(Vec::new());
+    assert_eq!(write_and_seek(&mut sink), write_and_seek(&mut cursor));
+    drop(sink);
+    assert_eq!(std::fs::read(&path).unwrap(), cursor.into_inner());
+}

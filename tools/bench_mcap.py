@@ -7,12 +7,18 @@ Usage (from the repository root, after `cargo build --release --examples`):
 
 FRAMES (default 100000) H36M-17 skeletons of a walking, waving body are synthesised by
 `examples/bench_mcap.rs`. Each side encodes them as autoact_msgs/msg/Skeleton3D (CDR) and writes
-one zstd-chunked MCAP; then each reads its file back and decodes every message. Times are the
-best of three; rates are in MB/s of CDR payload and ratios are autoact / Python. The machine is
-shared: compare ratios, not absolute numbers.
+one zstd-chunked MCAP; then each reads its file back and decodes every message. Times are
+medians of three runs (five for convert); rates are in MB/s of CDR payload and ratios are
+autoact / Python. The machine is shared: compare ratios, not absolute numbers.
+
+`convert` runs on one thread. Its rate is given per second of wall time and per second of CPU
+time (user + system, from the child's resource usage): on a shared machine the process waits for a
+core now and then, and the CPU rate is what one core delivers.
 """
 
 import json
+import resource
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -34,13 +40,30 @@ JOINTS = ["root", "right_hip", "right_knee", "right_foot", "left_hip", "left_kne
           "right_elbow", "right_wrist"]
 
 
-def best_of_three(f):
-    best = float("inf")
-    for _ in range(3):
+def median_of(runs, f):
+    """Median wall seconds of `runs` calls of `f`."""
+    times = []
+    for _ in range(runs):
         t = time.perf_counter()
         f()
-        best = min(best, time.perf_counter() - t)
-    return best
+        times.append(time.perf_counter() - t)
+    return statistics.median(times)
+
+
+def child_cpu_s():
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def median_of_child(runs, args):
+    """Median wall and median CPU seconds (user + system) of `runs` runs of the program `args`."""
+    wall, cpu = [], []
+    for _ in range(runs):
+        c, t = child_cpu_s(), time.perf_counter()
+        run(*args)
+        wall.append(time.perf_counter() - t)
+        cpu.append(child_cpu_s() - c)
+    return statistics.median(wall), statistics.median(cpu)
 
 
 def run(*args):
@@ -86,8 +109,8 @@ def main(frames: int) -> None:
                     n += len(m.positions)
             assert n == frames * len(JOINTS), n
 
-        py_w = best_of_three(py_write)
-        py_r = best_of_three(py_read)
+        py_w = median_of(3, py_write)
+        py_r = median_of(3, py_read)
         mb = payload / 1e6
         print(f"messages: {frames} H36M-17 skeletons, {mb:.1f} MB of CDR payload")
         print(f"write  autoact {mb / rust_w:8.1f} MB/s   python mcap {mb / py_w:6.1f} MB/s   ratio {py_w / rust_w:6.1f}x")
@@ -97,8 +120,9 @@ def main(frames: int) -> None:
         for fps in (50, 30):
             bag = tmp / f"long{fps}.mcap"
             run(BENCH, "write", frames, bag, fps)
-            seconds = best_of_three(lambda: run(AUTOACT, "convert", bag, "-o", tmp / "anim.mcap"))
-            print(f"convert {frames} frames at {fps} fps -> 30 fps: {seconds:.2f} s, {frames / seconds:,.0f} input frames/s")
+            wall, cpu = median_of_child(5, (AUTOACT, "convert", "-q", bag, "-o", tmp / "anim.mcap"))
+            print(f"convert {frames} frames at {fps} fps -> 30 fps: {wall:.2f} s wall, {cpu:.2f} s CPU;"
+                  f" {frames / wall:,.0f} input frames/s (wall), {frames / cpu:,.0f} per CPU second")
 
 
 if __name__ == "__main__":
