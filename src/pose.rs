@@ -111,11 +111,12 @@ pub fn frame_rate(stated: Option<f64>, stamps_nanos: &[u64]) -> Option<f64> {
     Some(1.0 / step)
 }
 
-/// Nanoseconds as seconds.
+/// A duration (a difference of stamps) in nanoseconds, as seconds. The one place nanoseconds
+/// become seconds.
 #[must_use]
 #[expect(
     clippy::cast_precision_loss,
-    reason = "stamps are below 2^53 ns (104 days) apart"
+    reason = "exact below 2^53 ns (104 days); every caller passes a span within a recording"
 )]
 pub fn nanos_to_secs(nanos: u64) -> f64 {
     nanos as f64 * 1e-9

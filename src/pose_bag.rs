@@ -235,6 +235,11 @@ pub fn read_pose_topics(
                 });
             }
         };
+        // Looked up before inserting, so that a message costs no copy of its topic name.
+        let topic_tracks = match tracks.get_mut(&msg.channel.topic) {
+            Some(t) => t,
+            None => tracks.entry(msg.channel.topic.clone()).or_default(),
+        };
         for person in people {
             if person
                 .frame
@@ -247,9 +252,7 @@ pub fn read_pose_topics(
                     nan_first.push((msg.channel.topic.clone(), msg.index_on_channel));
                 }
             }
-            let entry = tracks
-                .entry(msg.channel.topic.clone())
-                .or_default()
+            let entry = topic_tracks
                 .entry(person.track_id)
                 .or_insert_with(|| Collected {
                     seq: PoseSequence {

@@ -131,7 +131,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         tracing::warn!("--onim-template is only used with --format onim");
     }
     let keys = export::select(input, &available, args.animation, args.variant)?;
-    let (targets, folder) = targets(input, output, &keys, format)?;
+    let (targets, mut folder) = targets(input, output, &keys, format)?;
     // Every target is checked before anything is written, and the folder is made only when the
     // first file is ready, so a refused export writes nothing.
     for path in &targets {
@@ -140,7 +140,6 @@ pub fn run(args: Args) -> Result<Outcome> {
             export::check_writable(&expected_path(path), args.force)?;
         }
     }
-    let mut folder = folder;
     let mut text = String::new();
     for (key, path) in keys.iter().zip(&targets) {
         let clip = export::read_clip(&rig, input, &readers, *key, args.fps)?;
