@@ -51,6 +51,8 @@ pub struct TrackWriter<'r> {
     markers: MarkerArray,
     /// (parent, child) bone pairs drawn as marker segments.
     segments: Vec<(usize, usize)>,
+    /// The bones whose heads the segments need, with their ancestors: all that FK places.
+    drawn_bones: Vec<usize>,
     world: fk::WorldPose,
     statics: Vec<TransformStamped>,
 }
@@ -440,6 +442,7 @@ impl<'r> TrackWriter<'r> {
             markers: MarkerArray {
                 markers: vec![marker],
             },
+            drawn_bones: fk::with_ancestors(rig, segments.iter().flat_map(|&(p, b)| [p, b])),
             segments,
             world: fk::WorldPose::new(rig),
             moving,
@@ -490,7 +493,14 @@ impl<'r> TrackWriter<'r> {
         }
         writer.write(TF_TOPIC, stamp, &self.tf)?;
 
-        fk::forward_into(self.rig, &self.character, pose, 1.0, &mut self.world);
+        fk::forward_bones_into(
+            self.rig,
+            &self.character,
+            pose,
+            1.0,
+            &self.drawn_bones,
+            &mut self.world,
+        );
         let marker = &mut self.markers.markers[0];
         marker.header.stamp = time;
         for (pair, &(p, b)) in marker.points.chunks_exact_mut(2).zip(&self.segments) {
