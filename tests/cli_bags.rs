@@ -480,6 +480,55 @@ fn several_people_on_one_topic_become_several_tracks() {
 }
 
 #[test]
+fn info_gives_each_persons_frame_rate_beside_the_channels_message_rate() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("two.mcap");
+    let mut w = BagWriter::create(&path, WriteConfig::default()).unwrap();
+    // Person 3 at 30 fps, person 8 at 15 fps, on one topic, for the same second.
+    for k in 0..31 {
+        for track in [3, 8] {
+            if track == 8 && k % 2 == 1 {
+                continue;
+            }
+            let s = skeleton(k, track);
+            w.write("/skeleton", s.header.stamp.to_nanos().unwrap(), &s)
+                .unwrap();
+        }
+    }
+    w.finish().unwrap();
+    let o = autoact(&["info", arg(&path), "--format", "json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let channel = &v["channels"][0];
+    assert_eq!(channel["topic"], "/skeleton");
+    let rate = channel["rate_hz"].as_f64().unwrap();
+    assert!((rate - 46.0).abs() < 1e-6, "46 messages in 1 s: {rate}");
+    let streams: Vec<(u64, u64, f64)> = channel["streams"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| {
+            (
+                s["track_id"].as_u64().unwrap(),
+                s["frames"].as_u64().unwrap(),
+                s["fps"].as_f64().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(streams.len(), 2, "{streams:?}");
+    assert_eq!((streams[0].0, streams[0].1), (3, 31));
+    assert_eq!((streams[1].0, streams[1].1), (8, 16));
+    assert!((streams[0].2 - 30.0).abs() < 1e-6 && (streams[1].2 - 15.0).abs() < 1e-6);
+
+    let table = common::stdout(&autoact(&["info", arg(&path)]));
+    let row = table.lines().find(|l| l.starts_with("/skeleton")).unwrap();
+    assert!(
+        row.contains("46.00") && row.contains("15.00-30.00"),
+        "{table}"
+    );
+}
+
+#[test]
 fn rosbag2_directories_carry_metadata_yaml() {
     let dir = tempfile::tempdir().unwrap();
     let input = pose_bag(dir.path(), "in.mcap", 30, |_, _| {});
@@ -552,6 +601,18 @@ fn dsi_variants_are_labelled_animations_of_their_own_and_deterministic() {
         assert_ne!(variant[40].local_rotations, base[40].local_rotations);
     }
     assert_eq!(frames.len(), 4 * base.len(), "nothing but variants 0..=3");
+    let info = autoact(&["info", arg(&a)]);
+    let row = common::stdout(&info)
+        .lines()
+        .find(|l| l.starts_with("/animation"))
+        .map(str::to_string)
+        .unwrap();
+    let cells: Vec<&str> = row.split_whitespace().collect();
+    let message_rate: f64 = cells[3].parse().unwrap();
+    assert!(
+        (message_rate - 120.0).abs() < 2.0 && cells[4] == "30.00",
+        "four variants at 30 fps: {row}"
+    );
     for (_, f) in &frames {
         for q in &f.local_rotations {
             let n = (q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w).sqrt();

@@ -36,24 +36,85 @@ struct ChannelStats {
     layouts: BTreeSet<String>,
     tracks: BTreeSet<u64>,
     variants: BTreeSet<u32>,
+    /// Per animation stream (track, variant) of a `Skeleton3D` or `BoneFrame` channel: the span
+    /// of its header stamps.
+    streams: BTreeMap<(u64, u32), StreamSpan>,
+}
+
+/// First and last header stamp of one person's (and variant's) frames, and how many there are.
+#[derive(Debug, Clone, Copy)]
+struct StreamSpan {
+    first: u64,
+    last: u64,
+    frames: u64,
+}
+
+impl ChannelStats {
+    /// Notes a frame of stream `(track, variant)` stamped `stamp_nanos`.
+    fn add_frame(&mut self, track: u64, variant: u32, stamp_nanos: u64) {
+        self.tracks.insert(track);
+        self.variants.insert(variant);
+        self.streams
+            .entry((track, variant))
+            .and_modify(|s| {
+                s.first = s.first.min(stamp_nanos);
+                s.last = s.last.max(stamp_nanos);
+                s.frames += 1;
+            })
+            .or_insert(StreamSpan {
+                first: stamp_nanos,
+                last: stamp_nanos,
+                frames: 1,
+            });
+    }
+
+    /// The frame rates of its streams (frames less one over the span of their stamps; a stream
+    /// of one frame or one instant has none), lowest and highest.
+    fn frame_rate_range_hz(&self) -> Option<(f64, f64)> {
+        self.streams
+            .values()
+            .filter_map(|s| rate_hz(s.frames, s.last - s.first))
+            .fold(None, |range, r| match range {
+                None => Some((r, r)),
+                Some((lo, hi)) => Some((f64::min(lo, r), f64::max(hi, r))),
+            })
+    }
+}
+
+/// `count` events spread over `span_nanos`: `count - 1` steps per second of span, or `None`
+/// when the span is empty.
+fn rate_hz(count: u64, span_nanos: u64) -> Option<f64> {
+    let span = crate::pose::nanos_to_secs(span_nanos);
+    #[expect(clippy::cast_precision_loss, reason = "display only")]
+    let steps = count.saturating_sub(1) as f64;
+    (span > 0.0).then(|| steps / span)
+}
+
+/// A rate range as one number when its ends agree to the shown precision.
+fn show_rate_range((lo, hi): (f64, f64)) -> String {
+    let (lo, hi) = (format!("{lo:.2}"), format!("{hi:.2}"));
+    if lo == hi { lo } else { format!("{lo}-{hi}") }
 }
 
 /// Decodes one message of a type autoact knows, noting the layouts, tracks and variants it
-/// names; `None` for other types.
+/// names and the stamp of the frame it carries (its header's, else `log_time_nanos`); `None` for
+/// other types.
 fn check_message(
     schema: &str,
     data: &[u8],
+    log_time_nanos: u64,
     stats: &mut ChannelStats,
 ) -> Option<Result<(), ros::cdr::CdrError>> {
     match schema {
         s if s == Skeleton3D::TYPE_NAME => Some(ros::cdr::decode::<Skeleton3D>(data).map(|m| {
+            let stamp = m.header.stamp.to_nanos().unwrap_or(log_time_nanos);
+            stats.add_frame(m.track_id, 0, stamp);
             stats.layouts.insert(m.layout);
-            stats.tracks.insert(m.track_id);
         })),
         s if s == BoneFrame::TYPE_NAME => Some(ros::cdr::decode::<BoneFrame>(data).map(|m| {
+            let stamp = crate::animation_bag::frame_stamp(&m, log_time_nanos);
+            stats.add_frame(m.track_id, m.variant, stamp);
             stats.layouts.insert(format!("rig {}", m.rig));
-            stats.tracks.insert(m.track_id);
-            stats.variants.insert(m.variant);
         })),
         _ => ros::check_decodes(schema, data),
     }
@@ -201,7 +262,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         {
             hierarchy.add(&seg);
         }
-        if let Some(Err(e)) = check_message(&schema, &msg.data, stats) {
+        if let Some(Err(e)) = check_message(&schema, &msg.data, msg.log_time, stats) {
             stats.undecodable += 1;
             stats
                 .first_undecodable
@@ -267,13 +328,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         "problems found"
     };
 
-    let rate = |c: &ChannelStats| -> Option<f64> {
-        let first = c.first?;
-        let span = crate::pose::nanos_to_secs(c.last - first);
-        #[expect(clippy::cast_precision_loss, reason = "display only")]
-        let n = c.count.saturating_sub(1) as f64;
-        (span > 0.0).then(|| n / span)
-    };
+    let rate = |c: &ChannelStats| -> Option<f64> { rate_hz(c.count, c.last - c.first?) };
     let text = match format {
         Format::Table => {
             let rows: Vec<Vec<String>> = channels
@@ -284,6 +339,8 @@ pub fn run(args: Args) -> Result<Outcome> {
                         c.schema.clone(),
                         c.count.to_string(),
                         rate(c).map_or_else(|| "-".into(), |r| format!("{r:.2}")),
+                        c.frame_rate_range_hz()
+                            .map_or_else(String::new, show_rate_range),
                         c.layouts.iter().cloned().collect::<Vec<_>>().join(", "),
                         c.tracks
                             .iter()
@@ -318,6 +375,7 @@ pub fn run(args: Args) -> Result<Outcome> {
                     "schema",
                     "messages",
                     "rate_hz",
+                    "fps",
                     "layout/rig",
                     "tracks",
                     "variants",
@@ -351,9 +409,18 @@ pub fn run(args: Args) -> Result<Outcome> {
             let ch: Vec<_> = channels
                 .iter()
                 .map(|(t, c)| {
+                    let streams: Vec<_> = c
+                        .streams
+                        .iter()
+                        .map(|(&(track, variant), s)| {
+                            json!({"track_id": track, "variant": variant, "frames": s.frames, "first_stamp": s.first,
+                                   "last_stamp": s.last, "fps": rate_hz(s.frames, s.last - s.first)})
+                        })
+                        .collect();
                     json!({"topic": t, "schema": c.schema, "schema_encoding": c.schema_encoding, "message_encoding": c.message_encoding,
                            "messages": c.count, "first_log_time": c.first, "last_log_time": c.last, "rate_hz": rate(c),
-                           "layouts": c.layouts, "tracks": c.tracks, "variants": c.variants, "undecodable": c.undecodable})
+                           "layouts": c.layouts, "tracks": c.tracks, "variants": c.variants, "streams": streams,
+                           "undecodable": c.undecodable})
                 })
                 .collect();
             let md: Vec<_> = metadata
