@@ -16,7 +16,8 @@
 //! - `<split>_list_rawframes.txt`: MMAction2 `RawframeDataset` lines
 //!   `<dir> <total_frames> <label_id>`, frames `img_00001.jpg` … (1-based).
 //! - `activitynet.json`: ActivityNet 1.3's ground-truth shape, one entry per capture video with
-//!   every trimmed segment; `subset` is the split when all its segments share one, else `mixed`
+//!   every trimmed segment, keyed by the video's stem (by `<bag>/<video>` where two captures'
+//!   videos share a stem); `subset` is the split when all its segments share one, else `mixed`
 //!   (each annotation also carries its own `subset`).
 //! - `clips.jsonl`: every clip's record (source animation, variant, weather, time, location,
 //!   character, camera, seed, …) plus its `split`.
@@ -188,17 +189,14 @@ pub fn write_lists(
     write_atomic(&path, jsonl.as_bytes())?;
     summary.files.push(path);
 
-    // ActivityNet: untrimmed captures.
-    let mut database: BTreeMap<String, (Vec<Value>, Vec<Split>, &ClipRecord)> = BTreeMap::new();
+    // ActivityNet: untrimmed captures, one entry per capture (video and bag).
+    let mut database: BTreeMap<(&str, &str), (Vec<Value>, Vec<Split>, &ClipRecord)> =
+        BTreeMap::new();
     let mut taxonomy: BTreeMap<u32, Value> = BTreeMap::new();
     for c in clips.values() {
         let split = split_of(c)?;
-        let key = Path::new(&c.capture_video).file_stem().map_or_else(
-            || c.capture_video.clone(),
-            |s| s.to_string_lossy().into_owned(),
-        );
         let entry = database
-            .entry(key)
+            .entry((c.capture_video.as_str(), c.capture_bag.as_str()))
             .or_insert_with(|| (Vec::new(), Vec::new(), c));
         entry.0.push(json!({
             "segment": [c.start_s, c.end_s],
@@ -212,8 +210,23 @@ pub fn write_lists(
             || json!({"nodeId": c.label_id, "nodeName": c.label, "parentName": c.category}),
         );
     }
+    // Keyed by the video's stem, as ActivityNet keys by video id; captures whose videos share a
+    // stem (`a/cap.mp4` and `b/cap.mp4`) are told apart by their bag instead of being merged.
+    let stem = |video: &str| -> String {
+        Path::new(video)
+            .file_stem()
+            .map_or_else(|| video.to_owned(), |s| s.to_string_lossy().into_owned())
+    };
+    let mut stems: BTreeMap<String, usize> = BTreeMap::new();
+    for (video, _) in database.keys() {
+        *stems.entry(stem(video)).or_default() += 1;
+    }
     let mut db = serde_json::Map::new();
-    for (key, (mut annotations, splits, first)) in database {
+    for ((video, bag), (mut annotations, splits, first)) in database {
+        let key = match stem(video) {
+            s if stems[&s] == 1 => s,
+            _ => format!("{bag}/{video}"),
+        };
         annotations.sort_by(|a, b| {
             a["segment"][0]
                 .as_f64()
@@ -326,6 +339,27 @@ mod tests {
         assert_eq!(anet["database"]["c"]["subset"], "mixed");
         assert_eq!(anet["database"]["c"]["annotations"][0]["label"], "wave");
         assert_eq!(anet["database"]["c"]["annotations"][1]["segment"][0], 1.5);
+        // Captures are told apart by video and bag, even where the videos' names agree.
+        let mut c = record("c1", "wave", "c0", "CLEAR");
+        (c.capture_video, c.capture_bag) = ("c.mkv".into(), "other.mcap".into());
+        let mut more = clips.clone();
+        more.insert(c.clip_id.clone(), c);
+        let mut more_splits = splits.clone();
+        more_splits.insert("c1".into(), Split::Val);
+        write_lists(dir.path(), &more, &more_splits).unwrap();
+        let anet: serde_json::Value = serde_json::from_str(&read("activitynet.json")).unwrap();
+        let db = anet["database"].as_object().unwrap();
+        let mut keys: Vec<&String> = db.keys().collect();
+        keys.sort();
+        assert_eq!(keys, ["c.mcap/c.mp4", "other.mcap/c.mkv"]);
+        assert_eq!(
+            db["c.mcap/c.mp4"]["annotations"].as_array().unwrap().len(),
+            2
+        );
+        assert_eq!(db["other.mcap/c.mkv"]["subset"], "validation");
+        assert_eq!(db["other.mcap/c.mkv"]["url"], "c.mkv");
+        write_lists(dir.path(), &clips, &splits).unwrap();
+
         let meta = read("clips.jsonl");
         assert_eq!(meta.lines().count(), 2);
         let first: serde_json::Value = serde_json::from_str(meta.lines().next().unwrap()).unwrap();
