@@ -39,3 +39,13 @@ pub mod ros;
 pub mod scene;
 pub mod trim;
 pub mod video;
+
+/// The file name of a path (lossily as text; the whole path where it has none, `/` or `..`), for
+/// metadata and clip records: never the full path, for outputs must not depend on where the
+/// input happened to live.
+pub(crate) fn file_name(path: &std::path::Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
+}

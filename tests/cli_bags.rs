@@ -94,6 +94,21 @@ fn pose_bag(dir: &Path, name: &str, n: usize, edit: impl Fn(usize, &mut Skeleton
     path
 }
 
+/// `two.mcap`: people 3 and 8 on `/skeleton` at 30 fps for `n` frames, where `keep(k, track)`.
+fn two_people_bag(dir: &Path, n: usize, keep: impl Fn(usize, u64) -> bool) -> PathBuf {
+    let path = dir.join("two.mcap");
+    let mut w = BagWriter::create(&path, WriteConfig::default()).unwrap();
+    for k in 0..n {
+        for track in [3, 8].into_iter().filter(|&t| keep(k, t)) {
+            let s = skeleton(k, track);
+            w.write("/skeleton", s.header.stamp.to_nanos().unwrap(), &s)
+                .unwrap();
+        }
+    }
+    w.finish().unwrap();
+    path
+}
+
 fn bone_frames(path: &Path) -> Vec<(u64, BoneFrame)> {
     BagReader::open(path)
         .unwrap()
@@ -459,16 +474,7 @@ fn marker_and_pose_array_topics_need_and_use_a_layout() {
 #[test]
 fn several_people_on_one_topic_become_several_tracks() {
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("two.mcap");
-    let mut w = BagWriter::create(&path, WriteConfig::default()).unwrap();
-    for k in 0..30 {
-        for track in [3, 8] {
-            let s = skeleton(k, track);
-            w.write("/skeleton", s.header.stamp.to_nanos().unwrap(), &s)
-                .unwrap();
-        }
-    }
-    w.finish().unwrap();
+    let path = two_people_bag(dir.path(), 30, |_, _| true);
     let out = dir.path().join("out.mcap");
     let o = autoact(&["convert", arg(&path), "-o", arg(&out)]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -482,20 +488,8 @@ fn several_people_on_one_topic_become_several_tracks() {
 #[test]
 fn info_gives_each_persons_frame_rate_beside_the_channels_message_rate() {
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("two.mcap");
-    let mut w = BagWriter::create(&path, WriteConfig::default()).unwrap();
     // Person 3 at 30 fps, person 8 at 15 fps, on one topic, for the same second.
-    for k in 0..31 {
-        for track in [3, 8] {
-            if track == 8 && k % 2 == 1 {
-                continue;
-            }
-            let s = skeleton(k, track);
-            w.write("/skeleton", s.header.stamp.to_nanos().unwrap(), &s)
-                .unwrap();
-        }
-    }
-    w.finish().unwrap();
+    let path = two_people_bag(dir.path(), 31, |k, track| track == 3 || k % 2 == 0);
     let o = autoact(&["info", arg(&path), "--format", "json"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();

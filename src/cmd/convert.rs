@@ -5,13 +5,14 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 
-use super::{BagOutput, Outcome, OutputArgs, file_name, print_stdout, warn_list};
+use super::{BagOutput, Outcome, OutputArgs, print_stdout, warn_list};
 use crate::animation_bag::{TF_STATIC_TOPIC, TrackWriter, frame_prefix};
 use crate::convert::{AnimationFrame, ConvertOptions, RootMotion, SequenceConverter};
 use crate::dsi::plan::Threshold;
 use crate::dsi::smoothing::Smoothing;
 use crate::dsi::variants::VariationBounds;
 use crate::dsi::{self, DsiOptions, Pace};
+use crate::file_name;
 use crate::layout::Layout;
 use crate::pose_bag::{self, METADATA_NAME};
 use crate::resample::Resampler;

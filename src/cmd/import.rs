@@ -5,7 +5,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 
-use super::{BagOutput, Outcome, OutputArgs, file_name, print_stdout};
+use super::{BagOutput, Outcome, OutputArgs, print_stdout};
+use crate::file_name;
 use crate::formats::{bvh, bvh_map::BvhMapping, h36m_expmap, mmpose_json, ntu, zed_mat};
 use crate::frames::SourceAxes;
 use crate::layout::Layout;

@@ -12,7 +12,7 @@ pub mod render;
 pub mod rig;
 pub mod trim;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Context;
@@ -208,15 +208,6 @@ impl BagOutput {
         }
         Ok(stats)
     }
-}
-
-/// The file name of a path, for metadata (never the full path: outputs must not depend on where
-/// the input happened to live).
-pub(crate) fn file_name(path: &Path) -> String {
-    path.file_name().map_or_else(
-        || path.display().to_string(),
-        |n| n.to_string_lossy().into_owned(),
-    )
 }
 
 /// Prints warnings, at most `limit` in full, then a count of the rest.

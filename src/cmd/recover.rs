@@ -7,7 +7,8 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 
-use super::{Outcome, file_name, print_stdout};
+use super::{Outcome, print_stdout};
+use crate::file_name;
 use crate::mcap_io::{BagReader, BagWriter, Compression, WriteConfig};
 
 /// Arguments of `autoact recover`.

@@ -139,8 +139,8 @@ pub fn trim_capture(
         truncated,
         ..TrimSummary::default()
     };
-    let capture_video = file_name(video);
-    let capture_bag = file_name(&capture.path);
+    let capture_video = crate::file_name(video);
+    let capture_bag = crate::file_name(&capture.path);
     let duration_s = frame_count as f64 / fps.as_f64();
     let resolution = crate::video::probe_size(ffmpeg, video)
         .map(|(w, h)| format!("{w}x{h}"))
@@ -335,13 +335,6 @@ pub fn trim_capture(
             Err(e)
         }
     }
-}
-
-fn file_name(path: &Path) -> String {
-    path.file_name().map_or_else(
-        || path.display().to_string(),
-        |n| n.to_string_lossy().into_owned(),
-    )
 }
 
 /// Why a run failed.
