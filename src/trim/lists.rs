@@ -190,8 +190,9 @@ pub fn write_lists(
     summary.files.push(path);
 
     // ActivityNet: untrimmed captures, one entry per capture (video and bag).
-    let mut database: BTreeMap<(&str, &str), (Vec<Value>, Vec<Split>, &ClipRecord)> =
-        BTreeMap::new();
+    // Per capture: its annotations, the splits of its clips, and its first clip.
+    type Entry<'c> = (Vec<Value>, Vec<Split>, &'c ClipRecord);
+    let mut database: BTreeMap<(&str, &str), Entry<'_>> = BTreeMap::new();
     let mut taxonomy: BTreeMap<u32, Value> = BTreeMap::new();
     for c in clips.values() {
         let split = split_of(c)?;
