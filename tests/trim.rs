@@ -642,6 +642,58 @@ fn trim_sanitises_label_paths_and_keeps_the_label_in_the_csv() {
 }
 
 #[test]
+fn trim_places_the_video_by_its_render_bag_and_refuses_another_captures() {
+    use autoact::mcap_io::{BagWriter, WriteConfig};
+    use autoact::render::session::{VIDEO_TOPIC, render_bag_beside};
+    use autoact::ros::autoact_msgs::VideoInfo;
+    use autoact::ros::builtin_interfaces::Time;
+
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
+    let s = setup("wave");
+    let video = s.coded_capture_video(&ffmpeg);
+    let write_render_bag = |session: &str| {
+        let mut info = VideoInfo {
+            session: session.into(),
+            capture_bag: "capture.mcap".into(),
+            video_file: "capture.mp4".into(),
+            fps: s.capture.fps,
+            ..VideoInfo::default()
+        };
+        let first = s.capture.frames[0].stamp_ns;
+        info.header.stamp = Time::from_nanos(first);
+        let mut w = BagWriter::create(&render_bag_beside(&video), WriteConfig::default()).unwrap();
+        w.write(VIDEO_TOPIC, first, &info).unwrap();
+        w.finish().unwrap();
+    };
+
+    write_render_bag(&s.capture.session);
+    let by_bag = s.dir.path().join("by_bag");
+    let o = run_trim(&s.bag, &video, &by_bag, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let by_start = s.dir.path().join("by_start");
+    let o = run_trim(&s.bag, &video, &by_start, &["--video-start", "0"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(annotation_files(&by_bag), annotation_files(&by_start));
+
+    // A render of another session would put every cut in the wrong place.
+    write_render_bag("another");
+    let out = s.dir.path().join("other");
+    let o = run_trim(&s.bag, &video, &out, &[]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(
+        err.contains("capture.render.mcap")
+            && err.contains("session `another`")
+            && err.contains(&format!("session `{}`", s.capture.session))
+            && err.contains("--render-bag"),
+        "{err}"
+    );
+    assert!(!out.join("annotations").exists(), "nothing cut");
+}
+
+#[test]
 fn trim_without_ffmpeg_or_with_a_corrupt_video_fails_clearly() {
     let s = setup("wave");
     let video = s.dir.path().join("capture.mp4");

@@ -10,7 +10,7 @@ use anyhow::{Context, Result, bail};
 use super::Outcome;
 use crate::render::timeline::Capture;
 use crate::rig::Rig;
-use crate::trim::run::{RunError, TrimOptions, VideoSource, timing_from_render_bag, trim_capture};
+use crate::trim::run::{RenderedVideo, RunError, TrimOptions, VideoSource, trim_capture};
 use crate::trim::split::{Key, Split, SplitConfig};
 use crate::video::{Rational, ReencodeSettings};
 
@@ -59,7 +59,8 @@ pub struct Args {
     /// The video's frame rate (default: the render bag's, else the capture's).
     #[arg(long, value_name = "FPS")]
     pub video_fps: Option<f64>,
-    /// Render bag of the video (default: `<video stem>.render.mcap` beside it).
+    /// Render bag of the video (default: `<video stem>.render.mcap` beside it): places its frame
+    /// 0 on the capture's timeline. It must be a render of the capture bag's session.
     #[arg(long, value_name = "MCAP")]
     pub render_bag: Option<PathBuf>,
     /// What clips of one split share: no value of it appears in two splits.
@@ -168,12 +169,21 @@ pub fn run(args: Args) -> Result<Outcome> {
                 bag.display()
             );
         }
-        let (frame0, fps) = timing_from_render_bag(&bag)?;
+        let rendered = RenderedVideo::read(&bag)?;
+        rendered.check_renders(&bag, &capture)?;
+        let video_name = crate::file_name(&args.video);
+        if !rendered.video_file.is_empty() && rendered.video_file != video_name {
+            tracing::warn!(
+                "render bag `{}` was written for video `{}`; using its timing for `{video_name}`",
+                bag.display(),
+                rendered.video_file
+            );
+        }
         let fps = match args.video_fps {
-            Some(_) => video_fps(fps.as_f64())?,
-            None => fps,
+            Some(_) => video_fps(rendered.fps.as_f64())?,
+            None => rendered.fps,
         };
-        (frame0, fps)
+        (rendered.frame0_ns, fps)
     };
     let options = TrimOptions {
         split: SplitConfig {

@@ -565,11 +565,7 @@ fn write_render_bag(
         let info = VideoInfo {
             header: header(first),
             session: capture.session.clone(),
-            capture_bag: capture
-                .path
-                .file_name()
-                .map(|n| n.to_string_lossy().into_owned())
-                .unwrap_or_default(),
+            capture_bag: crate::file_name(&capture.path),
             video_file,
             container: "mp4".into(),
             codec: "h264".into(),

@@ -64,34 +64,77 @@ pub struct TrimSummary {
     pub frames_cut: u64,
 }
 
-/// The first video frame's timeline stamp and the frame rate, from the render bag `autoact
-/// render` writes beside a video (`<video stem>.render.mcap`, topic `/render/video`).
-///
-/// # Errors
-/// [`TrimError::Invalid`] naming the bag when it cannot be read or has no `VideoInfo`.
-pub fn timing_from_render_bag(bag: &Path) -> Result<(i128, Rational), TrimError> {
-    let bad =
-        |detail: String| TrimError::Invalid(format!("render bag `{}`: {detail}", bag.display()));
-    let readers = BagReader::open_all(bag).map_err(|e| bad(e.to_string()))?;
-    for m in readers.iter().flat_map(|r| r.messages()) {
-        let m = m.map_err(|e| bad(e.to_string()))?;
-        if m.channel.topic == VIDEO_TOPIC && m.channel.schema_name() == VideoInfo::TYPE_NAME {
-            let info: VideoInfo =
-                cdr::decode(&m.data).map_err(|e| bad(format!("{VIDEO_TOPIC}: {e}")))?;
-            let fps = Rational::from_f64(info.fps).ok_or_else(|| {
-                bad(format!(
-                    "{VIDEO_TOPIC}: frame rate {} is not usable",
-                    info.fps
-                ))
-            })?;
-            let stamp = info.header.stamp.to_nanos().unwrap_or(m.log_time);
-            return Ok((i128::from(stamp), fps));
+/// What the render bag `autoact render` writes beside a video (`<video stem>.render.mcap`, topic
+/// `/render/video`) says of it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderedVideo {
+    /// Timeline stamp of the video's frame 0, nanoseconds.
+    pub frame0_ns: i128,
+    /// Its frame rate.
+    pub fps: Rational,
+    /// The capture session rendered.
+    pub session: String,
+    /// The capture bag rendered (its file name).
+    pub capture_bag: String,
+    /// The video's file name.
+    pub video_file: String,
+}
+
+impl RenderedVideo {
+    /// Reads the `VideoInfo` of render bag `bag`.
+    ///
+    /// # Errors
+    /// [`TrimError::Invalid`] naming the bag when it cannot be read or has no `VideoInfo`.
+    pub fn read(bag: &Path) -> Result<RenderedVideo, TrimError> {
+        let bad = |detail: String| {
+            TrimError::Invalid(format!("render bag `{}`: {detail}", bag.display()))
+        };
+        let readers = BagReader::open_all(bag).map_err(|e| bad(e.to_string()))?;
+        for m in readers.iter().flat_map(|r| r.messages()) {
+            let m = m.map_err(|e| bad(e.to_string()))?;
+            if m.channel.topic == VIDEO_TOPIC && m.channel.schema_name() == VideoInfo::TYPE_NAME {
+                let info: VideoInfo =
+                    cdr::decode(&m.data).map_err(|e| bad(format!("{VIDEO_TOPIC}: {e}")))?;
+                let fps = Rational::from_f64(info.fps).ok_or_else(|| {
+                    bad(format!(
+                        "{VIDEO_TOPIC}: frame rate {} is not usable",
+                        info.fps
+                    ))
+                })?;
+                let stamp = info.header.stamp.to_nanos().unwrap_or(m.log_time);
+                return Ok(RenderedVideo {
+                    frame0_ns: i128::from(stamp),
+                    fps,
+                    session: info.session,
+                    capture_bag: info.capture_bag,
+                    video_file: info.video_file,
+                });
+            }
         }
+        Err(bad(format!(
+            "no `{VIDEO_TOPIC}` message ({})",
+            VideoInfo::TYPE_NAME
+        )))
     }
-    Err(bad(format!(
-        "no `{VIDEO_TOPIC}` message ({})",
-        VideoInfo::TYPE_NAME
-    )))
+
+    /// Checks that this is a render of `capture`: the same capture session. Its timing placed on
+    /// another capture's timeline would cut every clip at the wrong frames.
+    ///
+    /// # Errors
+    /// [`TrimError::Invalid`] naming the render bag, the session it rendered and the capture's.
+    pub fn check_renders(&self, bag: &Path, capture: &Capture) -> Result<(), TrimError> {
+        if self.session == capture.session {
+            return Ok(());
+        }
+        Err(TrimError::Invalid(format!(
+            "render bag `{}` is a render of capture session `{}` (capture bag `{}`), but `{}` holds session `{}`: pass the capture bag that was rendered, or the right `--render-bag`",
+            bag.display(),
+            self.session,
+            self.capture_bag,
+            capture.path.display(),
+            capture.session
+        )))
+    }
 }
 
 fn character_id(look: &serde_json::Value) -> String {
