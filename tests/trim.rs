@@ -579,6 +579,68 @@ fn trim_resumes_without_duplicates_and_relists_only_complete_clips() {
 }
 
 #[test]
+fn trim_extracts_each_clips_frames_for_rawframe_datasets() {
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
+    let s = setup("wave");
+    let video = s.coded_capture_video(&ffmpeg);
+    let out = s.dir.path().join("ds");
+    // First without frames; asking for them later extracts them for the clips already cut.
+    assert!(
+        run_trim(&s.bag, &video, &out, &["--video-start", "0"])
+            .status
+            .success()
+    );
+    assert!(!out.join("rawframes").exists());
+    let o = run_trim(&s.bag, &video, &out, &["--video-start", "0", "--rawframes"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+
+    let clips = read_jsonl(&out.join("annotations/clips.jsonl"));
+    let expected = segment_frames(&s.capture);
+    assert_eq!(clips.len(), expected.len());
+    let mut listed = BTreeSet::new();
+    for split in ["train", "val", "test"] {
+        let list =
+            std::fs::read_to_string(out.join(format!("annotations/{split}_list_rawframes.txt")))
+                .unwrap();
+        listed.extend(list.lines().map(str::to_owned));
+    }
+    for (id, start, end) in &expected {
+        let c = clips
+            .iter()
+            .find(|c| c["segment_id"] == id.as_str())
+            .unwrap();
+        let rel = c["rawframes"].as_str().unwrap();
+        let dir = out.join(rel);
+        let mut names: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        let wanted: Vec<String> = (1..=end - start)
+            .map(|k| format!("img_{k:05}.jpg"))
+            .collect();
+        assert_eq!(names, wanted, "{id}");
+        assert_eq!(
+            decoded_indices(&ffmpeg, &dir.join("img_%05d.jpg")),
+            (*start..*end).collect::<Vec<_>>(),
+            "{id}: the clip's own frames, in order"
+        );
+        let line = format!("{rel} {} {}", end - start, c["label_id"]);
+        assert!(listed.contains(&line), "{line} not in {listed:?}");
+    }
+    assert_eq!(listed.len(), expected.len());
+    // No half-written frame folder is left beside the complete ones.
+    for label in std::fs::read_dir(out.join("rawframes")).unwrap() {
+        for e in std::fs::read_dir(label.unwrap().path()).unwrap() {
+            let name = e.unwrap().file_name().to_string_lossy().into_owned();
+            assert!(!name.starts_with('.'), "{name}");
+        }
+    }
+}
+
+#[test]
 fn trim_same_seed_gives_identical_lists_in_another_folder() {
     let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
         return;

@@ -296,7 +296,16 @@ pub fn extract_frames(
             .overwrite()
             .output(part.join("img_%05d.jpg").as_os_str());
         run("ffmpeg", command.as_inner_mut(), dir)?;
-        let found = std::fs::read_dir(&part).map_err(io("list", &part))?.count() as u64;
+        // Synced before the rename, as atomic_file::commit does for one file: a folder that is
+        // in place holds its frames' data, not files the next crash may leave empty.
+        let mut found = 0_u64;
+        for entry in std::fs::read_dir(&part).map_err(io("list", &part))? {
+            let path = entry.map_err(io("list", &part))?.path();
+            std::fs::File::open(&path)
+                .and_then(|f| f.sync_all())
+                .map_err(io("sync", &path))?;
+            found += 1;
+        }
         if found != frame_count {
             return Err(VideoError::FrameCountMismatch {
                 path: dir.to_path_buf(),
