@@ -326,6 +326,15 @@ impl Setup {
         coded_video(ffmpeg, &video, frames, &self.capture.boundary_frames());
         video
     }
+
+    /// The coded video, trimmed once into `ds` (`--video-start 0`): (video, dataset folder).
+    fn trimmed_once(&self, ffmpeg: &Ffmpeg) -> (PathBuf, PathBuf) {
+        let video = self.coded_capture_video(ffmpeg);
+        let out = self.dir.path().join("ds");
+        let o = run_trim(&self.bag, &video, &out, &["--video-start", "0"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        (video, out)
+    }
 }
 
 fn run_trim(bag: &Path, video: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
@@ -529,13 +538,7 @@ fn trim_resumes_without_duplicates_and_relists_only_complete_clips() {
         return;
     };
     let s = setup("wave");
-    let video = s.coded_capture_video(&ffmpeg);
-    let out = s.dir.path().join("ds");
-    assert!(
-        run_trim(&s.bag, &video, &out, &["--video-start", "0"])
-            .status
-            .success()
-    );
+    let (video, out) = s.trimmed_once(&ffmpeg);
     let lists_before = check_lists(&out);
     let files_before = annotation_files(&out);
     let manifest = out.join("manifest.jsonl");
@@ -584,14 +587,8 @@ fn trim_extracts_each_clips_frames_for_rawframe_datasets() {
         return;
     };
     let s = setup("wave");
-    let video = s.coded_capture_video(&ffmpeg);
-    let out = s.dir.path().join("ds");
     // First without frames; asking for them later extracts them for the clips already cut.
-    assert!(
-        run_trim(&s.bag, &video, &out, &["--video-start", "0"])
-            .status
-            .success()
-    );
+    let (video, out) = s.trimmed_once(&ffmpeg);
     assert!(!out.join("rawframes").exists());
     let o = run_trim(&s.bag, &video, &out, &["--video-start", "0", "--rawframes"]);
     assert!(o.status.success(), "{}", stderr(&o));
