@@ -8,6 +8,12 @@
 //!                                        `write_s BYTES PAYLOAD_BYTES`
 //!   `bench_mcap read IN.mcap`           — read and CDR-decode every message; prints `read_s BYTES`
 //!   `bench_mcap json FRAMES OUT.json [FPS]` — the same skeletons as JSON lines, for Python
+//!   `bench_mcap loop IN.mcap FRAMES OUT.mcap` — a pose bag of FRAMES skeletons from the first
+//!                                        track of IN (real motion), played forwards and
+//!                                        backwards in turn at IN's own rate, so that a few
+//!                                        thousand recorded frames make a long bag with no
+//!                                        jumps; an `h36m-32` track (a Human3.6M import) is cut
+//!                                        to its usual 17 joints, `h36m-17`
 //!
 //! Timing is the median of three runs (the machine is shared); the printed seconds are wall time.
 
@@ -61,6 +67,21 @@ fn synthesize(frames: usize, fps: f64) -> PoseSequence {
         track_id: 0,
         joint_names: layout.joints.clone(),
         frames,
+    }
+}
+
+/// The usual 17 joints of an `h36m-32` sequence, named as the `h36m-17` layout names them.
+fn h36m_17_of(seq: PoseSequence) -> PoseSequence {
+    use autoact::formats::h36m_expmap::H36M_17_JOINTS;
+    let pick = |f: &autoact::pose::PoseFrame| autoact::pose::PoseFrame {
+        stamp_nanos: f.stamp_nanos,
+        positions_m: H36M_17_JOINTS.iter().map(|&j| f.positions_m[j]).collect(),
+        confidence: H36M_17_JOINTS.iter().map(|&j| f.confidence[j]).collect(),
+    };
+    PoseSequence {
+        joint_names: Layout::builtin("h36m-17").expect("built-in layout").joints,
+        frames: seq.frames.iter().map(pick).collect(),
+        ..seq
     }
 }
 
@@ -134,7 +155,43 @@ fn main() -> Result<()> {
                 )?;
             }
         }
-        _ => bail!("usage: bench_mcap write FRAMES OUT.mcap | read IN.mcap | json FRAMES OUT.json"),
+        Some("loop") => {
+            let input = Path::new(args.get(2).context("IN")?);
+            let n: usize = args.get(3).context("FRAMES")?.parse()?;
+            let out = Path::new(args.get(4).context("OUT")?);
+            let topics = autoact::pose_bag::read_pose_topics(input, None, None)?;
+            let (Some((_, seq)), Some(layout)) =
+                (topics.sequences.into_iter().next(), topics.layouts.first())
+            else {
+                bail!("{}: no skeletons", input.display());
+            };
+            let (seq, layout) = if layout == "h36m-32" {
+                (h36m_17_of(seq), "h36m-17")
+            } else {
+                (seq, layout.as_str())
+            };
+            let seq = &seq;
+            let stamps: Vec<u64> = seq.frames.iter().map(|f| f.stamp_nanos).collect();
+            let fps = autoact::pose::frame_rate(None, &stamps).context("fewer than two frames")?;
+            let len = seq.frames.len();
+            let mut w = BagWriter::create(out, WriteConfig::default())?;
+            for k in 0..n {
+                // 0, 1, .., len-1, len-2, .., 1, 0, 1, ..
+                let phase = k % (2 * len - 2).max(1);
+                let mut frame = seq.frames[phase.min(2 * len - 2 - phase)].clone();
+                frame.stamp_nanos = stamp_nanos_at(k, fps);
+                w.write(
+                    "/skeleton",
+                    frame.stamp_nanos,
+                    &skeleton_message(seq, &frame, layout),
+                )?;
+            }
+            w.finish()?;
+            println!("loop {n} frames of {len} at {fps:.3} fps, layout {layout}");
+        }
+        _ => bail!(
+            "usage: bench_mcap write FRAMES OUT.mcap | read IN.mcap | json FRAMES OUT.json | loop IN.mcap FRAMES OUT.mcap"
+        ),
     }
     Ok(())
 }

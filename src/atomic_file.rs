@@ -1,6 +1,7 @@
 //! How outputs appear only when complete: every file autoact writes that a reader could mistake
-//! for finished (videos, clips, PNGs, render bags, exports, annotation lists) is written under a
-//! hidden temporary sibling, `.<name>.part`, and renamed into place when complete. An interrupted
+//! for finished (videos, clips, PNGs, render bags, exports, annotation lists, folders of frames)
+//! is written under a hidden temporary sibling, `.<name>.part`, synced, and renamed into place
+//! when complete. An interrupted
 //! or failed run leaves at most a `.part` file, never a complete-looking one. The one place that
 //! knows the convention.
 
@@ -26,6 +27,33 @@ pub fn temporary_sibling(path: &Path) -> Option<PathBuf> {
 /// The I/O error of the sync or the rename.
 pub fn commit(part: &Path, path: &Path) -> std::io::Result<()> {
     std::fs::File::open(part)?.sync_all()?;
+    std::fs::rename(part, path)
+}
+
+/// Syncs every file in the temporary sibling folder `part` that something else filled (ffmpeg's
+/// frames) and returns how many there are; [`commit_folder`] then puts it in place. A folder,
+/// like a file, appears only once what it holds is on disk.
+///
+/// # Errors
+/// The I/O error of listing the folder or syncing a file in it.
+pub fn sync_folder(part: &Path) -> std::io::Result<u64> {
+    let mut files = 0;
+    for entry in std::fs::read_dir(part)? {
+        std::fs::File::open(entry?.path())?.sync_all()?;
+        files += 1;
+    }
+    Ok(files)
+}
+
+/// Puts the synced folder `part` (see [`sync_folder`]) in place as `path`, replacing a folder
+/// there. Callers remove `part` if this fails.
+///
+/// # Errors
+/// The I/O error of removing the old folder or of the rename.
+pub fn commit_folder(part: &Path, path: &Path) -> std::io::Result<()> {
+    if path.exists() {
+        std::fs::remove_dir_all(path)?;
+    }
     std::fs::rename(part, path)
 }
 

@@ -117,8 +117,9 @@ pub enum Command {
     /// whether ROS 2 tools and autoact can read all of it.
     ///
     /// `rate_hz` is a channel's message rate (log times); `fps` is the frame rate of each person
-    /// and variant on it, from the frames' own stamps (a range where they differ): three people
-    /// at 30 fps on `/skeleton` show 90 messages per second and 30 fps.
+    /// and variant on it, from the frames' own stamps (one over the median step, as `convert`
+    /// and `export` measure it; a range where they differ): three people at 30 fps on
+    /// `/skeleton` show 90 messages per second and 30 fps.
     Info(crate::cmd::info::Args),
     /// Write the animations of an animation bag as BVH or GTA V `.onim` files, at the bag's frame
     /// rate.

@@ -11,7 +11,9 @@ one zstd-chunked MCAP; then each reads its file back and decodes every message. 
 medians of three runs (five for convert); rates are in MB/s of CDR payload and ratios are
 autoact / Python. The machine is shared: compare ratios, not absolute numbers.
 
-`convert` runs on one thread. Its rate is given per second of wall time and per second of CPU
+`convert` runs on synthetic bags at 50 and 30 fps and, where `../shared/data` is present, on real
+Human3.6M motion (S1 walking, 3,476 frames at 50 fps, played back and forth to FRAMES frames).
+It runs on one thread. Its rate is given per second of wall time and per second of CPU
 time (user + system, from the child's resource usage): on a shared machine the process waits for a
 core now and then, and the CPU rate is what one core delivers.
 """
@@ -35,6 +37,7 @@ from mcap_ros2.writer import Writer  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 BENCH = ROOT / "target/release/examples/bench_mcap"
 AUTOACT = ROOT / "target/release/autoact"
+REAL_CLIP = ROOT.parent / "shared/data/h36m_expmap/S1_walking_1.txt"
 JOINTS = ["root", "right_hip", "right_knee", "right_foot", "left_hip", "left_knee", "left_foot", "spine",
           "thorax", "neck_base", "head", "left_shoulder", "left_elbow", "left_wrist", "right_shoulder",
           "right_elbow", "right_wrist"]
@@ -117,12 +120,23 @@ def main(frames: int) -> None:
         print(f"read   autoact {mb / rust_r:8.1f} MB/s   python mcap {mb / py_r:6.1f} MB/s   ratio {py_r / rust_r:6.1f}x")
 
         # convert end to end, at H36M's native 50 fps and at equal rates (30 fps in and out).
+        def convert(bag, what):
+            wall, cpu = median_of_child(5, (AUTOACT, "convert", "-q", bag, "-o", tmp / "anim.mcap"))
+            print(f"convert {frames} frames {what} -> 30 fps: {wall:.2f} s wall, {cpu:.2f} s CPU;"
+                  f" {frames / wall:,.0f} input frames/s (wall), {frames / cpu:,.0f} per CPU second")
+
         for fps in (50, 30):
             bag = tmp / f"long{fps}.mcap"
             run(BENCH, "write", frames, bag, fps)
-            wall, cpu = median_of_child(5, (AUTOACT, "convert", "-q", bag, "-o", tmp / "anim.mcap"))
-            print(f"convert {frames} frames at {fps} fps -> 30 fps: {wall:.2f} s wall, {cpu:.2f} s CPU;"
-                  f" {frames / wall:,.0f} input frames/s (wall), {frames / cpu:,.0f} per CPU second")
+            convert(bag, f"at {fps} fps")
+        # Real motion, where ../shared/data has it (research-only data: read here, never kept):
+        # a Human3.6M clip at its own 50 fps, cut to H36M-17 and played back and forth.
+        if REAL_CLIP.exists():
+            run(AUTOACT, "import", "-q", REAL_CLIP, "-o", tmp / "real.pose.mcap")
+            run(BENCH, "loop", tmp / "real.pose.mcap", frames, tmp / "real.mcap")
+            convert(tmp / "real.mcap", f"of real H36M motion ({REAL_CLIP.stem}) at 50 fps")
+        else:
+            print(f"convert on real motion: skipped, {REAL_CLIP} is not here")
 
 
 if __name__ == "__main__":

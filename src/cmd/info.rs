@@ -36,17 +36,9 @@ struct ChannelStats {
     layouts: BTreeSet<String>,
     tracks: BTreeSet<u64>,
     variants: BTreeSet<u32>,
-    /// Per animation stream (track, variant) of a `Skeleton3D` or `BoneFrame` channel: the span
-    /// of its header stamps.
-    streams: BTreeMap<(u64, u32), StreamSpan>,
-}
-
-/// First and last header stamp of one person's (and variant's) frames, and how many there are.
-#[derive(Debug, Clone, Copy)]
-struct StreamSpan {
-    first: u64,
-    last: u64,
-    frames: u64,
+    /// Per animation stream (track, variant) of a `Skeleton3D` or `BoneFrame` channel: its frames'
+    /// header stamps, in file order.
+    streams: BTreeMap<(u64, u32), Vec<u64>>,
 }
 
 impl ChannelStats {
@@ -56,38 +48,21 @@ impl ChannelStats {
         self.variants.insert(variant);
         self.streams
             .entry((track, variant))
-            .and_modify(|s| {
-                s.first = s.first.min(stamp_nanos);
-                s.last = s.last.max(stamp_nanos);
-                s.frames += 1;
-            })
-            .or_insert(StreamSpan {
-                first: stamp_nanos,
-                last: stamp_nanos,
-                frames: 1,
-            });
+            .or_default()
+            .push(stamp_nanos);
     }
 
-    /// The frame rates of its streams (frames less one over the span of their stamps; a stream
-    /// of one frame or one instant has none), lowest and highest.
+    /// The frame rates of its streams, measured as export and convert measure a rate
+    /// ([`crate::pose::frame_rate`]: one over the median step), lowest and highest.
     fn frame_rate_range_hz(&self) -> Option<(f64, f64)> {
         self.streams
             .values()
-            .filter_map(|s| rate_hz(s.frames, s.last - s.first))
+            .filter_map(|stamps| crate::pose::frame_rate(None, stamps))
             .fold(None, |range, r| match range {
                 None => Some((r, r)),
                 Some((lo, hi)) => Some((f64::min(lo, r), f64::max(hi, r))),
             })
     }
-}
-
-/// `count` events spread over `span_nanos`: `count - 1` steps per second of span, or `None`
-/// when the span is empty.
-fn rate_hz(count: u64, span_nanos: u64) -> Option<f64> {
-    let span = crate::pose::nanos_to_secs(span_nanos);
-    #[expect(clippy::cast_precision_loss, reason = "display only")]
-    let steps = count.saturating_sub(1) as f64;
-    (span > 0.0).then(|| steps / span)
 }
 
 /// A rate range as one number when its ends agree to the shown precision.
@@ -328,7 +303,13 @@ pub fn run(args: Args) -> Result<Outcome> {
         "problems found"
     };
 
-    let rate = |c: &ChannelStats| -> Option<f64> { rate_hz(c.count, c.last - c.first?) };
+    // A channel's message rate, as `mcap info` gives it: messages less one over the span.
+    let rate = |c: &ChannelStats| -> Option<f64> {
+        let span = crate::pose::nanos_to_secs(c.last - c.first?);
+        #[expect(clippy::cast_precision_loss, reason = "display only")]
+        let steps = c.count.saturating_sub(1) as f64;
+        (span > 0.0).then(|| steps / span)
+    };
     let text = match format {
         Format::Table => {
             let rows: Vec<Vec<String>> = channels
@@ -412,9 +393,10 @@ pub fn run(args: Args) -> Result<Outcome> {
                     let streams: Vec<_> = c
                         .streams
                         .iter()
-                        .map(|(&(track, variant), s)| {
-                            json!({"track_id": track, "variant": variant, "frames": s.frames, "first_stamp": s.first,
-                                   "last_stamp": s.last, "fps": rate_hz(s.frames, s.last - s.first)})
+                        .map(|(&(track, variant), stamps)| {
+                            json!({"track_id": track, "variant": variant, "frames": stamps.len(),
+                                   "first_stamp": stamps.iter().min(), "last_stamp": stamps.iter().max(),
+                                   "fps": crate::pose::frame_rate(None, stamps)})
                         })
                         .collect();
                     json!({"topic": t, "schema": c.schema, "schema_encoding": c.schema_encoding, "message_encoding": c.message_encoding,

@@ -113,6 +113,11 @@ pub const FPS: f64 = 50.0;
 /// The axis convention of the raw data and of [`OFFSETS_MM`].
 pub const SOURCE_AXES: SourceAxes = SourceAxes::YUp;
 
+/// The usual 17-joint Human3.6M subset, as indices of the 32 joints, in the order of the
+/// `h36m-17` layout (MMPose, VideoPose3D, MotionBERT).
+pub const H36M_17_JOINTS: [usize; 17] =
+    [0, 1, 2, 3, 6, 7, 8, 12, 13, 14, 15, 17, 18, 19, 25, 26, 27];
+
 /// Joint names, index = joint. The standard H36M 32-joint names, with the duplicate `Site` end
 /// effectors renamed: 5 `RToeSite`, 10 `LToeSite`, 15 `HeadSite`, 21 `LThumbSite`,
 /// 23 `LWristSite` (end of `L_Wrist_End`), 29 `RThumbSite`, 31 `RWristSite` (end of

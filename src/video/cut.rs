@@ -296,16 +296,8 @@ pub fn extract_frames(
             .overwrite()
             .output(part.join("img_%05d.jpg").as_os_str());
         run("ffmpeg", command.as_inner_mut(), dir)?;
-        // Synced before the rename, as atomic_file::commit does for one file: a folder that is
-        // in place holds its frames' data, not files the next crash may leave empty.
-        let mut found = 0_u64;
-        for entry in std::fs::read_dir(&part).map_err(io("list", &part))? {
-            let path = entry.map_err(io("list", &part))?.path();
-            std::fs::File::open(&path)
-                .and_then(|f| f.sync_all())
-                .map_err(io("sync", &path))?;
-            found += 1;
-        }
+        let found =
+            crate::atomic_file::sync_folder(&part).map_err(io("sync the frames in", &part))?;
         if found != frame_count {
             return Err(VideoError::FrameCountMismatch {
                 path: dir.to_path_buf(),
@@ -313,10 +305,7 @@ pub fn extract_frames(
                 found,
             });
         }
-        if dir.exists() {
-            std::fs::remove_dir_all(dir).map_err(io("replace", dir))?;
-        }
-        std::fs::rename(&part, dir).map_err(io("rename into place", dir))
+        crate::atomic_file::commit_folder(&part, dir).map_err(io("put in place", dir))
     })();
     if result.is_err() {
         let _ = std::fs::remove_dir_all(&part);
