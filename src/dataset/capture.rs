@@ -382,12 +382,7 @@ pub fn write_sessions(
         let mut meta = BTreeMap::new();
         meta.insert("dataset".to_string(), plan.name.clone());
         meta.insert("session".to_string(), session.name.clone());
-        meta.insert(
-            "spec".to_string(),
-            spec.path
-                .file_name()
-                .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
-        );
+        meta.insert("spec".to_string(), crate::file_name(&spec.path));
         meta.insert("seed".to_string(), plan.seed.to_string());
         meta.insert("fps".to_string(), d.fps.to_string());
         meta.insert(

@@ -236,9 +236,7 @@ impl SceneContext {
 
 /// The extras every export has: bag, track, variant, fps, frames, first stamp.
 fn base_extras(path: &Path, clip: &Clip) -> BTreeMap<String, Value> {
-    let bag = path
-        .file_name()
-        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let bag = crate::file_name(path);
     let mut extras = BTreeMap::new();
     extras.insert("bag".into(), json!(bag));
     extras.insert("track".into(), json!(clip.key.track_id));

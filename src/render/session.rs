@@ -557,10 +557,7 @@ fn write_render_bag(
             stamp: Time::from_nanos(stamp_ns),
             frame_id: CAMERA_FRAME.to_owned(),
         };
-        let video_file = video
-            .and_then(|v| v.path.file_name())
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
+        let video_file = video.map(|v| crate::file_name(&v.path)).unwrap_or_default();
         let first = samples.first().map_or(0, |s| s.stamp_ns);
         let info = VideoInfo {
             header: header(first),
