@@ -5,17 +5,23 @@
 //! - `/tf` — `tf2_msgs/msg/TFMessage`: `world → root`, and `parent → child` for every bone that
 //!   moves, with the child's rest offset (on the subject's body) and its local rotation, so RViz,
 //!   Foxglove and Rerun show the skeleton with no plugin;
-//! - `/skeleton/markers` — `visualization_msgs/msg/MarkerArray`: the skeleton as a `LINE_LIST`,
-//!   drawn from parent to child head for every bone the data drives and the rigid torso (bones a
-//!   layout cannot see, such as fingers from a body-only estimator, are not drawn).
+//! - `/skeleton/markers` — `visualization_msgs/msg/MarkerArray`: the skeleton as lines from each
+//!   bone's head to its children's heads, for every bone the data drives and the rigid torso
+//!   (bones a layout cannot see, such as fingers from a body-only estimator, are not drawn). The
+//!   lines are frame-locked `LINE_LIST` markers, one per parent bone, in that bone's own tf
+//!   frame, where they never change: RViz and Foxglove move them with `/tf` at every frame. So
+//!   they are sent with the first frame and then once a second ([`MARKERS_PERIOD_NANOS`]), for
+//!   viewers that join late and bags cut anywhere, not with every frame.
 //!
 //! Bones that never move (static bones, and those the layout cannot drive) go once on
 //! `/tf_static`. With several people, frame names are prefixed `track<id>/`; with DSI variants,
-//! `v<k>/` (after the track's prefix), and the markers of variant `k` are in namespace
-//! `skeleton/v<k>`. Variant 0, the animation as converted, has neither.
+//! `v<k>/` (after the track's prefix). The markers' namespace is `skeleton` followed by that
+//! prefix (`skeleton/track3/v2`), their id the index of the bone whose frame they are in.
+//! Variant 0 of a single person, the animation as converted, has no prefix.
 //!
 //! A [`TrackWriter`] keeps one message of each kind per person and updates it in place, so a
-//! frame costs no allocation however long the animation.
+//! frame costs no allocation however long the animation. [`TfTree`] composes the transforms
+//! back as a viewer does, to check what a bag shows.
 
 use crate::character::Character;
 use crate::fk::{self, BonePose};
@@ -38,22 +44,22 @@ pub const TF_TOPIC: &str = "/tf";
 pub const TF_STATIC_TOPIC: &str = "/tf_static";
 /// Topic of the skeleton markers.
 pub const MARKERS_TOPIC: &str = "/skeleton/markers";
+/// How often the skeleton markers are sent again: they never change (they move with their tf
+/// frames), so this only bounds how long a viewer that joins late, or a bag cut anywhere, waits
+/// for them.
+pub const MARKERS_PERIOD_NANOS: u64 = 1_000_000_000;
 
 /// Writes one person's frames.
 #[derive(Debug)]
-pub struct TrackWriter<'r> {
-    rig: &'r Rig,
-    character: Character,
+pub struct TrackWriter {
     /// Bones with a `/tf` entry each frame (index into the rig), root first.
     moving: Vec<usize>,
     bone_frame: BoneFrame,
     tf: TFMessage,
+    /// The skeleton, in the bones' own frames: the same every frame.
     markers: MarkerArray,
-    /// (parent, child) bone pairs drawn as marker segments.
-    segments: Vec<(usize, usize)>,
-    /// The bones whose heads the segments need, with their ancestors: all that FK places.
-    drawn_bones: Vec<usize>,
-    world: fk::WorldPose,
+    /// When the markers last went out.
+    markers_sent_nanos: Option<u64>,
     statics: Vec<TransformStamped>,
 }
 
@@ -91,6 +97,56 @@ pub fn parse_frame_name(name: &str) -> (Option<u64>, u32, &str) {
         rest = tail;
     }
     (track, variant, rest)
+}
+
+/// The latest transform of every tf frame, composed as tf viewers (RViz, Foxglove) compose
+/// them: what a bag shows at an instant, for checking it.
+#[derive(Debug, Clone, Default)]
+pub struct TfTree {
+    /// Child frame → (parent frame, `parent_from_child`).
+    parent_from_child: std::collections::HashMap<String, (String, nalgebra::Isometry3<f64>)>,
+}
+
+impl TfTree {
+    /// Takes in the transforms of a `/tf` or `/tf_static` message.
+    ///
+    /// # Errors
+    /// A transform whose rotation is not a usable quaternion, naming its child frame.
+    pub fn update(&mut self, tf: &TFMessage) -> Result<(), String> {
+        for t in &tf.transforms {
+            let rotation = nalgebra::UnitQuaternion::try_from(t.transform.rotation)
+                .map_err(|e| format!("tf frame `{}`: {e}", t.child_frame_id))?;
+            self.parent_from_child.insert(
+                t.child_frame_id.clone(),
+                (
+                    t.header.frame_id.clone(),
+                    nalgebra::Isometry3::from_parts(
+                        nalgebra::Vector3::from(t.transform.translation).into(),
+                        rotation,
+                    ),
+                ),
+            );
+        }
+        Ok(())
+    }
+
+    /// `world_from_frame` of tf frame `frame`, or `None` when its chain of parents does not
+    /// reach the world frame.
+    #[must_use]
+    pub fn world_from(&self, frame: &str) -> Option<nalgebra::Isometry3<f64>> {
+        let mut world_from_frame = nalgebra::Isometry3::identity();
+        let mut at = frame;
+        // A chain longer than the number of frames has a cycle.
+        for _ in 0..=self.parent_from_child.len() {
+            if at == WORLD_FRAME {
+                return Some(world_from_frame);
+            }
+            let (parent, parent_from_at) = self.parent_from_child.get(at)?;
+            world_from_frame = parent_from_at * world_from_frame;
+            at = parent;
+        }
+        None
+    }
 }
 
 /// Reads one person's animation (variant 0) back from an animation bag: the `/animation`
@@ -350,19 +406,83 @@ fn frame_name(prefix: &str, rig: &Rig, bone: usize) -> String {
     format!("{prefix}{}", rig.bones[bone].name)
 }
 
-impl<'r> TrackWriter<'r> {
+/// The marker namespace of the animation whose tf frames are prefixed `prefix`: `skeleton`, then
+/// the prefix (`skeleton/track3/v2`).
+#[must_use]
+pub fn marker_namespace(prefix: &str) -> String {
+    let prefix = prefix.trim_end_matches('/');
+    if prefix.is_empty() {
+        "skeleton".to_string()
+    } else {
+        format!("skeleton/{prefix}")
+    }
+}
+
+/// The line skeleton of one animation: for every bone `p` with drawn children, one frame-locked
+/// `LINE_LIST` marker in `p`'s own tf frame (id `p`), a segment from its head (the frame's origin)
+/// to each drawn child's head (the child's rest offset, constant in that frame). RViz and
+/// Foxglove move each marker with its frame from `/tf`, so the markers carry no motion and are
+/// the same every frame but for their stamps. `draws(p, c)` says whether the segment from parent
+/// `p` to child `c` is drawn; segments from the root (on the ground) never are.
+fn skeleton_markers(
+    rig: &Rig,
+    character: &Character,
+    prefix: &str,
+    draws: impl Fn(usize, usize) -> bool,
+) -> MarkerArray {
+    let mut markers: Vec<Marker> = Vec::new();
+    let mut marker_of = vec![None; rig.bones.len()];
+    for (c, bone) in rig.bones.iter().enumerate() {
+        let Some(p) = bone.parent.filter(|&p| p != ROOT && draws(p, c)) else {
+            continue;
+        };
+        let k = *marker_of[p].get_or_insert_with(|| {
+            markers.push(Marker {
+                header: Header {
+                    stamp: Time::default(),
+                    frame_id: frame_name(prefix, rig, p),
+                },
+                ns: marker_namespace(prefix),
+                id: i32::try_from(p).expect("a rig has fewer than 2^31 bones"),
+                type_: Marker::LINE_LIST,
+                action: Marker::ADD,
+                scale: Vector3 {
+                    x: 0.02,
+                    y: 0.0,
+                    z: 0.0,
+                },
+                color: ColorRGBA {
+                    r: 0.1,
+                    g: 0.7,
+                    b: 1.0,
+                    a: 1.0,
+                },
+                frame_locked: true,
+                ..Marker::default()
+            });
+            markers.len() - 1
+        });
+        markers[k].points.extend([
+            Point::default(),
+            Point::from(nalgebra::Point3::from(character.head_offset_m[c])),
+        ]);
+    }
+    MarkerArray { markers }
+}
+
+impl TrackWriter {
     /// A writer for person `track_id`'s animation `variant`, with tf frame names prefixed by
     /// `prefix` (see [`frame_prefix`]), animated on `character` with the bones `coverage` says its
     /// data drives.
     #[must_use]
     pub fn new(
-        rig: &'r Rig,
-        character: Character,
+        rig: &Rig,
+        character: &Character,
         coverage: &Coverage,
         track_id: u64,
         variant: u32,
         prefix: &str,
-    ) -> TrackWriter<'r> {
+    ) -> TrackWriter {
         let moves = |b: usize| {
             b == ROOT
                 || (!matches!(rig.bones[b].dof, Dof::Static)
@@ -392,43 +512,14 @@ impl<'r> TrackWriter<'r> {
         // Segments of what the data drives, and the rigid torso it hangs on: bones a layout cannot
         // see (fingers from a body-only estimator) would only draw the rest pose.
         let at_rest = |b: usize| coverage.at_rest.contains(&rig.bones[b].name);
-        let segments: Vec<(usize, usize)> = rig
-            .bones
-            .iter()
-            .enumerate()
-            .filter_map(|(b, bone)| bone.parent.filter(|&p| p != ROOT).map(|p| (p, b)))
-            .filter(|&(p, b)| character.head_offset_m[b].norm() > 1e-6 && !at_rest(p))
-            .collect();
         let header = Header {
             stamp: Time::default(),
             frame_id: WORLD_FRAME.to_string(),
         };
-        let marker = Marker {
-            header: header.clone(),
-            ns: if variant > 0 {
-                format!("skeleton/v{variant}")
-            } else {
-                "skeleton".to_string()
-            },
-            id: i32::try_from(track_id).unwrap_or(i32::MAX),
-            type_: Marker::LINE_LIST,
-            action: Marker::ADD,
-            scale: Vector3 {
-                x: 0.02,
-                y: 0.0,
-                z: 0.0,
-            },
-            color: ColorRGBA {
-                r: 0.1,
-                g: 0.7,
-                b: 1.0,
-                a: 1.0,
-            },
-            points: vec![Point::default(); 2 * segments.len()],
-            ..Marker::default()
-        };
+        let markers = skeleton_markers(rig, character, prefix, |p, c| {
+            character.head_offset_m[c].norm() > 1e-6 && !at_rest(p)
+        });
         TrackWriter {
-            rig,
             bone_frame: BoneFrame {
                 header,
                 rig: rig.name.to_string(),
@@ -439,15 +530,10 @@ impl<'r> TrackWriter<'r> {
                 root_translation: Vector3::default(),
             },
             tf,
-            markers: MarkerArray {
-                markers: vec![marker],
-            },
-            drawn_bones: fk::with_ancestors(rig, segments.iter().flat_map(|&(p, b)| [p, b])),
-            segments,
-            world: fk::WorldPose::new(rig),
+            markers,
+            markers_sent_nanos: None,
             moving,
             statics,
-            character,
         }
     }
 
@@ -493,21 +579,17 @@ impl<'r> TrackWriter<'r> {
         }
         writer.write(TF_TOPIC, stamp, &self.tf)?;
 
-        fk::forward_bones_into(
-            self.rig,
-            &self.character,
-            pose,
-            1.0,
-            &self.drawn_bones,
-            &mut self.world,
-        );
-        let marker = &mut self.markers.markers[0];
-        marker.header.stamp = time;
-        for (pair, &(p, b)) in marker.points.chunks_exact_mut(2).zip(&self.segments) {
-            pair[0] = Point::from(self.world.heads_m[p]);
-            pair[1] = Point::from(self.world.heads_m[b]);
+        if self
+            .markers_sent_nanos
+            .is_none_or(|sent| stamp.saturating_sub(sent) >= MARKERS_PERIOD_NANOS)
+        {
+            for marker in &mut self.markers.markers {
+                marker.header.stamp = time;
+            }
+            writer.write(MARKERS_TOPIC, stamp, &self.markers)?;
+            self.markers_sent_nanos = Some(stamp);
         }
-        writer.write(MARKERS_TOPIC, stamp, &self.markers)
+        Ok(())
     }
 }
 
@@ -528,6 +610,133 @@ mod tests {
             );
         }
         assert_eq!(parse_frame_name("root"), (None, 0, "root"));
+    }
+
+    #[test]
+    fn markers_in_the_bone_frames_draw_the_skeleton_where_forward_kinematics_puts_it() {
+        let rig = Rig::standard();
+        let coverage = crate::layout::Layout::builtin("h36m-17")
+            .unwrap()
+            .bind(&rig)
+            .unwrap()
+            .coverage(&rig);
+        let character = Character::from_scales(&rig, vec![1.1; rig.bones.len()]);
+        let prefix = frame_prefix(3, 2, true);
+        let mut track = TrackWriter::new(&rig, &character, &coverage, 3, 2, &prefix);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.mcap");
+        let mut w =
+            crate::mcap_io::BagWriter::create(&path, crate::mcap_io::WriteConfig::default())
+                .unwrap();
+        w.write(
+            TF_STATIC_TOPIC,
+            0,
+            &TFMessage {
+                transforms: track.static_transforms(0),
+            },
+        )
+        .unwrap();
+        let pose_at = |k: usize| {
+            let mut pose = BonePose::rest(&rig);
+            #[expect(clippy::cast_precision_loss, reason = "small numbers")]
+            for (b, q) in pose.local_rotations.iter_mut().enumerate() {
+                // What convert gives: static bones and bones the layout cannot see stay at rest.
+                if matches!(rig.bones[b].dof, Dof::Static)
+                    || coverage.at_rest.contains(&rig.bones[b].name)
+                {
+                    continue;
+                }
+                let angle = 0.02 * (k + b) as f64;
+                *q = nalgebra::UnitQuaternion::from_axis_angle(&nalgebra::Vector3::x_axis(), angle)
+                    * nalgebra::UnitQuaternion::from_axis_angle(
+                        &nalgebra::Vector3::z_axis(),
+                        -angle,
+                    );
+            }
+            #[expect(clippy::cast_precision_loss, reason = "small numbers")]
+            let x = 0.01 * k as f64;
+            pose.root_translation_m = nalgebra::Vector3::new(x, -0.5, 0.02);
+            pose
+        };
+        // 2.5 s at 30 fps.
+        let stamps: Vec<u64> = (0..75)
+            .map(|k| crate::pose::stamp_nanos_at(k, 30.0))
+            .collect();
+        for (k, &t) in stamps.iter().enumerate() {
+            track.write_frame(&mut w, t, &pose_at(k)).unwrap();
+        }
+        w.finish().unwrap();
+
+        // Replay the bag as a viewer does: tf as it arrives, the markers that were last sent.
+        let mut tf_tree = TfTree::default();
+        let mut markers: Option<MarkerArray> = None;
+        let mut marker_stamps = Vec::new();
+        let mut frame = 0;
+        let reader = crate::mcap_io::BagReader::open(&path).unwrap();
+        for m in reader.messages().map(Result::unwrap) {
+            match m.channel.topic.as_str() {
+                TF_STATIC_TOPIC | TF_TOPIC => {
+                    let tf: TFMessage = crate::ros::cdr::decode(&m.data).unwrap();
+                    tf_tree.update(&tf).unwrap();
+                }
+                MARKERS_TOPIC => {
+                    markers = Some(crate::ros::cdr::decode(&m.data).unwrap());
+                    marker_stamps.push(m.log_time);
+                    continue;
+                }
+                _ => continue,
+            }
+            if m.channel.topic != TF_TOPIC {
+                continue;
+            }
+            // The markers of this frame come after its /tf; place them at the next message.
+            let world = fk::forward(&rig, &character, &pose_at(frame), 1.0);
+            frame += 1;
+            let Some(markers) = &markers else { continue };
+            let mut segments = 0;
+            for marker in &markers.markers {
+                assert!(marker.frame_locked && marker.type_ == Marker::LINE_LIST);
+                assert_eq!(marker.ns, "skeleton/track3/v2");
+                let (track, variant, bone) = parse_frame_name(&marker.header.frame_id);
+                assert_eq!((track, variant), (Some(3), 2));
+                let p = rig.bone_index(bone).unwrap();
+                assert!(
+                    !coverage.at_rest.contains(&rig.bones[p].name),
+                    "{bone} is at rest"
+                );
+                let world_from_p = tf_tree.world_from(&marker.header.frame_id).unwrap();
+                for pair in marker.points.chunks_exact(2) {
+                    let [a, b] =
+                        [pair[0], pair[1]].map(|q| world_from_p * nalgebra::Point3::from(q));
+                    assert!(
+                        (a - world.heads_m[p]).norm() < 1e-9,
+                        "{bone}: {a} {}",
+                        world.heads_m[p]
+                    );
+                    let child = (0..rig.bones.len())
+                        .filter(|&c| rig.bones[c].parent == Some(p))
+                        .min_by(|&c, &d| {
+                            (b - world.heads_m[c])
+                                .norm()
+                                .total_cmp(&(b - world.heads_m[d]).norm())
+                        })
+                        .unwrap();
+                    assert!(
+                        (b - world.heads_m[child]).norm() < 1e-9,
+                        "{bone} → {}",
+                        rig.bones[child].name
+                    );
+                    segments += 1;
+                }
+            }
+            // Hips to thighs, thighs to calves to feet, the spine to the neck and head, the
+            // clavicles, arms and forearms to the hands: 19. Nothing from a hand or a foot, whose
+            // fingers and toes an H36M-17 layout cannot see.
+            assert_eq!(segments, 19);
+        }
+        assert_eq!(frame, stamps.len());
+        // The markers never change: sent with the first frame, then once a second.
+        assert_eq!(marker_stamps, [stamps[0], stamps[30], stamps[60]]);
     }
 
     /// A frame as `TrackWriter` writes it for `pose`.

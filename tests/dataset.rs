@@ -11,11 +11,12 @@ mod common;
 
 use common::{autoact, stderr, stdout};
 
+use autoact::animation_bag::TfTree;
 use autoact::mcap_io::BagReader;
 use autoact::ros::autoact_msgs::Segment;
 use autoact::ros::builtin_interfaces::Time;
 use autoact::ros::cdr;
-use autoact::ros::geometry_msgs::{Point, PoseStamped};
+use autoact::ros::geometry_msgs::PoseStamped;
 use autoact::ros::sensor_msgs::CameraInfo;
 use autoact::ros::visualization_msgs::MarkerArray;
 use nalgebra::{Point3, UnitQuaternion};
@@ -154,43 +155,62 @@ fn capture_bags_are_deterministic_labelled_and_keep_the_character_in_frame() {
         }
     }
 
-    // Framing: every joint of every frame projects inside the image with the 5% margin, and the
-    // camera is above the ground.
+    // Framing: every point of the drawn skeleton in every frame projects inside the image with
+    // the 5% margin, and the camera is above the ground. The skeleton is placed as a viewer
+    // places it: the markers in their bones' tf frames, the frames by `/tf_static` and `/tf`.
     for bag in &bags {
-        let reader = BagReader::open(bag).unwrap();
-        let mut camera: Option<PoseStamped> = None;
-        let mut info: Option<CameraInfo> = None;
+        let mut tf = TfTree::default();
+        let (mut camera, mut info, mut markers) = (None, None, None);
         let mut frames = 0;
-        for m in reader.messages().map(Result::unwrap) {
+        // Checks the instant whose messages have all been read.
+        let mut check = |tf: &TfTree,
+                         camera: &Option<PoseStamped>,
+                         info: &Option<CameraInfo>,
+                         markers: &Option<MarkerArray>,
+                         stamp: u64| {
+            let (Some(cam), Some(info), Some(markers)) = (camera, info, markers) else {
+                panic!("{bag:?} {stamp} ns: no camera or no markers yet");
+            };
+            assert_eq!(cam.header.stamp.to_nanos(), Some(stamp));
+            assert!(cam.pose.position.z > 0.0, "camera below the ground");
+            let q: UnitQuaternion<f64> = cam.pose.orientation.try_into().unwrap();
+            let c = Point3::from(cam.pose.position);
+            let (w, h) = (f64::from(info.width), f64::from(info.height));
+            for marker in &markers.markers {
+                let world_from_bone = tf.world_from(&marker.header.frame_id).unwrap();
+                for p in &marker.points {
+                    let v = q.inverse() * (world_from_bone * Point3::from(*p) - c);
+                    assert!(v.z > 0.0, "a joint behind the camera");
+                    let u = info.k[0] * v.x / v.z + info.k[2] + 0.5;
+                    let y = info.k[4] * v.y / v.z + info.k[5] + 0.5;
+                    let (mu, mv) = (0.05 * w / 2.0, 0.05 * h / 2.0);
+                    assert!(
+                        u > mu && u < w - mu && y > mv && y < h - mv,
+                        "{bag:?} frame {frames}: a joint at ({u:.0}, {y:.0}) leaves the {w}×{h} image"
+                    );
+                }
+            }
+            frames += 1;
+        };
+        let mut instant = None;
+        for m in BagReader::open(bag).unwrap().messages().map(Result::unwrap) {
+            if instant.is_some_and(|t| t != m.log_time) && m.channel.topic != "/tf_static" {
+                check(&tf, &camera, &info, &markers, instant.unwrap());
+                instant = None;
+            }
             match m.channel.topic.as_str() {
                 "/camera/pose" => camera = Some(cdr::decode(&m.data).unwrap()),
                 "/camera/camera_info" => info = Some(cdr::decode(&m.data).unwrap()),
-                "/skeleton/markers" => {
-                    let markers: MarkerArray = cdr::decode(&m.data).unwrap();
-                    let (Some(cam), Some(info)) = (&camera, &info) else {
-                        panic!("markers before the camera");
-                    };
-                    assert_eq!(cam.header.stamp, markers.markers[0].header.stamp);
-                    assert!(cam.pose.position.z > 0.0, "camera below the ground");
-                    let q: UnitQuaternion<f64> = cam.pose.orientation.try_into().unwrap();
-                    let c = Point3::from(cam.pose.position);
-                    let (w, h) = (f64::from(info.width), f64::from(info.height));
-                    for p in &markers.markers[0].points {
-                        let v = q.inverse() * (Point3::<f64>::from(Point { ..*p }) - c);
-                        assert!(v.z > 0.0, "a joint behind the camera");
-                        let u = info.k[0] * v.x / v.z + info.k[2] + 0.5;
-                        let y = info.k[4] * v.y / v.z + info.k[5] + 0.5;
-                        let (mu, mv) = (0.05 * w / 2.0, 0.05 * h / 2.0);
-                        assert!(
-                            u > mu && u < w - mu && y > mv && y < h - mv,
-                            "{bag:?} frame {frames}: a joint at ({u:.0}, {y:.0}) leaves the {w}×{h} image"
-                        );
-                    }
-                    frames += 1;
+                "/skeleton/markers" => markers = Some(cdr::decode(&m.data).unwrap()),
+                "/tf_static" => tf.update(&cdr::decode(&m.data).unwrap()).unwrap(),
+                "/tf" => {
+                    tf.update(&cdr::decode(&m.data).unwrap()).unwrap();
+                    instant = Some(m.log_time);
                 }
                 _ => {}
             }
         }
+        check(&tf, &camera, &info, &markers, instant.unwrap());
         assert!(frames > 1000, "{frames} frames");
     }
 

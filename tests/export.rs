@@ -103,7 +103,7 @@ fn synthetic_bag(dir: &Path, tracks: u64, variants: u32, frames: usize) -> PathB
             writers.push((
                 track,
                 variant,
-                TrackWriter::new(&rig, character.clone(), &coverage, track, variant, &prefix),
+                TrackWriter::new(&rig, &character, &coverage, track, variant, &prefix),
             ));
         }
     }

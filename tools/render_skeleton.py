@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
 """Render the skeleton of an animation bag to a PNG for a quick look: a film strip of FRAMES
-evenly spaced instants, each drawn from the front (left half) and the side (right half), from the
-`/skeleton/markers` LINE_LIST that `autoact convert` writes. Decoding goes through the independent
-Python readers (`mcap` + `mcap-ros2-support`), so the picture also shows what ROS tools see.
+evenly spaced instants, each drawn from the front (left half) and the side (right half). The
+skeleton is what RViz and Foxglove draw: the frame-locked `LINE_LIST` markers of
+`/skeleton/markers`, each in its bone's tf frame, placed in the world by the `/tf_static` and `/tf`
+transforms at that instant. Decoding goes through the independent Python readers (`mcap` +
+`mcap-ros2-support`), so the picture also shows what ROS tools see.
 
 Usage (from the repository root):
     tools/interop/run.sh --exec python tools/render_skeleton.py ANIM.mcap OUT.png [FRAMES]
@@ -18,21 +20,82 @@ from mcap_ros2.decoder import DecoderFactory
 
 CELL = 220  # pixels per view
 MARGIN = 10
+TOPICS = ["/tf_static", "/tf", "/skeleton/markers"]
 
 
-def read_frames(path: Path):
-    frames = []
+def rotate(q, v):
+    """Vector `v` rotated by the unit quaternion `q` = (x, y, z, w)."""
+    x, y, z, w = q
+    # t = 2 (q_xyz × v); v' = v + w t + q_xyz × t
+    tx, ty, tz = 2 * (y * v[2] - z * v[1]), 2 * (z * v[0] - x * v[2]), 2 * (x * v[1] - y * v[0])
+    return (v[0] + w * tx + y * tz - z * ty, v[1] + w * ty + z * tx - x * tz, v[2] + w * tz + x * ty - y * tx)
+
+
+def multiply(a, b):
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    return (aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz)
+
+
+def world_segments(transforms, markers):
+    """The markers' segments in the world frame, given `transforms`: child frame -> (parent,
+    translation, rotation)."""
+    placed = {"world": ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))}
+
+    def world_from(frame):
+        if frame not in placed:
+            parent, t, q = transforms[frame]
+            pt, pq = world_from(parent)
+            d = rotate(pq, t)
+            placed[frame] = ((pt[0] + d[0], pt[1] + d[1], pt[2] + d[2]), multiply(pq, q))
+        return placed[frame]
+
+    segments = []
+    for frame, points in markers.values():
+        t, q = world_from(frame)
+        world = [tuple(a + b for a, b in zip(t, rotate(q, p))) for p in points]
+        segments += list(zip(world[0::2], world[1::2]))
+    return segments
+
+
+def read_frames(path: Path, count: int):
+    """`count` evenly spaced instants of the bag's `/tf` stream, with the skeleton at each."""
+    with open(path, "rb") as f:
+        stamps = sorted({m.log_time for _, _, m in make_reader(f).iter_messages(topics=["/tf"])})
+    if not stamps:
+        sys.exit(f"{path}: no /tf messages (is it an animation bag from `autoact convert`?)")
+    picks = {stamps[round(i * (len(stamps) - 1) / max(count - 1, 1))] for i in range(count)}
+    transforms, markers, frames = {}, {}, []
+
+    def snapshot(stamp):
+        if not markers:
+            sys.exit(f"{path}: no /skeleton/markers before {stamp} ns")
+        try:
+            frames.append((stamp, world_segments(transforms, markers)))
+        except KeyError as e:
+            sys.exit(f"{path}: at {stamp} ns, tf frame {e} is not connected to the world")
+
+    pending = None
     with open(path, "rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
-        for _, channel, message, decoded in reader.iter_decoded_messages(topics=["/skeleton/markers"]):
-            segments = []
-            for marker in decoded.markers:
-                pts = [(p.x, p.y, p.z) for p in marker.points]
-                segments += list(zip(pts[0::2], pts[1::2]))
-            frames.append((message.log_time, segments))
-    if not frames:
-        sys.exit(f"{path}: no /skeleton/markers messages (is it an animation bag from `autoact convert`?)")
-    return frames
+        for _, channel, message, decoded in reader.iter_decoded_messages(topics=TOPICS):
+            if pending is not None and message.log_time > pending:
+                snapshot(pending)
+                pending = None
+            if channel.topic == "/skeleton/markers":
+                for m in decoded.markers:
+                    pts = [(p.x, p.y, p.z) for p in m.points]
+                    markers[(m.ns, m.id)] = (m.header.frame_id, pts)
+                continue
+            for t in decoded.transforms:
+                v, r = t.transform.translation, t.transform.rotation
+                transforms[t.child_frame_id] = (t.header.frame_id, (v.x, v.y, v.z), (r.x, r.y, r.z, r.w))
+            if channel.topic == "/tf" and message.log_time in picks:
+                pending = message.log_time
+    if pending is not None:
+        snapshot(pending)
+    return frames, len(stamps)
 
 
 def draw_line(img, w, x0, y0, x1, y1, color):
@@ -60,8 +123,8 @@ def write_png(path: Path, w: int, h: int, rgb: bytearray) -> None:
 
 
 def main(bag: Path, out: Path, count: int) -> None:
-    frames = read_frames(bag)
-    picks = [frames[round(i * (len(frames) - 1) / max(count - 1, 1))] for i in range(count)]
+    picks, total = read_frames(bag, count)
+    count = len(picks)
     w, h = 2 * CELL * count, CELL
     img = bytearray(b"\xff" * (3 * w * h))
     for k, (_, segments) in enumerate(picks):
@@ -79,7 +142,7 @@ def main(bag: Path, out: Path, count: int) -> None:
                 draw_line(img, w, ox + CELL / 2 + ua * scale, h - MARGIN - a[2] * scale,
                           ox + CELL / 2 + ub * scale, h - MARGIN - b[2] * scale, (20, 110, 200))
     write_png(out, w, h, img)
-    print(f"wrote {out}: {count} frames of {len(frames)} from {bag}, front and side views")
+    print(f"wrote {out}: {count} frames of {total} from {bag}, front and side views")
 
 
 if __name__ == "__main__":

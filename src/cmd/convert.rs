@@ -282,7 +282,7 @@ pub fn run(args: Args) -> Result<Outcome> {
             .with_context(|| format!("converting {topic} track {}", seq.track_id))?;
         let writer = TrackWriter::new(
             &rig,
-            converter.character().clone(),
+            converter.character(),
             converter.coverage(),
             seq.track_id,
             0,
@@ -337,7 +337,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         clips = Some(all);
     }
     let mut out = BagOutput::create(&output)?;
-    let writers: Vec<&TrackWriter<'_>> = match &clips {
+    let writers: Vec<&TrackWriter> = match &clips {
         Some(clips) => clips.iter().map(|(w, _)| w).collect(),
         None => people.iter().map(|p| &p.writer).collect(),
     };
@@ -404,12 +404,12 @@ pub fn run(args: Args) -> Result<Outcome> {
 }
 
 /// Writes the metadata records and every writer's `/tf_static` transforms at `first`.
-fn write_header<'w, 'r: 'w>(
+fn write_header<'w>(
     out: &mut BagOutput,
     source_metadata: &[(String, BTreeMap<String, String>)],
     meta: BTreeMap<String, String>,
     first: u64,
-    writers: impl Iterator<Item = &'w TrackWriter<'r>>,
+    writers: impl Iterator<Item = &'w TrackWriter>,
 ) -> Result<()> {
     for (name, record) in source_metadata {
         out.writer.write_metadata(name, record.clone())?;
@@ -534,7 +534,7 @@ fn run_spec(spec_path: &std::path::Path, output: &OutputArgs) -> Result<Outcome>
 }
 
 /// Each animation's writer and frames.
-type Animations<'r> = Vec<(TrackWriter<'r>, Vec<AnimationFrame>)>;
+type Animations = Vec<(TrackWriter, Vec<AnimationFrame>)>;
 
 /// Solves one person's whole clip and runs DSI on it: the summary line, whether input was lost,
 /// and a writer with its frames per animation (variant 0 first).
@@ -543,7 +543,7 @@ fn whole_clip<'r>(
     person: Person<'r>,
     options: &DsiOptions,
     several_people: bool,
-) -> Result<(String, bool, Animations<'r>)> {
+) -> Result<(String, bool, Animations)> {
     let Person {
         track_id,
         mut converter,
@@ -606,7 +606,7 @@ fn whole_clip<'r>(
             let w = writer.take().filter(|_| v == 0).unwrap_or_else(|| {
                 TrackWriter::new(
                     rig,
-                    character.clone(),
+                    &character,
                     &coverage,
                     track_id,
                     v,
@@ -678,6 +678,6 @@ struct Person<'a> {
     track_id: u64,
     converter: SequenceConverter<'a>,
     resampler: Resampler,
-    writer: TrackWriter<'a>,
+    writer: TrackWriter,
     frames_out: u64,
 }

@@ -304,8 +304,8 @@ impl CameraTrack {
 
 /// What every clip of one scene shares: the character's writer, the animation retargeted onto
 /// the scene's body (from the location's origin), how the camera must frame it.
-struct Staged<'r> {
-    writer: TrackWriter<'r>,
+struct Staged {
+    writer: TrackWriter,
     content: Vec<BonePose>,
     subject: Subject,
     /// The framing band for this animation on this body.
@@ -314,13 +314,13 @@ struct Staged<'r> {
 
 /// Retargets a scene's animation variant onto its drawn body (root translation scaled by the
 /// ratio of hip heights, starting at the location's origin) and measures it for the camera.
-fn stage_scene<'r>(
-    rig: &'r Rig,
+fn stage_scene(
+    rig: &Rig,
     spec: &Spec,
     intrinsics: &Intrinsics,
     node: &SceneNode,
     conv: &Converted,
-) -> Result<Staged<'r>, CaptureError> {
+) -> Result<Staged, CaptureError> {
     let character = node.drawn.look.character(rig);
     let scale = character.hip_height_m(rig) / conv.character.hip_height_m(rig);
     let frames = &conv.variants[node.variant as usize];
@@ -346,7 +346,7 @@ fn stage_scene<'r>(
     )
     .map_err(|e| CaptureError::Plan(format!("{}: {e}", node.id)))?;
     Ok(Staged {
-        writer: TrackWriter::new(rig, character, &conv.coverage, 0, node.variant, ""),
+        writer: TrackWriter::new(rig, &character, &conv.coverage, 0, node.variant, ""),
         content,
         subject,
         band,
@@ -399,7 +399,7 @@ pub fn write_sessions(
 
         let mut camera_track = CameraTrack::new(&intrinsics);
         let mut current_scene: Option<usize> = None;
-        let mut staged: Option<Staged<'_>> = None;
+        let mut staged: Option<Staged> = None;
         let mut pushed_out = 0;
         for leaf in &plan.leaves[session.leaves.clone()] {
             let node = &plan.scenes[leaf.scene];
