@@ -56,7 +56,7 @@ pub struct TrackWriter {
     moving: Vec<usize>,
     bone_frame: BoneFrame,
     tf: TFMessage,
-    /// The skeleton, in the bones' own frames: the same every frame.
+    /// The skeleton, in the bones' own frames, where it never changes.
     markers: MarkerArray,
     /// When the markers last went out.
     markers_sent_nanos: Option<u64>,
@@ -408,8 +408,7 @@ fn frame_name(prefix: &str, rig: &Rig, bone: usize) -> String {
 
 /// The marker namespace of the animation whose tf frames are prefixed `prefix`: `skeleton`, then
 /// the prefix (`skeleton/track3/v2`).
-#[must_use]
-pub fn marker_namespace(prefix: &str) -> String {
+fn marker_namespace(prefix: &str) -> String {
     let prefix = prefix.trim_end_matches('/');
     if prefix.is_empty() {
         "skeleton".to_string()
@@ -421,8 +420,8 @@ pub fn marker_namespace(prefix: &str) -> String {
 /// The line skeleton of one animation: for every bone `p` with drawn children, one frame-locked
 /// `LINE_LIST` marker in `p`'s own tf frame (id `p`), a segment from its head (the frame's origin)
 /// to each drawn child's head (the child's rest offset, constant in that frame). RViz and
-/// Foxglove move each marker with its frame from `/tf`, so the markers carry no motion and are
-/// the same every frame but for their stamps. `draws(p, c)` says whether the segment from parent
+/// Foxglove move each marker with its frame from `/tf`, so the markers carry no motion and never
+/// change. `draws(p, c)` says whether the segment from parent
 /// `p` to child `c` is drawn; segments from the root (on the ground) never are.
 fn skeleton_markers(
     rig: &Rig,
@@ -443,7 +442,7 @@ fn skeleton_markers(
                     frame_id: frame_name(prefix, rig, p),
                 },
                 ns: marker_namespace(prefix),
-                id: i32::try_from(p).expect("a rig has fewer than 2^31 bones"),
+                id: i32::try_from(p).expect("internal bug: a rig has fewer than 2^31 bones"),
                 type_: Marker::LINE_LIST,
                 action: Marker::ADD,
                 scale: Vector3 {
@@ -547,7 +546,8 @@ impl TrackWriter {
         out
     }
 
-    /// Writes one frame: `/animation`, `/tf` and `/skeleton/markers` at `stamp`.
+    /// Writes one frame at `stamp`: `/animation` and `/tf`, and `/skeleton/markers` with the first
+    /// frame and then once a second ([`MARKERS_PERIOD_NANOS`]).
     ///
     /// # Errors
     /// [`McapIoError`] from the writer.
