@@ -1,9 +1,8 @@
 //! How outputs appear only when complete: every file autoact writes that a reader could mistake
 //! for finished (videos, clips, PNGs, render bags, exports, annotation lists, folders of frames)
 //! is written under a hidden temporary sibling, `.<name>.part`, synced, and renamed into place
-//! when complete. An interrupted
-//! or failed run leaves at most a `.part` file, never a complete-looking one. The one place that
-//! knows the convention.
+//! when complete. An interrupted or failed run leaves at most a `.part` file, never a
+//! complete-looking one. The one place that knows the convention.
 
 use std::ffi::OsString;
 use std::io::Write;

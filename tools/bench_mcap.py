@@ -43,27 +43,18 @@ JOINTS = ["root", "right_hip", "right_knee", "right_foot", "left_hip", "left_kne
           "right_elbow", "right_wrist"]
 
 
-def median_of(runs, f):
-    """Median wall seconds of `runs` calls of `f`."""
-    times = []
-    for _ in range(runs):
-        t = time.perf_counter()
-        f()
-        times.append(time.perf_counter() - t)
-    return statistics.median(times)
-
-
 def child_cpu_s():
     r = resource.getrusage(resource.RUSAGE_CHILDREN)
     return r.ru_utime + r.ru_stime
 
 
-def median_of_child(runs, args):
-    """Median wall and median CPU seconds (user + system) of `runs` runs of the program `args`."""
+def medians(runs, f):
+    """Median wall seconds and median CPU seconds of child processes (user + system) of `runs`
+    calls of `f`."""
     wall, cpu = [], []
     for _ in range(runs):
         c, t = child_cpu_s(), time.perf_counter()
-        run(*args)
+        f()
         wall.append(time.perf_counter() - t)
         cpu.append(child_cpu_s() - c)
     return statistics.median(wall), statistics.median(cpu)
@@ -112,8 +103,8 @@ def main(frames: int) -> None:
                     n += len(m.positions)
             assert n == frames * len(JOINTS), n
 
-        py_w = median_of(3, py_write)
-        py_r = median_of(3, py_read)
+        py_w, _ = medians(3, py_write)
+        py_r, _ = medians(3, py_read)
         mb = payload / 1e6
         print(f"messages: {frames} H36M-17 skeletons, {mb:.1f} MB of CDR payload")
         print(f"write  autoact {mb / rust_w:8.1f} MB/s   python mcap {mb / py_w:6.1f} MB/s   ratio {py_w / rust_w:6.1f}x")
@@ -121,7 +112,7 @@ def main(frames: int) -> None:
 
         # convert end to end, at H36M's native 50 fps and at equal rates (30 fps in and out).
         def convert(bag, what):
-            wall, cpu = median_of_child(5, (AUTOACT, "convert", "-q", bag, "-o", tmp / "anim.mcap"))
+            wall, cpu = medians(5, lambda: run(AUTOACT, "convert", "-q", bag, "-o", tmp / "anim.mcap"))
             print(f"convert {frames} frames {what} -> 30 fps: {wall:.2f} s wall, {cpu:.2f} s CPU;"
                   f" {frames / wall:,.0f} input frames/s (wall), {frames / cpu:,.0f} per CPU second")
 

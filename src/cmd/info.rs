@@ -34,8 +34,6 @@ struct ChannelStats {
     first_undecodable: Option<(u64, String)>,
     non_monotonic: u64,
     layouts: BTreeSet<String>,
-    tracks: BTreeSet<u64>,
-    variants: BTreeSet<u32>,
     /// Per animation stream (track, variant) of a `Skeleton3D` or `BoneFrame` channel: its frames'
     /// header stamps, in file order.
     streams: BTreeMap<(u64, u32), Vec<u64>>,
@@ -44,12 +42,20 @@ struct ChannelStats {
 impl ChannelStats {
     /// Notes a frame of stream `(track, variant)` stamped `stamp_nanos`.
     fn add_frame(&mut self, track: u64, variant: u32, stamp_nanos: u64) {
-        self.tracks.insert(track);
-        self.variants.insert(variant);
         self.streams
             .entry((track, variant))
             .or_default()
             .push(stamp_nanos);
+    }
+
+    /// The track ids of its streams.
+    fn tracks(&self) -> BTreeSet<u64> {
+        self.streams.keys().map(|&(track, _)| track).collect()
+    }
+
+    /// The variants of its streams.
+    fn variants(&self) -> BTreeSet<u32> {
+        self.streams.keys().map(|&(_, variant)| variant).collect()
     }
 
     /// The frame rates of its streams, measured as export and convert measure a rate
@@ -323,12 +329,12 @@ pub fn run(args: Args) -> Result<Outcome> {
                         c.frame_rate_range_hz()
                             .map_or_else(String::new, show_rate_range),
                         c.layouts.iter().cloned().collect::<Vec<_>>().join(", "),
-                        c.tracks
+                        c.tracks()
                             .iter()
                             .map(ToString::to_string)
                             .collect::<Vec<_>>()
                             .join(","),
-                        c.variants
+                        c.variants()
                             .iter()
                             .map(ToString::to_string)
                             .collect::<Vec<_>>()
@@ -401,7 +407,7 @@ pub fn run(args: Args) -> Result<Outcome> {
                         .collect();
                     json!({"topic": t, "schema": c.schema, "schema_encoding": c.schema_encoding, "message_encoding": c.message_encoding,
                            "messages": c.count, "first_log_time": c.first, "last_log_time": c.last, "rate_hz": rate(c),
-                           "layouts": c.layouts, "tracks": c.tracks, "variants": c.variants, "streams": streams,
+                           "layouts": c.layouts, "tracks": c.tracks(), "variants": c.variants(), "streams": streams,
                            "undecodable": c.undecodable})
                 })
                 .collect();

@@ -170,7 +170,7 @@ pub fn run(args: Args) -> Result<Outcome> {
             );
         }
         let rendered = RenderedVideo::read(&bag)?;
-        rendered.check_renders(&bag, &capture)?;
+        rendered.check_renders(&capture)?;
         let video_name = crate::file_name(&args.video);
         if !rendered.video_file.is_empty() && rendered.video_file != video_name {
             tracing::warn!(

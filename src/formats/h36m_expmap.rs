@@ -34,8 +34,7 @@
 //! Joint names are the standard H36M 32-joint names ([`JOINT_NAMES`]), with the seven duplicate
 //! `Site` end effectors renamed to be unique. As in BVH, a joint is named after the bone that
 //! starts at it: `LArm` is the left shoulder joint, `LForeArm` the left elbow, `LHand` the left
-//! wrist, `Spine1` the thorax. The usual 17-joint H36M subset is indices
-//! `[0, 1, 2, 3, 6, 7, 8, 12, 13, 14, 15, 17, 18, 19, 25, 26, 27]`.
+//! wrist, `Spine1` the thorax. The usual 17-joint H36M subset is [`H36M_17_JOINTS`].
 //!
 //! # Forward kinematics
 //!

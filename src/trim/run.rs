@@ -1,7 +1,7 @@
 //! One trim run: a capture bag and its video → clips in the dataset folder, the manifest
 //! extended, every list rewritten from it.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::lists::{ListSummary, ensure_classes, write_lists};
@@ -68,6 +68,8 @@ pub struct TrimSummary {
 /// `/render/video`) says of it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RenderedVideo {
+    /// The render bag read.
+    pub bag: PathBuf,
     /// Timeline stamp of the video's frame 0, nanoseconds.
     pub frame0_ns: i128,
     /// Its frame rate.
@@ -103,6 +105,7 @@ impl RenderedVideo {
                 })?;
                 let stamp = info.header.stamp.to_nanos().unwrap_or(m.log_time);
                 return Ok(RenderedVideo {
+                    bag: bag.to_path_buf(),
                     frame0_ns: i128::from(stamp),
                     fps,
                     session: info.session,
@@ -122,13 +125,13 @@ impl RenderedVideo {
     ///
     /// # Errors
     /// [`TrimError::Invalid`] naming the render bag, the session it rendered and the capture's.
-    pub fn check_renders(&self, bag: &Path, capture: &Capture) -> Result<(), TrimError> {
+    pub fn check_renders(&self, capture: &Capture) -> Result<(), TrimError> {
         if self.session == capture.session {
             return Ok(());
         }
         Err(TrimError::Invalid(format!(
             "render bag `{}` is a render of capture session `{}` (capture bag `{}`), but `{}` holds session `{}`: pass the capture bag that was rendered, or the right `--render-bag`",
-            bag.display(),
+            self.bag.display(),
             self.session,
             self.capture_bag,
             capture.path.display(),
