@@ -8,12 +8,12 @@
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use nalgebra::{UnitQuaternion, Vector3};
 
-use autoact::character::Character;
-use autoact::convert::{ConvertOptions, Converter};
-use autoact::fk::{self, BonePose};
-use autoact::layout::Layout;
-use autoact::pose::{PoseFrame, stamp_nanos_at};
-use autoact::rig::{Dof, Rig};
+use autoact::skeleton::character::Character;
+use autoact::skeleton::convert::{ConvertOptions, Converter};
+use autoact::skeleton::fk::{self, BonePose};
+use autoact::skeleton::layout::Layout;
+use autoact::skeleton::pose::{PoseFrame, stamp_nanos_at};
+use autoact::skeleton::rig::{Dof, Rig};
 
 const FRAMES: usize = 2048;
 

@@ -12,12 +12,12 @@
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use nalgebra::{UnitQuaternion, Vector3};
 
-use autoact::convert::AnimationFrame;
 use autoact::dsi::smoothing::Smoothing;
 use autoact::dsi::{self, DsiOptions};
-use autoact::fk::BonePose;
-use autoact::pose::stamp_nanos_at;
-use autoact::rig::{Dof, Rig};
+use autoact::skeleton::convert::AnimationFrame;
+use autoact::skeleton::fk::BonePose;
+use autoact::skeleton::pose::stamp_nanos_at;
+use autoact::skeleton::rig::{Dof, Rig};
 
 const FRAMES: usize = 3000;
 

@@ -27,15 +27,15 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use autoact::character::Character;
-use autoact::fk::{self, BonePose};
-use autoact::layout::Layout;
+use autoact::bags::pose::skeleton_message;
 use autoact::mcap_io::{BagReader, BagWriter, WriteConfig};
-use autoact::pose::{PoseSequence, stamp_nanos_at};
-use autoact::pose_bag::skeleton_message;
-use autoact::rig::{Dof, Rig};
 use autoact::ros::autoact_msgs::Skeleton3D;
 use autoact::ros::cdr;
+use autoact::skeleton::character::Character;
+use autoact::skeleton::fk::{self, BonePose};
+use autoact::skeleton::layout::Layout;
+use autoact::skeleton::pose::{PoseSequence, stamp_nanos_at};
+use autoact::skeleton::rig::{Dof, Rig};
 use nalgebra::{UnitQuaternion, Vector3};
 
 fn synthesize(frames: usize, fps: f64) -> PoseSequence {
@@ -73,7 +73,7 @@ fn synthesize(frames: usize, fps: f64) -> PoseSequence {
 /// The usual 17 joints of an `h36m-32` sequence, named as the `h36m-17` layout names them.
 fn h36m_17_of(seq: PoseSequence) -> PoseSequence {
     use autoact::formats::h36m_expmap::H36M_17_JOINTS;
-    let pick = |f: &autoact::pose::PoseFrame| autoact::pose::PoseFrame {
+    let pick = |f: &autoact::skeleton::pose::PoseFrame| autoact::skeleton::pose::PoseFrame {
         stamp_nanos: f.stamp_nanos,
         positions_m: H36M_17_JOINTS.iter().map(|&j| f.positions_m[j]).collect(),
         confidence: H36M_17_JOINTS.iter().map(|&j| f.confidence[j]).collect(),
@@ -159,7 +159,7 @@ fn main() -> Result<()> {
             let input = Path::new(args.get(2).context("IN")?);
             let n: usize = args.get(3).context("FRAMES")?.parse()?;
             let out = Path::new(args.get(4).context("OUT")?);
-            let topics = autoact::pose_bag::read_pose_topics(input, None, None)?;
+            let topics = autoact::bags::pose::read_pose_topics(input, None, None)?;
             let (Some((_, seq)), Some(layout)) =
                 (topics.sequences.into_iter().next(), topics.layouts.first())
             else {
@@ -172,7 +172,8 @@ fn main() -> Result<()> {
             };
             let seq = &seq;
             let stamps: Vec<u64> = seq.frames.iter().map(|f| f.stamp_nanos).collect();
-            let fps = autoact::pose::frame_rate(None, &stamps).context("fewer than two frames")?;
+            let fps = autoact::skeleton::pose::frame_rate(None, &stamps)
+                .context("fewer than two frames")?;
             let len = seq.frames.len();
             let mut w = BagWriter::create(out, WriteConfig::default())?;
             for k in 0..n {

@@ -1,6 +1,6 @@
 //! Manual probe of `autoact::record::dds`: subscribes to ROS 2 topics for a while with
 //! [`Recorder`] and prints one JSON line per received sample on stdout
-//! (`topic`, `type`, `writer`, `seq`, `len`, `receive_ns`, `source_ns`, and with `--hex` the CDR
+//! (`topic`, `type`, `writer`, `seq`, `len`, `receive_nanos`, `source_nanos`, and with `--hex` the CDR
 //! bytes incl. the encapsulation header). A summary line goes to stderr at the end
 //! (`samples`, `rejected`, `first_sample_s`, `discovered`).
 //!
@@ -111,8 +111,8 @@ fn main() -> anyhow::Result<()> {
                 }),
                 "seq": s.sequence_number,
                 "len": s.cdr.len(),
-                "receive_ns": s.receive_time_ns,
-                "source_ns": s.source_time_ns,
+                "receive_ns": s.receive_time_nanos,
+                "source_ns": s.source_time_nanos,
             });
             if hex {
                 line["cdr"] = s

@@ -18,7 +18,6 @@ mod common;
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use autoact::convert::{Animation, ConvertOptions, convert_sequence};
 use autoact::dsi::eval::{
     geodesic_error, mean_jerk, norm_violations, peak_angular_speed, percentile, range_of_motion,
     sign_flips,
@@ -27,11 +26,12 @@ use autoact::dsi::interp::{self, Method, Sample};
 use autoact::dsi::plan::source_period_s;
 use autoact::dsi::reference::{self, canonical, published_sample_times};
 use autoact::dsi::{self, DsiOptions};
-use autoact::fk::BonePose;
 use autoact::formats::{bvh, bvh_map::BvhMapping, h36m_expmap, ntu, zed_mat};
-use autoact::layout::Layout;
-use autoact::pose::PoseSequence;
-use autoact::rig::{Dof, Rig};
+use autoact::skeleton::convert::{Animation, ConvertOptions, convert_sequence};
+use autoact::skeleton::fk::BonePose;
+use autoact::skeleton::layout::Layout;
+use autoact::skeleton::pose::PoseSequence;
+use autoact::skeleton::rig::{Dof, Rig};
 use common::{file_name, sorted_files};
 use nalgebra::Quaternion;
 

@@ -16,18 +16,18 @@
 
 use std::path::PathBuf;
 
-use autoact::animation_bag::read_animation;
+use autoact::bags::animation::read_animation;
 use autoact::camera::{CameraPose, Intrinsics};
-use autoact::fk;
 use autoact::mcap_io::BagReader;
 use autoact::render::cpu::CpuRenderer;
 use autoact::render::{Camera, FrameInput, Image, Renderer, Stage};
-use autoact::rig::Rig;
 use autoact::scene::Scene;
 use autoact::scene::cast::{AgeGroup, Population, Sex};
 use autoact::scene::location::Location;
 use autoact::scene::sky::{ClockTime, sun_position};
 use autoact::scene::weather::Weather;
+use autoact::skeleton::fk;
+use autoact::skeleton::rig::Rig;
 use autoact::video::{Tile, contact_sheet, write_png};
 use nalgebra::{Point3, Vector3};
 use rand::SeedableRng;

@@ -13,12 +13,12 @@
 mod common;
 
 use anyhow::{Context, Result};
-use autoact::convert::{ConvertOptions, Degeneracy};
-use autoact::eval::{self, RoundTrip};
 use autoact::formats::{bvh, bvh_map::BvhMapping, h36m_expmap, ntu, zed_mat};
-use autoact::layout::Layout;
-use autoact::pose::PoseSequence;
-use autoact::rig::Rig;
+use autoact::skeleton::convert::{ConvertOptions, Degeneracy};
+use autoact::skeleton::eval::{self, RoundTrip};
+use autoact::skeleton::layout::Layout;
+use autoact::skeleton::pose::PoseSequence;
+use autoact::skeleton::rig::Rig;
 use common::{file_name, sorted_files};
 
 const CLASSES: [&str; 4] = ["3-D", "2-D", "1-D", "static"];

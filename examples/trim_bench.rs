@@ -12,8 +12,8 @@ use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use autoact::render::timeline::Capture;
-use autoact::rig::Rig;
+use autoact::bags::capture::Capture;
+use autoact::skeleton::rig::Rig;
 use autoact::trim::run::{TrimOptions, VideoSource, trim_capture};
 use autoact::trim::split::SplitConfig;
 use autoact::video::{EncodeSettings, Ffmpeg, Rational, ReencodeSettings, VideoEncoder};
@@ -53,10 +53,10 @@ fn main() -> Result<()> {
         started.elapsed().as_secs_f64()
     );
     let fps = Rational::from_f64(capture.fps).context("fps")?;
-    let first = capture.frames.first().map_or(0, |f| f.stamp_ns);
+    let first = capture.frames.first().map_or(0, |f| f.stamp_nanos);
     let source = VideoSource {
         path: &video,
-        frame0_ns: i128::from(first),
+        frame0_nanos: i128::from(first),
         fps,
     };
     let stop = AtomicBool::new(false);

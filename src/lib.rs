@@ -3,7 +3,7 @@
 //!
 //! The core flow, on a synthetic pose:
 //! ```
-//! use autoact::{convert, fk, layout::Layout, rig::Rig, character::Character};
+//! use autoact::skeleton::{convert, fk, layout::Layout, rig::Rig, character::Character};
 //! let rig = Rig::standard();
 //! let layout = Layout::builtin("h36m-17").unwrap();
 //! // Pose the rig's default adult at rest and read the layout's joints off it ...
@@ -11,32 +11,22 @@
 //! # let _ = (&layout, &rest);
 //! ```
 
-pub mod animation_bag;
 pub mod atomic_file;
-pub mod body_mesh;
+pub mod bags;
 pub mod camera;
-pub mod character;
 pub mod cli;
 pub mod cmd;
-pub mod convert;
 pub mod dataset;
 pub mod dsi;
-pub mod eval;
 pub mod export;
-pub mod fk;
 pub mod formats;
-pub mod frames;
-pub mod geom;
-pub mod layout;
+pub mod hash;
 pub mod mcap_io;
-pub mod pose;
-pub mod pose_bag;
 pub mod record;
 pub mod render;
-pub mod resample;
-pub mod rig;
 pub mod ros;
 pub mod scene;
+pub mod skeleton;
 pub mod trim;
 pub mod video;
 

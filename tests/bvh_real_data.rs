@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use autoact::formats::bvh::{self, Bvh};
-use autoact::frames::SourceAxes;
+use autoact::skeleton::frames::SourceAxes;
 use nalgebra::Point3;
 
 const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data");

@@ -8,17 +8,17 @@ mod common;
 
 use common::{autoact, stderr};
 
-use autoact::character::Character;
-use autoact::fk::{self, BonePose};
-use autoact::layout::Layout;
 use autoact::mcap_io::{BagReader, BagWriter, Compression, WriteConfig};
-use autoact::pose::{PoseFrame, stamp_nanos_at};
-use autoact::rig::{Dof, Rig};
 use autoact::ros::autoact_msgs::{BoneFrame, Skeleton3D};
 use autoact::ros::geometry_msgs::{Point, Pose, PoseArray};
 use autoact::ros::std_msgs::Header;
 use autoact::ros::visualization_msgs::{Marker, MarkerArray};
 use autoact::ros::{builtin_interfaces::Time, cdr};
+use autoact::skeleton::character::Character;
+use autoact::skeleton::fk::{self, BonePose};
+use autoact::skeleton::layout::Layout;
+use autoact::skeleton::pose::{PoseFrame, stamp_nanos_at};
+use autoact::skeleton::rig::{Dof, Rig};
 use nalgebra::{UnitQuaternion, Vector3};
 
 fn arg(p: &Path) -> &str {

@@ -11,7 +11,7 @@ mod common;
 
 use common::{autoact, stderr, stdout};
 
-use autoact::animation_bag::TfTree;
+use autoact::bags::animation::TfTree;
 use autoact::mcap_io::BagReader;
 use autoact::ros::autoact_msgs::Segment;
 use autoact::ros::builtin_interfaces::Time;

@@ -11,17 +11,17 @@ mod common;
 
 use common::{autoact, stderr, stdout};
 
-use autoact::animation_bag::{TrackWriter, frame_prefix, read_animation, read_animation_variant};
-use autoact::character::Character;
+use autoact::bags::animation::{TrackWriter, frame_prefix, read_animation, read_animation_variant};
 use autoact::export::bvh::read_back;
 use autoact::export::onim::{self, OnimMapping, TrackKind};
-use autoact::fk::BonePose;
 use autoact::formats::bvh;
-use autoact::geom::rotation_distance;
-use autoact::layout::Coverage;
 use autoact::mcap_io::{BagReader, BagWriter, WriteConfig};
-use autoact::rig::Rig;
 use autoact::ros::tf2_msgs::TFMessage;
+use autoact::skeleton::character::Character;
+use autoact::skeleton::fk::BonePose;
+use autoact::skeleton::geom::rotation_distance;
+use autoact::skeleton::layout::Coverage;
+use autoact::skeleton::rig::Rig;
 use nalgebra::{UnitQuaternion, Vector3};
 
 fn arg(p: &Path) -> &str {
@@ -120,7 +120,7 @@ fn synthetic_bag(dir: &Path, tracks: u64, variants: u32, frames: usize) -> PathB
     )
     .unwrap();
     for k in 0..frames {
-        let stamp = autoact::pose::stamp_nanos_at(k, 30.0);
+        let stamp = autoact::skeleton::pose::stamp_nanos_at(k, 30.0);
         for (track, variant, tw) in &mut writers {
             tw.write_frame(&mut w, stamp, &pose(&rig, *track, *variant, k))
                 .unwrap();
@@ -232,7 +232,7 @@ fn bvh_through_import_and_convert_stays_within_the_measured_gap() {
         let (worst, bone, k) = worst_angle_deg(&rig, &converted, &original);
         assert!(worst < 2.0, "{name}: {bone} frame {k} is {worst}° off");
         // Over the bones the source moves: the median is far below the worst.
-        let moving = autoact::fk::moving_bones(&original);
+        let moving = autoact::skeleton::fk::moving_bones(&original);
         let mut errors: Vec<f64> = converted
             .iter()
             .zip(&original)
@@ -672,7 +672,7 @@ fn sample_bags_export_to_glb_with_the_rig_skin_and_the_bags_rotations() {
         for (b, joint) in skin.joints().enumerate() {
             assert_eq!(joint.name(), Some(rig.bones[b].name.as_str()));
         }
-        let rest = autoact::fk::forward(&rig, &character, &BonePose::rest(&rig), 1.0);
+        let rest = autoact::skeleton::fk::forward(&rig, &character, &BonePose::rest(&rig), 1.0);
         let ibm: Vec<[[f32; 4]; 4]> = skin
             .reader(|_| Some(&blob))
             .read_inverse_bind_matrices()

@@ -9,7 +9,7 @@ use std::time::Duration;
 use autoact::formats::h36m_expmap::{
     self, ExpmapClip, JOINT_COUNT, JOINT_NAMES, OFFSETS_MM, PARENTS, RootMode, offset_autoact_m,
 };
-use autoact::pose::PoseSequence;
+use autoact::skeleton::pose::PoseSequence;
 use nalgebra::{Point3, Vector3};
 
 const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data");

@@ -7,7 +7,7 @@
 use std::path::PathBuf;
 
 use autoact::formats::{ntu, zed_mat};
-use autoact::pose::{PoseSequence, stamp_nanos_at};
+use autoact::skeleton::pose::{PoseSequence, stamp_nanos_at};
 use nalgebra::{Point3, Vector3};
 
 const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data");

@@ -12,16 +12,16 @@ mod common;
 
 use common::{autoact, stderr, stdout};
 
-use autoact::fk;
+use autoact::bags::capture::Capture;
 use autoact::mcap_io::BagReader;
 use autoact::render::annotate::{VISIBLE, annotate};
 use autoact::render::cpu::CpuRenderer;
-use autoact::render::timeline::Capture;
 use autoact::render::world::Surface;
 use autoact::render::{Camera, FrameInput, Image, Renderer, Stage};
-use autoact::rig::Rig;
 use autoact::ros::autoact_msgs::{FrameAnnotation, VideoInfo};
 use autoact::ros::cdr;
+use autoact::skeleton::fk;
+use autoact::skeleton::rig::Rig;
 use autoact::video::probe;
 
 /// A one-session capture bag: the wave in 2 scenes × 2 viewpoints (4 clips), in `dir`.
@@ -101,7 +101,7 @@ fn video_has_every_timeline_frame_at_its_stamp_with_keyframes_on_every_boundary(
     assert_eq!(p.frames.len(), cap.frames.len());
     assert_eq!((p.width, p.height), (160, 120));
     assert!(!p.has_b_frames);
-    let first = cap.frames[0].stamp_ns;
+    let first = cap.frames[0].stamp_nanos;
     for (k, (f, c)) in p.frames.iter().zip(&cap.frames).enumerate() {
         // Video time k/30 s is the timeline's k-th stamp.
         assert!(
@@ -109,7 +109,7 @@ fn video_has_every_timeline_frame_at_its_stamp_with_keyframes_on_every_boundary(
             "frame {k}: {}",
             f.pts_s
         );
-        assert!(((c.stamp_ns - first) as f64 * 1e-9 - f.pts_s).abs() < 1e-6);
+        assert!(((c.stamp_nanos - first) as f64 * 1e-9 - f.pts_s).abs() < 1e-6);
     }
     let keys = p.keyframe_indices();
     let boundaries = cap.boundary_frames();
@@ -139,7 +139,7 @@ fn video_has_every_timeline_frame_at_its_stamp_with_keyframes_on_every_boundary(
     assert_eq!(units, cap.frames.len());
     for (k, (n, f)) in notes.iter().zip(&cap.frames).enumerate() {
         assert_eq!(n.frame_index, k as u64);
-        assert_eq!(n.header.stamp.to_nanos(), Some(f.stamp_ns));
+        assert_eq!(n.header.stamp.to_nanos(), Some(f.stamp_nanos));
         assert_eq!(n.keypoint_names.len(), rig.bones.len());
         assert_eq!(n.keypoints_2d.len(), 2 * rig.bones.len());
     }

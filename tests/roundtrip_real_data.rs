@@ -12,11 +12,11 @@
 
 use std::path::{Path, PathBuf};
 
-use autoact::convert::ConvertOptions;
-use autoact::eval::{self, RoundTrip};
 use autoact::formats::{bvh, bvh_map::BvhMapping, h36m_expmap, ntu, zed_mat};
-use autoact::layout::Layout;
-use autoact::rig::Rig;
+use autoact::skeleton::convert::ConvertOptions;
+use autoact::skeleton::eval::{self, RoundTrip};
+use autoact::skeleton::layout::Layout;
+use autoact::skeleton::rig::Rig;
 
 fn data() -> PathBuf {
     Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data")).to_path_buf()
@@ -165,8 +165,8 @@ fn sensor_recordings_convert_without_nan_and_report_degenerate_frames() {
 #[test]
 #[ignore = "needs ../shared/data"]
 fn retargeted_bandai_walk_keeps_directions_and_plants_feet() {
-    use autoact::character::{Character, Proportions};
-    use autoact::fk;
+    use autoact::skeleton::character::{Character, Proportions};
+    use autoact::skeleton::fk;
     let rig = Rig::standard();
     let rt = bvh_round_trip(
         &data().join("bvh/bandai_namco/dataset-1_walk_normal_001.bvh"),

@@ -248,8 +248,8 @@ mod common;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;
 
-use autoact::render::timeline::Capture;
-use autoact::rig::Rig;
+use autoact::bags::capture::Capture;
+use autoact::skeleton::rig::Rig;
 use common::{autoact, stderr, stdout};
 
 /// A one-session capture bag with two classes; the wave class is labelled `wave_label`.
@@ -288,7 +288,7 @@ fn segment_frames(capture: &Capture) -> Vec<(String, u64, u64)> {
     let index = |ns: u64| {
         capture
             .frames
-            .binary_search_by_key(&ns, |f| f.stamp_ns)
+            .binary_search_by_key(&ns, |f| f.stamp_nanos)
             .map_or_else(|i| i as u64, |i| i as u64)
     };
     capture
@@ -702,8 +702,8 @@ fn trim_sanitises_label_paths_and_keeps_the_label_in_the_csv() {
 
 #[test]
 fn trim_places_the_video_by_its_render_bag_and_refuses_another_captures() {
+    use autoact::bags::render::{VIDEO_TOPIC, render_bag_beside};
     use autoact::mcap_io::{BagWriter, WriteConfig};
-    use autoact::render::session::{VIDEO_TOPIC, render_bag_beside};
     use autoact::ros::autoact_msgs::VideoInfo;
     use autoact::ros::builtin_interfaces::Time;
 
@@ -720,7 +720,7 @@ fn trim_places_the_video_by_its_render_bag_and_refuses_another_captures() {
             fps: s.capture.fps,
             ..VideoInfo::default()
         };
-        let first = s.capture.frames[0].stamp_ns;
+        let first = s.capture.frames[0].stamp_nanos;
         info.header.stamp = Time::from_nanos(first);
         let mut w = BagWriter::create(&render_bag_beside(&video), WriteConfig::default()).unwrap();
         w.write(VIDEO_TOPIC, first, &info).unwrap();

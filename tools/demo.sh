@@ -10,8 +10,8 @@ out="${1:-out}"
 cargo build --release --quiet
 autoact=target/release/autoact
 "$autoact" convert --spec examples/dataset.toml -o "$out/captures"
-for bag in "$out"/captures/*.anim.mcap; do
-    name=$(basename "$bag" .anim.mcap)
+for bag in "$out"/captures/*.capture.mcap; do
+    name=$(basename "$bag" .capture.mcap)
     "$autoact" render "$bag" -o "$out/videos/$name.mp4" --resolution 320x240 \
         --preview "$out/videos/$name.png" --force
     "$autoact" trim "$bag" "$out/videos/$name.mp4" -o "$out/dataset"

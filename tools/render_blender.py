@@ -34,7 +34,7 @@ Scene set-up:
 docs/blender-still.png is frame 15 of (bpy 5.2.3, Python 3.13, 2 CPU threads, about 12 s in all):
 
     autoact convert --spec examples/dataset.toml -o capture
-    autoact export capture/demo_locomotion_walk_0001.anim.mcap --format glb -o glb
+    autoact export capture/demo_locomotion_walk_0001.capture.mcap --format glb -o glb
     python3.13 tools/render_blender.py glb/demo_locomotion_walk_0001_track0_v0.glb frames \
         --frames 30 --threads 2           # Workbench, 320 x 240
 

@@ -17,9 +17,9 @@
 use nalgebra::Point3;
 
 use super::{CameraError, Intrinsics};
-use crate::character::Character;
-use crate::fk::{self, BonePose, WorldPose};
-use crate::rig::{ROOT, Rig};
+use crate::skeleton::character::Character;
+use crate::skeleton::fk::{self, BonePose, WorldPose};
+use crate::skeleton::rig::{ROOT, Rig};
 
 /// Added to the radius of the joints' sphere to cover what joints do not mark: the body's flesh
 /// and clothes around the bones (half a torso's depth, a hand's and a foot's width), metres.

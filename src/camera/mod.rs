@@ -19,7 +19,7 @@
 //!
 //! ```
 //! use autoact::camera::{self, Intrinsics, RcmRanges, Shot, Subject};
-//! use autoact::{character::Character, fk::BonePose, rig::Rig};
+//! use autoact::skeleton::{character::Character, fk::BonePose, rig::Rig};
 //! use rand::SeedableRng;
 //!
 //! let rig = Rig::standard();
@@ -48,7 +48,7 @@
 //! lens, and every drawn and applied step is returned for logging. All draws come from a caller
 //! supplied RNG (seed it; ChaCha8 in the crate) so a plan is a pure function of its seed.
 //!
-//! **Frames.** Everything is in the autoact world frame ([`crate::frames`]: metres, +Z up, ground
+//! **Frames.** Everything is in the autoact world frame ([`crate::skeleton::frames`]: metres, +Z up, ground
 //! at `z = 0`). The camera's ROS frame is [`CAMERA_FRAME`], an optical frame; see [`CameraPose`]
 //! for what to write into `geometry_msgs/PoseStamped`, TF and `sensor_msgs/CameraInfo`.
 

@@ -97,7 +97,7 @@ pub fn optical_from_camera_link() -> UnitQuaternion<f64> {
 /// A camera *at* its target (no direction at all) looks horizontally along world +Y.
 #[must_use]
 pub fn look_at(position: &Point3<f64>, target: &Point3<f64>) -> UnitQuaternion<f64> {
-    let forward = crate::geom::direction(target - position)
+    let forward = crate::skeleton::geom::direction(target - position)
         .map_or_else(Vector3::y, nalgebra::Unit::into_inner);
     let across = forward.cross(&Vector3::z());
     let norm = across.norm();

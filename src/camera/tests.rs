@@ -8,9 +8,9 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::*;
-use crate::character::{Character, Proportions};
-use crate::fk::{self, BonePose, WorldPose};
-use crate::rig::Rig;
+use crate::skeleton::character::{Character, Proportions};
+use crate::skeleton::fk::{self, BonePose, WorldPose};
+use crate::skeleton::rig::Rig;
 
 const SCENES: usize = 250;
 const VIEWPOINTS: usize = 4;
@@ -85,7 +85,7 @@ fn synthesise(rig: &Rig, bones: &Bones, rng: &mut ChaCha8Rng) -> Vec<BonePose> {
             pose.local_rotations[bones.spine0] = about(Vector3::x(), 25.0 * (0.5 * w).sin());
             pose.local_rotations[bones.neck] = about(Vector3::y(), 15.0 * (0.9 * w).sin());
             pose.local_rotations[bones.head] = about(Vector3::x(), 20.0 * (1.1 * w).cos());
-            pose.local_rotations[crate::rig::ROOT] = about(Vector3::z(), yaw0 + turn * t);
+            pose.local_rotations[crate::skeleton::rig::ROOT] = about(Vector3::z(), yaw0 + turn * t);
             pose.root_translation_m = start
                 + Vector3::new(walk_dir.cos(), walk_dir.sin(), 0.0) * walk_m * t
                 + Vector3::z() * hop_m * (std::f64::consts::PI * 2.0 * t).sin().max(0.0);

@@ -6,18 +6,19 @@ use std::path::PathBuf;
 use anyhow::{Context, Result, bail};
 
 use super::{BagOutput, Outcome, OutputArgs, print_stdout, warn_list};
-use crate::animation_bag::{TF_STATIC_TOPIC, TrackWriter, frame_prefix};
-use crate::convert::{AnimationFrame, ConvertOptions, RootMotion, SequenceConverter};
+use crate::bags;
+use crate::bags::animation::{TF_STATIC_TOPIC, TrackWriter, frame_prefix};
+use crate::bags::pose::METADATA_NAME;
 use crate::dsi::plan::Threshold;
 use crate::dsi::smoothing::Smoothing;
 use crate::dsi::variants::VariationBounds;
 use crate::dsi::{self, DsiOptions, Pace};
 use crate::file_name;
-use crate::layout::Layout;
-use crate::pose_bag::{self, METADATA_NAME};
-use crate::resample::Resampler;
-use crate::rig::Rig;
 use crate::ros::tf2_msgs::TFMessage;
+use crate::skeleton::convert::{AnimationFrame, ConvertOptions, RootMotion, SequenceConverter};
+use crate::skeleton::layout::Layout;
+use crate::skeleton::resample::Resampler;
+use crate::skeleton::rig::Rig;
 
 /// Arguments of `autoact convert`.
 #[derive(Debug, clap::Args)]
@@ -26,7 +27,7 @@ pub struct Args {
     #[arg(required_unless_present = "spec")]
     pub input: Option<PathBuf>,
     /// Build a dataset's capture sessions from this spec instead (see `examples/dataset.toml`
-    /// and `autoact plan`): `-o` is then a folder that receives `<session>.anim.mcap` per
+    /// and `autoact plan`): `-o` is then a folder that receives `<session>.capture.mcap` per
     /// session and `plan.json`.
     #[arg(long, value_name = "DATASET.toml", conflicts_with_all = ["input", "topic", "layout", "rosbag2"])]
     pub spec: Option<PathBuf>,
@@ -235,7 +236,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         bail!("--min-confidence must be in [0, 1], not {min_confidence}");
     }
     let given_layout = layout.as_deref().map(Layout::load).transpose()?;
-    let topics = pose_bag::read_pose_topics(&input, topic.as_deref(), given_layout.as_ref())?;
+    let topics = bags::pose::read_pose_topics(&input, topic.as_deref(), given_layout.as_ref())?;
     warn_list("unreadable parts", &topics.issues, 5);
     warn_list("skipped messages", &topics.skipped, 5);
     if topics.nan_messages.1 > 0 {

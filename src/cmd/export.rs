@@ -7,7 +7,7 @@ use anyhow::{Context, Result, bail};
 use super::{Outcome, print_stdout, table};
 use crate::export::{self, EncodeOptions, ExportFormat, onim};
 use crate::mcap_io::BagReader;
-use crate::rig::Rig;
+use crate::skeleton::rig::Rig;
 
 const AFTER_HELP: &str = "\
 Output naming:
@@ -214,8 +214,9 @@ fn listing(available: &[export::AnimationListing], fps: Option<f64>) -> String {
     let rows: Vec<Vec<String>> = available
         .iter()
         .map(|a| {
-            let seconds =
-                crate::pose::nanos_to_secs(a.last_stamp_nanos.saturating_sub(a.first_stamp_nanos));
+            let seconds = crate::skeleton::pose::nanos_to_secs(
+                a.last_stamp_nanos.saturating_sub(a.first_stamp_nanos),
+            );
             vec![
                 a.key.track_id.to_string(),
                 a.key.variant.to_string(),

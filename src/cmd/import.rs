@@ -6,12 +6,12 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 
 use super::{BagOutput, Outcome, OutputArgs, print_stdout};
+use crate::bags;
 use crate::file_name;
 use crate::formats::{bvh, bvh_map::BvhMapping, h36m_expmap, mmpose_json, ntu, zed_mat};
-use crate::frames::SourceAxes;
-use crate::layout::Layout;
-use crate::pose::PoseSequence;
-use crate::pose_bag;
+use crate::skeleton::frames::SourceAxes;
+use crate::skeleton::layout::Layout;
+use crate::skeleton::pose::PoseSequence;
 
 /// Input formats.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
@@ -128,10 +128,10 @@ pub fn run(args: Args) -> Result<Outcome> {
     metadata.insert("category".to_string(), category.unwrap_or_default());
     metadata.insert("action".to_string(), action.unwrap_or_default());
     let mut out = BagOutput::create(&output)?;
-    let written = pose_bag::write_pose_bag(&mut out.writer, &sequences, &layout_name, metadata)?;
+    let written = bags::pose::write_pose_bag(&mut out.writer, &sequences, &layout_name, metadata)?;
     let stats = out.finish()?;
     let (start, end) = stats.time_range.unwrap_or((0, 0));
-    let seconds = crate::pose::nanos_to_secs(end - start);
+    let seconds = crate::skeleton::pose::nanos_to_secs(end - start);
     print_stdout(&format!(
         "wrote {}: {written} skeletons ({} track{}), layout {layout_name}, {seconds:.2} s\n",
         output.output.display(),

@@ -59,11 +59,11 @@ impl ChannelStats {
     }
 
     /// The frame rates of its streams, measured as export and convert measure a rate
-    /// ([`crate::pose::frame_rate`]: one over the median step), lowest and highest.
+    /// ([`crate::skeleton::pose::frame_rate`]: one over the median step), lowest and highest.
     fn frame_rate_range_hz(&self) -> Option<(f64, f64)> {
         self.streams
             .values()
-            .filter_map(|stamps| crate::pose::frame_rate(None, stamps))
+            .filter_map(|stamps| crate::skeleton::pose::frame_rate(None, stamps))
             .fold(None, |range, r| match range {
                 None => Some((r, r)),
                 Some((lo, hi)) => Some((f64::min(lo, r), f64::max(hi, r))),
@@ -93,7 +93,7 @@ fn check_message(
             stats.layouts.insert(m.layout);
         })),
         s if s == BoneFrame::TYPE_NAME => Some(ros::cdr::decode::<BoneFrame>(data).map(|m| {
-            let stamp = crate::animation_bag::frame_stamp(&m, log_time_nanos);
+            let stamp = crate::bags::animation::frame_stamp(&m, log_time_nanos);
             stats.add_frame(m.track_id, m.variant, stamp);
             stats.layouts.insert(format!("rig {}", m.rig));
         })),
@@ -311,7 +311,7 @@ pub fn run(args: Args) -> Result<Outcome> {
 
     // A channel's message rate, as `mcap info` gives it: messages less one over the span.
     let rate = |c: &ChannelStats| -> Option<f64> {
-        let span = crate::pose::nanos_to_secs(c.last - c.first?);
+        let span = crate::skeleton::pose::nanos_to_secs(c.last - c.first?);
         #[expect(clippy::cast_precision_loss, reason = "display only")]
         let steps = c.count.saturating_sub(1) as f64;
         (span > 0.0).then(|| steps / span)
@@ -349,7 +349,7 @@ pub fn run(args: Args) -> Result<Outcome> {
                 input.display()
             );
             if let (Some(a), Some(b)) = (start, end) {
-                let span = crate::pose::nanos_to_secs(b - a);
+                let span = crate::skeleton::pose::nanos_to_secs(b - a);
                 s.push_str(&format!("time: {a} .. {b} ns ({span:.3} s)\n"));
             }
             s.push_str(&format!(
@@ -402,7 +402,7 @@ pub fn run(args: Args) -> Result<Outcome> {
                         .map(|(&(track, variant), stamps)| {
                             json!({"track_id": track, "variant": variant, "frames": stamps.len(),
                                    "first_stamp": stamps.iter().min(), "last_stamp": stamps.iter().max(),
-                                   "fps": crate::pose::frame_rate(None, stamps)})
+                                   "fps": crate::skeleton::pose::frame_rate(None, stamps)})
                         })
                         .collect();
                     json!({"topic": t, "schema": c.schema, "schema_encoding": c.schema_encoding, "message_encoding": c.message_encoding,

@@ -5,8 +5,8 @@ use serde_json::json;
 
 use super::{Outcome, print_stdout, table};
 use crate::cli::Format;
-use crate::layout::{JointExpr, Layout};
-use crate::rig::Rig;
+use crate::skeleton::layout::{JointExpr, Layout};
+use crate::skeleton::rig::Rig;
 
 /// Arguments of `autoact layouts`.
 #[derive(Debug, clap::Args)]

@@ -232,8 +232,8 @@ pub fn run(args: Args) -> Result<Outcome> {
                 topic: &s.topic,
                 type_name: &s.type_name,
                 cdr: &s.cdr,
-                receive_time_ns: s.receive_time_ns,
-                source_time_ns: s.source_time_ns,
+                receive_time_nanos: s.receive_time_nanos,
+                source_time_nanos: s.source_time_nanos,
                 writer: s.writer,
                 sequence_number: s.sequence_number,
             };

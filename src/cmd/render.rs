@@ -8,17 +8,17 @@ use std::sync::atomic::AtomicBool;
 use anyhow::{Context, Result, bail};
 
 use super::Outcome;
+use crate::bags::capture::Capture;
 use crate::render::session::{Outputs, RenderSettings, render_capture};
-use crate::render::timeline::Capture;
-use crate::rig::Rig;
+use crate::skeleton::rig::Rig;
 
 /// Render a capture bag's timeline with the embedded CPU renderer and encode it to H.264.
 #[derive(Debug, clap::Args)]
 #[command(after_help = "\
 Examples:
   autoact convert --spec examples/dataset.toml -o out/
-  autoact render out/demo_gesture_wave_0000.anim.mcap -o out/wave.mp4 --resolution 640x360
-  autoact render out/demo_gesture_wave_0000.anim.mcap --preview sheet.png   # 12 frames only
+  autoact render out/demo_gesture_wave_0000.capture.mcap -o out/wave.mp4 --resolution 640x360
+  autoact render out/demo_gesture_wave_0000.capture.mcap --preview sheet.png   # 12 frames only
 
 Outputs: the video; beside it `<video>.render.mcap` with /render/video (autoact_msgs/VideoInfo:
 frame k shows the timeline at its k-th frame stamp) and /render/annotations

@@ -5,8 +5,8 @@ use serde_json::json;
 
 use super::{Outcome, print_stdout, table};
 use crate::cli::Format;
-use crate::layout::Layout;
-use crate::rig::{Dof, Reference, Rig};
+use crate::skeleton::layout::Layout;
+use crate::skeleton::rig::{Dof, Reference, Rig};
 
 /// Arguments of `autoact rig`.
 #[derive(Debug, clap::Args)]

@@ -8,9 +8,10 @@ use std::sync::atomic::AtomicBool;
 use anyhow::{Context, Result, bail};
 
 use super::Outcome;
-use crate::render::timeline::Capture;
-use crate::rig::Rig;
-use crate::trim::run::{RenderedVideo, RunError, TrimOptions, VideoSource, trim_capture};
+use crate::bags::capture::Capture;
+use crate::bags::render::{RenderedVideo, render_bag_beside};
+use crate::skeleton::rig::Rig;
+use crate::trim::run::{RunError, TrimOptions, VideoSource, trim_capture};
 use crate::trim::split::{Key, Split, SplitConfig};
 use crate::video::{Rational, ReencodeSettings};
 
@@ -19,12 +20,12 @@ use crate::video::{Rational, ReencodeSettings};
 #[command(after_help = "\
 Examples:
   autoact convert --spec examples/dataset.toml -o out/
-  autoact render out/demo_gesture_wave_0000.anim.mcap -o out/wave.mp4 --resolution 640x360
-  autoact trim out/demo_gesture_wave_0000.anim.mcap out/wave.mp4 -o dataset/
+  autoact render out/demo_gesture_wave_0000.capture.mcap -o out/wave.mp4 --resolution 640x360
+  autoact trim out/demo_gesture_wave_0000.capture.mcap out/wave.mp4 -o dataset/
   # a video from another engine or a screen recorder, whose frame 0 shows the timeline at 2.5 s:
-  autoact trim capture.anim.mcap recording.mp4 --video-start 2.5 --video-fps 30 -o dataset/
+  autoact trim session.capture.mcap recording.mp4 --video-start 2.5 --video-fps 30 -o dataset/
   # hold out a whole weather for testing:
-  autoact trim capture.anim.mcap capture.mp4 -o dataset/ --hold-out weather=RAIN
+  autoact trim session.capture.mcap capture.mp4 -o dataset/ --hold-out weather=RAIN
 
 Layout of DATASET_DIR (MMAction2's data_prefix; every path in the lists is relative to it):
   videos/<label>/<clip_id>.mp4            clips (label and id sanitised: letters, digits, - _ .)
@@ -147,11 +148,11 @@ pub fn run(args: Args) -> Result<Outcome> {
             .filter(|_| fps.is_finite() && fps > 0.0)
             .with_context(|| format!("frame rate {fps}: must be a positive number"))
     };
-    let (frame0_ns, fps) = if let Some(start_s) = args.video_start {
+    let (frame0_nanos, fps) = if let Some(start_s) = args.video_start {
         if !start_s.is_finite() {
             bail!("--video-start {start_s}: must be a number of seconds");
         }
-        let first = capture.frames.first().map_or(0, |f| f.stamp_ns);
+        let first = capture.frames.first().map_or(0, |f| f.stamp_nanos);
         #[expect(
             clippy::cast_possible_truncation,
             reason = "seconds of video fit in i128 ns"
@@ -162,7 +163,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         let bag = args
             .render_bag
             .clone()
-            .unwrap_or_else(|| crate::render::session::render_bag_beside(&args.video));
+            .unwrap_or_else(|| render_bag_beside(&args.video));
         if !bag.exists() {
             bail!(
                 "no render bag `{}` beside the video, so its frame 0 cannot be placed on the capture's timeline: pass `--video-start SECONDS` (and `--video-fps`) for a video autoact did not render, or `--render-bag`",
@@ -183,7 +184,7 @@ pub fn run(args: Args) -> Result<Outcome> {
             Some(_) => video_fps(rendered.fps.as_f64())?,
             None => rendered.fps,
         };
-        (rendered.frame0_ns, fps)
+        (rendered.frame0_nanos, fps)
     };
     let options = TrimOptions {
         split: SplitConfig {
@@ -222,7 +223,7 @@ pub fn run(args: Args) -> Result<Outcome> {
     };
     let source = VideoSource {
         path: &args.video,
-        frame0_ns,
+        frame0_nanos,
         fps,
     };
     let result = trim_capture(

@@ -1,59 +1,30 @@
-//! Capture bags: what `autoact convert --spec` writes — one MCAP per capture session, on one
-//! continuous timeline at the output rate, everything a renderer and the trimmer need:
-//!
-//! - `/animation`, `/tf`, `/tf_static`, `/skeleton/markers`: the character, as
-//!   [`crate::animation_bag`] writes them; at each scene start `/tf_static` carries that scene's
-//!   character (its drawn body), and the animation is retargeted onto it (root translation scaled
-//!   by the ratio of hip heights, starting at the location's origin);
-//! - `/camera/pose` (`geometry_msgs/PoseStamped`, the optical frame's pose in `world`), a
-//!   `world → camera` transform on `/tf` (`camera` is the ROS optical frame: z forward, x right,
-//!   y down) and `/camera/camera_info` (`sensor_msgs/CameraInfo`, frame `camera`), every frame;
-//! - `/scene` (`autoact_msgs/SceneState`) at each scene's start: every drawn parameter and the
-//!   seed and stream it came from;
-//! - `/segments` (`autoact_msgs/Segment`) at each clip's start: the full hierarchy path, the
-//!   label and its id, and the clip's and the animation's times.
-//!
-//! The metadata record `autoact.dataset` names the spec, seed, rate, resolution and labels.
+//! Capture sessions: a dataset spec's plan laid on timelines — every source converted (DSI,
+//! variants), each scene's character staged (the animation retargeted onto its drawn body), the
+//! camera moved along its viewpoints — and written as capture bags ([`crate::bags::capture`]).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use super::plan::{Plan, SceneNode};
 use super::spec::Spec;
-use crate::animation_bag::{TF_STATIC_TOPIC, TF_TOPIC, TrackWriter, read_animation};
-use crate::camera::{
-    CAMERA_FRAME, CameraPose, DISTORTION_MODEL, Intrinsics, Subject, Viewpoint, camera_at,
-    framing_band,
-};
-use crate::character::Character;
-use crate::convert::{AnimationFrame, ConvertOptions, convert_sequence};
+use crate::bags;
+use crate::bags::animation::{TrackWriter, read_animation};
+use crate::bags::capture::CaptureWriter;
+use crate::camera::{Intrinsics, Subject, Viewpoint, camera_at, framing_band};
 use crate::dsi::smoothing::Smoothing;
 use crate::dsi::{self, DsiOptions, Pace};
-use crate::fk::BonePose;
-use crate::frames::WORLD_FRAME;
-use crate::layout::{Coverage, Layout};
-use crate::mcap_io::{BagReader, BagWriter, McapIoError, WriteConfig};
-use crate::pose::stamp_nanos_at;
-use crate::pose_bag;
-use crate::rig::Rig;
+use crate::mcap_io::{BagReader, McapIoError, WriteConfig};
 use crate::ros::RosMessage;
 use crate::ros::autoact_msgs::{BoneFrame, SceneState, Segment};
 use crate::ros::builtin_interfaces::Time;
-use crate::ros::geometry_msgs::{
-    Pose, PoseStamped, Quaternion, Transform, TransformStamped, Vector3,
-};
-use crate::ros::sensor_msgs::CameraInfo;
 use crate::ros::std_msgs::Header;
-use crate::ros::tf2_msgs::TFMessage;
-
-/// Topic of the camera's pose.
-pub const CAMERA_POSE_TOPIC: &str = "/camera/pose";
-/// Topic of the camera's calibration.
-pub const CAMERA_INFO_TOPIC: &str = "/camera/camera_info";
-/// Topic of the scene states.
-pub const SCENE_TOPIC: &str = "/scene";
-/// Topic of the clip segments.
-pub const SEGMENTS_TOPIC: &str = "/segments";
+use crate::skeleton::character::Character;
+use crate::skeleton::convert::{AnimationFrame, ConvertOptions, convert_sequence};
+use crate::skeleton::fk::BonePose;
+use crate::skeleton::frames::WORLD_FRAME;
+use crate::skeleton::layout::{Coverage, Layout};
+use crate::skeleton::pose::stamp_nanos_at;
+use crate::skeleton::rig::Rig;
 
 /// What went wrong while capturing.
 #[derive(Debug, thiserror::Error)]
@@ -129,7 +100,7 @@ pub fn convert_source(
 }
 
 /// The key frames, body and coverage of one person of a bag: a pose bag is converted (its own
-/// layout); an animation bag is read back ([`crate::animation_bag::read_animation`]).
+/// layout); an animation bag is read back ([`crate::bags::animation::read_animation`]).
 fn read_source(
     rig: &Rig,
     path: &Path,
@@ -145,7 +116,7 @@ fn read_source(
     if is_animation {
         return read_animation(rig, &readers, track);
     }
-    let topics = pose_bag::read_pose_topics(path, None, None).map_err(|e| e.to_string())?;
+    let topics = bags::pose::read_pose_topics(path, None, None).map_err(|e| e.to_string())?;
     if topics.lost_data() {
         tracing::warn!(
             "{}: {} unreadable parts, {} skipped messages; using the rest",
@@ -236,72 +207,6 @@ fn scene_state(
     }
 }
 
-/// The camera's three messages per frame, kept and updated in place (no allocation per frame):
-/// its pose in `world`, the `world → camera` transform, and its calibration.
-struct CameraTrack {
-    pose: PoseStamped,
-    tf: TFMessage,
-    info: CameraInfo,
-}
-
-impl CameraTrack {
-    fn new(intrinsics: &Intrinsics) -> CameraTrack {
-        let world = Header {
-            stamp: Time::default(),
-            frame_id: WORLD_FRAME.to_string(),
-        };
-        CameraTrack {
-            pose: PoseStamped {
-                header: world.clone(),
-                pose: Pose::default(),
-            },
-            tf: TFMessage {
-                transforms: vec![TransformStamped {
-                    header: world,
-                    child_frame_id: CAMERA_FRAME.to_string(),
-                    transform: Transform::default(),
-                }],
-            },
-            info: CameraInfo {
-                header: Header {
-                    stamp: Time::default(),
-                    frame_id: CAMERA_FRAME.to_string(),
-                },
-                height: intrinsics.height_px,
-                width: intrinsics.width_px,
-                distortion_model: DISTORTION_MODEL.to_string(),
-                d: intrinsics.d().to_vec(),
-                k: intrinsics.k(),
-                r: intrinsics.r(),
-                p: intrinsics.p(),
-                ..CameraInfo::default()
-            },
-        }
-    }
-
-    /// Writes `/camera/pose`, the camera's `/tf` and `/camera/camera_info` at `stamp`.
-    fn write<W: std::io::Write + std::io::Seek>(
-        &mut self,
-        w: &mut BagWriter<W>,
-        stamp: u64,
-        camera: &CameraPose,
-    ) -> Result<(), McapIoError> {
-        let time = Time::from_nanos(stamp);
-        let rotation = Quaternion::from(camera.world_from_optical);
-        self.pose.header.stamp = time;
-        self.pose.pose.position = crate::ros::geometry_msgs::Point::from(camera.position_m);
-        self.pose.pose.orientation = rotation;
-        let t = &mut self.tf.transforms[0];
-        t.header.stamp = time;
-        t.transform.translation = Vector3::from(camera.position_m.coords);
-        t.transform.rotation = rotation;
-        self.info.header.stamp = time;
-        w.write(CAMERA_POSE_TOPIC, stamp, &self.pose)?;
-        w.write(TF_TOPIC, stamp, &self.tf)?;
-        w.write(CAMERA_INFO_TOPIC, stamp, &self.info)
-    }
-}
-
 /// What every clip of one scene shares: the character's writer, the animation retargeted onto
 /// the scene's body (from the location's origin), how the camera must frame it.
 struct Staged {
@@ -353,9 +258,9 @@ fn stage_scene(
     })
 }
 
-/// Writes every session of `plan` into `out_dir` as `<session>.anim.mcap`, with the sources
+/// Writes every session of `plan` into `out_dir` as `<session>.capture.mcap`, with the sources
 /// already converted (`converted[animation]`, lengths set in the plan). With `journal`, each
-/// bag also gets `<session>.anim.expected.json` (every message as meant, for `tools/interop`).
+/// bag also gets `<session>.capture.expected.json` (every message as meant, for `tools/interop`).
 ///
 /// # Errors
 /// [`CaptureError`] for a write failure or a character the camera cannot frame.
@@ -374,11 +279,7 @@ pub fn write_sessions(
     let shot = spec.file.counts.shot;
     let mut written = Vec::new();
     for session in &plan.sessions {
-        let path = out_dir.join(format!("{}.anim.mcap", session.name));
-        let mut w = BagWriter::create(&path, config)?;
-        if journal {
-            w.keep_journal();
-        }
+        let path = bags::capture::session_path(out_dir, &session.name);
         let mut meta = BTreeMap::new();
         meta.insert("dataset".to_string(), plan.name.clone());
         meta.insert("session".to_string(), session.name.clone());
@@ -395,9 +296,8 @@ pub fn write_sessions(
             serde_json::to_string(&plan.labels).unwrap_or_default(),
         );
         meta.insert("clips".to_string(), session.leaves.len().to_string());
-        w.write_metadata(&format!("{}.dataset", crate::pose_bag::METADATA_NAME), meta)?;
+        let mut w = CaptureWriter::create(&path, config, journal, meta, &intrinsics)?;
 
-        let mut camera_track = CameraTrack::new(&intrinsics);
         let mut current_scene: Option<usize> = None;
         let mut staged: Option<Staged> = None;
         let mut pushed_out = 0;
@@ -405,22 +305,15 @@ pub fn write_sessions(
             let node = &plan.scenes[leaf.scene];
             let anim = &plan.animations[node.animation];
             let class = &spec.file.classes[anim.class];
-            let start_ns = nanos_at(leaf.start_frame, d.fps);
-            let start = Time::from_nanos(start_ns);
+            let start_nanos = nanos_at(leaf.start_frame, d.fps);
+            let start = Time::from_nanos(start_nanos);
             if current_scene != Some(leaf.scene) {
                 current_scene = Some(leaf.scene);
-                w.write(
-                    SCENE_TOPIC,
-                    start_ns,
-                    &scene_state(spec, plan, node, &session.name, start),
-                )?;
                 let s = stage_scene(rig, spec, &intrinsics, node, &converted[node.animation])?;
-                w.write(
-                    TF_STATIC_TOPIC,
-                    start_ns,
-                    &TFMessage {
-                        transforms: s.writer.static_transforms(start_ns),
-                    },
+                w.write_scene(
+                    start_nanos,
+                    &scene_state(spec, plan, node, &session.name, start),
+                    &s.writer,
                 )?;
                 staged = Some(s);
             }
@@ -453,7 +346,7 @@ pub fn write_sessions(
                 content_start: time_at(leaf.content_start_frame, d.fps),
                 content_end: time_at(leaf.content_end_frame, d.fps),
             };
-            w.write(SEGMENTS_TOPIC, start_ns, &segment)?;
+            w.write_segment(start_nanos, &segment)?;
 
             // The plan framed a standing body of the drawn height; an animation that reaches
             // farther (a wide jump) pushes the camera out along its ray, never closer.
@@ -490,15 +383,10 @@ pub fn write_sessions(
                     subject.ground_xy_m[k],
                     subject.centres_m[k],
                 );
-                camera_track.write(&mut w, stamp, &cam)?;
-                tw.write_frame(&mut w, stamp, pose)?;
+                w.write_frame(stamp, &cam, tw, pose)?;
             }
         }
-        if journal {
-            w.finish_with_journal(&path.with_extension("expected.json"))?;
-        } else {
-            w.finish()?;
-        }
+        w.finish(&path, journal)?;
         written.push(SessionWritten {
             path,
             clips: session.leaves.len(),
@@ -538,7 +426,7 @@ mod tests {
                 .zip(&b.pose.local_rotations)
                 .enumerate()
             {
-                let d = crate::geom::rotation_distance(p, q);
+                let d = crate::skeleton::geom::rotation_distance(p, q);
                 assert!(
                     d < 1e-4,
                     "frame {} bone {}: {d}",

@@ -43,7 +43,7 @@ pub fn estimated_frames(spec: &Spec) -> Result<Vec<Vec<u64>>, String> {
                         reason = "frame counts far inside f64's exact range"
                     )]
                     let frames =
-                        (crate::pose::nanos_to_secs(b - a) * fps / speed).round() as u64 + 1;
+                        (crate::skeleton::pose::nanos_to_secs(b - a) * fps / speed).round() as u64 + 1;
                     Ok(frames)
                 })
                 .collect()

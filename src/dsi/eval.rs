@@ -5,7 +5,7 @@
 
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
-use crate::geom::{log_rotation, rotation_distance};
+use crate::skeleton::geom::{log_rotation, rotation_distance};
 
 /// A norm further than this from 1 is a violation.
 pub const NORM_TOLERANCE: f64 = 1e-9;

@@ -15,8 +15,8 @@
 
 use nalgebra::Vector3;
 
-use crate::fk::BonePose;
-use crate::geom::{exp_rotation, log_rotation};
+use crate::skeleton::fk::BonePose;
+use crate::skeleton::geom::{exp_rotation, log_rotation};
 
 /// Where an output sample falls: between keys `interval` and `interval + 1`, a fraction `s` ∈
 /// [0, 1] of the way in time.
@@ -82,7 +82,7 @@ pub fn interpolate(
             for i in 1..k.len() {
                 let previous = k[i - 1].local_rotations[b];
                 k[i].local_rotations[b] =
-                    crate::geom::align_hemisphere(k[i].local_rotations[b], &previous);
+                    crate::skeleton::geom::align_hemisphere(k[i].local_rotations[b], &previous);
             }
         }
         aligned = k;
@@ -94,7 +94,7 @@ pub fn interpolate(
         return Vec::new();
     };
     let bones = first.local_rotations.len();
-    let varies = crate::fk::moving_bones(keys);
+    let varies = crate::skeleton::fk::moving_bones(keys);
     let is_transition = |i: usize| transition.get(i).copied().unwrap_or(false);
 
     let mut out = Vec::with_capacity(samples.len());
@@ -171,7 +171,7 @@ pub fn interpolate(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geom::rotation_distance;
+    use crate::skeleton::geom::rotation_distance;
     use nalgebra::UnitQuaternion;
     use proptest::prelude::*;
 

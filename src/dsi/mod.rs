@@ -21,10 +21,10 @@ pub mod smoothing;
 pub mod supersmoother;
 pub mod variants;
 
-use crate::convert::AnimationFrame;
-use crate::fk::BonePose;
-use crate::pose::stamp_nanos_at;
-use crate::rig::{Dof, Rig};
+use crate::skeleton::convert::AnimationFrame;
+use crate::skeleton::fk::BonePose;
+use crate::skeleton::pose::stamp_nanos_at;
+use crate::skeleton::rig::{Dof, Rig};
 use interp::Method;
 use plan::{Plan, Threshold};
 use smoothing::Smoothing;
@@ -204,7 +204,7 @@ pub fn run(
     }
     let times_s: Vec<f64> = keys
         .iter()
-        .map(|k| crate::pose::nanos_to_secs(k.stamp_nanos - first.stamp_nanos))
+        .map(|k| crate::skeleton::pose::nanos_to_secs(k.stamp_nanos - first.stamp_nanos))
         .collect();
     let poses: Vec<BonePose> = keys.iter().map(|k| k.pose.clone()).collect();
     let plan = plan::plan(&poses, &times_s, options)?;
@@ -245,7 +245,7 @@ pub fn run(
 
 /// Puts every rotation in its bone's class, renormalises, and makes each track sign-continuous.
 fn finish(rig: &Rig, poses: &mut [BonePose]) {
-    let moving = crate::fk::moving_bones(poses);
+    let moving = crate::skeleton::fk::moving_bones(poses);
     for (b, bone) in rig.bones.iter().enumerate() {
         if !moving[b] {
             continue;
@@ -255,7 +255,7 @@ fn finish(rig: &Rig, poses: &mut [BonePose]) {
             let q = &mut pose.local_rotations[b];
             let c = bone.constrain(q);
             let c = nalgebra::UnitQuaternion::new_normalize(c.into_inner());
-            *q = previous.map_or(c, |p| crate::geom::align_hemisphere(c, &p));
+            *q = previous.map_or(c, |p| crate::skeleton::geom::align_hemisphere(c, &p));
             previous = Some(*q);
         }
     }
@@ -266,8 +266,8 @@ fn finish(rig: &Rig, poses: &mut [BonePose]) {
 pub(crate) mod fixture {
     use nalgebra::{UnitQuaternion, Vector3};
 
-    use crate::fk::BonePose;
-    use crate::rig::Rig;
+    use crate::skeleton::fk::BonePose;
+    use crate::skeleton::rig::Rig;
 
     /// `n` frames at 30 fps of every bone moving within its DoF class (a phase per bone), the
     /// root walking along +X and turning through ±180° (where raw quaternion components would
@@ -316,7 +316,7 @@ pub(crate) mod fixture {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geom::rotation_distance;
+    use crate::skeleton::geom::rotation_distance;
 
     /// 4 s of whole-body motion with jitter and a fast swing in the middle.
     fn keys(rig: &Rig) -> Vec<AnimationFrame> {

@@ -20,15 +20,15 @@ use std::str::FromStr;
 
 use super::interp::Sample;
 use super::{DsiError, DsiOptions};
-use crate::character::median;
-use crate::fk::BonePose;
+use crate::skeleton::character::median;
+use crate::skeleton::fk::BonePose;
 
 /// With a relative threshold, the cut never falls below this angular speed (radians per second
 /// of the weighted mean bone), so an almost still clip is not cut at its noise.
 pub const RELATIVE_FLOOR_RAD_PER_S: f64 = 0.5;
 
 /// Output times within this fraction of a frame past the last key show the last key (stamp
-/// rounding, as in [`crate::resample::Resampler`]).
+/// rounding, as in [`crate::skeleton::resample::Resampler`]).
 const END_TOLERANCE_FRAMES: f64 = 1e-3;
 
 /// Fraction of an interval within which an output time is its key's.
@@ -133,7 +133,7 @@ impl Plan {
 #[must_use]
 pub fn angular_distances(keys: &[BonePose], times_s: &[f64], weights: &[f64]) -> Vec<f64> {
     let period_s = source_period_s(times_s);
-    let moving: Vec<usize> = crate::fk::moving_bones(keys)
+    let moving: Vec<usize> = crate::skeleton::fk::moving_bones(keys)
         .iter()
         .enumerate()
         .filter(|&(b, &m)| m && weights.get(b).copied().unwrap_or(0.0) > 0.0)
@@ -314,7 +314,7 @@ mod tests {
             eta,
             out_fps,
             pace: crate::dsi::Pace::Speed(speed),
-            ..DsiOptions::new(&crate::rig::Rig::standard())
+            ..DsiOptions::new(&crate::skeleton::rig::Rig::standard())
         }
     }
 

@@ -7,7 +7,7 @@
 //! component of `v`. Raw quaternion components are never smoothed, so nothing shrinks or flips,
 //! and every result is unit. A hinge's offsets lie on its axis and the root's on the vertical:
 //! only that component is smoothed; a 2-D bone must be projected back onto its swing afterwards
-//! ([`crate::rig::Bone::constrain`], which `dsi::run` does for every bone). The
+//! ([`crate::skeleton::rig::Bone::constrain`], which `dsi::run` does for every bone). The
 //! root translation (Euclidean) is smoothed per coordinate.
 //!
 //! Friedman's spans are fractions of the series; for animations the three spans (tweeter,
@@ -19,10 +19,10 @@
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
 use super::supersmoother::{SmoothScratch, SuperSmoother};
-use crate::fk::BonePose;
-use crate::fk::moving_bones;
-use crate::geom::{align_hemisphere, exp_rotation, log_rotation};
-use crate::rig::{Dof, Rig};
+use crate::skeleton::fk::BonePose;
+use crate::skeleton::fk::moving_bones;
+use crate::skeleton::geom::{align_hemisphere, exp_rotation, log_rotation};
+use crate::skeleton::rig::{Dof, Rig};
 
 /// Smoothing parameters for animations.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -177,7 +177,7 @@ impl Smoothing {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geom::rotation_distance;
+    use crate::skeleton::geom::rotation_distance;
 
     fn clip(rig: &Rig, n: u32, noise: f64) -> (Vec<BonePose>, Vec<BonePose>) {
         (

@@ -20,9 +20,9 @@ use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::fk::BonePose;
-use crate::geom::exp_rotation;
-use crate::rig::{Dof, Rig};
+use crate::skeleton::fk::BonePose;
+use crate::skeleton::geom::exp_rotation;
+use crate::skeleton::rig::{Dof, Rig};
 
 /// Per-class bounds of the perturbation, degrees (`A` in the module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -144,7 +144,7 @@ fn in_ball(rng: &mut ChaCha8Rng, dims: usize) -> [f64; 3] {
 
 /// The class's axes in the rig frame: hinge axis; root vertical; 2-D the two axes across the
 /// bone; 3-D all three of the bone's rest frame. Static bones have none.
-fn class_axes(bone: &crate::rig::Bone) -> Vec<Vector3<f64>> {
+fn class_axes(bone: &crate::skeleton::rig::Bone) -> Vec<Vector3<f64>> {
     let frame = bone.rest_orientation;
     match bone.dof {
         Dof::Static => Vec::new(),
@@ -209,7 +209,7 @@ pub fn variant(
     seed: u64,
     index: u64,
 ) -> Vec<BonePose> {
-    let moving = crate::fk::moving_bones(poses);
+    let moving = crate::skeleton::fk::moving_bones(poses);
     let wobbles = wobbles(rig, &moving, bounds, seed, index);
     poses
         .iter()
@@ -235,14 +235,14 @@ pub fn variant(
 /// `q · exp(θ)` projected onto the bone's class. The projection (a 2-D bone's swing) can carry
 /// the result a little past `|θ|`; then θ is shortened until the result is within `bound_rad`.
 fn perturb(
-    bone: &crate::rig::Bone,
+    bone: &crate::skeleton::rig::Bone,
     q: &nalgebra::UnitQuaternion<f64>,
     mut theta: Vector3<f64>,
     bound_rad: f64,
 ) -> nalgebra::UnitQuaternion<f64> {
     for _ in 0..8 {
         let out = bone.constrain(&(q * exp_rotation(&theta)));
-        let d = crate::geom::rotation_distance(&out, q);
+        let d = crate::skeleton::geom::rotation_distance(&out, q);
         if d <= bound_rad {
             return out;
         }
@@ -254,7 +254,7 @@ fn perturb(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geom::rotation_distance;
+    use crate::skeleton::geom::rotation_distance;
 
     /// Every bone of the rig moving in its own class, smoothly, for 3 s at 30 fps.
     fn moving_animation(rig: &Rig) -> Vec<BonePose> {
@@ -279,7 +279,7 @@ mod tests {
             variant(&rig, &poses, 30.0, &bounds, 8, 1),
             "another seed differs"
         );
-        let moving = crate::fk::moving_bones(&poses);
+        let moving = crate::skeleton::fk::moving_bones(&poses);
         for v in &vs {
             for (p, o) in v.iter().zip(&poses) {
                 for (b, bone) in rig.bones.iter().enumerate() {

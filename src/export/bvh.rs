@@ -4,7 +4,7 @@
 //! **Skeleton.** One joint per rig bone, named as the rig names it (`root`, `pelvis`, `l_thigh`,
 //! … — `autoact rig` lists them), nested as the rig's parents say, children in rig order. A bone's
 //! `OFFSET` is its head's rest offset from its parent's head on the clip's body
-//! ([`crate::character::Character::head_offset_m`]); bones without children end in an
+//! ([`crate::skeleton::character::Character::head_offset_m`]); bones without children end in an
 //! `End Site` at their rest tail (scaled like the bone's own offset). The rest pose — every
 //! channel zero — is the rig's T-pose, and every joint frame is aligned with the file's axes at
 //! rest.
@@ -12,7 +12,7 @@
 //! **Axes and units.** The file is **Y-up, centimetres** ([`UNITS_PER_METRE`]), the body facing
 //! +Z at rest with its left hand towards +X: autoact's `(x, y, z)` is written as `(−x, z, y)`
 //! ([`bvh_from_autoact`], a proper rotation, the inverse of
-//! [`crate::frames::SourceAxes::YUp`]). Blender's importer wants *Scale* 0.01 for metres.
+//! [`crate::skeleton::frames::SourceAxes::YUp`]). Blender's importer wants *Scale* 0.01 for metres.
 //!
 //! **Channels.** The root has `Xposition Yposition Zposition Zrotation Xrotation Yrotation`
 //! (position = the root bone's head in the world, per frame); every other joint
@@ -32,10 +32,10 @@ use std::fmt::Write as _;
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 
 use super::Clip;
-use crate::fk::{self, BonePose};
 use crate::formats::bvh::Bvh;
-use crate::frames::SourceAxes;
-use crate::rig::{ROOT, Rig};
+use crate::skeleton::fk::{self, BonePose};
+use crate::skeleton::frames::SourceAxes;
+use crate::skeleton::rig::{ROOT, Rig};
 
 /// File units per metre: the file is in centimetres.
 pub const UNITS_PER_METRE: f64 = 100.0;

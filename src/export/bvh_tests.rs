@@ -20,7 +20,7 @@ proptest! {
         for previous in [None, Some(p)] {
             let angles = euler_zxy(&q, previous);
             let back = rotation_from_euler_zxy_deg(angles.map(f64::to_degrees));
-            prop_assert!(crate::geom::rotation_distance(&q, &back) < 1e-9, "{angles:?}");
+            prop_assert!(crate::skeleton::geom::rotation_distance(&q, &back) < 1e-9, "{angles:?}");
         }
         let principal = euler_zxy(&q, None);
         prop_assert!(principal[1].abs() <= std::f64::consts::FRAC_PI_2 + 1e-12);
@@ -33,7 +33,7 @@ fn euler_zxy_handles_gimbal_lock() {
         let q = rotation_from_euler_zxy_deg([30.0, x_deg, 20.0]);
         for previous in [None, Some([0.5, 1.5, 0.3])] {
             let back = rotation_from_euler_zxy_deg(euler_zxy(&q, previous).map(f64::to_degrees));
-            assert!(crate::geom::rotation_distance(&q, &back) < 1e-9);
+            assert!(crate::skeleton::geom::rotation_distance(&q, &back) < 1e-9);
         }
     }
 }
@@ -125,7 +125,7 @@ fn bvh_round_trip_gives_back_the_rotations_and_the_root() {
     let mut worst: f64 = 0.0;
     for (a, b) in back.iter().zip(&clip.poses) {
         for (qa, qb) in a.local_rotations.iter().zip(&b.local_rotations) {
-            worst = worst.max(crate::geom::rotation_distance(qa, qb));
+            worst = worst.max(crate::skeleton::geom::rotation_distance(qa, qb));
         }
         assert!((a.root_translation_m - b.root_translation_m).norm() < 1e-7);
     }

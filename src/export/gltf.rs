@@ -46,14 +46,14 @@ use nalgebra::{Isometry3, UnitQuaternion};
 use serde_json::{Value, json};
 
 use super::{Clip, ExportError};
-use crate::body_mesh::{BodyMesh, BodyShape, Material, albedo_srgb};
-use crate::fk::{self, BonePose};
+use crate::bags::capture::Capture;
 use crate::mcap_io::BagReader;
-use crate::render::color::linear_from_srgb;
-use crate::render::environment::Environment;
-use crate::render::timeline::Capture;
-use crate::rig::{ROOT, Rig};
+use crate::scene::body_mesh::{BodyMesh, BodyShape, Material, albedo_srgb};
 use crate::scene::cast::Look;
+use crate::scene::color::linear_from_srgb;
+use crate::scene::environment::Environment;
+use crate::skeleton::fk::{self, BonePose};
+use crate::skeleton::rig::{ROOT, Rig};
 
 /// Rotation of node `autoact_world`, x y z w: −90° about x, autoact's Z-up → glTF's Y-up.
 pub const Y_UP_FROM_Z_UP: [f32; 4] = [-FRAC_1_SQRT_2, 0.0, 0.0, FRAC_1_SQRT_2];
@@ -131,7 +131,7 @@ impl SceneContext {
         let mut metadata = BTreeMap::new();
         for r in readers {
             for (name, record) in r.metadata() {
-                if name.starts_with(crate::pose_bag::METADATA_NAME) {
+                if name.starts_with(crate::bags::pose::METADATA_NAME) {
                     metadata.insert(name, record);
                 }
             }
@@ -147,8 +147,7 @@ impl SceneContext {
                     .map_or_else(|_| json!(seed), |s| json!(s)),
             );
         }
-        let dataset = format!("{}.dataset", crate::pose_bag::METADATA_NAME);
-        let is_capture = metadata.contains_key(&dataset);
+        let is_capture = metadata.contains_key(crate::bags::capture::METADATA_NAME);
         extras.insert("metadata".into(), json!(metadata));
         if !is_capture {
             return Ok(SceneContext {
@@ -162,7 +161,7 @@ impl SceneContext {
         for &stamp in &clip.stamps_nanos {
             let k = capture
                 .frames
-                .binary_search_by_key(&stamp, |f| f.stamp_ns)
+                .binary_search_by_key(&stamp, |f| f.stamp_nanos)
                 .map_err(|_| bad(format!("no camera pose at the frame stamped {stamp} ns")))?;
             world_from_optical.push(capture.frames[k].world_from_optical);
         }
@@ -206,7 +205,7 @@ impl SceneContext {
                 json!({
                     "scene_id": s.scene_id,
                     "stream": s.stream,
-                    "start_frame": frame_of(s.start_ns),
+                    "start_frame": frame_of(s.start_nanos),
                     "lighting": {
                         "key_dir_world": env.key_dir, "key_rgb_linear": env.key_rgb,
                         "zenith_rgb_linear": env.zenith_rgb, "horizon_rgb_linear": env.horizon_rgb,
@@ -224,7 +223,7 @@ impl SceneContext {
         let look = capture
             .frames
             .iter()
-            .find(|f| f.stamp_ns >= first)
+            .find(|f| f.stamp_nanos >= first)
             .map(|f| capture.scenes[f.scene].scene.look.clone());
         Ok(SceneContext {
             camera: Some(camera),
@@ -572,9 +571,9 @@ fn animation(
 fn continuous(rotations: impl Iterator<Item = UnitQuaternion<f64>>) -> Vec<UnitQuaternion<f64>> {
     let mut out: Vec<UnitQuaternion<f64>> = Vec::new();
     for q in rotations {
-        let q = out
-            .last()
-            .map_or(q, |previous| crate::geom::align_hemisphere(q, previous));
+        let q = out.last().map_or(q, |previous| {
+            crate::skeleton::geom::align_hemisphere(q, previous)
+        });
         out.push(q);
     }
     out

@@ -25,12 +25,12 @@ pub mod onim;
 
 use std::path::{Path, PathBuf};
 
-pub use crate::animation_bag::{AnimationKey, AnimationListing};
-use crate::character::Character;
-use crate::fk::BonePose;
+pub use crate::bags::animation::{AnimationKey, AnimationListing};
 use crate::mcap_io::BagReader;
-use crate::pose::{frame_rate, nanos_to_secs};
-use crate::rig::Rig;
+use crate::skeleton::character::Character;
+use crate::skeleton::fk::BonePose;
+use crate::skeleton::pose::{frame_rate, nanos_to_secs};
+use crate::skeleton::rig::Rig;
 
 /// Why an export failed. Every variant names the file it is about.
 #[derive(Debug, thiserror::Error)]
@@ -137,7 +137,7 @@ pub struct Clip {
 /// # Errors
 /// [`ExportError::NotAnimationBag`] when there is none.
 pub fn list(path: &Path, readers: &[BagReader]) -> Result<Vec<AnimationListing>, ExportError> {
-    let all = crate::animation_bag::list_animations(readers);
+    let all = crate::bags::animation::list_animations(readers);
     if all.is_empty() {
         return Err(ExportError::NotAnimationBag {
             path: path.to_path_buf(),
@@ -186,7 +186,7 @@ pub fn select(
 /// metadata record (what `autoact convert` resampled to), if any.
 #[must_use]
 pub fn stated_frame_rate(readers: &[BagReader]) -> Option<f64> {
-    let prefix = crate::pose_bag::METADATA_NAME;
+    let prefix = crate::bags::pose::METADATA_NAME;
     readers
         .iter()
         .flat_map(BagReader::metadata)
@@ -223,13 +223,17 @@ pub fn read_clip(
     key: AnimationKey,
     fps_hz: Option<f64>,
 ) -> Result<Clip, ExportError> {
-    let (frames, character, _) =
-        crate::animation_bag::read_animation_variant(rig, readers, Some(key.track_id), key.variant)
-            .map_err(|message| ExportError::BadAnimation {
-                path: path.to_path_buf(),
-                key,
-                message,
-            })?;
+    let (frames, character, _) = crate::bags::animation::read_animation_variant(
+        rig,
+        readers,
+        Some(key.track_id),
+        key.variant,
+    )
+    .map_err(|message| ExportError::BadAnimation {
+        path: path.to_path_buf(),
+        key,
+        message,
+    })?;
     let stamps: Vec<u64> = frames.iter().map(|f| f.stamp_nanos).collect();
     let fps_hz =
         frame_rate(fps_hz.or_else(|| stated_frame_rate(readers)), &stamps).ok_or_else(|| {
@@ -255,14 +259,17 @@ pub fn read_clip(
 
 /// The file name of animation `key` of bag `bag` when several are exported into one folder:
 /// `<bag stem>_track<T>_v<V>.<ext>`, where the stem is the bag's file name without `.mcap` and
-/// `.anim`, with every character other than ASCII letters, digits, `-` and `_` replaced by `_`.
+/// `.anim` or `.capture`, with every character other than ASCII letters, digits, `-` and `_` replaced by `_`.
 #[must_use]
 pub fn output_name(bag: &Path, key: AnimationKey, format: ExportFormat) -> String {
     let name = bag
         .file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
     let stem = name.strip_suffix(".mcap").unwrap_or(&name);
-    let stem = stem.strip_suffix(".anim").unwrap_or(stem);
+    let stem = stem
+        .strip_suffix(".anim")
+        .or_else(|| stem.strip_suffix(".capture"))
+        .unwrap_or(stem);
     let mut safe: String = stem
         .chars()
         .map(|c| {

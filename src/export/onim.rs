@@ -45,7 +45,7 @@ use serde::Deserialize;
 
 use super::Clip;
 use super::bvh::number;
-use crate::rig::{ROOT, Rig};
+use crate::skeleton::rig::{ROOT, Rig};
 
 /// Samples per sequence at most: `SequenceFrameLimit` + 1.
 pub const SEQUENCE_SAMPLES: usize = 128;
@@ -257,8 +257,10 @@ impl OnimMapping {
 
 /// The rotation whose columns are `x`, `y` and `x × y`, from two perpendicular axes.
 fn frame_from_axes(axes: &FrameAxes) -> Result<UnitQuaternion<f64>, String> {
-    let x = crate::geom::direction(Vector3::from(axes.x)).ok_or("`x` is zero or not finite")?;
-    let y = crate::geom::direction(Vector3::from(axes.y)).ok_or("`y` is zero or not finite")?;
+    let x = crate::skeleton::geom::direction(Vector3::from(axes.x))
+        .ok_or("`x` is zero or not finite")?;
+    let y = crate::skeleton::geom::direction(Vector3::from(axes.y))
+        .ok_or("`y` is zero or not finite")?;
     let cos = x.dot(&y);
     if cos.abs() > 1e-3 {
         return Err(format!(
@@ -376,7 +378,7 @@ pub fn write(rig: &Rig, clip: &Clip, mapping: &OnimMapping) -> Result<String, On
             .enumerate()
         {
             let reference = previous[b].unwrap_or_else(UnitQuaternion::identity);
-            let q = crate::geom::align_hemisphere(q, &reference);
+            let q = crate::skeleton::geom::align_hemisphere(q, &reference);
             previous[b] = Some(q);
             rotations[b].push(quaternion_line(&q));
         }

@@ -2,7 +2,7 @@ use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 
 use super::*;
 use crate::export::tests::moving_clip;
-use crate::rig::Dof;
+use crate::skeleton::rig::Dof;
 
 /// The frame with +X along `x` and +Z as near `z_hint` as the bone allows.
 fn frame_x_z(x: Vector3<f64>, z_hint: Vector3<f64>) -> Matrix3<f64> {
@@ -53,7 +53,7 @@ fn documented_frames(rig: &Rig) -> Vec<Matrix3<f64>> {
                 };
                 let paper = spine * euler;
                 let x = nalgebra::Unit::new_normalize(paper.column(0).into_owned());
-                let swing = crate::geom::shortest_arc(&x, &b.rest_direction());
+                let swing = crate::skeleton::geom::shortest_arc(&x, &b.rest_direction());
                 swing.to_rotation_matrix().into_inner() * paper
             } else if ["upper_arm", "forearm", "hand"]
                 .iter()
@@ -338,7 +338,7 @@ fn onim_quaternions_round_trip_through_the_mapping() {
         let gta: Vec<UnitQuaternion<f64>> = per_bone.iter().map(|v| v[k]).collect();
         let back = mapping.to_rig(&rig, &gta, &heading);
         for (a, b) in back.iter().zip(&pose.local_rotations) {
-            worst = worst.max(crate::geom::rotation_distance(a, b));
+            worst = worst.max(crate::skeleton::geom::rotation_distance(a, b));
         }
         // Sign continuity in the file.
         if k > 0 {
@@ -368,7 +368,7 @@ fn gta_bone_frames_follow_the_animation() {
     let heading = heading(&rig, &clip);
     for pose in &clip.poses {
         let gta = mapping.to_gta(&rig, &pose.local_rotations, &heading);
-        let world = crate::fk::forward(&rig, &clip.character, pose, 1.0);
+        let world = crate::skeleton::fk::forward(&rig, &clip.character, pose, 1.0);
         let mut gta_world: Vec<UnitQuaternion<f64>> = Vec::new();
         for (b, bone) in rig.bones.iter().enumerate() {
             let parent = bone.parent.map_or(heading, |p| gta_world[p]);

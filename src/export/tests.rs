@@ -1,7 +1,7 @@
 use nalgebra::{UnitQuaternion, Vector3};
 
 use super::*;
-use crate::rig::ROOT;
+use crate::skeleton::rig::ROOT;
 
 /// A clip that turns, walks and bends: root yaw from 150°, moving root, a bending elbow and
 /// knee, a twisting spine, everything else still.
@@ -13,7 +13,8 @@ pub(crate) fn moving_clip(rig: &Rig, frames: usize) -> Clip {
             let t = k as f64 / 30.0;
             let mut pose = BonePose::rest(rig);
             pose.root_translation_m = Vector3::new(0.3 + 0.5 * t, -1.0 + 0.2 * t, 0.02 * t.sin());
-            pose.local_rotations[ROOT] = crate::geom::yaw_rotation((150.0 + 40.0 * t).to_radians());
+            pose.local_rotations[ROOT] =
+                crate::skeleton::geom::yaw_rotation((150.0 + 40.0 * t).to_radians());
             pose.local_rotations[bone("l_forearm")] =
                 UnitQuaternion::from_axis_angle(&-Vector3::z_axis(), 0.2 + t.sin().abs());
             pose.local_rotations[bone("r_calf")] =

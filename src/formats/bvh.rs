@@ -40,8 +40,8 @@ use std::path::Path;
 
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 
-use crate::frames::SourceAxes;
-use crate::pose::{PoseFrame, PoseSequence, stamp_nanos_at};
+use crate::skeleton::frames::SourceAxes;
+use crate::skeleton::pose::{PoseFrame, PoseSequence, stamp_nanos_at};
 
 /// One BVH channel: a translation or a rotation (degrees) along/about one axis of the parent frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

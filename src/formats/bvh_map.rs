@@ -24,9 +24,9 @@ use nalgebra::{Point3, Vector3};
 use serde::Deserialize;
 
 use super::bvh::Bvh;
-use crate::frames::SourceAxes;
-use crate::layout::{JointExpr, Layout};
-use crate::pose::{PoseFrame, PoseSequence, stamp_nanos_at};
+use crate::skeleton::frames::SourceAxes;
+use crate::skeleton::layout::{JointExpr, Layout};
+use crate::skeleton::pose::{PoseFrame, PoseSequence, stamp_nanos_at};
 
 /// Errors building keypoints from a BVH clip.
 #[derive(Debug, thiserror::Error)]
@@ -119,10 +119,13 @@ pub struct BvhMapping {
 const BUILTIN: [(&str, &str); 3] = [
     (
         "bandai-namco",
-        include_str!("../layouts/bvh/bandai-namco.toml"),
+        include_str!("../skeleton/layouts/bvh/bandai-namco.toml"),
     ),
-    ("cmu", include_str!("../layouts/bvh/cmu.toml")),
-    ("autoact53", include_str!("../layouts/bvh/autoact53.toml")),
+    ("cmu", include_str!("../skeleton/layouts/bvh/cmu.toml")),
+    (
+        "autoact53",
+        include_str!("../skeleton/layouts/bvh/autoact53.toml"),
+    ),
 ];
 
 impl BvhMapping {

@@ -97,8 +97,8 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::{Point3, Unit, UnitQuaternion, Vector3};
 
-use crate::frames::SourceAxes;
-use crate::pose::{PoseFrame, PoseSequence, stamp_nanos_at};
+use crate::skeleton::frames::SourceAxes;
+use crate::skeleton::pose::{PoseFrame, PoseSequence, stamp_nanos_at};
 
 /// Number of joints in the H36M skeleton.
 pub const JOINT_COUNT: usize = 32;

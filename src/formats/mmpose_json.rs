@@ -54,8 +54,8 @@ use nalgebra::Point3;
 use serde_json::Value;
 use thiserror::Error;
 
-use crate::frames::SourceAxes;
-use crate::pose::{PoseFrame, PoseSequence, stamp_nanos_at};
+use crate::skeleton::frames::SourceAxes;
+use crate::skeleton::pose::{PoseFrame, PoseSequence, stamp_nanos_at};
 
 /// How to interpret a file: the rate, units, axes and keypoint layout it does not state itself.
 #[derive(Debug, Clone, PartialEq)]

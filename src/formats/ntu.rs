@@ -55,8 +55,8 @@ use std::path::Path;
 use nalgebra::{Point2, Point3, Quaternion, UnitQuaternion};
 use thiserror::Error;
 
-use crate::frames::SourceAxes;
-use crate::pose::{PoseFrame, PoseSequence, stamp_nanos_at};
+use crate::skeleton::frames::SourceAxes;
+use crate::skeleton::pose::{PoseFrame, PoseSequence, stamp_nanos_at};
 
 /// Kinect v2 joint names, in file order.
 pub const JOINT_NAMES: [&str; 25] = [

@@ -46,8 +46,8 @@ use std::path::Path;
 use nalgebra::Point3;
 use thiserror::Error;
 
-use crate::frames::SourceAxes;
-use crate::pose::{PoseFrame, PoseSequence};
+use crate::skeleton::frames::SourceAxes;
+use crate::skeleton::pose::{PoseFrame, PoseSequence};
 
 /// ZED BODY_34 joint names, in stored order.
 pub const JOINT_NAMES: [&str; 34] = [

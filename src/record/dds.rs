@@ -216,9 +216,9 @@ pub struct RawSample {
     /// the bytes of a ROS 2 MCAP message with encoding `cdr`.
     pub cdr: Vec<u8>,
     /// Wall-clock time the DDS layer received the sample, ns since the UNIX epoch.
-    pub receive_time_ns: u64,
+    pub receive_time_nanos: u64,
     /// The writer's source timestamp, ns since the UNIX epoch, if it sent one.
-    pub source_time_ns: Option<u64>,
+    pub source_time_nanos: Option<u64>,
     /// RTPS GUID of the writer (participant prefix + entity id).
     pub writer: [u8; 16],
     /// RTPS sequence number of the sample within its writer (1, 2, 3, ...; gaps are drops).
@@ -296,15 +296,15 @@ pub fn with_encapsulation_header(representation: [u8; 2], payload: &[u8]) -> Vec
 
 /// RTPS time (NTP-style 32.32 fixed point, UNIX epoch) → ns since the UNIX epoch.
 #[must_use]
-pub fn rtps_ticks_to_ns(ticks: u64) -> u64 {
+pub fn rtps_ticks_to_nanos(ticks: u64) -> u64 {
     let seconds = ticks >> 32;
     let fraction = ticks & 0xFFFF_FFFF;
     seconds * 1_000_000_000 + ((fraction * 1_000_000_000) >> 32)
 }
 
-fn timestamp_ns(t: Timestamp) -> Option<u64> {
+fn timestamp_nanos(t: Timestamp) -> Option<u64> {
     (t != Timestamp::INVALID && t != Timestamp::INFINITE && t != Timestamp::ZERO)
-        .then(|| rtps_ticks_to_ns(t.to_ticks()))
+        .then(|| rtps_ticks_to_nanos(t.to_ticks()))
 }
 
 /// A received sample before naming: representation id and payload (no header).
@@ -562,12 +562,12 @@ impl Recorder {
                             change.sample.representation,
                             &change.sample.payload,
                         ),
-                        receive_time_ns: timestamp_ns(change.receive_instant)
-                            .unwrap_or_else(now_ns),
-                        source_time_ns: change
+                        receive_time_nanos: timestamp_nanos(change.receive_instant)
+                            .unwrap_or_else(now_nanos),
+                        source_time_nanos: change
                             .write_options
                             .source_timestamp()
-                            .and_then(timestamp_ns),
+                            .and_then(timestamp_nanos),
                         writer: change.writer_guid.to_bytes(),
                         sequence_number: change.sequence_number.into(),
                     }),
@@ -612,7 +612,7 @@ impl Recorder {
     }
 }
 
-fn now_ns() -> u64 {
+fn now_nanos() -> u64 {
     std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX))
@@ -727,16 +727,16 @@ mod tests {
     }
 
     #[test]
-    fn rtps_time_converts_to_unix_ns() {
-        assert_eq!(rtps_ticks_to_ns(0), 0);
-        assert_eq!(rtps_ticks_to_ns(5 << 32), 5_000_000_000);
-        assert_eq!(rtps_ticks_to_ns((1 << 32) | (1 << 31)), 1_500_000_000);
+    fn rtps_time_converts_to_unix_nanos() {
+        assert_eq!(rtps_ticks_to_nanos(0), 0);
+        assert_eq!(rtps_ticks_to_nanos(5 << 32), 5_000_000_000);
+        assert_eq!(rtps_ticks_to_nanos((1 << 32) | (1 << 31)), 1_500_000_000);
         // A realistic instant: 2026-01-01T00:00:00.25Z.
         assert_eq!(
-            rtps_ticks_to_ns((1_767_225_600 << 32) | (1 << 30)),
+            rtps_ticks_to_nanos((1_767_225_600 << 32) | (1 << 30)),
             1_767_225_600_250_000_000
         );
-        assert_eq!(timestamp_ns(Timestamp::INVALID), None);
+        assert_eq!(timestamp_nanos(Timestamp::INVALID), None);
     }
 
     #[test]

@@ -20,9 +20,9 @@ pub struct Received<'a> {
     /// CDR with its encapsulation header.
     pub cdr: &'a [u8],
     /// When it arrived (the MCAP log time), ns since the UNIX epoch.
-    pub receive_time_ns: u64,
+    pub receive_time_nanos: u64,
     /// When it was published (the writer's source time), if known.
-    pub source_time_ns: Option<u64>,
+    pub source_time_nanos: Option<u64>,
     /// The DDS writer it came from.
     pub writer: [u8; 16],
     /// Its sequence number from that writer.
@@ -90,7 +90,7 @@ pub struct RecordWriter {
     flush_every: Duration,
     current: Option<BagWriter<crate::mcap_io::FileSink>>,
     current_bytes: u64,
-    current_start_ns: Option<u64>,
+    current_start_nanos: Option<u64>,
     last_flush: Instant,
     files: Vec<PathBuf>,
     file_stats: Vec<(String, crate::mcap_io::BagStats)>,
@@ -132,7 +132,7 @@ impl RecordWriter {
             flush_every,
             current: None,
             current_bytes: 0,
-            current_start_ns: None,
+            current_start_nanos: None,
             last_flush: Instant::now(),
             files: Vec::new(),
             file_stats: Vec::new(),
@@ -158,15 +158,16 @@ impl RecordWriter {
         &self.files
     }
 
-    fn roll_if_due(&mut self, log_time_ns: u64) -> Result<(), McapIoError> {
+    fn roll_if_due(&mut self, log_time_nanos: u64) -> Result<(), McapIoError> {
         let due = self.current.is_some()
             && (self
                 .split
                 .max_bytes
                 .is_some_and(|b| self.current_bytes >= b)
                 || self.split.max_duration.is_some_and(|d| {
-                    self.current_start_ns
-                        .is_some_and(|s| u128::from(log_time_ns.saturating_sub(s)) >= d.as_nanos())
+                    self.current_start_nanos.is_some_and(|s| {
+                        u128::from(log_time_nanos.saturating_sub(s)) >= d.as_nanos()
+                    })
                 }));
         if due {
             self.close_current()?;
@@ -176,7 +177,7 @@ impl RecordWriter {
             self.current = Some(BagWriter::create(&path, self.config)?);
             self.files.push(path);
             self.current_bytes = 0;
-            self.current_start_ns = None;
+            self.current_start_nanos = None;
         }
         Ok(())
     }
@@ -192,7 +193,10 @@ impl RecordWriter {
                 "split_index".to_string(),
                 (self.files.len() - 1).to_string(),
             );
-            w.write_metadata(&format!("{}.record", crate::pose_bag::METADATA_NAME), meta)?;
+            w.write_metadata(
+                &format!("{}.record", crate::bags::pose::METADATA_NAME),
+                meta,
+            )?;
             let stats = w.finish()?;
             let name = self
                 .files
@@ -237,7 +241,7 @@ impl RecordWriter {
         }
         stats.messages += 1;
         stats.bytes += m.cdr.len() as u64;
-        self.roll_if_due(m.receive_time_ns)?;
+        self.roll_if_due(m.receive_time_nanos)?;
         let Some(w) = self.current.as_mut() else {
             return Ok(());
         };
@@ -245,12 +249,12 @@ impl RecordWriter {
             m.topic,
             m.type_name,
             || ros::definition(m.type_name).unwrap_or_default(),
-            m.receive_time_ns,
-            m.source_time_ns.unwrap_or(m.receive_time_ns),
+            m.receive_time_nanos,
+            m.source_time_nanos.unwrap_or(m.receive_time_nanos),
             m.cdr,
         )?;
         self.current_bytes += m.cdr.len() as u64;
-        self.current_start_ns.get_or_insert(m.receive_time_ns);
+        self.current_start_nanos.get_or_insert(m.receive_time_nanos);
         self.flush_if_due()
     }
 
@@ -312,8 +316,8 @@ mod tests {
             topic: "/skeleton",
             type_name: Skeleton3D::TYPE_NAME,
             cdr,
-            receive_time_ns: 1_000_000_000 + u64::try_from(k).unwrap() * 10_000_000,
-            source_time_ns: Some(999),
+            receive_time_nanos: 1_000_000_000 + u64::try_from(k).unwrap() * 10_000_000,
+            source_time_nanos: Some(999),
             writer: [7; 16],
             sequence_number: k,
         }

@@ -5,9 +5,9 @@ use nalgebra::Point3;
 
 use super::world::Surface;
 use super::{Camera, Image};
-use crate::fk::WorldPose;
 use crate::ros::geometry_msgs::Point;
 use crate::ros::sensor_msgs::RegionOfInterest;
+use crate::skeleton::fk::WorldPose;
 
 /// COCO visibility: outside the image or behind the camera.
 pub const OUT_OF_VIEW: u8 = 0;

@@ -1,7 +1,7 @@
 //! The embedded renderer: a software rasteriser on the CPU, deterministic bit for bit.
 //!
 //! One frame, in order:
-//! 1. skin the body ([`crate::body_mesh`]) for the frame's pose;
+//! 1. skin the body ([`crate::scene::body_mesh`]) for the frame's pose;
 //! 2. shadow maps, orthographic along the key light: one fitted to the character every frame,
 //!    one over the props once per scene;
 //! 3. the character, props and backdrop, lit per vertex (hemisphere ambient + key light, fog)
@@ -16,12 +16,12 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::color::{Encoder, Rgb, add, mix, mul, scale};
-use super::environment::{Environment, fast_exp_neg};
-use super::hash::unit2;
 use super::raster::{ClipVertex, Cull, ScreenVertex, clip_near, fill_triangle};
 use super::world::Surface;
 use super::{FrameInput, Image, Renderer, Stage};
+use crate::hash::unit2;
+use crate::scene::color::{Encoder, Rgb, add, mix, mul, scale};
+use crate::scene::environment::{Environment, fast_exp_neg};
 use crate::scene::weather::Precipitation;
 
 /// Side of the character's shadow map, texels, at most: smaller images use a map about as many
@@ -346,7 +346,7 @@ impl Renderer for CpuRenderer {
         let flash = env.lightning_flash(frame.time_s, stage.seed);
 
         // 1. The body for this pose.
-        let skinning = crate::body_mesh::Skinning::new(&stage.rest_pose, frame.pose);
+        let skinning = crate::scene::body_mesh::Skinning::new(&stage.rest_pose, frame.pose);
         stage.body.skin_into(
             &skinning,
             &mut self.skinned_positions,

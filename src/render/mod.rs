@@ -5,30 +5,26 @@
 //!   embedded default, pure Rust and deterministic (the same inputs give the same bytes).
 //! - A [`Stage`] is one scene made ready to draw: its [`environment::Environment`] (light, sky,
 //!   fog, weather), its [`world::World`] (ground, props, backdrop) and the character's
-//!   [`crate::body_mesh::BodyMesh`]. Build it once per scene.
+//!   [`crate::scene::body_mesh::BodyMesh`]. Build it once per scene.
 //! - A [`FrameInput`] is what changes per frame: the camera and the body's pose.
 //! - [`timeline`] reads a capture bag into stages and frames; [`annotate`] projects the
 //!   character's keypoints and finds its box in the rendered mask.
 
 pub mod annotate;
-pub mod color;
 pub mod cpu;
-pub mod environment;
-pub mod hash;
 pub(crate) mod raster;
 pub mod session;
-pub mod timeline;
 pub mod world;
 
 use nalgebra::Isometry3;
 
-use crate::body_mesh::{BodyMesh, BodyShape, Material, albedo_srgb};
 use crate::camera::Intrinsics;
-use crate::fk::{BonePose, WorldPose, forward};
-use crate::rig::Rig;
 use crate::scene::Scene;
-use color::{Rgb, linear_from_srgb};
-use environment::Environment;
+use crate::scene::body_mesh::{BodyMesh, BodyShape, Material, albedo_srgb};
+use crate::scene::color::{Rgb, linear_from_srgb};
+use crate::scene::environment::Environment;
+use crate::skeleton::fk::{BonePose, WorldPose, forward};
+use crate::skeleton::rig::Rig;
 use world::World;
 
 /// Draws frames. Implementations keep their own scratch buffers; use one per thread.
@@ -138,24 +134,4 @@ impl Image {
         self.surface.clear();
         self.surface.resize(n, world::Surface::Sky as u8);
     }
-}
-
-/// A scene for tests: `weather` at `clock` in the open field, a drawn adult.
-#[cfg(test)]
-pub(crate) fn test_scene(
-    weather: crate::scene::weather::Weather,
-    clock: crate::scene::sky::ClockTime,
-) -> Scene {
-    use rand::SeedableRng;
-    let config = crate::scene::SceneConfig {
-        weather_weights: [(weather, 1.0)].into_iter().collect(),
-        clock_weights: [(clock, 1.0)].into_iter().collect(),
-        locations: crate::scene::location::Location::builtin_pool()
-            .into_iter()
-            .filter(|l| l.name == "open_field")
-            .collect(),
-        ..crate::scene::SceneConfig::default()
-    };
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
-    config.draw(&mut rng, &[]).expect("a valid config draws")
 }

@@ -13,24 +13,20 @@ use rayon::prelude::*;
 
 use super::annotate::{Annotation, annotate};
 use super::cpu::CpuRenderer;
-use super::timeline::Capture;
 use super::{Camera, FrameInput, Image, Renderer, Stage};
+use crate::bags::capture::Capture;
+use crate::bags::{
+    self,
+    render::{RenderBagError, RenderedFrame},
+};
 use crate::camera::CAMERA_FRAME;
-use crate::fk::{BonePose, forward};
-use crate::mcap_io::{BagWriter, McapIoError, WriteConfig};
-use crate::rig::Rig;
 use crate::ros::autoact_msgs::{FrameAnnotation, VideoInfo};
 use crate::ros::builtin_interfaces::Time;
 use crate::ros::foxglove_msgs::CompressedVideo;
 use crate::ros::std_msgs::Header;
+use crate::skeleton::fk::{BonePose, forward};
+use crate::skeleton::rig::Rig;
 use crate::video::{EncodeSettings, EncodedVideo, Ffmpeg, Tile, VideoEncoder, VideoError};
-
-/// Topic of the video description in the render bag.
-pub const VIDEO_TOPIC: &str = "/render/video";
-/// Topic of the per-frame annotations.
-pub const ANNOTATIONS_TOPIC: &str = "/render/annotations";
-/// Topic of the embedded H.264 stream (`--embed-video`).
-pub const EMBEDDED_VIDEO_TOPIC: &str = "/render/camera/h264";
 
 /// Why a render failed.
 #[derive(Debug, thiserror::Error)]
@@ -41,7 +37,7 @@ pub enum RenderError {
     Video(#[from] VideoError),
     /// Writing the render bag failed.
     #[error(transparent)]
-    Bag(#[from] McapIoError),
+    Bag(#[from] RenderBagError),
     /// A file system error.
     #[error("cannot {action} `{path}`: {source}")]
     Io {
@@ -98,17 +94,12 @@ impl Outputs {
     /// The render bag's path: as given, or `<video stem>.render.mcap` beside the video.
     #[must_use]
     pub fn render_bag_path(&self) -> Option<PathBuf> {
-        self.render_bag
-            .clone()
-            .or_else(|| self.video.as_deref().map(render_bag_beside))
+        self.render_bag.clone().or_else(|| {
+            self.video
+                .as_deref()
+                .map(crate::bags::render::render_bag_beside)
+        })
     }
-}
-
-/// Where `autoact render` puts the render bag of `video` unless told otherwise:
-/// `<video stem>.render.mcap` beside it. `autoact trim` looks there.
-#[must_use]
-pub fn render_bag_beside(video: &Path) -> PathBuf {
-    video.with_extension("render.mcap")
 }
 
 /// What a render produced.
@@ -131,7 +122,7 @@ pub struct RenderSummary {
 /// One output frame: when, which scene, the pose and the camera.
 #[derive(Debug, Clone)]
 struct Sample {
-    stamp_ns: u64,
+    stamp_nanos: u64,
     scene: usize,
     pose: BonePose,
     world_from_optical: Isometry3<f64>,
@@ -158,11 +149,11 @@ fn samples(capture: &Capture, fps: Option<f64>, limit: Option<usize>) -> Vec<Sam
             .iter()
             .take(max)
             .map(|f| Sample {
-                stamp_ns: f.stamp_ns,
+                stamp_nanos: f.stamp_nanos,
                 scene: f.scene,
                 pose: f.pose.clone(),
                 world_from_optical: f.world_from_optical,
-                segment: segment_at(f.stamp_ns),
+                segment: segment_at(f.stamp_nanos),
             })
             .collect();
     }
@@ -173,20 +164,20 @@ fn samples(capture: &Capture, fps: Option<f64>, limit: Option<usize>) -> Vec<Sam
     let mut out = Vec::new();
     let mut i = 0;
     for k in 0.. {
-        let t = first.stamp_ns + crate::pose::stamp_nanos_at(k, fps);
-        if t > last.stamp_ns || out.len() >= max {
+        let t = first.stamp_nanos + crate::skeleton::pose::stamp_nanos_at(k, fps);
+        if t > last.stamp_nanos || out.len() >= max {
             break;
         }
-        while i + 1 < frames.len() && frames[i + 1].stamp_ns <= t {
+        while i + 1 < frames.len() && frames[i + 1].stamp_nanos <= t {
             i += 1;
         }
         let a = &frames[i];
         let b = frames.get(i + 1).unwrap_or(a);
-        let span = b.stamp_ns.saturating_sub(a.stamp_ns);
+        let span = b.stamp_nanos.saturating_sub(a.stamp_nanos);
         let alpha = if span == 0 {
             0.0
         } else {
-            (t - a.stamp_ns) as f64 / span as f64
+            (t - a.stamp_nanos) as f64 / span as f64
         };
         let blend = a.scene == b.scene;
         let pose = if blend {
@@ -207,7 +198,7 @@ fn samples(capture: &Capture, fps: Option<f64>, limit: Option<usize>) -> Vec<Sam
             a.pose.clone()
         };
         let segment = segment_at(t);
-        let camera = if blend && segment == segment_at(b.stamp_ns) {
+        let camera = if blend && segment == segment_at(b.stamp_nanos) {
             let ta = a.world_from_optical.translation.vector;
             let tb = b.world_from_optical.translation.vector;
             Isometry3::from_parts(
@@ -220,7 +211,7 @@ fn samples(capture: &Capture, fps: Option<f64>, limit: Option<usize>) -> Vec<Sam
             a.world_from_optical
         };
         out.push(Sample {
-            stamp_ns: t,
+            stamp_nanos: t,
             scene: a.scene,
             pose,
             world_from_optical: camera,
@@ -235,7 +226,7 @@ fn keyframes(capture: &Capture, samples: &[Sample]) -> Vec<u64> {
     let mut out = vec![0u64];
     for s in &capture.segments {
         for t in [s.start, s.end].into_iter().filter_map(Time::to_nanos) {
-            let k = samples.partition_point(|f| f.stamp_ns < t);
+            let k = samples.partition_point(|f| f.stamp_nanos < t);
             if k < samples.len() {
                 out.push(k as u64);
             }
@@ -299,11 +290,11 @@ pub fn render_capture(
             world_from_optical: s.world_from_optical,
             intrinsics,
         };
-        let scene_start = capture.scenes[s.scene].start_ns;
+        let scene_start = capture.scenes[s.scene].start_nanos;
         let input = FrameInput {
             camera,
             pose: &posed,
-            time_s: crate::pose::nanos_to_secs(s.stamp_ns.saturating_sub(scene_start)),
+            time_s: crate::skeleton::pose::nanos_to_secs(s.stamp_nanos.saturating_sub(scene_start)),
         };
         renderer.render(&stages[s.scene], &input, image);
         annotate(&posed, &camera, image)
@@ -489,7 +480,7 @@ fn preview_frames(capture: &Capture, samples: &[Sample]) -> Vec<usize> {
         .iter()
         .filter_map(|s| {
             let (a, b) = (s.content_start.to_nanos()?, s.content_end.to_nanos()?);
-            let k = samples.partition_point(|f| f.stamp_ns < a / 2 + b / 2);
+            let k = samples.partition_point(|f| f.stamp_nanos < a / 2 + b / 2);
             (k < samples.len()).then_some(k)
         })
         .collect();
@@ -536,7 +527,7 @@ fn write_preview(
     Ok(())
 }
 
-/// Writes the render bag under a temporary name, then renames it.
+/// Writes the render bag: the video's description, then each frame's labels (and access unit).
 #[allow(clippy::too_many_arguments)]
 fn write_render_bag(
     path: &Path,
@@ -548,42 +539,41 @@ fn write_render_bag(
     forced_keyframes: &[u64],
     units: Option<&[crate::video::AccessUnit]>,
     rig: &Rig,
-) -> Result<(), RenderError> {
-    let part = crate::atomic_file::temporary_sibling(path)
-        .ok_or_else(|| RenderError::Settings(format!("`{}`: not a file name", path.display())))?;
-    let result = (|| -> Result<(), McapIoError> {
-        let mut w = BagWriter::create(&part, WriteConfig::default())?;
-        let header = |stamp_ns: u64| Header {
-            stamp: Time::from_nanos(stamp_ns),
-            frame_id: CAMERA_FRAME.to_owned(),
-        };
-        let video_file = video.map(|v| crate::file_name(&v.path)).unwrap_or_default();
-        let first = samples.first().map_or(0, |s| s.stamp_ns);
-        let info = VideoInfo {
-            header: header(first),
-            session: capture.session.clone(),
-            capture_bag: crate::file_name(&capture.path),
-            video_file,
-            container: "mp4".into(),
-            codec: "h264".into(),
-            fps: settings.fps.unwrap_or(capture.fps),
-            frame_count: samples.len() as u64,
-            width: settings.width,
-            height: settings.height,
-            forced_keyframes: forced_keyframes.to_vec(),
-            settings_json: serde_json::json!({
-                "renderer": "autoact cpu",
-                "crf": settings.crf,
-                "preset": settings.preset,
-                "gop_frames": settings.gop_frames,
-            })
-            .to_string(),
-        };
-        w.write(VIDEO_TOPIC, first, &info)?;
-        let names: Vec<String> = rig.bones.iter().map(|b| b.name.clone()).collect();
-        for (k, (s, a)) in samples.iter().zip(annotations).enumerate() {
-            let msg = FrameAnnotation {
-                header: header(s.stamp_ns),
+) -> Result<(), RenderBagError> {
+    let header = |stamp_nanos: u64| Header {
+        stamp: Time::from_nanos(stamp_nanos),
+        frame_id: CAMERA_FRAME.to_owned(),
+    };
+    let first = samples.first().map_or(0, |s| s.stamp_nanos);
+    let info = VideoInfo {
+        header: header(first),
+        session: capture.session.clone(),
+        capture_bag: crate::file_name(&capture.path),
+        video_file: video.map(|v| crate::file_name(&v.path)).unwrap_or_default(),
+        container: "mp4".into(),
+        codec: "h264".into(),
+        fps: settings.fps.unwrap_or(capture.fps),
+        frame_count: samples.len() as u64,
+        width: settings.width,
+        height: settings.height,
+        forced_keyframes: forced_keyframes.to_vec(),
+        settings_json: serde_json::json!({
+            "renderer": "autoact cpu",
+            "crf": settings.crf,
+            "preset": settings.preset,
+            "gop_frames": settings.gop_frames,
+        })
+        .to_string(),
+    };
+    let names: Vec<String> = rig.bones.iter().map(|b| b.name.clone()).collect();
+    let frames = samples
+        .iter()
+        .zip(annotations)
+        .enumerate()
+        .map(|(k, (s, a))| RenderedFrame {
+            stamp_nanos: s.stamp_nanos,
+            annotation: FrameAnnotation {
+                header: header(s.stamp_nanos),
                 frame_index: k as u64,
                 segment_id: s
                     .segment
@@ -595,30 +585,13 @@ fn write_render_bag(
                 visibility: a.visibility.clone(),
                 bbox: a.roi(),
                 silhouette_pixels: a.silhouette_pixels,
-            };
-            w.write(ANNOTATIONS_TOPIC, s.stamp_ns, &msg)?;
-            if let Some(unit) = units.and_then(|u| u.get(k)) {
-                let frame = CompressedVideo {
-                    timestamp: Time::from_nanos(s.stamp_ns),
-                    frame_id: CAMERA_FRAME.to_owned(),
-                    data: unit.data.clone(),
-                    format: "h264".into(),
-                };
-                w.write(EMBEDDED_VIDEO_TOPIC, s.stamp_ns, &frame)?;
-            }
-        }
-        w.finish()?;
-        Ok(())
-    })();
-    let result = result.map_err(RenderError::from).and_then(|()| {
-        crate::atomic_file::commit(&part, path).map_err(|source| RenderError::Io {
-            action: "sync and rename the render bag into",
-            path: path.to_path_buf(),
-            source,
-        })
-    });
-    if result.is_err() {
-        let _ = std::fs::remove_file(&part);
-    }
-    result
+            },
+            video: units.and_then(|u| u.get(k)).map(|unit| CompressedVideo {
+                timestamp: Time::from_nanos(s.stamp_nanos),
+                frame_id: CAMERA_FRAME.to_owned(),
+                data: unit.data.clone(),
+                format: "h264".into(),
+            }),
+        });
+    bags::render::write(path, first, &info, frames)
 }

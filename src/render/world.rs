@@ -8,9 +8,9 @@
 //! their placed bounding box; a kind the renderer does not know is drawn as a box of that size
 //! (never skipped), and [`World::unknown_prop_kinds`] lists them so the caller can say so.
 
-use super::color::{Rgb, linear_from_srgb, mix, scale};
-use super::environment::Environment;
-use super::hash::{hash2, unit2};
+use crate::hash::{hash2, unit2};
+use crate::scene::color::{Rgb, linear_from_srgb, mix, scale};
+use crate::scene::environment::Environment;
 use crate::scene::location::{Backdrop, Ground, LocationInstance, PlacedProp};
 
 /// What a pixel shows, for masks and annotations.
@@ -991,7 +991,7 @@ mod tests {
     #[test]
     fn distant_ground_fades_to_the_texture_average() {
         let env = Environment::from_scene(
-            &crate::render::test_scene(
+            &crate::scene::tests::test_scene(
                 crate::scene::weather::Weather::Clear,
                 crate::scene::sky::ClockTime::NOON,
             ),

@@ -225,7 +225,7 @@ mod tests {
         fn quaternion_round_trip(x in -3.0..3.0f64, y in -3.0..3.0f64, z in -3.0..3.0f64) {
             let q = UnitQuaternion::from_scaled_axis(NVector3::new(x, y, z));
             let back = UnitQuaternion::try_from(Quaternion::from(q)).unwrap();
-            prop_assert!(crate::geom::rotation_distance(&q, &back) < 1e-12);
+            prop_assert!(crate::skeleton::geom::rotation_distance(&q, &back) < 1e-12);
         }
     }
 

@@ -26,8 +26,8 @@ use rand::{Rng, RngExt};
 use serde::{Deserialize, Serialize};
 
 use super::{SceneError, check_weights, standard_normal, weighted_index};
-use crate::character::{Character, Proportions};
-use crate::rig::Rig;
+use crate::skeleton::character::{Character, Proportions};
+use crate::skeleton::rig::Rig;
 
 /// An age group.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]

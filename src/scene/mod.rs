@@ -20,7 +20,10 @@
 //! says `_deg`; location frame x east, y north, z up with the character at the origin; sun
 //! azimuth clockwise from north; colours sRGB in [0, 1].
 
+pub mod body_mesh;
 pub mod cast;
+pub mod color;
+pub mod environment;
 pub mod location;
 pub mod sky;
 pub mod weather;
@@ -372,6 +375,25 @@ impl SceneConfig {
 
 #[cfg(test)]
 pub(crate) mod tests {
+    /// A scene for tests: `weather` at `clock` in the open field, a drawn adult.
+    pub(crate) fn test_scene(
+        weather: crate::scene::weather::Weather,
+        clock: crate::scene::sky::ClockTime,
+    ) -> Scene {
+        use rand::SeedableRng;
+        let config = crate::scene::SceneConfig {
+            weather_weights: [(weather, 1.0)].into_iter().collect(),
+            clock_weights: [(clock, 1.0)].into_iter().collect(),
+            locations: crate::scene::location::Location::builtin_pool()
+                .into_iter()
+                .filter(|l| l.name == "open_field")
+                .collect(),
+            ..crate::scene::SceneConfig::default()
+        };
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        config.draw(&mut rng, &[]).expect("a valid config draws")
+    }
+
     use super::*;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;

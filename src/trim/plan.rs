@@ -1,6 +1,6 @@
 //! Segments on the capture timeline → frame ranges in the capture video.
 //!
-//! Video frame `k` shows the timeline at `frame0_ns + k / fps`. A segment `[start, end)` becomes
+//! Video frame `k` shows the timeline at `frame0_nanos + k / fps`. A segment `[start, end)` becomes
 //! the frames whose times are nearest its ends: `round((start − frame0) · fps)` up to
 //! `round((end − frame0) · fps)` (exclusive). A clip that starts before frame 0 or ends after the
 //! video's last frame is *truncated*: reported, never cut, never listed.
@@ -12,7 +12,7 @@ use crate::video::Rational;
 #[derive(Debug, Clone, PartialEq)]
 pub struct VideoTiming {
     /// Timeline stamp of video frame 0, nanoseconds (may be before the timeline starts).
-    pub frame0_ns: i128,
+    pub frame0_nanos: i128,
     /// The video's constant frame rate.
     pub fps: Rational,
     /// Frames in the video.
@@ -20,12 +20,12 @@ pub struct VideoTiming {
 }
 
 impl VideoTiming {
-    /// The video frame nearest timeline stamp `stamp_ns` (may be negative or past the end).
+    /// The video frame nearest timeline stamp `stamp_nanos` (may be negative or past the end).
     #[must_use]
-    pub fn frame_at(&self, stamp_ns: u64) -> i128 {
+    pub fn frame_at(&self, stamp_nanos: u64) -> i128 {
         let num = i128::from(self.fps.num);
         let den = i128::from(self.fps.den) * 1_000_000_000;
-        let x = (i128::from(stamp_ns) - self.frame0_ns) * num;
+        let x = (i128::from(stamp_nanos) - self.frame0_nanos) * num;
         // round half up, for negative values too
         (2 * x + den).div_euclid(2 * den)
     }
@@ -100,11 +100,11 @@ mod tests {
     use crate::ros::builtin_interfaces::Time;
     use crate::video::Rational;
 
-    fn seg(id: &str, start_ns: u64, end_ns: u64) -> Segment {
+    fn seg(id: &str, start_nanos: u64, end_nanos: u64) -> Segment {
         Segment {
             id: id.to_owned(),
-            start: Time::from_nanos(start_ns),
-            end: Time::from_nanos(end_ns),
+            start: Time::from_nanos(start_nanos),
+            end: Time::from_nanos(end_nanos),
             ..Segment::default()
         }
     }
@@ -114,7 +114,7 @@ mod tests {
         let fps = Rational::new(30, 1).unwrap();
         let ns = |k: u64| fps.frame_time_nanos(k);
         let timing = VideoTiming {
-            frame0_ns: i128::from(ns(10)),
+            frame0_nanos: i128::from(ns(10)),
             fps,
             frame_count: 100,
         };

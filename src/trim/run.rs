@@ -1,7 +1,7 @@
 //! One trim run: a capture bag and its video → clips in the dataset folder, the manifest
 //! extended, every list rewritten from it.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::lists::{ListSummary, ensure_classes, write_lists};
@@ -9,11 +9,9 @@ use super::manifest::Manifest;
 use super::plan::{Truncated, VideoTiming, frame_ranges};
 use super::split::{SplitConfig, assign, fnv1a};
 use super::{ClipRecord, TrimError, label_dirs, sanitize_name};
-use crate::mcap_io::BagReader;
-use crate::render::session::VIDEO_TOPIC;
-use crate::render::timeline::Capture;
-use crate::ros::autoact_msgs::VideoInfo;
-use crate::ros::{RosMessage, cdr};
+
+use crate::bags::capture::Capture;
+
 use crate::video::{
     CutMethod, CutRequest, Ffmpeg, Rational, ReencodeSettings, VideoError, cut, keyframe_frames,
 };
@@ -42,7 +40,7 @@ pub struct VideoSource<'a> {
     /// The video.
     pub path: &'a Path,
     /// Timeline stamp of its frame 0, nanoseconds.
-    pub frame0_ns: i128,
+    pub frame0_nanos: i128,
     /// Its constant frame rate.
     pub fps: Rational,
 }
@@ -62,82 +60,6 @@ pub struct TrimSummary {
     pub lists: ListSummary,
     /// Frames cut in this run.
     pub frames_cut: u64,
-}
-
-/// What the render bag `autoact render` writes beside a video (`<video stem>.render.mcap`, topic
-/// `/render/video`) says of it.
-#[derive(Debug, Clone, PartialEq)]
-pub struct RenderedVideo {
-    /// The render bag read.
-    pub bag: PathBuf,
-    /// Timeline stamp of the video's frame 0, nanoseconds.
-    pub frame0_ns: i128,
-    /// Its frame rate.
-    pub fps: Rational,
-    /// The capture session rendered.
-    pub session: String,
-    /// The capture bag rendered (its file name).
-    pub capture_bag: String,
-    /// The video's file name.
-    pub video_file: String,
-}
-
-impl RenderedVideo {
-    /// Reads the `VideoInfo` of render bag `bag`.
-    ///
-    /// # Errors
-    /// [`TrimError::Invalid`] naming the bag when it cannot be read or has no `VideoInfo`.
-    pub fn read(bag: &Path) -> Result<RenderedVideo, TrimError> {
-        let bad = |detail: String| {
-            TrimError::Invalid(format!("render bag `{}`: {detail}", bag.display()))
-        };
-        let readers = BagReader::open_all(bag).map_err(|e| bad(e.to_string()))?;
-        for m in readers.iter().flat_map(|r| r.messages()) {
-            let m = m.map_err(|e| bad(e.to_string()))?;
-            if m.channel.topic == VIDEO_TOPIC && m.channel.schema_name() == VideoInfo::TYPE_NAME {
-                let info: VideoInfo =
-                    cdr::decode(&m.data).map_err(|e| bad(format!("{VIDEO_TOPIC}: {e}")))?;
-                let fps = Rational::from_f64(info.fps).ok_or_else(|| {
-                    bad(format!(
-                        "{VIDEO_TOPIC}: frame rate {} is not usable",
-                        info.fps
-                    ))
-                })?;
-                let stamp = info.header.stamp.to_nanos().unwrap_or(m.log_time);
-                return Ok(RenderedVideo {
-                    bag: bag.to_path_buf(),
-                    frame0_ns: i128::from(stamp),
-                    fps,
-                    session: info.session,
-                    capture_bag: info.capture_bag,
-                    video_file: info.video_file,
-                });
-            }
-        }
-        Err(bad(format!(
-            "no `{VIDEO_TOPIC}` message ({})",
-            VideoInfo::TYPE_NAME
-        )))
-    }
-
-    /// Checks that this is a render of `capture`: the same capture session. Its timing placed on
-    /// another capture's timeline would cut every clip at the wrong frames.
-    ///
-    /// # Errors
-    /// [`TrimError::Invalid`] naming the render bag, the session it rendered and the capture's.
-    pub fn check_renders(&self, capture: &Capture) -> Result<(), TrimError> {
-        if self.session == capture.session {
-            return Ok(());
-        }
-        Err(TrimError::Invalid(format!(
-            "render bag `{}` is a render of capture session `{}` (capture bag `{}`), but `{}` holds session `{}`: pass the capture bag that was rendered, or the right `--render-bag`",
-            self.bag.display(),
-            self.session,
-            self.capture_bag,
-            capture.path.display(),
-            capture.session
-        )))
-    }
 }
 
 fn character_id(look: &serde_json::Value) -> String {
@@ -167,12 +89,12 @@ pub fn trim_capture(
 ) -> Result<TrimSummary, RunError> {
     let VideoSource {
         path: video,
-        frame0_ns,
+        frame0_nanos,
         fps,
     } = *source;
     let (frame_count, keyframes) = keyframe_frames(ffmpeg, video)?;
     let timing = VideoTiming {
-        frame0_ns,
+        frame0_nanos,
         fps,
         frame_count,
     };

@@ -15,7 +15,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use super::{ClipRecord, TrimError};
-use crate::render::hash::mix64;
+use crate::hash::mix64;
 
 /// A split.
 #[derive(

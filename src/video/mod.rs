@@ -25,8 +25,8 @@
 //!     encoder.write_frame(&frame)?;
 //! }
 //! let video = encoder.finish()?; // capture.mp4 exists only now, checked by ffprobe
-//! let stamp_ns = video.fps.frame_time_nanos(151); // frame 151's time in the video
-//! # let _ = stamp_ns;
+//! let stamp_nanos = video.fps.frame_time_nanos(151); // frame 151's time in the video
+//! # let _ = stamp_nanos;
 //! # Ok(())
 //! # }
 //! ```

@@ -23,18 +23,18 @@
 //! frame costs no allocation however long the animation. [`TfTree`] composes the transforms
 //! back as a viewer does, to check what a bag shows.
 
-use crate::character::Character;
-use crate::fk::{self, BonePose};
-use crate::frames::WORLD_FRAME;
-use crate::layout::Coverage;
 use crate::mcap_io::{BagWriter, McapIoError};
-use crate::rig::{Dof, ROOT, Rig};
 use crate::ros::autoact_msgs::BoneFrame;
 use crate::ros::builtin_interfaces::Time;
 use crate::ros::geometry_msgs::{Point, Quaternion, Transform, TransformStamped, Vector3};
 use crate::ros::std_msgs::{ColorRGBA, Header};
 use crate::ros::tf2_msgs::TFMessage;
 use crate::ros::visualization_msgs::{Marker, MarkerArray};
+use crate::skeleton::character::Character;
+use crate::skeleton::fk::{self, BonePose};
+use crate::skeleton::frames::WORLD_FRAME;
+use crate::skeleton::layout::Coverage;
+use crate::skeleton::rig::{Dof, ROOT, Rig};
 
 /// Topic of the bone frames.
 pub const ANIMATION_TOPIC: &str = "/animation";
@@ -159,7 +159,14 @@ pub fn read_animation(
     rig: &Rig,
     readers: &[crate::mcap_io::BagReader],
     track: Option<u64>,
-) -> Result<(Vec<crate::convert::AnimationFrame>, Character, Coverage), String> {
+) -> Result<
+    (
+        Vec<crate::skeleton::convert::AnimationFrame>,
+        Character,
+        Coverage,
+    ),
+    String,
+> {
     read_animation_variant(rig, readers, track, 0)
 }
 
@@ -192,7 +199,7 @@ pub struct AnimationListing {
     pub first_stamp_nanos: u64,
     /// Stamp of the last frame, nanoseconds.
     pub last_stamp_nanos: u64,
-    /// The rate its stamps show, as export measures it ([`crate::pose::frame_rate`]: one over
+    /// The rate its stamps show, as export measures it ([`crate::skeleton::pose::frame_rate`]: one over
     /// the median step); `None` below two frames.
     pub frame_rate_hz: Option<f64>,
 }
@@ -236,7 +243,7 @@ pub fn list_animations(readers: &[crate::mcap_io::BagReader]) -> Vec<AnimationLi
                 frames: stamps.len(),
                 first_stamp_nanos: *stamps.first()?,
                 last_stamp_nanos: *stamps.last()?,
-                frame_rate_hz: crate::pose::frame_rate(None, &stamps),
+                frame_rate_hz: crate::skeleton::pose::frame_rate(None, &stamps),
             })
         })
         .collect()
@@ -254,9 +261,16 @@ pub fn read_animation_variant(
     readers: &[crate::mcap_io::BagReader],
     track: Option<u64>,
     variant: u32,
-) -> Result<(Vec<crate::convert::AnimationFrame>, Character, Coverage), String> {
+) -> Result<
+    (
+        Vec<crate::skeleton::convert::AnimationFrame>,
+        Character,
+        Coverage,
+    ),
+    String,
+> {
     use crate::ros::{RosMessage, cdr};
-    let mut keys: Vec<crate::convert::AnimationFrame> = Vec::new();
+    let mut keys: Vec<crate::skeleton::convert::AnimationFrame> = Vec::new();
     let mut chosen = track;
     // Rest offsets seen per (track prefix, variant, bone), for variant 0 and `variant`; the first
     // one wins.
@@ -286,7 +300,7 @@ pub fn read_animation_variant(
                         m.index_on_channel
                     )
                 })?;
-                keys.push(crate::convert::AnimationFrame {
+                keys.push(crate::skeleton::convert::AnimationFrame {
                     stamp_nanos: stamp,
                     pose,
                 });
@@ -615,7 +629,7 @@ mod tests {
     #[test]
     fn markers_in_the_bone_frames_draw_the_skeleton_where_forward_kinematics_puts_it() {
         let rig = Rig::standard();
-        let coverage = crate::layout::Layout::builtin("h36m-17")
+        let coverage = crate::skeleton::layout::Layout::builtin("h36m-17")
             .unwrap()
             .bind(&rig)
             .unwrap()
@@ -660,7 +674,7 @@ mod tests {
         };
         // 2.5 s at 30 fps.
         let stamps: Vec<u64> = (0..75)
-            .map(|k| crate::pose::stamp_nanos_at(k, 30.0))
+            .map(|k| crate::skeleton::pose::stamp_nanos_at(k, 30.0))
             .collect();
         for (k, &t) in stamps.iter().enumerate() {
             track.write_frame(&mut w, t, &pose_at(k)).unwrap();
@@ -766,10 +780,10 @@ mod tests {
         // 30 fps with a 2 s hole (a mean over first and last stamps would say about 9 fps),
         // and one repeated stamp, which the reader skips.
         let mut stamps: Vec<u64> = (0..10)
-            .map(|k| crate::pose::stamp_nanos_at(k, 30.0))
+            .map(|k| crate::skeleton::pose::stamp_nanos_at(k, 30.0))
             .collect();
         stamps.push(stamps[9]);
-        stamps.extend((70..80).map(|k| crate::pose::stamp_nanos_at(k, 30.0)));
+        stamps.extend((70..80).map(|k| crate::skeleton::pose::stamp_nanos_at(k, 30.0)));
         for &t in &stamps {
             frame.header.stamp = Time::from_nanos(t);
             w.write(ANIMATION_TOPIC, t, &frame).unwrap();

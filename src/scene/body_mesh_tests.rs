@@ -7,8 +7,8 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use super::*;
-use crate::rig::Dof;
 use crate::scene::cast::Population;
+use crate::skeleton::rig::Dof;
 
 /// The triangle count the module docs state for the standard adult.
 const STANDARD_TRIANGLES: usize = 2_648;
@@ -523,12 +523,12 @@ fn a_whole_body_rotation_and_translation_moves_every_vertex_rigidly() {
     let mut pose = BonePose::rest(&rig);
     let axis = Unit::new_normalize(Vector3::new(0.3, -0.5, 1.0));
     let rotation = UnitQuaternion::from_axis_angle(&axis, 2.2);
-    pose.local_rotations[crate::rig::ROOT] = rotation;
+    pose.local_rotations[crate::skeleton::rig::ROOT] = rotation;
     pose.root_translation_m = Vector3::new(3.0, -1.5, 0.4);
     for b in bodies(&rig) {
         let m = &b.mesh;
         let (p, n) = skinned(&rig, &b.character, m, &pose);
-        let root_rest = rig.bones[crate::rig::ROOT].head_rest_m;
+        let root_rest = rig.bones[crate::skeleton::rig::ROOT].head_rest_m;
         for (i, (q, nq)) in p.iter().zip(&n).enumerate() {
             let x = Point3::from(v3(&m.rest_positions_m[i]));
             let want = rotation * (x - root_rest) + root_rest.coords + pose.root_translation_m;

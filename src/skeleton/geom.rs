@@ -345,7 +345,7 @@ mod tests {
             let b = Unit::new_unchecked(q * a.into_inner());
             let bp = Unit::new_unchecked(q * rp.into_inner());
             let f = frame_rotation(&a, &rp, &b, &bp);
-            prop_assert!(crate::geom::rotation_distance(&f, &q) < 1e-9);
+            prop_assert!(crate::skeleton::geom::rotation_distance(&f, &q) < 1e-9);
         }
 
         /// Law: swing · twist = q, the swing moves the axis like q, and the twist is about it.

@@ -13,11 +13,11 @@
 
 use std::collections::BTreeMap;
 
-use crate::convert::{Animation, ConvertError, ConvertOptions, convert_sequence};
-use crate::fk;
-use crate::layout::Layout;
-use crate::pose::PoseSequence;
-use crate::rig::Rig;
+use crate::skeleton::convert::{Animation, ConvertError, ConvertOptions, convert_sequence};
+use crate::skeleton::fk;
+use crate::skeleton::layout::Layout;
+use crate::skeleton::pose::PoseSequence;
+use crate::skeleton::rig::Rig;
 
 /// Mean, max and count of a set of non-negative samples.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

@@ -1,7 +1,7 @@
 //! Joint-position sequences: what every reader produces and what conversion consumes.
 //!
 //! A [`PoseSequence`] is one tracked person: joint names (in a keypoint layout's order), and per
-//! frame a stamp in nanoseconds, positions in metres in the autoact frame (see [`crate::frames`])
+//! frame a stamp in nanoseconds, positions in metres in the autoact frame (see [`crate::skeleton::frames`])
 //! and a confidence per joint. A joint that the source did not observe has NaN coordinates and
 //! confidence 0; readers never invent or drop frames.
 
@@ -107,7 +107,7 @@ pub fn frame_rate(stated: Option<f64>, stamps_nanos: &[u64]) -> Option<f64> {
         .map(|w| nanos_to_secs(w[1].saturating_sub(w[0])))
         .filter(|s| *s > 0.0)
         .collect();
-    let step = crate::character::median(&mut steps)?;
+    let step = crate::skeleton::character::median(&mut steps)?;
     Some(1.0 / step)
 }
 

@@ -8,12 +8,12 @@
 //! The offsets themselves are stored (`head_offset_m`, `landmark_offset_m`), so that a fitted
 //! subject can also carry its own fixed geometry where the rig is rigid: where its shoulders sit
 //! on its clavicles, where its hip joints sit on its pelvis (see
-//! [`crate::convert::fit_character`]). Offsets of moving bones always stay along the rig's rest
+//! [`crate::skeleton::convert::fit_character`]). Offsets of moving bones always stay along the rig's rest
 //! directions, so rotations keep their meaning on every body.
 
 use nalgebra::{Point3, Vector3};
 
-use crate::rig::{Measure, ROOT, Rig};
+use crate::skeleton::rig::{Measure, ROOT, Rig};
 
 /// Proportions relative to the rig's default adult (1.0 = unchanged).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -3,7 +3,7 @@
 //! landmarks drive each bone.
 //!
 //! # Conventions (defined here once)
-//! - Positions are in the autoact frame ([`crate::frames`]): metres, +Z up, the character stands
+//! - Positions are in the autoact frame ([`crate::skeleton::frames`]): metres, +Z up, the character stands
 //!   on `z = 0` facing +Y in a T-pose (arms along ±X, palms down). +X is the character's right.
 //! - A bone's **local rotation** is its rotation relative to the rest pose, expressed in its
 //!   parent's frame: `local = parent_world⁻¹ · child_world`, where `world` is the rotation that
@@ -96,7 +96,10 @@ impl Bone {
             Dof::TwoD => {
                 let axis = self.rest_direction();
                 let moved = Unit::new_unchecked(q * axis.into_inner());
-                crate::geom::align_hemisphere(crate::geom::shortest_arc(&axis, &moved), q)
+                crate::skeleton::geom::align_hemisphere(
+                    crate::skeleton::geom::shortest_arc(&axis, &moved),
+                    q,
+                )
             }
         }
     }
@@ -169,7 +172,7 @@ pub struct Recipe {
     pub references: Vec<Reference>,
 }
 
-/// A pair of landmarks whose distance measures a body segment, used to fit a [`crate::character::Character`].
+/// A pair of landmarks whose distance measures a body segment, used to fit a [`crate::skeleton::character::Character`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Measure {
     /// Start landmarks (mean).
@@ -472,7 +475,7 @@ fn anatomical_frame(dir: &Unit<Vector3<f64>>, x_hint: &Vector3<f64>) -> UnitQuat
     let candidates = [*x_hint, Vector3::x(), Vector3::y(), Vector3::z()];
     let x = candidates
         .iter()
-        .find_map(|c| crate::geom::perpendicular_direction(c, dir, 0.2))
+        .find_map(|c| crate::skeleton::geom::perpendicular_direction(c, dir, 0.2))
         .map_or_else(Vector3::x, Unit::into_inner);
     let z = x.cross(&y);
     let m = Matrix3::from_columns(&[x, y, z]);
@@ -503,7 +506,7 @@ impl Builder {
         let parent = self.index(&parent_name);
         let head = Point3::from(map_p(def.head));
         let tail = Point3::from(map_p(def.tail));
-        let dir = crate::geom::direction(tail - head).unwrap_or_else(Vector3::y_axis);
+        let dir = crate::skeleton::geom::direction(tail - head).unwrap_or_else(Vector3::y_axis);
         let dof = match def.dof {
             DofDef::Root => Dof::Root,
             DofDef::D3 => Dof::ThreeD,

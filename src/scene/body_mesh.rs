@@ -24,7 +24,7 @@
 //! Every body stays under [`MAX_TRIANGLES`].
 //!
 //! # Conventions
-//! - Positions are in the autoact frame ([`crate::frames`]): metres, +Z up, the rest pose
+//! - Positions are in the autoact frame ([`crate::skeleton::frames`]): metres, +Z up, the rest pose
 //!   stands on `z = 0` facing +Y, +X is the body's right.
 //! - Triangles wind counter-clockwise seen from outside; every part is closed (each edge is
 //!   shared by exactly two triangles once vertices at the same position are welded) and
@@ -42,10 +42,10 @@ use std::ops::Range;
 
 use nalgebra::Vector3;
 
-use crate::character::Character;
-use crate::fk::{self, BonePose, WorldPose};
-use crate::rig::Rig;
 use crate::scene::cast::{AgeGroup, Look, Sex};
+use crate::skeleton::character::Character;
+use crate::skeleton::fk::{self, BonePose, WorldPose};
+use crate::skeleton::rig::Rig;
 
 /// The most triangles a body can have (the renderer's budget).
 pub const MAX_TRIANGLES: usize = 3_000;

@@ -5,8 +5,8 @@ use nalgebra::{Point3, Translation3, UnitQuaternion, Vector3};
 use proptest::prelude::*;
 
 use super::*;
-use crate::fk;
-use crate::geom::rotation_distance;
+use crate::skeleton::fk;
+use crate::skeleton::geom::rotation_distance;
 
 /// Positions of every rig landmark for `pose` on `character`: a frame in the rig-landmark layout.
 fn landmark_frame(
@@ -57,12 +57,12 @@ fn arb_pose() -> impl Strategy<Value = BonePose> {
                     _ if bone.name == "spine1" || bone.name == "spine3" => {
                         UnitQuaternion::identity()
                     }
-                    Dof::Root => crate::geom::yaw_rotation(yaw),
+                    Dof::Root => crate::skeleton::geom::yaw_rotation(yaw),
                     Dof::Static => UnitQuaternion::identity(),
                     Dof::ThreeD => rots[b],
                     Dof::TwoD => {
                         let d = bone.rest_direction();
-                        let (swing, _) = crate::geom::swing_twist(&rots[b], &d);
+                        let (swing, _) = crate::skeleton::geom::swing_twist(&rots[b], &d);
                         swing
                     }
                     Dof::Hinge { axis } => UnitQuaternion::from_axis_angle(&axis, hinges[b]),
@@ -147,7 +147,7 @@ proptest! {
         let character = Character::standard(&rig);
         let input = landmark_frame(&rig, &character, &pose, 0);
         let (a, _) = convert_one(&rig, &input);
-        for (rotation, exempt) in [(crate::geom::yaw_rotation(yaw), vec!["root"]), (tilt, vec!["root", "spine0", "l_thigh", "r_thigh"])] {
+        for (rotation, exempt) in [(crate::skeleton::geom::yaw_rotation(yaw), vec!["root"]), (tilt, vec!["root", "spine0", "l_thigh", "r_thigh"])] {
             let mut turned = input.clone();
             let about = Translation3::new(0.3, -0.2, 1.0);
             for p in &mut turned.positions_m { *p = about * (rotation * (about.inverse() * *p)); }
@@ -230,7 +230,7 @@ fn hemisphere_stays_continuous_through_a_full_turn() {
     let mut previous: Option<BonePose> = None;
     for k in 0..200u32 {
         let mut pose = BonePose::rest(&rig);
-        pose.local_rotations[ROOT] = crate::geom::yaw_rotation(f64::from(k) * 0.05);
+        pose.local_rotations[ROOT] = crate::skeleton::geom::yaw_rotation(f64::from(k) * 0.05);
         let arm = rig.bone_index("l_upper_arm").unwrap();
         pose.local_rotations[arm] =
             UnitQuaternion::from_euler_angles(0.3, f64::from(k) * 0.07, 0.2);
@@ -365,7 +365,7 @@ fn wrong_joint_count_is_an_error_naming_the_frame() {
 
 #[test]
 fn retargeting_keeps_directions_and_feet_on_the_ground() {
-    use crate::character::Proportions;
+    use crate::skeleton::character::Proportions;
     let rig = Rig::standard();
     let source = Character::standard(&rig);
     let mut pose = BonePose::rest(&rig);

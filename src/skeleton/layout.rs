@@ -15,7 +15,7 @@
 //! ```
 //!
 //! Which landmarks drive each bone, and which give its twist reference, is the rig's recipe table
-//! ([`crate::rig::Recipe`], printed by `autoact rig --recipes`); a layout that binds a landmark
+//! ([`crate::skeleton::rig::Recipe`], printed by `autoact rig --recipes`); a layout that binds a landmark
 //! drives every bone whose recipe can be completed from bound landmarks. Bones no recipe can
 //! complete stay at rest, and [`Binding::coverage`] says which.
 
@@ -25,8 +25,8 @@ use std::path::{Path, PathBuf};
 use nalgebra::{Point3, Unit, Vector3};
 use serde::Deserialize;
 
-use crate::pose::PoseFrame;
-use crate::rig::{DirectionSource, Dof, Measure, Reference, Rig};
+use crate::skeleton::pose::PoseFrame;
+use crate::skeleton::rig::{DirectionSource, Dof, Measure, Reference, Rig};
 
 /// Errors loading or binding a layout.
 #[derive(Debug, thiserror::Error)]
@@ -260,17 +260,18 @@ impl Layout {
     pub fn keypoints_from_rig(
         &self,
         rig: &Rig,
-        character: &crate::character::Character,
-        world: &crate::fk::WorldPose,
+        character: &crate::skeleton::character::Character,
+        world: &crate::skeleton::fk::WorldPose,
         stamp_nanos: u64,
-    ) -> crate::pose::PoseFrame {
-        let mut frame = crate::pose::PoseFrame::missing(stamp_nanos, self.joints.len());
+    ) -> crate::skeleton::pose::PoseFrame {
+        let mut frame = crate::skeleton::pose::PoseFrame::missing(stamp_nanos, self.joints.len());
         for (landmark, expr) in &self.landmarks {
             let (JointExpr::Joint(j), Some(l)) = (expr, rig.landmark_index(landmark)) else {
                 continue;
             };
             if let Some(k) = self.joints.iter().position(|n| n == j) {
-                frame.positions_m[k] = crate::fk::landmark_position(rig, character, world, l);
+                frame.positions_m[k] =
+                    crate::skeleton::fk::landmark_position(rig, character, world, l);
                 frame.confidence[k] = 1.0;
             }
         }
@@ -504,10 +505,10 @@ impl Layout {
     #[must_use]
     pub fn reorder(
         order: &[Option<usize>],
-        frame: &crate::pose::PoseFrame,
-    ) -> crate::pose::PoseFrame {
+        frame: &crate::skeleton::pose::PoseFrame,
+    ) -> crate::skeleton::pose::PoseFrame {
         let missing = nalgebra::Point3::new(f64::NAN, f64::NAN, f64::NAN);
-        crate::pose::PoseFrame {
+        crate::skeleton::pose::PoseFrame {
             stamp_nanos: frame.stamp_nanos,
             positions_m: order
                 .iter()

@@ -22,12 +22,12 @@
 
 use nalgebra::{Point3, Unit, UnitQuaternion, Vector3};
 
-use crate::character::Character;
-use crate::fk::BonePose;
-use crate::geom;
-use crate::layout::{Binding, Coverage, Layout, LayoutError, rest_reference};
-use crate::pose::{PoseFrame, PoseSequence};
-use crate::rig::{Dof, ROOT, Reference, Rig};
+use crate::skeleton::character::Character;
+use crate::skeleton::fk::BonePose;
+use crate::skeleton::geom;
+use crate::skeleton::layout::{Binding, Coverage, Layout, LayoutError, rest_reference};
+use crate::skeleton::pose::{PoseFrame, PoseSequence};
+use crate::skeleton::rig::{Dof, ROOT, Reference, Rig};
 
 /// How the root follows the pelvis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
@@ -722,7 +722,7 @@ pub fn fit_character(
     let point = |f: &PoseFrame, set: &[usize]| binding.set_point(set, f, options.min_confidence);
     // The segments this layout drives bones along, and the static widths.
     let measures = binding.measures(rig);
-    let observed: Vec<(&crate::rig::Measure, f64)> = measures
+    let observed: Vec<(&crate::skeleton::rig::Measure, f64)> = measures
         .iter()
         .filter_map(|m| {
             let mut d: Vec<f64> = sample
@@ -730,7 +730,7 @@ pub fn fit_character(
                 .filter_map(|f| Some((point(f, &m.to)? - point(f, &m.from)?).norm()))
                 .filter(|d| d.is_finite() && *d > 1e-6)
                 .collect();
-            Some((m, crate::character::median(&mut d)?))
+            Some((m, crate::skeleton::character::median(&mut d)?))
         })
         .collect();
     let mut character = Character::fitted(rig, &observed);
@@ -757,7 +757,7 @@ pub fn fit_character(
         }
     }
     // Bone by bone, parents first, so each offset is measured from a head already in place.
-    let mut world = crate::fk::WorldPose::new(rig);
+    let mut world = crate::skeleton::fk::WorldPose::new(rig);
     for b in 0..rig.bones.len() {
         let riders: Vec<usize> = movable
             .iter()
@@ -770,7 +770,7 @@ pub fn fit_character(
         let mut samples: Vec<[Vec<f64>; 3]> =
             vec![[Vec::new(), Vec::new(), Vec::new()]; riders.len()];
         for (f, pose) in &solved {
-            crate::fk::forward_into(rig, &character, pose, 1.0, &mut world);
+            crate::skeleton::fk::forward_into(rig, &character, pose, 1.0, &mut world);
             for (k, &l) in riders.iter().enumerate() {
                 let Some(p) = point(f, &[l]) else { continue };
                 let offset = world.rotations[b].inverse() * (p - world.heads_m[b]);
@@ -782,9 +782,9 @@ pub fn fit_character(
         for (k, &l) in riders.iter().enumerate() {
             let [x, y, z] = &mut samples[k];
             if let (Some(x), Some(y), Some(z)) = (
-                crate::character::median(x),
-                crate::character::median(y),
-                crate::character::median(z),
+                crate::skeleton::character::median(x),
+                crate::skeleton::character::median(y),
+                crate::skeleton::character::median(z),
             ) {
                 character.set_landmark_offset(rig, l, Vector3::new(x, y, z));
             }
@@ -843,7 +843,7 @@ impl<'a> SequenceConverter<'a> {
         // Joints the source never provides (face points from mocap, hands from a body-only
         // tracker) are not in this data: their bones are reported at rest, not missing in every
         // frame.
-        let present = crate::pose::observed_joints(&frames, layout.joints.len());
+        let present = crate::skeleton::pose::observed_joints(&frames, layout.joints.len());
         let restricted;
         let layout = if present.iter().all(|&p| p) {
             layout

@@ -256,7 +256,7 @@ impl Environment {
         // Time is cut into 5 s windows; each window flashes once at a seeded offset.
         const WINDOW_S: f64 = 5.0;
         let window = (t_s / WINDOW_S).floor();
-        let h = super::hash::hash2(seed, window as i64 as u64);
+        let h = crate::hash::hash2(seed, window as i64 as u64);
         let at = (h as f64 / u64::MAX as f64) * (WINDOW_S - 0.5);
         let dt = t_s - window * WINDOW_S - at;
         let pulse = |start: f64, length: f64| {
@@ -273,8 +273,8 @@ impl Environment {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::test_scene;
     use crate::scene::sky::ClockTime;
+    use crate::scene::tests::test_scene;
 
     fn luminance(c: Rgb) -> f32 {
         0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]

@@ -17,15 +17,15 @@ use std::path::Path;
 
 use nalgebra::Point3;
 
-use crate::frames::WORLD_FRAME;
 use crate::mcap_io::{BagMessage, BagReader, BagWriter, McapIoError, ReadIssue};
-use crate::pose::{PoseFrame, PoseSequence};
 use crate::ros::autoact_msgs::Skeleton3D;
 use crate::ros::builtin_interfaces::Time;
 use crate::ros::geometry_msgs::{Point, PoseArray};
 use crate::ros::std_msgs::Header;
 use crate::ros::visualization_msgs::{Marker, MarkerArray};
 use crate::ros::{self, RosMessage};
+use crate::skeleton::frames::WORLD_FRAME;
+use crate::skeleton::pose::{PoseFrame, PoseSequence};
 
 /// Topic autoact writes skeletons on.
 pub const SKELETON_TOPIC: &str = "/skeleton";
@@ -162,7 +162,7 @@ impl PoseTopics {
 pub fn read_pose_topics(
     path: &Path,
     topic: Option<&str>,
-    layout: Option<&crate::layout::Layout>,
+    layout: Option<&crate::skeleton::layout::Layout>,
 ) -> Result<PoseTopics, PoseBagError> {
     let readers = BagReader::open_all(path)?;
     // Topic → track id → the track.
@@ -418,7 +418,7 @@ fn header_stamp(header: &Header) -> Option<u64> {
 fn decode_people<'a>(
     msg: &BagMessage,
     type_name: &str,
-    layout: Option<&'a crate::layout::Layout>,
+    layout: Option<&'a crate::skeleton::layout::Layout>,
     skeleton: &'a mut Skeleton3D,
 ) -> Result<Vec<Person<'a>>, DecodeProblem> {
     let bad =
@@ -512,15 +512,15 @@ fn decode_people<'a>(
 /// Markers → people: one person per namespace, in namespace order; track id = its index.
 fn markers_to_people<'a>(
     m: &MarkerArray,
-    layout: &'a crate::layout::Layout,
+    layout: &'a crate::skeleton::layout::Layout,
 ) -> Result<Vec<Person<'a>>, DecodeProblem> {
     let n = layout.joints.len();
-    let mut by_ns: BTreeMap<&str, Vec<&Marker>> = BTreeMap::new();
+    let mut by_nanos: BTreeMap<&str, Vec<&Marker>> = BTreeMap::new();
     for marker in m.markers.iter().filter(|mk| mk.action == Marker::ADD) {
-        by_ns.entry(marker.ns.as_str()).or_default().push(marker);
+        by_nanos.entry(marker.ns.as_str()).or_default().push(marker);
     }
     let mut people = Vec::new();
-    for (track, (ns, markers)) in by_ns.into_iter().enumerate() {
+    for (track, (ns, markers)) in by_nanos.into_iter().enumerate() {
         let mut positions = vec![Point3::new(f64::NAN, f64::NAN, f64::NAN); n];
         let mut confidence = vec![0.0f32; n];
         let lists: Vec<&&Marker> = markers

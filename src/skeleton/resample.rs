@@ -7,9 +7,9 @@
 
 use nalgebra::UnitQuaternion;
 
-use crate::convert::AnimationFrame;
-use crate::fk::BonePose;
-use crate::pose::stamp_nanos_at;
+use crate::skeleton::convert::AnimationFrame;
+use crate::skeleton::fk::BonePose;
+use crate::skeleton::pose::stamp_nanos_at;
 
 /// Interpolates two poses: slerp per bone, lerp for the root translation.
 #[must_use]
@@ -28,7 +28,7 @@ pub fn interpolate(a: &BonePose, b: &BonePose, s: f64) -> BonePose {
 /// Shortest-path slerp that never panics (nalgebra's `slerp` does on antipodal input).
 #[must_use]
 pub fn slerp(a: &UnitQuaternion<f64>, b: &UnitQuaternion<f64>, s: f64) -> UnitQuaternion<f64> {
-    let b = crate::geom::align_hemisphere(*b, a);
+    let b = crate::skeleton::geom::align_hemisphere(*b, a);
     a.try_slerp(&b, s, 1e-12).unwrap_or_else(|| a.nlerp(&b, s))
 }
 
@@ -146,7 +146,7 @@ pub fn resample(frames: &[AnimationFrame], fps: f64) -> Vec<AnimationFrame> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geom::rotation_distance;
+    use crate::skeleton::geom::rotation_distance;
     use nalgebra::Vector3;
     use proptest::prelude::*;
 

@@ -4,8 +4,8 @@
 
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 
-use crate::character::Character;
-use crate::rig::{ROOT, Rig};
+use crate::skeleton::character::Character;
+use crate::skeleton::rig::{ROOT, Rig};
 
 /// A pose of the rig: what one animation frame stores.
 #[derive(Debug, Clone, PartialEq)]
@@ -63,7 +63,7 @@ impl WorldPose {
 }
 
 /// Forward kinematics into a reusable buffer. `translation_scale` multiplies the root translation
-/// (1 for the body the animation was solved for; see [`crate::convert::Animation::translation_scale_for`]).
+/// (1 for the body the animation was solved for; see [`crate::skeleton::convert::Animation::translation_scale_for`]).
 pub fn forward_into(
     rig: &Rig,
     character: &Character,

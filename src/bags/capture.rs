@@ -1,26 +1,230 @@
-//! Reading a capture bag (what `autoact convert --spec` writes) into what the renderer draws:
-//! its scenes (from `/scene`), its clips (`/segments`), and per timeline frame the character's
-//! pose (`/animation`) and the camera (`/camera/pose`, `/camera/camera_info`).
+//! Capture bags (`<session>.capture.mcap`): what `autoact convert --spec` writes — one MCAP per
+//! capture session, on one continuous timeline at the output rate, everything a renderer and the
+//! trimmer need:
 //!
-//! Frame `k` of the rendered video is the `k`-th `/animation` frame of the bag, in stamp order;
-//! the camera must have a pose at every one of those stamps.
+//! - `/animation`, `/tf`, `/tf_static`, `/skeleton/markers`: the character, as
+//!   [`crate::bags::animation`] writes them; at each scene start `/tf_static` carries that scene's
+//!   character (its drawn body);
+//! - `/camera/pose` (`geometry_msgs/PoseStamped`, the optical frame's pose in `world`), a
+//!   `world → camera` transform on `/tf` (`camera` is the ROS optical frame: z forward, x right,
+//!   y down) and `/camera/camera_info` (`sensor_msgs/CameraInfo`, frame `camera`), every frame;
+//! - `/scene` (`autoact_msgs/SceneState`) at each scene's start: every drawn parameter and the
+//!   seed and stream it came from;
+//! - `/segments` (`autoact_msgs/Segment`) at each clip's start: the full hierarchy path, the
+//!   label and its id, and the clip's and the animation's times.
+//!
+//! The metadata record `autoact.dataset` names the spec, seed, rate, resolution and labels.
+//!
+//! [`CaptureWriter`] writes one; [`Capture::read`] reads it back into what the renderer draws
+//! and the trimmer cuts: its scenes, its clips, and per timeline frame the character's pose and
+//! the camera. Frame `k` of the rendered video is the `k`-th `/animation` frame of the bag, in
+//! stamp order; the camera must have a pose at every one of those stamps.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
 
-use crate::animation_bag;
+use crate::bags;
+use crate::bags::animation::{TF_STATIC_TOPIC, TF_TOPIC, TrackWriter};
 use crate::camera::Intrinsics;
-use crate::dataset::capture::{CAMERA_INFO_TOPIC, CAMERA_POSE_TOPIC, SCENE_TOPIC, SEGMENTS_TOPIC};
-use crate::fk::BonePose;
+use crate::camera::{CAMERA_FRAME, CameraPose, DISTORTION_MODEL};
 use crate::mcap_io::BagReader;
-use crate::rig::Rig;
+use crate::mcap_io::{BagWriter, FileSink, McapIoError, WriteConfig};
 use crate::ros::autoact_msgs::{BoneFrame, SceneState, Segment};
+use crate::ros::builtin_interfaces::Time;
 use crate::ros::geometry_msgs::PoseStamped;
+use crate::ros::geometry_msgs::{Pose, Quaternion, Transform, TransformStamped, Vector3};
 use crate::ros::sensor_msgs::CameraInfo;
+use crate::ros::std_msgs::Header;
+use crate::ros::tf2_msgs::TFMessage;
 use crate::ros::{RosMessage, cdr};
 use crate::scene::Scene;
+use crate::skeleton::fk::BonePose;
+use crate::skeleton::frames::WORLD_FRAME;
+use crate::skeleton::rig::Rig;
+
+/// Suffix of a capture bag's file name.
+pub const SUFFIX: &str = ".capture.mcap";
+/// Topic of the camera's pose.
+pub const CAMERA_POSE_TOPIC: &str = "/camera/pose";
+/// Topic of the camera's calibration.
+pub const CAMERA_INFO_TOPIC: &str = "/camera/camera_info";
+/// Topic of the scene states.
+pub const SCENE_TOPIC: &str = "/scene";
+/// Topic of the clip segments.
+pub const SEGMENTS_TOPIC: &str = "/segments";
+/// Name of the metadata record that describes the dataset.
+pub const METADATA_NAME: &str = "autoact.dataset";
+
+/// The capture bag of session `session` in folder `dir`.
+#[must_use]
+pub fn session_path(dir: &Path, session: &str) -> PathBuf {
+    dir.join(format!("{session}{SUFFIX}"))
+}
+
+/// Writes one capture bag: its metadata, then scenes, segments and frames in timeline order.
+pub struct CaptureWriter {
+    bag: BagWriter<FileSink>,
+    camera: CameraTrack,
+}
+
+impl CaptureWriter {
+    /// Creates the bag at `path` with the `autoact.dataset` record `metadata`; the camera's
+    /// calibration is `intrinsics` throughout. With `journal`, every message is also kept for
+    /// [`CaptureWriter::finish`] to write as `<path stem>.expected.json` (for `tools/interop`).
+    ///
+    /// # Errors
+    /// [`McapIoError`] naming the file.
+    pub fn create(
+        path: &Path,
+        config: WriteConfig,
+        journal: bool,
+        metadata: BTreeMap<String, String>,
+        intrinsics: &Intrinsics,
+    ) -> Result<CaptureWriter, McapIoError> {
+        let mut bag = BagWriter::create(path, config)?;
+        if journal {
+            bag.keep_journal();
+        }
+        bag.write_metadata(METADATA_NAME, metadata)?;
+        Ok(CaptureWriter {
+            bag,
+            camera: CameraTrack::new(intrinsics),
+        })
+    }
+
+    /// Starts a scene at `stamp`: its state on `/scene`, its character's rest on `/tf_static`.
+    ///
+    /// # Errors
+    /// [`McapIoError`] naming the file.
+    pub fn write_scene(
+        &mut self,
+        stamp: u64,
+        state: &SceneState,
+        character: &TrackWriter,
+    ) -> Result<(), McapIoError> {
+        self.bag.write(SCENE_TOPIC, stamp, state)?;
+        self.bag.write(
+            TF_STATIC_TOPIC,
+            stamp,
+            &TFMessage {
+                transforms: character.static_transforms(stamp),
+            },
+        )
+    }
+
+    /// Starts a clip: its segment on `/segments`, at the segment's start.
+    ///
+    /// # Errors
+    /// [`McapIoError`] naming the file.
+    pub fn write_segment(&mut self, stamp: u64, segment: &Segment) -> Result<(), McapIoError> {
+        self.bag.write(SEGMENTS_TOPIC, stamp, segment)
+    }
+
+    /// One timeline frame: the camera's three messages, then the character's.
+    ///
+    /// # Errors
+    /// [`McapIoError`] naming the file.
+    pub fn write_frame(
+        &mut self,
+        stamp: u64,
+        camera: &CameraPose,
+        character: &mut TrackWriter,
+        pose: &BonePose,
+    ) -> Result<(), McapIoError> {
+        self.camera.write(&mut self.bag, stamp, camera)?;
+        character.write_frame(&mut self.bag, stamp, pose)
+    }
+
+    /// Finishes the bag (summary, index) and, if asked at creation, writes its journal beside it.
+    ///
+    /// # Errors
+    /// [`McapIoError`] naming the file.
+    pub fn finish(self, path: &Path, journal: bool) -> Result<(), McapIoError> {
+        if journal {
+            self.bag
+                .finish_with_journal(&path.with_extension("expected.json"))?;
+        } else {
+            self.bag.finish()?;
+        }
+        Ok(())
+    }
+}
+
+impl std::fmt::Debug for CaptureWriter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CaptureWriter")
+            .field("bag", &self.bag)
+            .finish_non_exhaustive()
+    }
+}
+
+/// The camera's three messages per frame, kept and updated in place (no allocation per frame):
+/// its pose in `world`, the `world → camera` transform, and its calibration.
+struct CameraTrack {
+    pose: PoseStamped,
+    tf: TFMessage,
+    info: CameraInfo,
+}
+
+impl CameraTrack {
+    fn new(intrinsics: &Intrinsics) -> CameraTrack {
+        let world = Header {
+            stamp: Time::default(),
+            frame_id: WORLD_FRAME.to_string(),
+        };
+        CameraTrack {
+            pose: PoseStamped {
+                header: world.clone(),
+                pose: Pose::default(),
+            },
+            tf: TFMessage {
+                transforms: vec![TransformStamped {
+                    header: world,
+                    child_frame_id: CAMERA_FRAME.to_string(),
+                    transform: Transform::default(),
+                }],
+            },
+            info: CameraInfo {
+                header: Header {
+                    stamp: Time::default(),
+                    frame_id: CAMERA_FRAME.to_string(),
+                },
+                height: intrinsics.height_px,
+                width: intrinsics.width_px,
+                distortion_model: DISTORTION_MODEL.to_string(),
+                d: intrinsics.d().to_vec(),
+                k: intrinsics.k(),
+                r: intrinsics.r(),
+                p: intrinsics.p(),
+                ..CameraInfo::default()
+            },
+        }
+    }
+
+    /// Writes `/camera/pose`, the camera's `/tf` and `/camera/camera_info` at `stamp`.
+    fn write<W: std::io::Write + std::io::Seek>(
+        &mut self,
+        w: &mut BagWriter<W>,
+        stamp: u64,
+        camera: &CameraPose,
+    ) -> Result<(), McapIoError> {
+        let time = Time::from_nanos(stamp);
+        let rotation = Quaternion::from(camera.world_from_optical);
+        self.pose.header.stamp = time;
+        self.pose.pose.position = crate::ros::geometry_msgs::Point::from(camera.position_m);
+        self.pose.pose.orientation = rotation;
+        let t = &mut self.tf.transforms[0];
+        t.header.stamp = time;
+        t.transform.translation = Vector3::from(camera.position_m.coords);
+        t.transform.rotation = rotation;
+        self.info.header.stamp = time;
+        w.write(CAMERA_POSE_TOPIC, stamp, &self.pose)?;
+        w.write(TF_TOPIC, stamp, &self.tf)?;
+        w.write(CAMERA_INFO_TOPIC, stamp, &self.info)
+    }
+}
 
 /// Why a bag cannot be rendered.
 #[derive(Debug, thiserror::Error)]
@@ -45,14 +249,14 @@ pub enum TimelineError {
         what: String,
     },
     /// A message that cannot be used.
-    #[error("{path}: {topic} at {stamp_ns} ns: {message}")]
+    #[error("{path}: {topic} at {stamp_nanos} ns: {message}")]
     Bad {
         /// The bag.
         path: PathBuf,
         /// Its topic.
         topic: String,
         /// Its stamp.
-        stamp_ns: u64,
+        stamp_nanos: u64,
         /// Why.
         message: String,
     },
@@ -62,7 +266,7 @@ pub enum TimelineError {
 #[derive(Debug, Clone, PartialEq)]
 pub struct CaptureScene {
     /// When it starts on the timeline, ns.
-    pub start_ns: u64,
+    pub start_nanos: u64,
     /// Its id in the recording hierarchy.
     pub scene_id: String,
     /// The ChaCha8 stream it was drawn from (seeds the renderer's procedural detail).
@@ -75,7 +279,7 @@ pub struct CaptureScene {
 #[derive(Debug, Clone, PartialEq)]
 pub struct CaptureFrame {
     /// Its stamp, ns.
-    pub stamp_ns: u64,
+    pub stamp_nanos: u64,
     /// Index into [`Capture::scenes`].
     pub scene: usize,
     /// The character's pose.
@@ -118,10 +322,10 @@ impl Capture {
             path: path.to_path_buf(),
             message: e.to_string(),
         })?;
-        let bad = |topic: &str, stamp_ns: u64, message: String| TimelineError::Bad {
+        let bad = |topic: &str, stamp_nanos: u64, message: String| TimelineError::Bad {
             path: path.to_path_buf(),
             topic: topic.to_owned(),
-            stamp_ns,
+            stamp_nanos,
             message,
         };
         let missing = |what: &str| TimelineError::Missing {
@@ -133,7 +337,7 @@ impl Capture {
         let mut seed = None;
         for r in &readers {
             for (name, meta) in r.metadata() {
-                if !name.ends_with(".dataset") {
+                if name != METADATA_NAME {
                     continue;
                 }
                 if let Some(v) = meta.get("fps").and_then(|v| v.parse::<f64>().ok()) {
@@ -177,7 +381,7 @@ impl Capture {
                         .map_err(|e| bad(topic, stamp, format!("parameters_json: {e}")))?;
                     session.clone_from(&s.session);
                     scenes.push(CaptureScene {
-                        start_ns: s.header.stamp.to_nanos().unwrap_or(stamp),
+                        start_nanos: s.header.stamp.to_nanos().unwrap_or(stamp),
                         scene_id: s.scene_id,
                         stream: s.stream,
                         scene,
@@ -189,8 +393,8 @@ impl Capture {
                 (_, BoneFrame::TYPE_NAME) => {
                     let f: BoneFrame = cdr::decode(&m.data).map_err(|e| decode_error(&e))?;
                     let pose =
-                        animation_bag::bone_pose(rig, &f).map_err(|e| bad(topic, stamp, e))?;
-                    let at = animation_bag::frame_stamp(&f, stamp);
+                        bags::animation::bone_pose(rig, &f).map_err(|e| bad(topic, stamp, e))?;
+                    let at = bags::animation::frame_stamp(&f, stamp);
                     if poses.insert(at, pose).is_some() {
                         return Err(bad(topic, at, "two animation frames at one stamp (several tracks or variants: a capture bag has one)".into()));
                     }
@@ -229,33 +433,34 @@ impl Capture {
         if scenes.is_empty() {
             return Err(missing(&format!("scene ({SCENE_TOPIC})")));
         }
-        scenes.sort_by_key(|s| s.start_ns);
+        scenes.sort_by_key(|s| s.start_nanos);
         segments.sort_by_key(|s| s.start.to_nanos().unwrap_or(0));
         // Without the dataset record, the median spacing of the frames.
         let stamps: Vec<u64> = poses.keys().copied().collect();
-        let fps = crate::pose::frame_rate(fps.filter(|f| f.is_finite() && *f > 0.0), &stamps)
-            .ok_or_else(|| {
+        let fps =
+            crate::skeleton::pose::frame_rate(fps.filter(|f| f.is_finite() && *f > 0.0), &stamps)
+                .ok_or_else(|| {
                 missing("frame rate (the autoact.dataset record's fps, or two frames)")
             })?;
         let mut frames = Vec::with_capacity(poses.len());
-        for (stamp_ns, pose) in poses {
-            let world_from_optical = *cameras.get(&stamp_ns).ok_or_else(|| {
+        for (stamp_nanos, pose) in poses {
+            let world_from_optical = *cameras.get(&stamp_nanos).ok_or_else(|| {
                 bad(
                     CAMERA_POSE_TOPIC,
-                    stamp_ns,
+                    stamp_nanos,
                     "no camera pose at this animation frame's stamp".into(),
                 )
             })?;
-            let scene = scenes.partition_point(|s| s.start_ns <= stamp_ns);
+            let scene = scenes.partition_point(|s| s.start_nanos <= stamp_nanos);
             if scene == 0 {
                 return Err(bad(
                     SCENE_TOPIC,
-                    stamp_ns,
+                    stamp_nanos,
                     "an animation frame comes before the first scene starts".into(),
                 ));
             }
             frames.push(CaptureFrame {
-                stamp_ns,
+                stamp_nanos,
                 scene: scene - 1,
                 pose,
                 world_from_optical,
@@ -283,7 +488,7 @@ impl Capture {
             .iter()
             .flat_map(|s| [s.start, s.end])
             .filter_map(|t| t.to_nanos())
-            .filter_map(|t| self.frames.binary_search_by_key(&t, |f| f.stamp_ns).ok())
+            .filter_map(|t| self.frames.binary_search_by_key(&t, |f| f.stamp_nanos).ok())
             .map(|i| i as u64)
             .collect();
         out.push(0);

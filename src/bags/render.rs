@@ -1,0 +1,213 @@
+//! Render bags: what `autoact render` writes beside a video (`<video stem>.render.mcap`), and
+//! what `autoact trim` reads to place that video on its capture's timeline.
+//!
+//! - `/render/video` — `autoact_msgs/VideoInfo`, once: the capture session and bag rendered, the
+//!   video file, its rate, size, frame count, forced keyframes and encoder settings; its stamp is
+//!   the timeline instant of video frame 0;
+//! - `/render/annotations` — `autoact_msgs/FrameAnnotation` per video frame: 2D and 3D joints,
+//!   visibility, the bounding box and the segment the frame belongs to;
+//! - `/render/camera/h264` — `foxglove_msgs/CompressedVideo` per frame (optional,
+//!   `--embed-video`): the encoded stream itself, so Foxglove plays it beside the skeleton.
+//!
+//! The bag is written under a temporary name and renamed when complete.
+
+use std::path::{Path, PathBuf};
+
+use crate::bags::capture::Capture;
+use crate::mcap_io::{BagReader, BagWriter, McapIoError, WriteConfig};
+use crate::ros::autoact_msgs::{FrameAnnotation, VideoInfo};
+use crate::ros::foxglove_msgs::CompressedVideo;
+use crate::ros::{RosMessage, cdr};
+use crate::video::Rational;
+
+/// Topic of the video description in the render bag.
+pub const VIDEO_TOPIC: &str = "/render/video";
+/// Topic of the per-frame annotations.
+pub const ANNOTATIONS_TOPIC: &str = "/render/annotations";
+/// Topic of the embedded H.264 stream (`--embed-video`).
+pub const EMBEDDED_VIDEO_TOPIC: &str = "/render/camera/h264";
+
+/// Where `autoact render` puts the render bag of `video` unless told otherwise:
+/// `<video stem>.render.mcap` beside it. `autoact trim` looks there.
+#[must_use]
+pub fn render_bag_beside(video: &Path) -> PathBuf {
+    video.with_extension("render.mcap")
+}
+
+/// Why a render bag could not be written or read.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum RenderBagError {
+    /// Writing or reading the MCAP failed.
+    #[error(transparent)]
+    Bag(#[from] McapIoError),
+    /// Part of the bag could not be read.
+    #[error(transparent)]
+    Read(#[from] crate::mcap_io::ReadIssue),
+    /// The bag's path has no file name to put a temporary sibling beside.
+    #[error("render bag `{0}`: not a file name")]
+    NotAFile(PathBuf),
+    /// The finished bag could not be synced and renamed into place.
+    #[error("cannot sync and rename the render bag into `{path}`")]
+    Commit {
+        /// The render bag.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A `/render/video` message could not be decoded.
+    #[error("render bag `{path}`: {VIDEO_TOPIC} cannot be decoded")]
+    Decode {
+        /// The render bag.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: cdr::CdrError,
+    },
+    /// The video's frame rate cannot be used.
+    #[error("render bag `{path}`: {VIDEO_TOPIC}: frame rate {fps} is not usable")]
+    FrameRate {
+        /// The render bag.
+        path: PathBuf,
+        /// The rate it states.
+        fps: f64,
+    },
+    /// The bag holds no video description.
+    #[error("render bag `{0}`: no `{VIDEO_TOPIC}` message ({ty})", ty = VideoInfo::TYPE_NAME)]
+    NoVideoInfo(PathBuf),
+    /// The bag is a render of another capture session.
+    #[error(
+        "render bag `{bag}` is a render of capture session `{rendered}` (capture bag `{rendered_bag}`), but `{capture_bag}` holds session `{session}`: pass the capture bag that was rendered, or the right `--render-bag`"
+    )]
+    OtherSession {
+        /// The render bag.
+        bag: PathBuf,
+        /// The session it rendered.
+        rendered: String,
+        /// The capture bag it rendered (file name).
+        rendered_bag: String,
+        /// The capture bag given.
+        capture_bag: PathBuf,
+        /// Its session.
+        session: String,
+    },
+}
+
+/// One video frame's messages.
+#[derive(Debug, Clone)]
+pub struct RenderedFrame {
+    /// Timeline stamp, nanoseconds (the messages' log time).
+    pub stamp_nanos: u64,
+    /// Its labels.
+    pub annotation: FrameAnnotation,
+    /// Its encoded access unit, when the video is embedded.
+    pub video: Option<CompressedVideo>,
+}
+
+/// Writes the render bag `path`: `info` at `info_stamp_nanos`, then every frame, under a
+/// temporary name renamed into place when complete (removed on failure).
+///
+/// # Errors
+/// [`RenderBagError`] naming the bag.
+pub fn write(
+    path: &Path,
+    info_stamp_nanos: u64,
+    info: &VideoInfo,
+    frames: impl IntoIterator<Item = RenderedFrame>,
+) -> Result<(), RenderBagError> {
+    let part = crate::atomic_file::temporary_sibling(path)
+        .ok_or_else(|| RenderBagError::NotAFile(path.to_path_buf()))?;
+    let result = (|| -> Result<(), McapIoError> {
+        let mut w = BagWriter::create(&part, WriteConfig::default())?;
+        w.write(VIDEO_TOPIC, info_stamp_nanos, info)?;
+        for frame in frames {
+            w.write(ANNOTATIONS_TOPIC, frame.stamp_nanos, &frame.annotation)?;
+            if let Some(video) = &frame.video {
+                w.write(EMBEDDED_VIDEO_TOPIC, frame.stamp_nanos, video)?;
+            }
+        }
+        w.finish()?;
+        Ok(())
+    })();
+    let result = result.map_err(RenderBagError::from).and_then(|()| {
+        crate::atomic_file::commit(&part, path).map_err(|source| RenderBagError::Commit {
+            path: path.to_path_buf(),
+            source,
+        })
+    });
+    if result.is_err() {
+        let _ = std::fs::remove_file(&part);
+    }
+    result
+}
+
+/// What the render bag says of the video it describes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderedVideo {
+    /// The render bag read.
+    pub bag: PathBuf,
+    /// Timeline stamp of the video's frame 0, nanoseconds.
+    pub frame0_nanos: i128,
+    /// Its frame rate.
+    pub fps: Rational,
+    /// The capture session rendered.
+    pub session: String,
+    /// The capture bag rendered (its file name).
+    pub capture_bag: String,
+    /// The video's file name.
+    pub video_file: String,
+}
+
+impl RenderedVideo {
+    /// Reads the `VideoInfo` of render bag `bag`.
+    ///
+    /// # Errors
+    /// [`RenderBagError`] naming the bag when it cannot be read or has no `VideoInfo`.
+    pub fn read(bag: &Path) -> Result<RenderedVideo, RenderBagError> {
+        let readers = BagReader::open_all(bag)?;
+        for m in readers.iter().flat_map(|r| r.messages()) {
+            let m = m?;
+            if m.channel.topic == VIDEO_TOPIC && m.channel.schema_name() == VideoInfo::TYPE_NAME {
+                let info: VideoInfo =
+                    cdr::decode(&m.data).map_err(|source| RenderBagError::Decode {
+                        path: bag.to_path_buf(),
+                        source,
+                    })?;
+                let fps = Rational::from_f64(info.fps).ok_or(RenderBagError::FrameRate {
+                    path: bag.to_path_buf(),
+                    fps: info.fps,
+                })?;
+                let stamp = info.header.stamp.to_nanos().unwrap_or(m.log_time);
+                return Ok(RenderedVideo {
+                    bag: bag.to_path_buf(),
+                    frame0_nanos: i128::from(stamp),
+                    fps,
+                    session: info.session,
+                    capture_bag: info.capture_bag,
+                    video_file: info.video_file,
+                });
+            }
+        }
+        Err(RenderBagError::NoVideoInfo(bag.to_path_buf()))
+    }
+
+    /// Checks that this is a render of `capture`: the same capture session. Its timing placed on
+    /// another capture's timeline would cut every clip at the wrong frames.
+    ///
+    /// # Errors
+    /// [`RenderBagError::OtherSession`] naming the render bag, the session it rendered and the
+    /// capture's.
+    pub fn check_renders(&self, capture: &Capture) -> Result<(), RenderBagError> {
+        if self.session == capture.session {
+            return Ok(());
+        }
+        Err(RenderBagError::OtherSession {
+            bag: self.bag.clone(),
+            rendered: self.session.clone(),
+            rendered_bag: self.capture_bag.clone(),
+            capture_bag: capture.path.clone(),
+            session: capture.session.clone(),
+        })
+    }
+}
