@@ -519,3 +519,75 @@ impl Hierarchy {
         json!({"clips": self.ids.len() + self.duplicate_ids, "duplicate_ids": self.duplicate_ids, "classes": classes})
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(name: &str) -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("bags")
+            .join(name)
+    }
+
+    #[test]
+    fn a_whole_animation_bag_is_valid_with_its_rates_and_metadata() {
+        let report = inspect(&sample("bandai_walk.anim.mcap")).unwrap();
+        assert!(report.is_valid(), "{:?}", report.problems());
+        assert!(!report.lost_data());
+        let text = report.table();
+        assert!(text.starts_with("file: "), "{text}");
+        assert!(
+            text.contains("/animation         autoact_msgs/msg/BoneFrame          195       30.00    30.00  rig autoact53  0       0"),
+            "{text}"
+        );
+        assert!(
+            text.contains("\nmetadata autoact.convert: fps=30 "),
+            "{text}"
+        );
+        assert!(text.ends_with(
+            "\n\nverdict: valid: every message is readable by ROS 2 tools and autoact\n"
+        ));
+        let json = report.json();
+        assert_eq!(json["valid"], true);
+        assert_eq!(json["profile"], "ros2");
+        let animation = &json["channels"][0];
+        assert_eq!(animation["topic"], "/animation");
+        assert_eq!(animation["streams"][0]["frames"], 195);
+        assert!((animation["streams"][0]["fps"].as_f64().unwrap() - 30.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_cut_off_bag_is_reported_as_lost_data_not_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let bytes = std::fs::read(sample("bandai_walk.anim.mcap")).unwrap();
+        let cut = dir.path().join("cut.mcap");
+        std::fs::write(&cut, &bytes[..bytes.len() * 2 / 3]).unwrap();
+        let report = inspect(&cut).unwrap();
+        assert!(report.lost_data() && !report.is_valid());
+        assert!(
+            report
+                .problems()
+                .iter()
+                .any(|p| p.starts_with("no summary with chunk indexes")),
+            "{:?}",
+            report.problems()
+        );
+        assert!(report.table().contains("\n\nverdict: problems found\n  - "));
+        assert_eq!(report.json()["valid"], false);
+    }
+
+    #[test]
+    fn a_file_that_is_not_mcap_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("x.mcap");
+        std::fs::write(&path, b"not an mcap file at all").unwrap();
+        assert!(inspect(&path).is_err());
+    }
+
+    #[test]
+    fn a_rate_range_shows_one_number_when_its_ends_agree() {
+        assert_eq!(show_rate_range((30.0, 30.001)), "30.00");
+        assert_eq!(show_rate_range((25.0, 30.0)), "25.00-30.00");
+    }
+}

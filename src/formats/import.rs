@@ -331,3 +331,121 @@ fn warn_if_implausible_size(seqs: &[PoseSequence], metres_per_unit: f64) {
         );
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn options(format: InputFormat, layout: Option<&str>, fps: Option<f64>) -> ImportOptions {
+        ImportOptions {
+            format,
+            layout: layout.map(str::to_string),
+            fps,
+            axes: SourceAxes::YDown,
+            metres_per_unit: 1.0,
+        }
+    }
+
+    fn error(path: &str, options: &ImportOptions) -> String {
+        import(Path::new(path), options).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn the_extension_names_the_format_unless_one_is_given() {
+        let resolve = |f, p: &str| resolve_format(f, Path::new(p)).unwrap();
+        assert_eq!(resolve(InputFormat::Auto, "a/walk.BVH"), InputFormat::Bvh);
+        assert_eq!(
+            resolve(InputFormat::Auto, "S001.skeleton"),
+            InputFormat::Ntu
+        );
+        assert_eq!(
+            resolve(InputFormat::Auto, "walking_1.txt"),
+            InputFormat::H36mExpmap
+        );
+        assert_eq!(resolve(InputFormat::Auto, "zed.mat"), InputFormat::ZedMat);
+        assert_eq!(
+            resolve(InputFormat::Auto, "out.json"),
+            InputFormat::MmposeJson
+        );
+        assert_eq!(resolve(InputFormat::Ntu, "out.json"), InputFormat::Ntu);
+        assert_eq!(
+            error("notes.md", &options(InputFormat::Auto, None, None)),
+            "cannot tell the format of notes.md from its extension `md`: give --format"
+        );
+    }
+
+    #[test]
+    fn options_that_contradict_the_format_are_named_before_reading() {
+        let auto = InputFormat::Auto;
+        assert_eq!(
+            error("x.json", &options(auto, None, Some(0.0))),
+            "--fps must be a positive number of frames per second, not 0"
+        );
+        assert_eq!(
+            error("x.skeleton", &options(auto, Some("h36m-17"), None)),
+            "NTU files are in the `ntu-25` layout; drop --layout h36m-17"
+        );
+        assert_eq!(
+            error("x.txt", &options(auto, None, Some(25.0))),
+            "Human3.6M exp-map files are 50 fps; drop --fps"
+        );
+        assert_eq!(
+            error("x.mat", &options(auto, Some("zed-body-34"), Some(25.0))),
+            "ZED recordings carry their own timestamps; drop --fps"
+        );
+        assert_eq!(
+            error("x.json", &options(auto, Some("h36m-17"), None)),
+            "x.json: MMPose JSON has no frame rate: give --fps"
+        );
+        let mut bad_units = options(auto, Some("h36m-17"), Some(25.0));
+        bad_units.metres_per_unit = 0.0;
+        assert_eq!(
+            error("x.json", &bad_units),
+            "--metres-per-unit must be positive, not 0"
+        );
+    }
+
+    #[test]
+    fn a_json_file_reads_in_its_layout_and_keeps_the_reader_error_as_source() {
+        let dir = tempfile::tempdir().unwrap();
+        let empty = dir.path().join("empty.json");
+        std::fs::write(&empty, "[]").unwrap();
+        let json = options(InputFormat::Auto, Some("h36m-17"), Some(25.0));
+        let err = import(&empty, &json).unwrap_err();
+        assert!(matches!(err, ImportError::NoFrames { .. }), "{err}");
+        let broken = dir.path().join("broken.json");
+        std::fs::write(&broken, "[{").unwrap();
+        let err = import(&broken, &json).unwrap_err();
+        assert!(
+            err.to_string().starts_with("reading ") && err.to_string().ends_with(" as h36m-17")
+        );
+        assert!(std::error::Error::source(&err).is_some());
+        let clip = dir.path().join("clip.json");
+        let frame: Vec<[f64; 3]> = (0..17).map(|j| [0.0, -0.1 * f64::from(j), 0.0]).collect();
+        let frames: Vec<_> = (0..3)
+            .map(|k| serde_json::json!({"frame_id": k, "instances": [{"keypoints": frame}]}))
+            .collect();
+        std::fs::write(&clip, serde_json::to_string(&frames).unwrap()).unwrap();
+        let imported = import(&clip, &json).unwrap();
+        assert_eq!(imported.format, InputFormat::MmposeJson);
+        assert_eq!(imported.layout, "h36m-17");
+        assert_eq!(imported.rate, "25 fps");
+        assert_eq!(imported.sequences[0].frames.len(), 3);
+        let metadata = imported.metadata(&clip, None, Some("walk".into()));
+        let pairs: Vec<(&str, &str)> = metadata
+            .iter()
+            .map(|(k, v)| (k.as_str(), v.as_str()))
+            .collect();
+        assert_eq!(
+            pairs,
+            [
+                ("action", "walk"),
+                ("category", ""),
+                ("format", "MmposeJson"),
+                ("layout", "h36m-17"),
+                ("rate", "25 fps"),
+                ("source", "clip.json"),
+            ]
+        );
+    }
+}

@@ -391,3 +391,93 @@ pub fn layout_json(layout: &Layout, coverage: &Coverage) -> serde_json::Value {
     json!({"name": layout.name, "description": layout.description, "joints": layout.joints, "landmarks": lm,
            "driven": coverage.driven, "twist_unobserved": coverage.twist_unobserved, "at_rest": coverage.at_rest})
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_bone_gets_a_layout_status_and_the_root_is_driven() {
+        let rig = Rig::standard();
+        let status = layout_status(&rig, &Layout::builtin("h36m-17").unwrap()).unwrap();
+        assert_eq!(status.len(), rig.bones.len());
+        let root = rig
+            .bones
+            .iter()
+            .position(|b| matches!(b.dof, Dof::Root))
+            .unwrap();
+        assert_eq!(status[root], "driven (hips)");
+        assert!(status.contains(&"at rest (not in layout)"));
+    }
+
+    #[test]
+    fn tables_and_json_list_the_same_items() {
+        let rig = Rig::standard();
+        let status = vec!["static"; rig.bones.len()];
+        let bones = bones_json(&rig, Some(&status));
+        assert_eq!(bones["bones"].as_array().unwrap().len(), rig.bones.len());
+        assert_eq!(bones["bones"][0]["layout"], "static");
+        assert!(bones_json(&rig, None)["bones"][0].get("layout").is_none());
+        // Two heading lines, a blank line, the header and the rule, then one row per bone.
+        assert_eq!(bones_table(&rig, None).lines().count(), 5 + rig.bones.len());
+        assert!(
+            bones_table(&rig, Some(&status))
+                .lines()
+                .nth(3)
+                .unwrap()
+                .ends_with("layout")
+        );
+        let landmarks = landmarks_json(&rig);
+        assert_eq!(
+            landmarks["landmarks"].as_array().unwrap().len(),
+            rig.landmarks.len()
+        );
+        assert_eq!(
+            landmarks_table(&rig).lines().count(),
+            4 + rig.landmarks.len()
+        );
+        let recipes = recipes_json(&rig);
+        assert_eq!(
+            recipes["recipes"].as_array().unwrap().len(),
+            rig.recipes.len()
+        );
+        assert_eq!(recipes_table(&rig).lines().count(), 5 + rig.recipes.len());
+    }
+
+    #[test]
+    fn the_layout_listing_names_every_builtin_and_one_layout_shows_its_joints() {
+        let rig = Rig::standard();
+        let layouts = builtin_layouts(&rig).unwrap();
+        let text = layouts_table(&layouts);
+        for name in Layout::builtin_names() {
+            assert!(text.contains(&format!("\n{name} ")), "{name}: {text}");
+        }
+        assert_eq!(
+            layouts_json(&layouts)["layouts"].as_array().unwrap().len(),
+            layouts.len()
+        );
+        let (layout, coverage) = &layouts[0];
+        let text = layout_table(layout, coverage);
+        assert!(text.starts_with(&format!("layout {}: ", layout.name)));
+        assert!(text.contains("\nat rest (not in this layout): "));
+        assert_eq!(
+            layout_json(layout, coverage)["joints"]
+                .as_array()
+                .unwrap()
+                .len(),
+            layout.joints.len()
+        );
+    }
+
+    #[test]
+    fn expressions_read_as_formulas() {
+        assert_eq!(expr_text(&JointExpr::Joint("nose".into())), "nose");
+        assert_eq!(
+            expr_text(&JointExpr::Mean {
+                mean: vec!["a".into(), "b".into()]
+            }),
+            "mean(a, b)"
+        );
+        assert_eq!(fmt3(&[0.0, -0.0, 1.23456]), "+0.000 +0.000 +1.235");
+    }
+}
