@@ -1,13 +1,11 @@
-//! Command-line surface: the [`Cli`] parser, global flags, logging and exit codes.
+//! Command-line surface: the [`Cli`] parser, global flags, dispatch to [`crate::cmd`], logging.
+//!
+//! The dependency runs one way: this module names each command's `Args` and calls its `run`;
+//! the exit codes, [`Outcome`] and the listing [`crate::cmd::Format`] live in [`crate::cmd`].
 
 use clap::{Args, Parser, Subcommand};
 
-/// Exit code for a failure that produced no usable result.
-pub const EXIT_FAILURE: u8 = 1;
-/// Exit code clap uses for a usage error.
-pub const EXIT_USAGE: u8 = 2;
-/// Exit code for a run that finished but lost input data (skipped frames or records).
-pub const EXIT_DATA_LOST: u8 = 3;
+use crate::cmd::{self, Outcome};
 
 const EXIT_CODES_HELP: &str = "\
 Exit codes:
@@ -133,14 +131,26 @@ pub enum Command {
     Export(crate::cmd::export::Args),
 }
 
-/// Output format of listing commands.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
-pub enum Format {
-    /// An aligned text table.
-    #[default]
-    Table,
-    /// JSON, one document.
-    Json,
+impl Command {
+    /// Runs the command.
+    ///
+    /// # Errors
+    /// Whatever the command reports; the caller prints it and exits with code 1.
+    pub fn run(self) -> anyhow::Result<Outcome> {
+        match self {
+            Command::Rig(args) => cmd::rig::run(args),
+            Command::Layouts(args) => cmd::layouts::run(args),
+            Command::Import(args) => cmd::import::run(args),
+            Command::Convert(args) => cmd::convert::run(args),
+            Command::Info(args) => cmd::info::run(args),
+            Command::Plan(args) => cmd::plan::run(args),
+            Command::Recover(args) => cmd::recover::run(args),
+            Command::Record(args) => cmd::record::run(args),
+            Command::Export(args) => cmd::export::run(args),
+            Command::Render(args) => cmd::render::run(args),
+            Command::Trim(args) => cmd::trim::run(args),
+        }
+    }
 }
 
 /// Installs the stderr logger: warnings by default, `-v` info, `-vv` debug, `-q` errors only;
@@ -185,6 +195,7 @@ pub fn report_error(err: &anyhow::Error) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cmd::Format;
     use clap::CommandFactory;
 
     #[test]

@@ -21,12 +21,14 @@ pub mod dsi;
 pub mod export;
 pub mod formats;
 pub mod hash;
+pub mod inspect;
 pub mod mcap_io;
 pub mod record;
 pub mod render;
 pub mod ros;
 pub mod scene;
 pub mod skeleton;
+pub mod table;
 pub mod trim;
 pub mod video;
 

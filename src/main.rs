@@ -7,12 +7,12 @@ use clap::Parser;
 fn main() -> ExitCode {
     let cli = autoact::cli::Cli::parse();
     autoact::cli::init_logging(&cli.global);
-    match autoact::cmd::dispatch(cli.command) {
+    match cli.command.run() {
         Ok(outcome) => outcome.exit_code(),
         Err(err) if autoact::cli::is_broken_pipe(&err) => ExitCode::SUCCESS,
         Err(err) => {
             autoact::cli::report_error(&err);
-            ExitCode::from(autoact::cli::EXIT_FAILURE)
+            ExitCode::from(autoact::cmd::EXIT_FAILURE)
         }
     }
 }

@@ -1,4 +1,6 @@
-//! One module per command; the only layer that prints. Each has its `Args` next to its `run`.
+//! One module per command; the only layer that prints. Each has its `Args` next to its `run`,
+//! which calls the library and maps the outcome to an exit code ([`Outcome`]). [`crate::cli`]
+//! names the commands and dispatches to them; nothing here depends on it.
 
 pub mod convert;
 pub mod export;
@@ -17,8 +19,15 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 
-use crate::cli::{Command, EXIT_DATA_LOST};
 use crate::mcap_io::{BagStats, BagWriter, Compression, FileSink, WriteConfig};
+pub(crate) use crate::table::table;
+
+/// Exit code for a failure that produced no usable result.
+pub const EXIT_FAILURE: u8 = 1;
+/// Exit code clap uses for a usage error.
+pub const EXIT_USAGE: u8 = 2;
+/// Exit code for a run that finished but lost input data (skipped frames or records).
+pub const EXIT_DATA_LOST: u8 = 3;
 
 /// How a command ended, when it did not fail.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -40,23 +49,28 @@ impl Outcome {
     }
 }
 
-/// Runs a command.
-///
-/// # Errors
-/// Whatever the command reports; the caller prints it and exits with code 1.
-pub fn dispatch(command: Command) -> anyhow::Result<Outcome> {
-    match command {
-        Command::Rig(args) => rig::run(args),
-        Command::Layouts(args) => layouts::run(args),
-        Command::Import(args) => import::run(args),
-        Command::Convert(args) => convert::run(args),
-        Command::Info(args) => info::run(args),
-        Command::Plan(args) => plan::run(args),
-        Command::Recover(args) => recover::run(args),
-        Command::Record(args) => record::run(args),
-        Command::Export(args) => export::run(args),
-        Command::Render(args) => render::run(args),
-        Command::Trim(args) => trim::run(args),
+/// Output format of listing commands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum Format {
+    /// An aligned text table.
+    #[default]
+    Table,
+    /// JSON, one document.
+    Json,
+}
+
+impl Format {
+    /// A listing in this format: the table as it is, or the JSON document pretty-printed with a
+    /// final newline (only the one asked for is built).
+    pub(crate) fn pick(
+        self,
+        table: impl FnOnce() -> String,
+        json: impl FnOnce() -> serde_json::Value,
+    ) -> String {
+        match self {
+            Format::Table => table(),
+            Format::Json => format!("{:#}\n", json()),
+        }
     }
 }
 
@@ -82,41 +96,6 @@ pub(crate) fn print_stdout(text: &str) -> std::io::Result<()> {
     let mut out = std::io::stdout().lock();
     out.write_all(text.as_bytes())?;
     out.flush()
-}
-
-/// Formats rows as a left-aligned table with a header and a rule.
-pub(crate) fn table(header: &[&str], rows: &[Vec<String>]) -> String {
-    let mut widths: Vec<usize> = header.iter().map(|h| h.chars().count()).collect();
-    for r in rows {
-        for (w, c) in widths.iter_mut().zip(r) {
-            *w = (*w).max(c.chars().count());
-        }
-    }
-    let line = |cells: Vec<&str>| {
-        let mut s = String::new();
-        for (i, (c, w)) in cells.iter().zip(&widths).enumerate() {
-            if i + 1 == widths.len() {
-                s.push_str(c);
-            } else {
-                s.push_str(&format!("{c:<w$}  "));
-            }
-        }
-        s.trim_end().to_string() + "\n"
-    };
-    let mut out = line(header.to_vec());
-    out.push_str(&line(
-        widths
-            .iter()
-            .map(|w| "-".repeat(*w))
-            .collect::<Vec<_>>()
-            .iter()
-            .map(String::as_str)
-            .collect(),
-    ));
-    for r in rows {
-        out.push_str(&line(r.iter().map(String::as_str).collect()));
-    }
-    out
 }
 
 /// Where and how a command writes its bag.

@@ -10,9 +10,12 @@
 //!   a conversion reproduces its input.
 //! - [`frames`]: the coordinate conventions (Z up, faces +Y) and the one place each source's
 //!   axes are converted; [`geom`]: rotation helpers shared by all of the above.
+//! - [`describe`]: the rig and the layouts as tables and JSON, for people (`autoact rig`,
+//!   `autoact layouts`).
 
 pub mod character;
 pub mod convert;
+pub mod describe;
 pub mod eval;
 pub mod fk;
 pub mod frames;

@@ -1,0 +1,451 @@
+//! One dataset file in, its pose sequences out: what `autoact import` writes into a pose bag.
+//!
+//! [`import`] takes the format from the file's extension unless told, checks the options against
+//! what the format states itself (NTU, Human3.6M and ZED files have their own layout; BVH,
+//! Human3.6M and ZED files their own rate; MMPose JSON has none), reads the file and warns when a
+//! JSON body's size suggests wrong units.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use crate::formats::bvh_map::{BvhMapError, BvhMapping};
+use crate::formats::{bvh, h36m_expmap, mmpose_json, ntu, zed_mat};
+use crate::skeleton::frames::SourceAxes;
+use crate::skeleton::layout::{Layout, LayoutError};
+use crate::skeleton::pose::PoseSequence;
+
+/// Input formats.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum InputFormat {
+    /// From the file extension: .bvh, .skeleton, .txt, .mat, .json.
+    #[default]
+    Auto,
+    /// BVH motion capture.
+    Bvh,
+    /// NTU RGB+D `.skeleton` (Kinect v2).
+    Ntu,
+    /// Human3.6M exponential-map text (the motion-prediction release).
+    H36mExpmap,
+    /// ZED BODY_34 `.mat` (MATLAB v5).
+    ZedMat,
+    /// MMPose-style whole-body JSON (a list of frames of keypoint instances).
+    MmposeJson,
+}
+
+/// How to read a dataset file (the `autoact import` options).
+#[derive(Debug, Clone)]
+pub struct ImportOptions {
+    /// Its format, or [`InputFormat::Auto`] for the one its extension names.
+    pub format: InputFormat,
+    /// The keypoint layout: for BVH the one to map the mocap joints onto, for JSON the one its
+    /// keypoints are in (both default to `coco-wholebody-133`); other formats have their own.
+    pub layout: Option<String>,
+    /// Frame rate, for formats that have none (JSON: required); overrides NTU's 30.
+    pub fps: Option<f64>,
+    /// Axes of a JSON file's coordinates.
+    pub axes: SourceAxes,
+    /// Metres per unit of a JSON file's coordinates.
+    pub metres_per_unit: f64,
+}
+
+/// A dataset file read: its pose sequences (one per person) and how they were read.
+#[derive(Debug, Clone)]
+pub struct Imported {
+    /// One sequence per person (track), in the autoact frame and metres.
+    pub sequences: Vec<PoseSequence>,
+    /// The format it was read as (never [`InputFormat::Auto`]).
+    pub format: InputFormat,
+    /// The keypoint layout of the sequences.
+    pub layout: String,
+    /// Where the frame rate came from, for the bag's metadata (e.g. `25 fps`).
+    pub rate: String,
+}
+
+/// Why a dataset file could not be imported.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ImportError {
+    /// `--fps` is zero, negative or not a number.
+    #[error("--fps must be a positive number of frames per second, not {0}")]
+    BadFps(f64),
+    /// `--metres-per-unit` is zero, negative or not a number.
+    #[error("--metres-per-unit must be positive, not {0}")]
+    BadMetresPerUnit(f64),
+    /// No format given and the extension names none.
+    #[error("cannot tell the format of {} from its extension `{extension}`: give --format", path.display())]
+    UnknownExtension {
+        /// The file.
+        path: PathBuf,
+        /// Its extension, lowercase.
+        extension: String,
+    },
+    /// A layout asked for a format that has its own.
+    #[error("{format} files are in the `{own}` layout; drop --layout {asked}")]
+    FixedLayout {
+        /// The format's name.
+        format: &'static str,
+        /// Its layout.
+        own: &'static str,
+        /// The layout asked for.
+        asked: String,
+    },
+    /// A frame rate given for a format that states its own.
+    #[error("{why}; drop --fps")]
+    FixedRate {
+        /// Where the format's rate comes from.
+        why: &'static str,
+    },
+    /// No frame rate for a format without one.
+    #[error("{}: MMPose JSON has no frame rate: give --fps", path.display())]
+    NoRate {
+        /// The file.
+        path: PathBuf,
+    },
+    /// The file was read but holds no frame.
+    #[error("{} holds no frames", path.display())]
+    NoFrames {
+        /// The file.
+        path: PathBuf,
+    },
+    /// A layout that does not load.
+    #[error(transparent)]
+    Layout(#[from] LayoutError),
+    /// A BVH file that does not read.
+    #[error(transparent)]
+    Bvh(#[from] bvh::BvhError),
+    /// A BVH skeleton that does not map onto the layout.
+    #[error(transparent)]
+    BvhMap(#[from] BvhMapError),
+    /// An NTU file that does not read.
+    #[error(transparent)]
+    Ntu(#[from] ntu::NtuError),
+    /// A Human3.6M file that does not read.
+    #[error(transparent)]
+    H36m(#[from] h36m_expmap::H36mError),
+    /// A ZED file that does not read.
+    #[error(transparent)]
+    Zed(#[from] zed_mat::ZedError),
+    /// An MMPose JSON file that does not read in the layout.
+    #[error("reading {} as {layout}", path.display())]
+    Json {
+        /// The file.
+        path: PathBuf,
+        /// The layout its keypoints were read in.
+        layout: String,
+        /// The cause (boxed: it is large).
+        #[source]
+        source: Box<mmpose_json::JsonError>,
+    },
+}
+
+/// Reads the dataset file at `input` as `options` say.
+///
+/// # Errors
+/// An option that does not fit the format, an unreadable file (the message names the file and
+/// the place), or a file without frames.
+pub fn import(input: &Path, options: &ImportOptions) -> Result<Imported, ImportError> {
+    if let Some(f) = options.fps
+        && !(f.is_finite() && f > 0.0)
+    {
+        return Err(ImportError::BadFps(f));
+    }
+    let format = resolve_format(options.format, input)?;
+    let (sequences, layout, rate) = read_input(input, format, options)?;
+    if sequences.iter().all(|s| s.frames.is_empty()) {
+        return Err(ImportError::NoFrames {
+            path: input.to_path_buf(),
+        });
+    }
+    Ok(Imported {
+        sequences,
+        format,
+        layout,
+        rate,
+    })
+}
+
+impl Imported {
+    /// The pose bag's `autoact` metadata record: source file name, format, layout, rate and
+    /// the label (empty where not given).
+    #[must_use]
+    pub fn metadata(
+        &self,
+        input: &Path,
+        category: Option<String>,
+        action: Option<String>,
+    ) -> BTreeMap<String, String> {
+        let mut metadata = BTreeMap::new();
+        metadata.insert("source".to_string(), crate::file_name(input));
+        metadata.insert("format".to_string(), format!("{:?}", self.format));
+        metadata.insert("layout".to_string(), self.layout.clone());
+        metadata.insert("rate".to_string(), self.rate.clone());
+        metadata.insert("category".to_string(), category.unwrap_or_default());
+        metadata.insert("action".to_string(), action.unwrap_or_default());
+        metadata
+    }
+}
+
+/// The format to read `input` as: `format`, or for [`InputFormat::Auto`] the one its extension
+/// names.
+fn resolve_format(format: InputFormat, input: &Path) -> Result<InputFormat, ImportError> {
+    if format != InputFormat::Auto {
+        return Ok(format);
+    }
+    let ext = input
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    Ok(match ext.as_str() {
+        "bvh" => InputFormat::Bvh,
+        "skeleton" => InputFormat::Ntu,
+        "txt" => InputFormat::H36mExpmap,
+        "mat" => InputFormat::ZedMat,
+        "json" => InputFormat::MmposeJson,
+        _ => {
+            return Err(ImportError::UnknownExtension {
+                path: input.to_path_buf(),
+                extension: ext,
+            });
+        }
+    })
+}
+
+/// The layout of a format that has its own (`own`): an error if another one was asked for.
+fn fixed_layout(
+    format: &'static str,
+    own: &'static str,
+    asked: Option<&str>,
+) -> Result<String, ImportError> {
+    match asked {
+        Some(l) if Layout::load(l)?.name != own => Err(ImportError::FixedLayout {
+            format,
+            own,
+            asked: l.to_string(),
+        }),
+        _ => Ok(own.to_string()),
+    }
+}
+
+/// An error if a frame rate was given for a format that states its own (`why`).
+fn no_fps(fps: Option<f64>, why: &'static str) -> Result<(), ImportError> {
+    match fps {
+        Some(_) => Err(ImportError::FixedRate { why }),
+        None => Ok(()),
+    }
+}
+
+/// Reads the input: its pose sequences, their layout name, and a description of its rate.
+fn read_input(
+    input: &Path,
+    format: InputFormat,
+    options: &ImportOptions,
+) -> Result<(Vec<PoseSequence>, String, String), ImportError> {
+    let (layout, fps) = (options.layout.as_deref(), options.fps);
+    Ok(match format {
+        // `resolve_format` never returns `Auto`; read it as the extension says all the same.
+        InputFormat::Auto => read_input(input, resolve_format(format, input)?, options)?,
+        InputFormat::Bvh => {
+            let clip = bvh::read(input)?;
+            let mapping = BvhMapping::detect(&clip)?;
+            let layout = Layout::load(layout.unwrap_or("coco-wholebody-133"))?;
+            no_fps(fps, "BVH files state their own frame time")?;
+            let seq = mapping
+                .keypoints(&clip, &layout)?
+                .without_unobserved_joints();
+            let rate = format!("{:.3} fps (BVH frame time)", clip.fps());
+            (vec![seq], layout.name, rate)
+        }
+        InputFormat::Ntu => {
+            let layout = fixed_layout("NTU", "ntu-25", layout)?;
+            let rate = fps.unwrap_or(ntu::FPS);
+            let seqs = ntu::read(input)?.to_pose_sequences(rate);
+            (seqs, layout, format!("{rate} fps"))
+        }
+        InputFormat::H36mExpmap => {
+            let layout = fixed_layout("Human3.6M exp-map", "h36m-32", layout)?;
+            no_fps(fps, "Human3.6M exp-map files are 50 fps")?;
+            let clip = h36m_expmap::read(input)?;
+            let seq = clip.to_pose_sequence(h36m_expmap::RootMode::Trajectory);
+            (vec![seq], layout, format!("{} fps", h36m_expmap::FPS))
+        }
+        InputFormat::ZedMat => {
+            let layout = fixed_layout("ZED", "zed-body-34", layout)?;
+            no_fps(fps, "ZED recordings carry their own timestamps")?;
+            let seq = zed_mat::read(input)?.to_pose_sequence();
+            (vec![seq], layout, "recorded timestamps".to_string())
+        }
+        InputFormat::MmposeJson => read_json(input, options)?,
+    })
+}
+
+/// Reads an MMPose-style JSON file (which needs a frame rate and has no layout of its own).
+fn read_json(
+    input: &Path,
+    options: &ImportOptions,
+) -> Result<(Vec<PoseSequence>, String, String), ImportError> {
+    let layout = Layout::load(options.layout.as_deref().unwrap_or("coco-wholebody-133"))?;
+    let Some(fps) = options.fps else {
+        return Err(ImportError::NoRate {
+            path: input.to_path_buf(),
+        });
+    };
+    let metres_per_unit = options.metres_per_unit;
+    if !(metres_per_unit.is_finite() && metres_per_unit > 0.0) {
+        return Err(ImportError::BadMetresPerUnit(metres_per_unit));
+    }
+    let json_options = mmpose_json::JsonOptions {
+        fps,
+        metres_per_unit,
+        axes: options.axes,
+        joint_names: layout.joints.clone(),
+    };
+    let seqs = mmpose_json::read(input, &json_options).map_err(|source| ImportError::Json {
+        path: input.to_path_buf(),
+        layout: layout.name.clone(),
+        source: Box::new(source),
+    })?;
+    warn_if_implausible_size(&seqs, metres_per_unit);
+    Ok((seqs, layout.name, format!("{fps} fps")))
+}
+
+/// A body that spans more than 3 m or less than 0.3 m is almost always a unit mistake.
+fn warn_if_implausible_size(seqs: &[PoseSequence], metres_per_unit: f64) {
+    let mut extent: f64 = 0.0;
+    for f in seqs.iter().flat_map(|s| s.frames.iter()).take(200) {
+        let zs: Vec<f64> = f
+            .positions_m
+            .iter()
+            .map(|p| p.z)
+            .filter(|z| z.is_finite())
+            .collect();
+        if let (Some(lo), Some(hi)) = (
+            zs.iter().copied().reduce(f64::min),
+            zs.iter().copied().reduce(f64::max),
+        ) {
+            extent = extent.max(hi - lo);
+        }
+    }
+    if extent > 3.0 || (extent > 0.0 && extent < 0.3) {
+        tracing::warn!(
+            "the skeleton is {extent:.2} m tall with --metres-per-unit {metres_per_unit}: check the units (0.001 for millimetres) and --axes"
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn options(format: InputFormat, layout: Option<&str>, fps: Option<f64>) -> ImportOptions {
+        ImportOptions {
+            format,
+            layout: layout.map(str::to_string),
+            fps,
+            axes: SourceAxes::YDown,
+            metres_per_unit: 1.0,
+        }
+    }
+
+    fn error(path: &str, options: &ImportOptions) -> String {
+        import(Path::new(path), options).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn the_extension_names_the_format_unless_one_is_given() {
+        let resolve = |f, p: &str| resolve_format(f, Path::new(p)).unwrap();
+        assert_eq!(resolve(InputFormat::Auto, "a/walk.BVH"), InputFormat::Bvh);
+        assert_eq!(
+            resolve(InputFormat::Auto, "S001.skeleton"),
+            InputFormat::Ntu
+        );
+        assert_eq!(
+            resolve(InputFormat::Auto, "walking_1.txt"),
+            InputFormat::H36mExpmap
+        );
+        assert_eq!(resolve(InputFormat::Auto, "zed.mat"), InputFormat::ZedMat);
+        assert_eq!(
+            resolve(InputFormat::Auto, "out.json"),
+            InputFormat::MmposeJson
+        );
+        assert_eq!(resolve(InputFormat::Ntu, "out.json"), InputFormat::Ntu);
+        assert_eq!(
+            error("notes.md", &options(InputFormat::Auto, None, None)),
+            "cannot tell the format of notes.md from its extension `md`: give --format"
+        );
+    }
+
+    #[test]
+    fn options_that_contradict_the_format_are_named_before_reading() {
+        let auto = InputFormat::Auto;
+        assert_eq!(
+            error("x.json", &options(auto, None, Some(0.0))),
+            "--fps must be a positive number of frames per second, not 0"
+        );
+        assert_eq!(
+            error("x.skeleton", &options(auto, Some("h36m-17"), None)),
+            "NTU files are in the `ntu-25` layout; drop --layout h36m-17"
+        );
+        assert_eq!(
+            error("x.txt", &options(auto, None, Some(25.0))),
+            "Human3.6M exp-map files are 50 fps; drop --fps"
+        );
+        assert_eq!(
+            error("x.mat", &options(auto, Some("zed-body-34"), Some(25.0))),
+            "ZED recordings carry their own timestamps; drop --fps"
+        );
+        assert_eq!(
+            error("x.json", &options(auto, Some("h36m-17"), None)),
+            "x.json: MMPose JSON has no frame rate: give --fps"
+        );
+        let mut bad_units = options(auto, Some("h36m-17"), Some(25.0));
+        bad_units.metres_per_unit = 0.0;
+        assert_eq!(
+            error("x.json", &bad_units),
+            "--metres-per-unit must be positive, not 0"
+        );
+    }
+
+    #[test]
+    fn a_json_file_reads_in_its_layout_and_keeps_the_reader_error_as_source() {
+        let dir = tempfile::tempdir().unwrap();
+        let empty = dir.path().join("empty.json");
+        std::fs::write(&empty, "[]").unwrap();
+        let json = options(InputFormat::Auto, Some("h36m-17"), Some(25.0));
+        let err = import(&empty, &json).unwrap_err();
+        assert!(matches!(err, ImportError::NoFrames { .. }), "{err}");
+        let broken = dir.path().join("broken.json");
+        std::fs::write(&broken, "[{").unwrap();
+        let err = import(&broken, &json).unwrap_err();
+        assert!(
+            err.to_string().starts_with("reading ") && err.to_string().ends_with(" as h36m-17")
+        );
+        assert!(std::error::Error::source(&err).is_some());
+        let clip = dir.path().join("clip.json");
+        let frame: Vec<[f64; 3]> = (0..17).map(|j| [0.0, -0.1 * f64::from(j), 0.0]).collect();
+        let frames: Vec<_> = (0..3)
+            .map(|k| serde_json::json!({"frame_id": k, "instances": [{"keypoints": frame}]}))
+            .collect();
+        std::fs::write(&clip, serde_json::to_string(&frames).unwrap()).unwrap();
+        let imported = import(&clip, &json).unwrap();
+        assert_eq!(imported.format, InputFormat::MmposeJson);
+        assert_eq!(imported.layout, "h36m-17");
+        assert_eq!(imported.rate, "25 fps");
+        assert_eq!(imported.sequences[0].frames.len(), 3);
+        let metadata = imported.metadata(&clip, None, Some("walk".into()));
+        let pairs: Vec<(&str, &str)> = metadata
+            .iter()
+            .map(|(k, v)| (k.as_str(), v.as_str()))
+            .collect();
+        assert_eq!(
+            pairs,
+            [
+                ("action", "walk"),
+                ("category", ""),
+                ("format", "MmposeJson"),
+                ("layout", "h36m-17"),
+                ("rate", "25 fps"),
+                ("source", "clip.json"),
+            ]
+        );
+    }
+}
