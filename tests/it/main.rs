@@ -10,6 +10,7 @@ mod common;
 
 mod bvh_real_data;
 mod cli;
+mod cli_args;
 mod cli_bags;
 mod dataset;
 mod export;
