@@ -5,11 +5,9 @@
 
 #![expect(clippy::unwrap_used, reason = "test helpers fail loudly")]
 
+use crate::common::{arg, autoact, stderr, stdout};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-mod common;
-
-use common::{autoact, stderr, stdout};
 
 use autoact::bags::animation::{TrackWriter, frame_prefix, read_animation, read_animation_variant};
 use autoact::export::bvh::read_back;
@@ -23,10 +21,6 @@ use autoact::skeleton::geom::rotation_distance;
 use autoact::skeleton::layout::Coverage;
 use autoact::skeleton::rig::Rig;
 use nalgebra::{UnitQuaternion, Vector3};
-
-fn arg(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 fn sample(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -243,14 +243,12 @@ fn a_corrupt_video_is_an_error_with_ffmpegs_words() {
 // `autoact trim` end to end, on a capture bag from a tiny spec and a synthetic capture video whose
 // frame k carries k.
 
-mod common;
-
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;
 
+use crate::common::{self, autoact, stderr, stdout};
 use autoact::bags::capture::Capture;
 use autoact::skeleton::rig::Rig;
-use common::{autoact, stderr, stdout};
 
 /// A one-session capture bag with two classes; the wave class is labelled `wave_label`.
 fn capture_bag(dir: &Path, wave_label: &str) -> PathBuf {

@@ -7,9 +7,7 @@
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
-mod common;
-
-use common::{autoact, stderr, stdout};
+use crate::common::{self, arg, autoact, stderr, stdout};
 
 use autoact::bags::animation::TfTree;
 use autoact::mcap_io::BagReader;
@@ -51,10 +49,6 @@ fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, text).unwrap();
     p
-}
-
-fn arg(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 #[test]

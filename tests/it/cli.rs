@@ -1,8 +1,6 @@
 //! The `autoact` binary, run as a user would: outputs, formats, errors and exit codes.
 
-mod common;
-
-use common::{autoact, stderr, stdout};
+use crate::common::{autoact, stderr, stdout};
 
 #[test]
 fn rig_prints_53_bones_with_gta_names() {

@@ -8,9 +8,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-mod common;
-
-use common::{autoact, stderr, stdout};
+use crate::common::{self, arg, autoact, stderr, stdout};
 
 use autoact::bags::capture::Capture;
 use autoact::mcap_io::BagReader;
@@ -51,10 +49,6 @@ sources = ["{}"]
             common::repo("bags/bandai_wave.pose.mcap")
         ),
     )
-}
-
-fn arg(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 /// Nothing of a render to `v.mp4` in `dir`: no video, render bag or `.v.mp4.part`.

@@ -2,7 +2,7 @@
 //!
 //! The data is research-only and is never copied into this repository: the tests read it from
 //! `../shared/data` (see `SOURCES.md` there) and are ignored by default. Run them with
-//! `cargo test --test readers_real_data -- --ignored` where the data exists.
+//! `cargo test --test it readers_real_data:: -- --ignored` where the data exists.
 
 use std::path::PathBuf;
 

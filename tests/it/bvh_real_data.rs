@@ -1,7 +1,7 @@
 //! The BVH reader on real files from `../shared/data/bvh` (see `../shared/data/SOURCES.md` §1).
 //!
-//! The data is not part of the crate, so every test is `#[ignore]`d; CI runs them with
-//! `cargo test --test bvh_real_data -- --ignored` when the data exists.
+//! The data is not part of the crate, so every test is `#[ignore]`d; CI runs them with `--ignored`
+//! when the data exists. Alone: `cargo test --test it bvh_real_data:: -- --ignored`.
 
 use std::path::{Path, PathBuf};
 

@@ -1,13 +1,10 @@
-//! Helpers shared by the integration tests that run the `autoact` binary.
+//! Helpers shared by the integration-test modules: running the `autoact` binary, paths of the
+//! repository, ffmpeg or a loud skip.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 /// Runs `autoact` with `args`.
-#[allow(
-    dead_code,
-    reason = "the library-only test binaries do not run the binary"
-)]
 pub fn autoact(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_autoact"))
         .args(args)
@@ -16,22 +13,16 @@ pub fn autoact(args: &[&str]) -> Output {
 }
 
 /// A run's stdout as text.
-#[allow(dead_code, reason = "not every test binary reads stdout through this")]
 pub fn stdout(o: &Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
 }
 
 /// A run's stderr as text.
-#[allow(
-    dead_code,
-    reason = "the library-only test binaries do not run the binary"
-)]
 pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 /// ffmpeg, or `None` after saying loudly on stderr that `test` is skipped (CI installs ffmpeg).
-#[allow(dead_code, reason = "only the tests that encode video use it")]
 #[allow(clippy::print_stderr, reason = "a loud skip")]
 pub fn ffmpeg_or_skip(test: &str) -> Option<autoact::video::Ffmpeg> {
     match autoact::video::Ffmpeg::locate() {
@@ -43,15 +34,18 @@ pub fn ffmpeg_or_skip(test: &str) -> Option<autoact::video::Ffmpeg> {
     }
 }
 
+/// `p` as a command-line argument (the tests' temporary paths are UTF-8).
+pub fn arg(p: &Path) -> &str {
+    p.to_str().expect("UTF-8 path")
+}
+
 /// A file of the repository, as an absolute path (for specs that name the sample bags).
-#[allow(dead_code, reason = "only the tests that write specs use it")]
 pub fn repo(path: &str) -> String {
     format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
 }
 
 /// Writes `spec` (a dataset spec of one session) into `dir`, runs `autoact convert --spec` on it
 /// into `dir/capture`, and returns the one capture bag it made.
-#[allow(dead_code, reason = "only the tests that need a capture bag use it")]
 pub fn capture_bag_from_spec(dir: &Path, spec: &str) -> PathBuf {
     let spec_path = dir.join("spec.toml");
     std::fs::write(&spec_path, spec).expect("write the spec");

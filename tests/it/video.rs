@@ -19,9 +19,7 @@ use autoact::video::{
     self, EncodeSettings, Ffmpeg, Rational, VideoEncoder, VideoError, annexb_access_units, probe,
 };
 
-mod common;
-
-use common::ffmpeg_or_skip;
+use crate::common::ffmpeg_or_skip;
 
 /// Bits of the frame index painted as a 4×4 grid of black/white blocks (bit 0 top-left), over a
 /// colour that changes with the index so consecutive frames differ everywhere.
@@ -524,7 +522,7 @@ fn interrupted_process_leaves_no_file_under_the_final_name() {
     let exe = std::env::current_exe().unwrap();
     let mut child = Command::new(exe)
         .args([
-            "interrupted_process_leaves_no_file_under_the_final_name",
+            &harness_name("interrupted_process_leaves_no_file_under_the_final_name"),
             "--exact",
             "--test-threads=1",
         ])
@@ -658,6 +656,15 @@ fn version_and_mkv_output_work() {
     assert!(encoded.keyframes.contains(&10));
 }
 
+/// The name the test harness gives this module's test `test` (`video::test`: the module path
+/// without the crate), for running just that test in a child with `--exact`.
+fn harness_name(test: &str) -> String {
+    let module = module_path!()
+        .split_once("::")
+        .map_or(module_path!(), |(_, module)| module);
+    format!("{module}::{test}")
+}
+
 /// Runs this test binary again, as `test`, with `env` set; returns whether it passed.
 fn rerun_self(test: &str, env: &[(&str, &str)], wrapper: Option<&[&str]>) -> std::process::Output {
     let exe = std::env::current_exe().unwrap();
@@ -669,7 +676,12 @@ fn rerun_self(test: &str, env: &[(&str, &str)], wrapper: Option<&[&str]>) -> std
         }
         None => Command::new(&exe),
     };
-    command.args([test, "--exact", "--nocapture", "--test-threads=1"]);
+    command.args([
+        &harness_name(test),
+        "--exact",
+        "--nocapture",
+        "--test-threads=1",
+    ]);
     for (k, v) in env {
         command.env(k, v);
     }
@@ -694,11 +706,10 @@ fn missing_ffmpeg_gives_the_install_hint() {
         ],
         None,
     );
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stdout)
-    );
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "{stdout}");
+    // The child ran this very test (a filter naming no test would pass too).
+    assert!(stdout.contains("1 passed"), "{stdout}");
 }
 
 /// Noise: incompressible, so a few frames fill a small disk.
@@ -837,7 +848,7 @@ fn children_cpu_s() -> f64 {
 }
 
 /// Encode speed per preset and size. Run with
-/// `cargo test --test video encode_speed_report -- --ignored --nocapture`.
+/// `cargo test --test it video::encode_speed_report -- --ignored --nocapture`.
 #[test]
 #[ignore = "a measurement, not a check; prints a table"]
 fn encode_speed_report() {

@@ -3,10 +3,8 @@
 
 #![expect(clippy::unwrap_used, reason = "test helpers fail loudly")]
 
+use crate::common::{self, arg, autoact, stderr};
 use std::path::{Path, PathBuf};
-mod common;
-
-use common::{autoact, stderr};
 
 use autoact::mcap_io::{BagReader, BagWriter, Compression, WriteConfig};
 use autoact::ros::autoact_msgs::{BoneFrame, Skeleton3D};
@@ -20,10 +18,6 @@ use autoact::skeleton::layout::Layout;
 use autoact::skeleton::pose::{PoseFrame, stamp_nanos_at};
 use autoact::skeleton::rig::{Dof, Rig};
 use nalgebra::{UnitQuaternion, Vector3};
-
-fn arg(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 /// H36M-17 keypoints of the rig walking and waving: frame `k` at 30 fps.
 fn h36m_frame(k: usize) -> PoseFrame {
