@@ -6,15 +6,17 @@
 use std::f64::consts::FRAC_PI_2;
 use std::path::{Path, PathBuf};
 
-use autoact::cli::{Cli, Command, EXIT_USAGE};
+use autoact::cli::{Cli, Command};
+use autoact::cmd::EXIT_USAGE;
 use autoact::cmd::convert::SmoothArg;
-use autoact::cmd::import::{Axes, InputFormat};
+use autoact::cmd::import::Axes;
 use autoact::cmd::plan::PlanFormat;
 use autoact::cmd::record::{DurabilityArg, ReliabilityArg};
 use autoact::dsi::plan::Threshold;
 use autoact::dsi::variants::VariationBounds;
 use autoact::dsi::{self, DsiOptions};
 use autoact::export::ExportFormat;
+use autoact::formats::import::InputFormat;
 use autoact::mcap_io::Compression;
 use autoact::skeleton::convert::RootMotion;
 use autoact::skeleton::rig::Rig;
