@@ -79,8 +79,7 @@ impl Manifest {
     /// [`TrimError::Io`] (e.g. a full disk; the line is then torn at worst, and dropped on the
     /// next open).
     pub fn append(&mut self, record: ClipRecord) -> Result<(), TrimError> {
-        let mut line =
-            serde_json::to_vec(&record).map_err(|e| TrimError::Invalid(e.to_string()))?;
+        let mut line = serde_json::to_vec(&record).map_err(TrimError::json(&self.path))?;
         line.push(b'\n');
         self.file
             .write_all(&line)
