@@ -53,11 +53,12 @@ impl Manifest {
             if line.iter().all(u8::is_ascii_whitespace) {
                 continue;
             }
-            let r: ClipRecord = serde_json::from_slice(line).map_err(|e| TrimError::Corrupt {
-                path: path.clone(),
-                line: i + 1,
-                detail: format!("not a clip record: {e}"),
-            })?;
+            let r: ClipRecord =
+                serde_json::from_slice(line).map_err(|source| TrimError::Corrupt {
+                    path: path.clone(),
+                    line: i + 1,
+                    source,
+                })?;
             records.insert(r.clip_id.clone(), r);
         }
         Ok(Manifest {

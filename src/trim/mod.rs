@@ -56,15 +56,16 @@ pub enum TrimError {
         #[source]
         source: std::io::Error,
     },
-    /// A file autoact wrote earlier holds something else than expected.
-    #[error("`{path}` line {line}: {detail}")]
+    /// A line of the manifest autoact wrote earlier is not a clip record.
+    #[error("`{path}` line {line}: not a clip record")]
     Corrupt {
         /// The file.
         path: PathBuf,
         /// 1-based line.
         line: usize,
-        /// What is wrong.
-        detail: String,
+        /// Why the line does not read as a record.
+        #[source]
+        source: serde_json::Error,
     },
     /// The dataset folder's class list differs from this capture's.
     #[error(
