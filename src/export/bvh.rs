@@ -217,20 +217,35 @@ pub fn write(rig: &Rig, clip: &Clip) -> String {
     s
 }
 
+/// A BVH read back lacks a joint for a bone of the rig.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{source_name}: no joint `{joint}` (rig {rig})")]
+pub struct MissingJoint {
+    /// The BVH (its name as read).
+    pub source_name: String,
+    /// The rig bone without a joint.
+    pub joint: String,
+    /// The rig.
+    pub rig: String,
+}
+
 /// The poses a BVH this module wrote holds, read back through autoact's BVH reader
 /// ([`crate::formats::bvh`]): its forward kinematics gives every joint's world orientation in
 /// the file's axes, which become autoact's local rotations (`parent_world⁻¹ · world`, axes mapped
 /// back) and the root's translation.
 ///
 /// # Errors
-/// A message naming the first rig bone the file has no joint for.
-pub fn read_back(rig: &Rig, bvh: &Bvh) -> Result<Vec<BonePose>, String> {
+/// [`MissingJoint`] naming the first rig bone the file has no joint for.
+pub fn read_back(rig: &Rig, bvh: &Bvh) -> Result<Vec<BonePose>, MissingJoint> {
     let joints: Vec<usize> = rig
         .bones
         .iter()
         .map(|b| {
-            bvh.joint_index(&b.name)
-                .ok_or_else(|| format!("{}: no joint `{}` (rig {})", bvh.source, b.name, rig.name))
+            bvh.joint_index(&b.name).ok_or_else(|| MissingJoint {
+                source_name: bvh.source.clone(),
+                joint: b.name.clone(),
+                rig: rig.name.to_string(),
+            })
         })
         .collect::<Result<_, _>>()?;
     Ok((0..bvh.frame_count())

@@ -153,7 +153,7 @@ fn read_back_names_a_missing_joint() {
     let rig = Rig::standard();
     let text = "HIERARCHY\nROOT Hips\n{\n\tOFFSET 0 0 0\n\tCHANNELS 3 Zrotation Xrotation Yrotation\n\tEnd Site\n\t{\n\t\tOFFSET 0 1 0\n\t}\n}\nMOTION\nFrames: 1\nFrame Time: 0.1\n0 0 0\n";
     let bvh = parse(text, "other.bvh").unwrap();
-    let e = read_back(&rig, &bvh).unwrap_err();
+    let e = read_back(&rig, &bvh).unwrap_err().to_string();
     assert!(e.contains("other.bvh") && e.contains("`root`"), "{e}");
 }
 

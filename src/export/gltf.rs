@@ -52,7 +52,8 @@ use crate::scene::body_mesh::{BodyMesh, BodyShape, Material, albedo_srgb};
 use crate::scene::cast::Look;
 use crate::scene::color::linear_from_srgb;
 use crate::scene::environment::Environment;
-use crate::skeleton::fk::{self, BonePose};
+use crate::skeleton::character::Character;
+use crate::skeleton::fk::{self, BonePose, WorldPose};
 use crate::skeleton::rig::{ROOT, Rig};
 
 /// Rotation of node `autoact_world`, x y z w: −90° about x, autoact's Z-up → glTF's Y-up.
@@ -272,59 +273,12 @@ pub fn write(rig: &Rig, clip: &Clip, context: &SceneContext, container: Containe
     let body = BodyMesh::build(rig, character, &shape);
 
     // Node 0: the Z-up → Y-up turn; nodes 1..=n: the joints.
-    let n = rig.bones.len();
-    let camera_node = context.camera.as_ref().map(|_| joint_node(n) + 1);
-    let mut world_children = vec![Index::new(to_u32(joint_node(ROOT)))];
-    world_children.extend(camera_node.map(|c| Index::new(to_u32(c))));
-    b.root.nodes.push(json::Node {
-        name: Some("autoact_world".into()),
-        rotation: Some(json::scene::UnitQuaternion(Y_UP_FROM_Z_UP)),
-        children: Some(world_children),
-        ..Default::default()
-    });
-    for (i, bone) in rig.bones.iter().enumerate() {
-        let children: Vec<Index<json::Node>> = (0..n)
-            .filter(|&c| rig.bones[c].parent == Some(i))
-            .map(|c| Index::new(to_u32(joint_node(c))))
-            .collect();
-        let translation = match bone.parent {
-            None => rest.heads_m[i].coords,
-            Some(_) => character.head_offset_m[i],
-        };
-        b.root.nodes.push(json::Node {
-            name: Some(bone.name.clone()),
-            translation: Some(f32x3(&translation)),
-            children: (!children.is_empty()).then_some(children),
-            ..Default::default()
-        });
-    }
-
-    // The skin.
-    let ibm: Vec<f32> = rest
-        .heads_m
-        .iter()
-        .flat_map(|h| {
-            let mut m = [0.0_f32; 16];
-            m[0] = 1.0;
-            m[5] = 1.0;
-            m[10] = 1.0;
-            m[15] = 1.0;
-            let t = f32x3(&h.coords);
-            m[12] = -t[0];
-            m[13] = -t[1];
-            m[14] = -t[2];
-            m
-        })
-        .collect();
-    let ibm = b.accessor_f32(&ibm, Type::Mat4, None, false);
-    let skin = b.root.push(json::Skin {
-        extensions: None,
-        extras: None,
-        inverse_bind_matrices: Some(ibm),
-        joints: (0..n).map(|j| Index::new(to_u32(joint_node(j)))).collect(),
-        name: Some("rig".into()),
-        skeleton: Some(Index::new(to_u32(joint_node(ROOT)))),
-    });
+    let camera_node = context
+        .camera
+        .as_ref()
+        .map(|_| joint_node(rig.bones.len()) + 1);
+    joint_nodes(&mut b, rig, character, &rest, camera_node);
+    let skin = skin(&mut b, rig, &rest);
 
     // The mesh: shared attributes, one primitive per material.
     let mesh = mesh(&mut b, &body, context.look.as_ref());
@@ -335,33 +289,8 @@ pub fn write(rig: &Rig, clip: &Clip, context: &SceneContext, container: Containe
         ..Default::default()
     });
 
-    // The camera.
     if let Some(path) = &context.camera {
-        let camera = b.root.push(json::Camera {
-            name: Some("camera".into()),
-            orthographic: None,
-            perspective: Some(json::camera::Perspective {
-                aspect_ratio: Some(to_f32(path.aspect_ratio)),
-                yfov: to_f32(path.yfov_rad),
-                zfar: None,
-                znear: CAMERA_ZNEAR_M,
-                extensions: None,
-                extras: None,
-            }),
-            type_: Valid(json::camera::Type::Perspective),
-            extensions: None,
-            extras: None,
-        });
-        let first = path.world_from_optical.first().copied().unwrap_or_default();
-        let node = b.root.push(json::Node {
-            name: Some("camera".into()),
-            camera: Some(camera),
-            translation: Some(f32x3(&first.translation.vector)),
-            rotation: Some(json::scene::UnitQuaternion(quat(&gltf_camera_rotation(
-                &first.rotation,
-            )))),
-            ..Default::default()
-        });
+        let node = camera(&mut b, path);
         debug_assert_eq!(Some(node.value()), camera_node);
     }
 
@@ -386,6 +315,103 @@ pub fn write(rig: &Rig, clip: &Clip, context: &SceneContext, container: Containe
         ..Default::default()
     };
     b.finish(container)
+}
+
+/// Node 0, `autoact_world` (the Z-up → Y-up turn, parent of the root joint and of the camera
+/// node when there is one), then one node per joint at its rest translation from its parent.
+fn joint_nodes(
+    b: &mut Builder,
+    rig: &Rig,
+    character: &Character,
+    rest: &WorldPose,
+    camera_node: Option<usize>,
+) {
+    let n = rig.bones.len();
+    let mut world_children = vec![Index::new(to_u32(joint_node(ROOT)))];
+    world_children.extend(camera_node.map(|c| Index::new(to_u32(c))));
+    b.root.nodes.push(json::Node {
+        name: Some("autoact_world".into()),
+        rotation: Some(json::scene::UnitQuaternion(Y_UP_FROM_Z_UP)),
+        children: Some(world_children),
+        ..Default::default()
+    });
+    for (i, bone) in rig.bones.iter().enumerate() {
+        let children: Vec<Index<json::Node>> = (0..n)
+            .filter(|&c| rig.bones[c].parent == Some(i))
+            .map(|c| Index::new(to_u32(joint_node(c))))
+            .collect();
+        let translation = match bone.parent {
+            None => rest.heads_m[i].coords,
+            Some(_) => character.head_offset_m[i],
+        };
+        b.root.nodes.push(json::Node {
+            name: Some(bone.name.clone()),
+            translation: Some(f32x3(&translation)),
+            children: (!children.is_empty()).then_some(children),
+            ..Default::default()
+        });
+    }
+}
+
+/// The skin over the joint nodes: inverse bind matrices from the rest pose's bone heads.
+fn skin(b: &mut Builder, rig: &Rig, rest: &WorldPose) -> Index<json::Skin> {
+    let ibm: Vec<f32> = rest
+        .heads_m
+        .iter()
+        .flat_map(|h| {
+            let mut m = [0.0_f32; 16];
+            m[0] = 1.0;
+            m[5] = 1.0;
+            m[10] = 1.0;
+            m[15] = 1.0;
+            let t = f32x3(&h.coords);
+            m[12] = -t[0];
+            m[13] = -t[1];
+            m[14] = -t[2];
+            m
+        })
+        .collect();
+    let ibm = b.accessor_f32(&ibm, Type::Mat4, None, false);
+    b.root.push(json::Skin {
+        extensions: None,
+        extras: None,
+        inverse_bind_matrices: Some(ibm),
+        joints: (0..rig.bones.len())
+            .map(|j| Index::new(to_u32(joint_node(j))))
+            .collect(),
+        name: Some("rig".into()),
+        skeleton: Some(Index::new(to_u32(joint_node(ROOT)))),
+    })
+}
+
+/// The perspective camera of `path` and its node, placed at the path's first pose; returns the
+/// node.
+fn camera(b: &mut Builder, path: &CameraPath) -> Index<json::Node> {
+    let camera = b.root.push(json::Camera {
+        name: Some("camera".into()),
+        orthographic: None,
+        perspective: Some(json::camera::Perspective {
+            aspect_ratio: Some(to_f32(path.aspect_ratio)),
+            yfov: to_f32(path.yfov_rad),
+            zfar: None,
+            znear: CAMERA_ZNEAR_M,
+            extensions: None,
+            extras: None,
+        }),
+        type_: Valid(json::camera::Type::Perspective),
+        extensions: None,
+        extras: None,
+    });
+    let first = path.world_from_optical.first().copied().unwrap_or_default();
+    b.root.push(json::Node {
+        name: Some("camera".into()),
+        camera: Some(camera),
+        translation: Some(f32x3(&first.translation.vector)),
+        rotation: Some(json::scene::UnitQuaternion(quat(&gltf_camera_rotation(
+            &first.rotation,
+        )))),
+        ..Default::default()
+    })
 }
 
 /// The glTF camera node's rotation for an optical frame: glTF cameras look down −z with +y up,

@@ -71,6 +71,35 @@ pub enum OnimError {
         /// What is wrong, and where.
         message: String,
     },
+    /// The mapping file cannot be read.
+    #[error("{}: cannot read", path.display())]
+    Read {
+        /// The file.
+        path: std::path::PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The mapping file is not TOML of the mapping's form.
+    #[error("{source_name}")]
+    Toml {
+        /// `built-in` or the file.
+        source_name: String,
+        /// The cause, with its place in the file.
+        #[source]
+        source: toml::de::Error,
+    },
+    /// A `[frames]` entry's axes do not make a frame.
+    #[error("{source_name}: [frames] `{name}`")]
+    Frame {
+        /// `built-in` or the file.
+        source_name: String,
+        /// The entry's bone name.
+        name: String,
+        /// What is wrong with its axes.
+        #[source]
+        source: AxesError,
+    },
     /// The mapping has no frame for some bones of the rig.
     #[error(
         "the .onim mapping {source_name} does not cover {} of rig {rig}'s bones: {}; add a `[frames]` entry for each (`autoact export --print-onim-template` shows the form)",
@@ -83,6 +112,24 @@ pub enum OnimError {
         rig: String,
         /// GTA names of the bones left out.
         bones: Vec<String>,
+    },
+}
+
+/// Why two axes do not make a bone frame.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum AxesError {
+    /// An axis has no direction.
+    #[error("`{axis}` is zero or not finite")]
+    Degenerate {
+        /// `x` or `y`.
+        axis: &'static str,
+    },
+    /// The axes are not perpendicular (within 0.06°).
+    #[error("`x` and `y` are {apart_deg:.3}° apart; they must be perpendicular")]
+    NotPerpendicular {
+        /// The angle between them, degrees.
+        apart_deg: f64,
     },
 }
 
@@ -137,11 +184,12 @@ impl OnimMapping {
     /// Reads a mapping file.
     ///
     /// # Errors
-    /// [`OnimError::Template`] for an unreadable or invalid file, [`OnimError::Uncovered`].
+    /// [`OnimError::Read`] for an unreadable file; as [`OnimMapping::from_toml`] for an invalid
+    /// one.
     pub fn load(rig: &Rig, path: &Path) -> Result<OnimMapping, OnimError> {
-        let text = std::fs::read_to_string(path).map_err(|e| OnimError::Template {
-            source_name: path.display().to_string(),
-            message: format!("cannot read: {e}"),
+        let text = std::fs::read_to_string(path).map_err(|source| OnimError::Read {
+            path: path.to_path_buf(),
+            source,
         })?;
         OnimMapping::from_toml(rig, &text, &path.display().to_string())
     }
@@ -152,14 +200,18 @@ impl OnimMapping {
     /// GTA bone tags to `[x, y, z]`, metres in the parent's GTA frame.
     ///
     /// # Errors
-    /// [`OnimError::Template`] naming the entry at fault, [`OnimError::Uncovered`] listing every
+    /// [`OnimError::Toml`] for text not of the mapping's form, [`OnimError::Template`] or
+    /// [`OnimError::Frame`] naming the entry at fault, [`OnimError::Uncovered`] listing every
     /// rig bone without a frame.
     pub fn from_toml(rig: &Rig, text: &str, source_name: &str) -> Result<OnimMapping, OnimError> {
         let err = |message: String| OnimError::Template {
             source_name: source_name.to_string(),
             message,
         };
-        let file: MappingFile = toml::from_str(text).map_err(|e| err(e.to_string()))?;
+        let file: MappingFile = toml::from_str(text).map_err(|source| OnimError::Toml {
+            source_name: source_name.to_string(),
+            source,
+        })?;
         let mut frames: Vec<Option<UnitQuaternion<f64>>> = vec![None; rig.bones.len()];
         for (name, axes) in &file.frames {
             let b = rig.bone_index(name).ok_or_else(|| {
@@ -174,8 +226,11 @@ impl OnimMapping {
                     rig.bones[b].gta_name
                 )));
             }
-            frames[b] =
-                Some(frame_from_axes(axes).map_err(|m| err(format!("[frames] `{name}`: {m}")))?);
+            frames[b] = Some(frame_from_axes(axes).map_err(|source| OnimError::Frame {
+                source_name: source_name.to_string(),
+                name: name.clone(),
+                source,
+            })?);
         }
         let mut translations = BTreeMap::new();
         for (key, v) in &file.translations {
@@ -256,17 +311,16 @@ impl OnimMapping {
 }
 
 /// The rotation whose columns are `x`, `y` and `x × y`, from two perpendicular axes.
-fn frame_from_axes(axes: &FrameAxes) -> Result<UnitQuaternion<f64>, String> {
+fn frame_from_axes(axes: &FrameAxes) -> Result<UnitQuaternion<f64>, AxesError> {
     let x = crate::skeleton::geom::direction(Vector3::from(axes.x))
-        .ok_or("`x` is zero or not finite")?;
+        .ok_or(AxesError::Degenerate { axis: "x" })?;
     let y = crate::skeleton::geom::direction(Vector3::from(axes.y))
-        .ok_or("`y` is zero or not finite")?;
+        .ok_or(AxesError::Degenerate { axis: "y" })?;
     let cos = x.dot(&y);
     if cos.abs() > 1e-3 {
-        return Err(format!(
-            "`x` and `y` are {:.3}° apart; they must be perpendicular",
-            cos.clamp(-1.0, 1.0).acos().to_degrees()
-        ));
+        return Err(AxesError::NotPerpendicular {
+            apart_deg: cos.clamp(-1.0, 1.0).acos().to_degrees(),
+        });
     }
     // Remove the residue of rounding so the frame is exactly orthonormal.
     let y = (y.into_inner() - x.into_inner() * cos).normalize();
@@ -520,123 +574,206 @@ impl OnimFile {
 /// [`OnimParseError`] naming the line: unexpected or missing words, bad numbers, a value line of
 /// the wrong width, a track whose block count is not the sequence count or whose block length is
 /// not its sequence's, sequences that do not add up to `Frames`.
-#[expect(clippy::too_many_lines, reason = "one grammar, read top to bottom")]
 pub fn parse(text: &str, source_name: &str) -> Result<OnimFile, OnimParseError> {
-    let lines: Vec<(usize, Vec<&str>)> = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.split_whitespace().collect::<Vec<_>>()))
-        .filter(|(_, w)| !w.is_empty())
-        .collect();
-    let last_line = text.lines().count().max(1);
-    let err = |line: usize, message: String| OnimParseError {
-        source_name: source_name.to_string(),
-        line,
-        message,
+    let mut r = Reader {
+        lines: text
+            .lines()
+            .enumerate()
+            .map(|(i, l)| (i + 1, l.split_whitespace().collect::<Vec<_>>()))
+            .filter(|(_, w)| !w.is_empty())
+            .collect(),
+        at: 0,
+        last_line: text.lines().count().max(1),
+        source_name,
     };
-    let mut at = 0;
-    let mut next = |what: &str| -> Result<(usize, Vec<&str>), OnimParseError> {
-        let item = lines
-            .get(at)
-            .cloned()
-            .ok_or_else(|| err(last_line, format!("file ends early, expected {what}")))?;
-        at += 1;
+    let header = r.header()?;
+    r.expect_next(&["Animation"], "`Animation`")?;
+    r.expect_next(&["{"], "`{`")?;
+    let mut tracks = Vec::new();
+    while let Some(track) = r.track(&header.sequences)? {
+        tracks.push(track);
+    }
+    r.expect_next(&["}"], "`}`")?;
+    if let Some((line, words)) = r.lines.get(r.at) {
+        return Err(r.err(
+            *line,
+            format!("unexpected `{}` after the end", words.join(" ")),
+        ));
+    }
+    Ok(OnimFile {
+        version: header.version,
+        flags: header.flags,
+        frames: header.frames,
+        sequence_frame_limit: header.sequence_frame_limit,
+        duration_secs: header.duration_secs,
+        sequences: header.sequences,
+        tracks,
+    })
+}
+
+/// A line of an `.onim`: its 1-based number and its words.
+type Line<'t> = (usize, Vec<&'t str>);
+
+/// The fields before `Animation`.
+struct Header {
+    version: (u32, u32),
+    flags: Vec<String>,
+    frames: usize,
+    sequence_frame_limit: usize,
+    duration_secs: f64,
+    sequences: Vec<usize>,
+}
+
+/// [`parse`]'s cursor over the non-blank lines of an `.onim`.
+struct Reader<'t> {
+    lines: Vec<Line<'t>>,
+    /// The next line's index in `lines`.
+    at: usize,
+    /// The text's last line number: where what is missing at the end is reported.
+    last_line: usize,
+    source_name: &'t str,
+}
+
+impl<'t> Reader<'t> {
+    fn err(&self, line: usize, message: String) -> OnimParseError {
+        OnimParseError {
+            source_name: self.source_name.to_string(),
+            line,
+            message,
+        }
+    }
+
+    /// The next line; `what` names what was expected if the text ends.
+    fn next(&mut self, what: &str) -> Result<Line<'t>, OnimParseError> {
+        let item =
+            self.lines.get(self.at).cloned().ok_or_else(|| {
+                self.err(self.last_line, format!("file ends early, expected {what}"))
+            })?;
+        self.at += 1;
         Ok(item)
-    };
-    let expect = |item: &(usize, Vec<&str>), words: &[&str], what: &str| {
+    }
+
+    /// The next line, which must be exactly `words`.
+    fn expect_next(&mut self, words: &[&str], what: &str) -> Result<(), OnimParseError> {
+        let item = self.next(what)?;
         if item.1 == words {
             Ok(())
         } else {
-            Err(err(
+            Err(self.err(
                 item.0,
                 format!("expected {what}, found `{}`", item.1.join(" ")),
             ))
         }
-    };
-    let number_at = |line: usize, word: &str| -> Result<f64, OnimParseError> {
-        word.parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite())
-            .ok_or_else(|| err(line, format!("`{word}` is not a finite number")))
-    };
-    let count_at = |line: usize, word: &str| -> Result<usize, OnimParseError> {
-        word.parse::<usize>()
-            .map_err(|_| err(line, format!("`{word}` is not a count")))
-    };
-    let field = |item: &(usize, Vec<&str>), key: &str| -> Result<Vec<String>, OnimParseError> {
+    }
+
+    /// The values of the next line, which must start with `key`.
+    fn field(&mut self, key: &str) -> Result<(usize, Vec<String>), OnimParseError> {
+        let item = self.next(&format!("`{key}`"))?;
         if item.1.first() == Some(&key) {
-            Ok(item.1[1..].iter().map(ToString::to_string).collect())
+            Ok((
+                item.0,
+                item.1[1..].iter().map(ToString::to_string).collect(),
+            ))
         } else {
-            Err(err(
+            Err(self.err(
                 item.0,
                 format!("expected `{key}`, found `{}`", item.1.join(" ")),
             ))
         }
-    };
-    let single = |item: &(usize, Vec<&str>), key: &str| -> Result<String, OnimParseError> {
-        let v = field(item, key)?;
-        match v.as_slice() {
-            [one] => Ok(one.clone()),
-            _ => Err(err(item.0, format!("`{key}` takes one value"))),
-        }
-    };
+    }
 
-    let v = next("`Version 8 2`")?;
-    let version = match v.1.as_slice() {
-        ["Version", a, b] => (
-            a.parse()
-                .map_err(|_| err(v.0, format!("bad version `{a}`")))?,
-            b.parse()
-                .map_err(|_| err(v.0, format!("bad version `{b}`")))?,
-        ),
-        _ => {
-            return Err(err(
-                v.0,
-                format!("expected `Version 8 2`, found `{}`", v.1.join(" ")),
+    /// The one value of the next line, which must start with `key`.
+    fn single(&mut self, key: &str) -> Result<(usize, String), OnimParseError> {
+        let (line, v) = self.field(key)?;
+        match <[String; 1]>::try_from(v) {
+            Ok([one]) => Ok((line, one)),
+            Err(_) => Err(self.err(line, format!("`{key}` takes one value"))),
+        }
+    }
+
+    fn number_at(&self, line: usize, word: &str) -> Result<f64, OnimParseError> {
+        word.parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| self.err(line, format!("`{word}` is not a finite number")))
+    }
+
+    fn count_at(&self, line: usize, word: &str) -> Result<usize, OnimParseError> {
+        word.parse::<usize>()
+            .map_err(|_| self.err(line, format!("`{word}` is not a count")))
+    }
+
+    /// `Version a b`, `{`, then `Flags` … `MaterialID`.
+    fn header(&mut self) -> Result<Header, OnimParseError> {
+        let v = self.next("`Version 8 2`")?;
+        let version = match v.1.as_slice() {
+            ["Version", a, b] => (
+                a.parse()
+                    .map_err(|_| self.err(v.0, format!("bad version `{a}`")))?,
+                b.parse()
+                    .map_err(|_| self.err(v.0, format!("bad version `{b}`")))?,
+            ),
+            _ => {
+                return Err(self.err(
+                    v.0,
+                    format!("expected `Version 8 2`, found `{}`", v.1.join(" ")),
+                ));
+            }
+        };
+        self.expect_next(&["{"], "`{`")?;
+        let (_, flags) = self.field("Flags")?;
+        let (line, word) = self.single("Frames")?;
+        let frames = self.count_at(line, &word)?;
+        let (line, word) = self.single("SequenceFrameLimit")?;
+        let sequence_frame_limit = self.count_at(line, &word)?;
+        let (line, word) = self.single("Duration")?;
+        let duration_secs = self.number_at(line, &word)?;
+        self.field("_f10")?;
+        self.field("ExtraFlags")?;
+        let sequences = self.sequences(frames)?;
+        self.field("MaterialID")?;
+        Ok(Header {
+            version,
+            flags,
+            frames,
+            sequence_frame_limit,
+            duration_secs,
+            sequences,
+        })
+    }
+
+    /// `Sequences n1 n2 …`, which must cover `frames` frames, sharing boundary frames.
+    fn sequences(&mut self, frames: usize) -> Result<Vec<usize>, OnimParseError> {
+        let (line, words) = self.field("Sequences")?;
+        let sequences = words
+            .iter()
+            .map(|w| self.count_at(line, w))
+            .collect::<Result<Vec<_>, _>>()?;
+        if sequences.is_empty() {
+            return Err(self.err(line, "`Sequences` lists no sequence".to_string()));
+        }
+        let covered = sequences.iter().sum::<usize>() - (sequences.len() - 1);
+        if covered != frames {
+            return Err(self.err(
+                line,
+                format!(
+                    "sequences {sequences:?} share boundary frames and so cover {covered} frames, not Frames {frames}"
+                ),
             ));
         }
-    };
-    expect(&next("`{`")?, &["{"], "`{`")?;
-    let flags = field(&next("`Flags`")?, "Flags")?;
-    let f = next("`Frames`")?;
-    let frames = count_at(f.0, &single(&f, "Frames")?)?;
-    let l = next("`SequenceFrameLimit`")?;
-    let sequence_frame_limit = count_at(l.0, &single(&l, "SequenceFrameLimit")?)?;
-    let d = next("`Duration`")?;
-    let duration_secs = number_at(d.0, &single(&d, "Duration")?)?;
-    let f10 = next("`_f10`")?;
-    field(&f10, "_f10")?;
-    let extra = next("`ExtraFlags`")?;
-    field(&extra, "ExtraFlags")?;
-    let q = next("`Sequences`")?;
-    let sequences = field(&q, "Sequences")?
-        .iter()
-        .map(|w| count_at(q.0, w))
-        .collect::<Result<Vec<_>, _>>()?;
-    if sequences.is_empty() {
-        return Err(err(q.0, "`Sequences` lists no sequence".to_string()));
+        Ok(sequences)
     }
-    let covered = sequences.iter().sum::<usize>() - (sequences.len() - 1);
-    if covered != frames {
-        return Err(err(
-            q.0,
-            format!(
-                "sequences {sequences:?} share boundary frames and so cover {covered} frames, not Frames {frames}"
-            ),
-        ));
-    }
-    field(&next("`MaterialID`")?, "MaterialID")?;
-    expect(&next("`Animation`")?, &["Animation"], "`Animation`")?;
-    expect(&next("`{`")?, &["{"], "`{`")?;
-    let mut tracks = Vec::new();
-    loop {
-        let head = next("a track or `}`")?;
+
+    /// The next track and its `FramesData` blocks, one per sequence; `None` at the `}` that
+    /// closes `Animation`.
+    fn track(&mut self, sequences: &[usize]) -> Result<Option<OnimTrack>, OnimParseError> {
+        let head = self.next("a track or `}`")?;
         let (kind, width) = match head.1.as_slice() {
-            ["}"] => break,
+            ["}"] => return Ok(None),
             ["BonePosition", "Float3", _] => (TrackKind::Position, 3),
             ["BoneRotation", "Float4", _] => (TrackKind::Rotation, 4),
             _ => {
-                return Err(err(
+                return Err(self.err(
                     head.0,
                     format!(
                         "expected `BonePosition Float3 <tag>`, `BoneRotation Float4 <tag>` or `}}`, found `{}`",
@@ -647,66 +784,14 @@ pub fn parse(text: &str, source_name: &str) -> Result<OnimFile, OnimParseError> 
         };
         let tag: u16 = head.1[2]
             .parse()
-            .map_err(|_| err(head.0, format!("`{}` is not a bone tag", head.1[2])))?;
-        expect(&next("`{`")?, &["{"], "`{`")?;
+            .map_err(|_| self.err(head.0, format!("`{}` is not a bone tag", head.1[2])))?;
+        self.expect_next(&["{"], "`{`")?;
         let mut blocks = Vec::new();
-        loop {
-            let b = next("`FramesData` or `}`")?;
-            let is_static = match b.1.as_slice() {
-                ["}"] => break,
-                ["FramesData", "SingleChannel"] => false,
-                ["FramesData", "SingleChannel", "Static"] => true,
-                _ => {
-                    return Err(err(
-                        b.0,
-                        format!(
-                            "expected `FramesData SingleChannel [Static]` or `}}`, found `{}`",
-                            b.1.join(" ")
-                        ),
-                    ));
-                }
-            };
-            expect(&next("`{`")?, &["{"], "`{`")?;
-            let mut values = Vec::new();
-            loop {
-                let line = next("a value line or `}`")?;
-                if line.1 == ["}"] {
-                    break;
-                }
-                if line.1.len() != width {
-                    return Err(err(
-                        line.0,
-                        format!("expected {width} numbers, found {}", line.1.len()),
-                    ));
-                }
-                values.push(
-                    line.1
-                        .iter()
-                        .map(|w| number_at(line.0, w))
-                        .collect::<Result<Vec<_>, _>>()?,
-                );
-            }
-            let k = blocks.len();
-            let want = if is_static {
-                1
-            } else {
-                sequences.get(k).copied().unwrap_or(0)
-            };
-            if values.len() != want {
-                return Err(err(
-                    b.0,
-                    format!(
-                        "block {} of track {tag} has {} lines; sequence {} wants {want}",
-                        k + 1,
-                        values.len(),
-                        k + 1
-                    ),
-                ));
-            }
-            blocks.push(FramesData { is_static, values });
+        while let Some(block) = self.block(tag, width, sequences.get(blocks.len()), blocks.len())? {
+            blocks.push(block);
         }
         if blocks.len() != sequences.len() {
-            return Err(err(
+            return Err(self.err(
                 head.0,
                 format!(
                     "track {tag} has {} FramesData blocks for {} sequences",
@@ -715,24 +800,71 @@ pub fn parse(text: &str, source_name: &str) -> Result<OnimFile, OnimParseError> 
                 ),
             ));
         }
-        tracks.push(OnimTrack { kind, tag, blocks });
+        Ok(Some(OnimTrack { kind, tag, blocks }))
     }
-    expect(&next("`}`")?, &["}"], "`}`")?;
-    if let Some((line, words)) = lines.get(at) {
-        return Err(err(
-            *line,
-            format!("unexpected `{}` after the end", words.join(" ")),
-        ));
+
+    /// Block `k` (0-based) of track `tag`, of value lines `width` numbers wide, for a sequence of
+    /// `samples` samples; `None` at the `}` that closes the track.
+    fn block(
+        &mut self,
+        tag: u16,
+        width: usize,
+        samples: Option<&usize>,
+        k: usize,
+    ) -> Result<Option<FramesData>, OnimParseError> {
+        let b = self.next("`FramesData` or `}`")?;
+        let is_static = match b.1.as_slice() {
+            ["}"] => return Ok(None),
+            ["FramesData", "SingleChannel"] => false,
+            ["FramesData", "SingleChannel", "Static"] => true,
+            _ => {
+                return Err(self.err(
+                    b.0,
+                    format!(
+                        "expected `FramesData SingleChannel [Static]` or `}}`, found `{}`",
+                        b.1.join(" ")
+                    ),
+                ));
+            }
+        };
+        self.expect_next(&["{"], "`{`")?;
+        let mut values = Vec::new();
+        loop {
+            let line = self.next("a value line or `}`")?;
+            if line.1 == ["}"] {
+                break;
+            }
+            if line.1.len() != width {
+                return Err(self.err(
+                    line.0,
+                    format!("expected {width} numbers, found {}", line.1.len()),
+                ));
+            }
+            values.push(
+                line.1
+                    .iter()
+                    .map(|w| self.number_at(line.0, w))
+                    .collect::<Result<Vec<_>, _>>()?,
+            );
+        }
+        let want = if is_static {
+            1
+        } else {
+            samples.copied().unwrap_or(0)
+        };
+        if values.len() != want {
+            return Err(self.err(
+                b.0,
+                format!(
+                    "block {} of track {tag} has {} lines; sequence {} wants {want}",
+                    k + 1,
+                    values.len(),
+                    k + 1
+                ),
+            ));
+        }
+        Ok(Some(FramesData { is_static, values }))
     }
-    Ok(OnimFile {
-        version,
-        flags,
-        frames,
-        sequence_frame_limit,
-        duration_secs,
-        sequences,
-        tracks,
-    })
 }
 
 #[cfg(test)]

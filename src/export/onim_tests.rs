@@ -160,35 +160,51 @@ fn a_mapping_that_leaves_bones_out_names_them() {
 #[test]
 fn bad_mapping_entries_are_named() {
     let rig = Rig::standard();
-    let cases = [
+    type Kind = fn(&OnimError) -> bool;
+    let template: Kind = |e| matches!(e, OnimError::Template { .. });
+    let frame: Kind = |e| matches!(e, OnimError::Frame { name, .. } if name == "SKEL_ROOT");
+    let toml: Kind = |e| matches!(e, OnimError::Toml { .. });
+    let cases: [(&str, &str, Kind); 6] = [
         (
             "[frames]\nSKEL_Tail = { x = [1.0, 0.0, 0.0], y = [0.0, 1.0, 0.0] }\n",
             "SKEL_Tail",
+            template,
         ),
         (
             "[frames]\nSKEL_ROOT = { x = [1.0, 0.0, 0.0], y = [0.5, 1.0, 0.0] }\n",
             "perpendicular",
+            frame,
         ),
         (
             "[frames]\nSKEL_ROOT = { x = [0.0, 0.0, 0.0], y = [0.0, 1.0, 0.0] }\n",
             "zero",
+            frame,
         ),
         (
             "[frames]\nroot = { x = [1.0, 0.0, 0.0], y = [0.0, 1.0, 0.0] }\nSKEL_ROOT = { x = [1.0, 0.0, 0.0], y = [0.0, 1.0, 0.0] }\n",
             "twice",
+            template,
         ),
         (
             "[frames]\n[translations]\nhead = [0.0, 0.0, 0.0]\n",
             "not a GTA bone tag",
+            template,
         ),
-        ("[frame]\n", "unknown field"),
+        ("[frame]\n", "unknown field", toml),
     ];
-    for (text, needle) in cases {
+    for (text, needle, kind) in cases {
         let e = OnimMapping::from_toml(&rig, text, "t.toml").unwrap_err();
-        assert!(matches!(e, OnimError::Template { .. }), "{text}: {e}");
+        assert!(kind(&e), "{text}: {e:?}");
+        // What a user reads: the error and its causes.
+        let mut shown = e.to_string();
+        let mut cause = std::error::Error::source(&e);
+        while let Some(c) = cause {
+            shown = format!("{shown}: {c}");
+            cause = c.source();
+        }
         assert!(
-            e.to_string().contains(needle) && e.to_string().starts_with("t.toml"),
-            "{text}: {e}"
+            shown.contains(needle) && shown.starts_with("t.toml"),
+            "{text}: {shown}"
         );
     }
 }

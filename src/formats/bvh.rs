@@ -933,7 +933,14 @@ impl<'a> Parser<'a> {
 
     /// Parses from after `MOTION`: the header and every frame line.
     fn motion(&mut self, channel_count: usize) -> Result<(f64, Vec<Vec<f64>>), BvhError> {
-        // `Frames: N` (also `Frames:N` and `Frames : N`).
+        let declared = self.frame_count()?;
+        let frame_time = self.frame_time()?;
+        let frames = self.frame_lines(declared, channel_count)?;
+        Ok((frame_time, frames))
+    }
+
+    /// `Frames: N` (also `Frames:N` and `Frames : N`), N at least 1.
+    fn frame_count(&mut self) -> Result<usize, BvhError> {
         let (line, tok) = self.token("Frames:")?;
         let count_tok = match tok {
             "Frames:" => self.token("Frames count")?.1,
@@ -966,8 +973,12 @@ impl<'a> Parser<'a> {
                 line: self.lex.line,
             });
         }
+        Ok(declared)
+    }
 
-        // `Frame Time: T` (also `Frame Time:T` and `Frame Time : T`).
+    /// `Frame Time: T` (also `Frame Time:T` and `Frame Time : T`), T positive seconds, alone
+    /// on the rest of its line.
+    fn frame_time(&mut self) -> Result<f64, BvhError> {
         let (line, tok) = self.token("Frame Time:")?;
         if tok != "Frame" {
             return Err(self.unexpected(line, "Frame Time:", tok));
@@ -1004,12 +1015,20 @@ impl<'a> Parser<'a> {
         if let Some(t) = self.lex.next_on_line() {
             return Err(self.unexpected(time_line, "end of line after Frame Time", t));
         }
+        Ok(frame_time)
+    }
 
-        // One frame per non-blank line. `declared` comes from the file: cap the reservation.
+    /// One frame per non-blank line to the end: exactly `declared` frames of `channel_count`
+    /// values each.
+    fn frame_lines(
+        &mut self,
+        declared: usize,
+        channel_count: usize,
+    ) -> Result<Vec<Vec<f64>>, BvhError> {
+        // `declared` comes from the file: cap the reservation.
         let mut frames: Vec<Vec<f64>> = Vec::with_capacity(declared.min(1 << 16));
         while let Some((line, text)) = self.lex.next_line() {
-            let mut tokens = text.split_ascii_whitespace().peekable();
-            if tokens.peek().is_none() {
+            if text.split_ascii_whitespace().next().is_none() {
                 continue;
             }
             let frame = frames.len();
@@ -1020,49 +1039,7 @@ impl<'a> Parser<'a> {
                     declared,
                 });
             }
-            let mut values = Vec::with_capacity(channel_count);
-            for (column, tok) in tokens.by_ref().enumerate() {
-                if column == channel_count {
-                    return Err(BvhError::WrongValueCount {
-                        file: self.file.to_owned(),
-                        line,
-                        frame,
-                        expected: channel_count,
-                        found: channel_count + 1 + tokens.count(),
-                    });
-                }
-                match tok.parse::<f64>() {
-                    Ok(v) if v.is_finite() => values.push(v),
-                    Ok(_) => {
-                        return Err(BvhError::NonFinite {
-                            file: self.file.to_owned(),
-                            line,
-                            frame,
-                            column,
-                            token: tok.to_owned(),
-                        });
-                    }
-                    Err(_) => {
-                        return Err(BvhError::BadValue {
-                            file: self.file.to_owned(),
-                            line,
-                            frame,
-                            column,
-                            token: tok.to_owned(),
-                        });
-                    }
-                }
-            }
-            if values.len() != channel_count {
-                return Err(BvhError::WrongValueCount {
-                    file: self.file.to_owned(),
-                    line,
-                    frame,
-                    expected: channel_count,
-                    found: values.len(),
-                });
-            }
-            frames.push(values);
+            frames.push(self.frame_values(line, frame, text, channel_count)?);
         }
         if frames.len() < declared {
             return Err(BvhError::FewerFramesThanDeclared {
@@ -1072,7 +1049,61 @@ impl<'a> Parser<'a> {
                 found: frames.len(),
             });
         }
-        Ok((frame_time, frames))
+        Ok(frames)
+    }
+
+    /// The `channel_count` finite values of frame `frame`, the text of line `line`.
+    fn frame_values(
+        &self,
+        line: usize,
+        frame: usize,
+        text: &str,
+        channel_count: usize,
+    ) -> Result<Vec<f64>, BvhError> {
+        let mut tokens = text.split_ascii_whitespace();
+        let mut values = Vec::with_capacity(channel_count);
+        for (column, tok) in tokens.by_ref().enumerate() {
+            if column == channel_count {
+                return Err(BvhError::WrongValueCount {
+                    file: self.file.to_owned(),
+                    line,
+                    frame,
+                    expected: channel_count,
+                    found: channel_count + 1 + tokens.count(),
+                });
+            }
+            match tok.parse::<f64>() {
+                Ok(v) if v.is_finite() => values.push(v),
+                Ok(_) => {
+                    return Err(BvhError::NonFinite {
+                        file: self.file.to_owned(),
+                        line,
+                        frame,
+                        column,
+                        token: tok.to_owned(),
+                    });
+                }
+                Err(_) => {
+                    return Err(BvhError::BadValue {
+                        file: self.file.to_owned(),
+                        line,
+                        frame,
+                        column,
+                        token: tok.to_owned(),
+                    });
+                }
+            }
+        }
+        if values.len() != channel_count {
+            return Err(BvhError::WrongValueCount {
+                file: self.file.to_owned(),
+                line,
+                frame,
+                expected: channel_count,
+                found: values.len(),
+            });
+        }
+        Ok(values)
     }
 }
 

@@ -8,6 +8,7 @@ pub mod bvh;
 pub mod bvh_map;
 pub mod h36m_expmap;
 pub mod import;
+pub mod matlab;
 pub mod mmpose_json;
 pub mod ntu;
 pub mod zed_mat;

@@ -45,24 +45,20 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), TrimError> {
 /// if absent, refuses if it lists others.
 ///
 /// # Errors
-/// [`TrimError::ClassesChanged`], [`TrimError::Invalid`] for unsorted or duplicate labels or a
-/// label with a line break, [`TrimError::Io`].
+/// [`TrimError::ClassesChanged`]; [`TrimError::NoLabels`], [`TrimError::LabelsUnsorted`] or
+/// [`TrimError::LabelLineBreak`] for no, unsorted or duplicate labels or a label with a line
+/// break; [`TrimError::Io`].
 pub fn ensure_classes(dir: &Path, labels: &[String]) -> Result<(), TrimError> {
     if labels.is_empty() {
-        return Err(TrimError::Invalid(
-            "the capture bag lists no class labels (its `autoact.dataset` record has no `labels`)"
-                .into(),
-        ));
+        return Err(TrimError::NoLabels);
     }
     if labels.windows(2).any(|w| w[0] >= w[1]) {
-        return Err(TrimError::Invalid(format!(
-            "the class labels {labels:?} are not sorted and unique"
-        )));
+        return Err(TrimError::LabelsUnsorted {
+            labels: labels.to_vec(),
+        });
     }
     if let Some(l) = labels.iter().find(|l| l.contains(['\n', '\r'])) {
-        return Err(TrimError::Invalid(format!(
-            "the class label {l:?} holds a line break"
-        )));
+        return Err(TrimError::LabelLineBreak { label: l.clone() });
     }
     let ann = dir.join(ANNOTATIONS_DIR);
     std::fs::create_dir_all(&ann).map_err(TrimError::io("create", &ann))?;
@@ -88,10 +84,11 @@ pub fn ensure_classes(dir: &Path, labels: &[String]) -> Result<(), TrimError> {
                 .enumerate()
                 .map(|(i, l)| (l.clone(), json!(i)))
                 .collect();
+            let map_path = ann.join("label_map.json");
             let mut text = serde_json::to_string_pretty(&Value::Object(map))
-                .map_err(|e| TrimError::Invalid(e.to_string()))?;
+                .map_err(TrimError::json(&map_path))?;
             text.push('\n');
-            write_atomic(&ann.join("label_map.json"), text.as_bytes())
+            write_atomic(&map_path, text.as_bytes())
         }
         Err(e) => Err(TrimError::io("read", &path)(e)),
     }
@@ -121,7 +118,8 @@ pub struct ListSummary {
 /// splits. Lists for a split without clips are written empty, so stale ones never survive.
 ///
 /// # Errors
-/// [`TrimError::Io`]; [`TrimError::Invalid`] if a clip has no split.
+/// [`TrimError::Io`]; [`TrimError::NoSplit`] if a clip has no split (then nothing is written);
+/// [`TrimError::Json`].
 pub fn write_lists(
     dir: &Path,
     clips: &BTreeMap<String, ClipRecord>,
@@ -129,76 +127,123 @@ pub fn write_lists(
 ) -> Result<ListSummary, TrimError> {
     let ann = dir.join(ANNOTATIONS_DIR);
     std::fs::create_dir_all(&ann).map_err(TrimError::io("create", &ann))?;
-    let split_of = |c: &ClipRecord| {
-        splits
-            .get(&c.clip_id)
-            .copied()
-            .ok_or_else(|| TrimError::Invalid(format!("clip `{}` was given no split", c.clip_id)))
-    };
+    let assigned = clips
+        .values()
+        .map(|c| {
+            splits
+                .get(&c.clip_id)
+                .map(|s| (c, *s))
+                .ok_or_else(|| TrimError::NoSplit {
+                    clip_id: c.clip_id.clone(),
+                })
+        })
+        .collect::<Result<Vec<Assigned<'_>>, TrimError>>()?;
     let mut summary = ListSummary::default();
+    let mut write = |name: String, text: String| -> Result<(), TrimError> {
+        let path = ann.join(name);
+        write_atomic(&path, text.as_bytes())?;
+        summary.files.push(path);
+        Ok(())
+    };
     let any_rawframes = clips.values().any(|c| c.rawframes.is_some());
+    let mut counts = BTreeMap::new();
     for split in Split::ALL {
-        let mut csv = String::from("label,youtube_id,time_start,time_end,split\n");
-        let mut videos = String::new();
-        let mut frames = String::new();
-        let mut n = 0;
-        for c in clips.values() {
-            if split_of(c)? != split {
-                continue;
-            }
-            n += 1;
-            csv.push_str(&format!(
-                "{},{},{:.3},{:.3},{}\n",
-                csv_field(&c.label),
-                c.clip_id,
-                c.start_s,
-                c.end_s,
-                split.name()
-            ));
-            videos.push_str(&format!("{} {}\n", c.video, c.label_id));
-            if let Some(dir) = &c.rawframes {
-                frames.push_str(&format!("{dir} {} {}\n", c.frame_count, c.label_id));
-            }
-        }
-        summary.clips.insert(split, n);
-        let mut files = vec![
-            (format!("kinetics_{}.csv", split.name()), csv),
-            (format!("{}_list_videos.txt", split.name()), videos),
-        ];
+        let in_split: Vec<&ClipRecord> = assigned
+            .iter()
+            .filter(|(_, s)| *s == split)
+            .map(|(c, _)| *c)
+            .collect();
+        counts.insert(split, in_split.len());
+        let name = split.name();
+        write(
+            format!("kinetics_{name}.csv"),
+            kinetics_csv(&in_split, split),
+        )?;
+        write(format!("{name}_list_videos.txt"), video_list(&in_split))?;
         if any_rawframes {
-            files.push((format!("{}_list_rawframes.txt", split.name()), frames));
-        }
-        for (name, text) in files {
-            let path = ann.join(name);
-            write_atomic(&path, text.as_bytes())?;
-            summary.files.push(path);
+            write(
+                format!("{name}_list_rawframes.txt"),
+                rawframe_list(&in_split),
+            )?;
         }
     }
+    write("clips.jsonl".into(), clips_jsonl(&assigned, &ann)?)?;
+    write(
+        "activitynet.json".into(),
+        activitynet_json(&assigned, &ann)?,
+    )?;
+    summary.clips = counts;
+    Ok(summary)
+}
 
-    // Per-clip metadata.
+/// A complete clip and its split.
+type Assigned<'c> = (&'c ClipRecord, Split);
+
+/// `kinetics_<split>.csv`: Kinetics-700's header and one line per clip of `split`.
+fn kinetics_csv(clips: &[&ClipRecord], split: Split) -> String {
+    let mut csv = String::from("label,youtube_id,time_start,time_end,split\n");
+    for c in clips {
+        csv.push_str(&format!(
+            "{},{},{:.3},{:.3},{}\n",
+            csv_field(&c.label),
+            c.clip_id,
+            c.start_s,
+            c.end_s,
+            split.name()
+        ));
+    }
+    csv
+}
+
+/// `<split>_list_videos.txt`: MMAction2 `VideoDataset` lines `<path> <label_id>`.
+fn video_list(clips: &[&ClipRecord]) -> String {
+    clips
+        .iter()
+        .map(|c| format!("{} {}\n", c.video, c.label_id))
+        .collect()
+}
+
+/// `<split>_list_rawframes.txt`: MMAction2 `RawframeDataset` lines
+/// `<dir> <total_frames> <label_id>`, for the clips that have frames.
+fn rawframe_list(clips: &[&ClipRecord]) -> String {
+    clips
+        .iter()
+        .filter_map(|c| {
+            c.rawframes
+                .as_ref()
+                .map(|dir| format!("{dir} {} {}\n", c.frame_count, c.label_id))
+        })
+        .collect()
+}
+
+/// `clips.jsonl`: every clip's record plus its `split`, one JSON object a line.
+fn clips_jsonl(clips: &[Assigned<'_>], ann: &Path) -> Result<String, TrimError> {
     let mut jsonl = String::new();
-    for c in clips.values() {
-        let mut v = serde_json::to_value(c).map_err(|e| TrimError::Invalid(e.to_string()))?;
+    for (c, split) in clips {
+        let mut v = serde_json::to_value(c).map_err(TrimError::json(&ann.join("clips.jsonl")))?;
         if let Value::Object(m) = &mut v {
-            m.insert("split".into(), json!(split_of(c)?.name()));
+            m.insert("split".into(), json!(split.name()));
         }
         jsonl.push_str(&v.to_string());
         jsonl.push('\n');
     }
-    let path = ann.join("clips.jsonl");
-    write_atomic(&path, jsonl.as_bytes())?;
-    summary.files.push(path);
+    Ok(jsonl)
+}
 
-    // ActivityNet: untrimmed captures, one entry per capture (video and bag).
-    // Per capture: its annotations, the splits of its clips, and its first clip.
-    type Entry<'c> = (Vec<Value>, Vec<Split>, &'c ClipRecord);
-    let mut database: BTreeMap<(&str, &str), Entry<'_>> = BTreeMap::new();
+/// One untrimmed capture in `activitynet.json`: its annotations, the splits of its clips, and
+/// its first clip.
+type CaptureEntry<'c> = (Vec<Value>, Vec<Split>, &'c ClipRecord);
+
+/// `activitynet.json`: ActivityNet 1.3's ground truth, the untrimmed captures with every
+/// trimmed segment.
+fn activitynet_json(clips: &[Assigned<'_>], ann: &Path) -> Result<String, TrimError> {
+    // One entry per capture (video and bag).
+    let mut database: BTreeMap<(&str, &str), CaptureEntry<'_>> = BTreeMap::new();
     let mut taxonomy: BTreeMap<u32, Value> = BTreeMap::new();
-    for c in clips.values() {
-        let split = split_of(c)?;
+    for (c, split) in clips {
         let entry = database
             .entry((c.capture_video.as_str(), c.capture_bag.as_str()))
-            .or_insert_with(|| (Vec::new(), Vec::new(), c));
+            .or_insert_with(|| (Vec::new(), Vec::new(), *c));
         entry.0.push(json!({
             "segment": [c.start_s, c.end_s],
             "label": c.label,
@@ -206,13 +251,28 @@ pub fn write_lists(
             "clip_id": c.clip_id,
             "subset": split.activitynet_subset(),
         }));
-        entry.1.push(split);
+        entry.1.push(*split);
         taxonomy.entry(c.label_id).or_insert_with(
             || json!({"nodeId": c.label_id, "nodeName": c.label, "parentName": c.category}),
         );
     }
-    // Keyed by the video's stem, as ActivityNet keys by video id; captures whose videos share a
-    // stem (`a/cap.mp4` and `b/cap.mp4`) are told apart by their bag instead of being merged.
+    let doc = json!({
+        "version": "VERSION 1.3",
+        "taxonomy": taxonomy.into_values().collect::<Vec<_>>(),
+        "database": activitynet_database(database),
+    });
+    let mut text = serde_json::to_string_pretty(&doc)
+        .map_err(TrimError::json(&ann.join("activitynet.json")))?;
+    text.push('\n');
+    Ok(text)
+}
+
+/// The `database` object of `activitynet.json` from the captures, keyed by the video's stem, as
+/// ActivityNet keys by video id; captures whose videos share a stem (`a/cap.mp4` and
+/// `b/cap.mp4`) are told apart by their bag instead of being merged.
+fn activitynet_database(
+    database: BTreeMap<(&str, &str), CaptureEntry<'_>>,
+) -> serde_json::Map<String, Value> {
     let stem = |video: &str| -> String {
         Path::new(video)
             .file_stem()
@@ -250,18 +310,7 @@ pub fn write_lists(
             }),
         );
     }
-    let doc = json!({
-        "version": "VERSION 1.3",
-        "taxonomy": taxonomy.into_values().collect::<Vec<_>>(),
-        "database": db,
-    });
-    let mut text =
-        serde_json::to_string_pretty(&doc).map_err(|e| TrimError::Invalid(e.to_string()))?;
-    text.push('\n');
-    let path = ann.join("activitynet.json");
-    write_atomic(&path, text.as_bytes())?;
-    summary.files.push(path);
-    Ok(summary)
+    db
 }
 
 #[cfg(test)]

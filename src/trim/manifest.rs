@@ -53,11 +53,12 @@ impl Manifest {
             if line.iter().all(u8::is_ascii_whitespace) {
                 continue;
             }
-            let r: ClipRecord = serde_json::from_slice(line).map_err(|e| TrimError::Corrupt {
-                path: path.clone(),
-                line: i + 1,
-                detail: format!("not a clip record: {e}"),
-            })?;
+            let r: ClipRecord =
+                serde_json::from_slice(line).map_err(|source| TrimError::Corrupt {
+                    path: path.clone(),
+                    line: i + 1,
+                    source,
+                })?;
             records.insert(r.clip_id.clone(), r);
         }
         Ok(Manifest {
@@ -79,8 +80,7 @@ impl Manifest {
     /// [`TrimError::Io`] (e.g. a full disk; the line is then torn at worst, and dropped on the
     /// next open).
     pub fn append(&mut self, record: ClipRecord) -> Result<(), TrimError> {
-        let mut line =
-            serde_json::to_vec(&record).map_err(|e| TrimError::Invalid(e.to_string()))?;
+        let mut line = serde_json::to_vec(&record).map_err(TrimError::json(&self.path))?;
         line.push(b'\n');
         self.file
             .write_all(&line)

@@ -56,15 +56,16 @@ pub enum TrimError {
         #[source]
         source: std::io::Error,
     },
-    /// A file autoact wrote earlier holds something else than expected.
-    #[error("`{path}` line {line}: {detail}")]
+    /// A line of the manifest autoact wrote earlier is not a clip record.
+    #[error("`{path}` line {line}: not a clip record")]
     Corrupt {
         /// The file.
         path: PathBuf,
         /// 1-based line.
         line: usize,
-        /// What is wrong.
-        detail: String,
+        /// Why the line does not read as a record.
+        #[source]
+        source: serde_json::Error,
     },
     /// The dataset folder's class list differs from this capture's.
     #[error(
@@ -78,9 +79,78 @@ pub enum TrimError {
         /// What the capture has.
         new: Vec<String>,
     },
-    /// The settings cannot be used.
-    #[error("{0}")]
-    Invalid(String),
+    /// The capture bag's dataset record lists no class labels.
+    #[error("the capture bag lists no class labels (its `autoact.dataset` record has no `labels`)")]
+    NoLabels,
+    /// The capture bag's class labels are not sorted and unique (class ids are their order).
+    #[error("the class labels {labels:?} are not sorted and unique")]
+    LabelsUnsorted {
+        /// The labels as listed.
+        labels: Vec<String>,
+    },
+    /// A class label holds a line break (`classes.txt` has one label per line).
+    #[error("the class label {label:?} holds a line break")]
+    LabelLineBreak {
+        /// The label.
+        label: String,
+    },
+    /// A segment names a class id the capture's label list does not have.
+    #[error(
+        "`{bag}`: segment `{segment}` has label id {label_id}, but the dataset has {labels} labels"
+    )]
+    LabelIdOutOfRange {
+        /// The capture bag.
+        bag: PathBuf,
+        /// The segment's id.
+        segment: String,
+        /// Its class id.
+        label_id: u32,
+        /// How many labels the capture lists.
+        labels: usize,
+    },
+    /// Two segments of one capture sanitise to the same clip id.
+    #[error("`{bag}`: two segments give the clip id `{clip_id}`")]
+    DuplicateClipId {
+        /// The capture bag.
+        bag: PathBuf,
+        /// The shared clip id.
+        clip_id: String,
+    },
+    /// The dataset folder already holds this clip id, cut from another capture.
+    #[error(
+        "clip `{clip_id}` in `{dir}` was cut from capture `{existing_bag}`, not `{bag}`: trim each dataset of captures into its own folder"
+    )]
+    OtherCapture {
+        /// The clip id.
+        clip_id: String,
+        /// The dataset folder.
+        dir: PathBuf,
+        /// The capture bag (file name) the manifest records for it.
+        existing_bag: String,
+        /// The capture bag (file name) of this run.
+        bag: String,
+    },
+    /// A clip has no split (the split assignment missed it).
+    #[error("clip `{clip_id}` was given no split")]
+    NoSplit {
+        /// The clip id.
+        clip_id: String,
+    },
+    /// The split ratios cannot be used.
+    #[error("split ratios {ratios:?}: need three non-negative numbers, not all zero")]
+    SplitRatios {
+        /// Train, validation and test ratios as given.
+        ratios: [f64; 3],
+    },
+    /// A record could not be encoded as JSON for a file.
+    #[error("cannot encode JSON for `{path}`")]
+    Json {
+        /// The file it was meant for.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: serde_json::Error,
+    },
 }
 
 impl TrimError {
@@ -95,6 +165,12 @@ impl TrimError {
             path,
             source,
         }
+    }
+
+    /// A mapper from a JSON encoding error to [`TrimError::Json`] for the file `path`.
+    pub fn json(path: &std::path::Path) -> impl FnOnce(serde_json::Error) -> TrimError + use<> {
+        let path = path.to_path_buf();
+        move |source| TrimError::Json { path, source }
     }
 }
 

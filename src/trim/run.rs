@@ -1,16 +1,18 @@
 //! One trim run: a capture bag and its video → clips in the dataset folder, the manifest
 //! extended, every list rewritten from it.
 
-use std::path::Path;
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::lists::{ListSummary, ensure_classes, write_lists};
 use super::manifest::Manifest;
-use super::plan::{Truncated, VideoTiming, frame_ranges};
+use super::plan::{FrameRange, Truncated, VideoTiming, frame_ranges};
 use super::split::{SplitConfig, assign, fnv1a};
 use super::{ClipRecord, TrimError, label_dirs, sanitize_name};
 
 use crate::bags::capture::Capture;
+use crate::ros::autoact_msgs::Segment;
 
 use crate::video::{
     CutMethod, CutRequest, Ffmpeg, Rational, ReencodeSettings, VideoError, cut, keyframe_frames,
@@ -87,171 +89,296 @@ pub fn trim_capture(
     progress: &dyn Fn(usize, usize),
     stop: &AtomicBool,
 ) -> Result<TrimSummary, RunError> {
-    let VideoSource {
-        path: video,
-        frame0_nanos,
-        fps,
-    } = *source;
-    let (frame_count, keyframes) = keyframe_frames(ffmpeg, video)?;
+    let (frame_count, keyframes) = keyframe_frames(ffmpeg, source.path)?;
     let timing = VideoTiming {
-        frame0_nanos,
-        fps,
+        frame0_nanos: source.frame0_nanos,
+        fps: source.fps,
         frame_count,
     };
     std::fs::create_dir_all(dir).map_err(TrimError::io("create", dir))?;
     ensure_classes(dir, &capture.labels)?;
-    let dirs = label_dirs(&capture.labels);
     let mut manifest = Manifest::open(dir)?;
     let (ranges, truncated) = frame_ranges(&capture.segments, &timing);
     let mut summary = TrimSummary {
         truncated,
         ..TrimSummary::default()
     };
-    let capture_video = crate::file_name(video);
-    let capture_bag = crate::file_name(&capture.path);
-    let duration_s = frame_count as f64 / fps.as_f64();
-    let resolution = crate::video::probe_size(ffmpeg, video)
-        .map(|(w, h)| format!("{w}x{h}"))
-        .unwrap_or_default();
-    let fps_f = fps.as_f64();
-
-    let mut seen = std::collections::BTreeSet::new();
-    let total = ranges.len();
-    let mut result: Result<(), RunError> = Ok(());
-    for (done, range) in ranges.iter().enumerate() {
-        progress(done, total);
-        if stop.load(Ordering::Relaxed) {
-            result = Err(RunError::Interrupted);
-            break;
+    let run = Run {
+        ffmpeg,
+        capture,
+        video: source.path,
+        fps: source.fps,
+        keyframes,
+        dir,
+        options,
+        label_dirs: label_dirs(&capture.labels),
+        capture_video: crate::file_name(source.path),
+        capture_bag: crate::file_name(&capture.path),
+        duration_s: frame_count as f64 / source.fps.as_f64(),
+        resolution: crate::video::probe_size(ffmpeg, source.path)
+            .map(|(w, h)| format!("{w}x{h}"))
+            .unwrap_or_default(),
+    };
+    let result = run.cut_all(&ranges, &mut manifest, &mut summary, progress, stop);
+    progress(ranges.len(), ranges.len());
+    // Lists from what is complete, whatever happened above.
+    let lists = rewrite_lists(dir, &manifest, &options.split);
+    match (result, lists) {
+        (Ok(()), Ok(lists)) => {
+            summary.lists = lists;
+            Ok(summary)
         }
-        let seg = &capture.segments[range.segment];
-        let label_id = seg.label_id as usize;
-        let (Some(label), Some(label_dir)) = (capture.labels.get(label_id), dirs.get(label_id))
+        (Ok(()), Err(e)) => Err(e.into()),
+        (Err(e), lists) => {
+            if let Err(l) = lists {
+                tracing::warn!("the lists could not be rewritten either (the old ones stay): {l}");
+            }
+            Err(e)
+        }
+    }
+}
+
+/// Every list rewritten from the manifest's clips whose file is on disk, split anew.
+fn rewrite_lists(
+    dir: &Path,
+    manifest: &Manifest,
+    split: &SplitConfig,
+) -> Result<ListSummary, TrimError> {
+    let complete: BTreeMap<String, ClipRecord> = manifest
+        .records()
+        .iter()
+        .filter(|(_, r)| dir.join(&r.video).is_file())
+        .map(|(k, r)| (k.clone(), r.clone()))
+        .collect();
+    let splits = assign(&complete.values().cloned().collect::<Vec<_>>(), split)?;
+    write_lists(dir, &complete, &splits)
+}
+
+/// What every clip of one run shares: the capture, its video and the dataset folder.
+struct Run<'a> {
+    ffmpeg: &'a Ffmpeg,
+    capture: &'a Capture,
+    video: &'a Path,
+    fps: Rational,
+    /// The video's keyframes (frame indices, sorted): where a stream copy can start.
+    keyframes: Vec<u64>,
+    dir: &'a Path,
+    options: &'a TrimOptions,
+    /// The folder name of each class.
+    label_dirs: Vec<String>,
+    /// The capture video's file name.
+    capture_video: String,
+    /// The capture bag's file name.
+    capture_bag: String,
+    /// The capture video's length, seconds.
+    duration_s: f64,
+    /// The capture video's size, `WxH` (empty if unknown).
+    resolution: String,
+}
+
+/// Where one segment's clip goes.
+struct ClipTarget<'a> {
+    segment: &'a Segment,
+    label: &'a String,
+    label_dir: &'a String,
+    clip_id: String,
+    /// The clip, relative to the dataset folder.
+    video: String,
+    /// The clip's path.
+    out: PathBuf,
+}
+
+impl Run<'_> {
+    /// Cuts the clip of each range in turn, appending each to the manifest as it completes;
+    /// stops at the first error, or when `stop` is set.
+    fn cut_all(
+        &self,
+        ranges: &[FrameRange],
+        manifest: &mut Manifest,
+        summary: &mut TrimSummary,
+        progress: &dyn Fn(usize, usize),
+        stop: &AtomicBool,
+    ) -> Result<(), RunError> {
+        let mut seen = BTreeSet::new();
+        for (done, range) in ranges.iter().enumerate() {
+            progress(done, ranges.len());
+            if stop.load(Ordering::Relaxed) {
+                return Err(RunError::Interrupted);
+            }
+            let target = self.target(range, &mut seen)?;
+            if self.is_complete(manifest, &target, range)? {
+                summary.skipped += 1;
+                continue;
+            }
+            let (method, rawframes) = self.cut_clip(&target, range)?;
+            match method {
+                CutMethod::StreamCopy => summary.copied += 1,
+                CutMethod::Reencode => summary.reencoded += 1,
+            }
+            summary.frames_cut += range.frame_count;
+            manifest.append(self.record(target, range, method, rawframes))?;
+        }
+        Ok(())
+    }
+
+    /// The segment of `range`, its class and its clip's id and path; `seen` collects the clip
+    /// ids so far.
+    fn target(
+        &self,
+        range: &FrameRange,
+        seen: &mut BTreeSet<String>,
+    ) -> Result<ClipTarget<'_>, TrimError> {
+        let capture = self.capture;
+        let segment = &capture.segments[range.segment];
+        let label_id = segment.label_id as usize;
+        let (Some(label), Some(label_dir)) =
+            (capture.labels.get(label_id), self.label_dirs.get(label_id))
         else {
-            result = Err(TrimError::Invalid(format!(
-                "`{}`: segment `{}` has label id {}, but the dataset has {} labels",
-                capture.path.display(),
-                seg.id,
-                seg.label_id,
-                capture.labels.len()
-            ))
-            .into());
-            break;
+            return Err(TrimError::LabelIdOutOfRange {
+                bag: capture.path.clone(),
+                segment: segment.id.clone(),
+                label_id: segment.label_id,
+                labels: capture.labels.len(),
+            });
         };
-        if label != &seg.action {
+        if label != &segment.action {
             tracing::warn!(
                 "segment `{}`: action `{}` but label id {label_id} is `{label}`; using the id",
-                seg.id,
-                seg.action
+                segment.id,
+                segment.action
             );
         }
-        let clip_id = sanitize_name(&seg.id.replace('/', "-"));
+        let clip_id = sanitize_name(&segment.id.replace('/', "-"));
         if !seen.insert(clip_id.clone()) {
-            result = Err(TrimError::Invalid(format!(
-                "`{}`: two segments give the clip id `{clip_id}`",
-                capture.path.display()
-            ))
-            .into());
-            break;
+            return Err(TrimError::DuplicateClipId {
+                bag: capture.path.clone(),
+                clip_id,
+            });
         }
-        let rel = format!("{VIDEOS_DIR}/{label_dir}/{clip_id}.mp4");
-        let out = dir.join(&rel);
-        if let Some(r) = manifest.records().get(&clip_id)
-            && r.capture_bag != capture_bag
-        {
-            result = Err(TrimError::Invalid(format!(
-                "clip `{clip_id}` in `{}` was cut from capture `{}`, not `{capture_bag}`: trim each dataset of captures into its own folder",
-                dir.display(),
-                r.capture_bag
-            ))
-            .into());
-            break;
+        let video = format!("{VIDEOS_DIR}/{label_dir}/{clip_id}.mp4");
+        Ok(ClipTarget {
+            segment,
+            label,
+            label_dir,
+            out: self.dir.join(&video),
+            clip_id,
+            video,
+        })
+    }
+
+    /// Whether the manifest holds `target` complete from an earlier run: the same clip of the
+    /// same video, at the same place, with its frames if they are asked for.
+    ///
+    /// # Errors
+    /// [`TrimError::OtherCapture`] if the manifest's clip of that id is from another capture.
+    fn is_complete(
+        &self,
+        manifest: &Manifest,
+        target: &ClipTarget<'_>,
+        range: &FrameRange,
+    ) -> Result<bool, TrimError> {
+        let Some(r) = manifest.records().get(&target.clip_id) else {
+            return Ok(false);
+        };
+        if r.capture_bag != self.capture_bag {
+            return Err(TrimError::OtherCapture {
+                clip_id: target.clip_id.clone(),
+                dir: self.dir.to_path_buf(),
+                existing_bag: r.capture_bag.clone(),
+                bag: self.capture_bag.clone(),
+            });
         }
-        // Complete from an earlier run: the same clip of the same video, at the same place.
-        if let Some(r) = manifest.records().get(&clip_id)
-            && r.video == rel
+        Ok(r.video == target.video
             && r.frame_count == range.frame_count
             && r.start_frame == range.start_frame
-            && r.capture_video == capture_video
-            && out.is_file()
-            && (!options.rawframes || r.rawframes.is_some())
-        {
-            summary.skipped += 1;
-            continue;
+            && r.capture_video == self.capture_video
+            && target.out.is_file()
+            && (!self.options.rawframes || r.rawframes.is_some()))
+    }
+
+    /// One segment → one clip: by stream copy where its first frame is a keyframe (and
+    /// re-encoding is not forced), re-encoded otherwise or when the copy does not hold exactly
+    /// its frames ([`cut`] verifies the count); then its frames, with `--rawframes`. Returns how
+    /// it was cut and its frames' folder, relative to the dataset folder.
+    fn cut_clip(
+        &self,
+        target: &ClipTarget<'_>,
+        range: &FrameRange,
+    ) -> Result<(CutMethod, Option<String>), RunError> {
+        let out = &target.out;
+        if let Some(parent) = out.parent() {
+            std::fs::create_dir_all(parent).map_err(TrimError::io("create", parent))?;
         }
-        if let Some(parent) = out.parent()
-            && let Err(source) = std::fs::create_dir_all(parent)
-        {
-            result = Err(TrimError::io("create", parent)(source).into());
-            break;
-        }
-        let copy_ok =
-            !options.force_reencode && keyframes.binary_search(&range.start_frame).is_ok();
+        let copy_ok = !self.options.force_reencode
+            && self.keyframes.binary_search(&range.start_frame).is_ok();
         let request = |method| CutRequest {
-            input: video,
-            output: &out,
+            input: self.video,
+            output: out,
             start_frame: range.start_frame,
             frame_count: range.frame_count,
-            fps,
+            fps: self.fps,
             method,
         };
-        let mut clip = if copy_ok {
-            cut(ffmpeg, &request(CutMethod::StreamCopy), &options.reencode)
+        let reencode = &self.options.reencode;
+        let method = if copy_ok {
+            CutMethod::StreamCopy
         } else {
-            cut(ffmpeg, &request(CutMethod::Reencode), &options.reencode)
+            CutMethod::Reencode
         };
+        let mut clip = cut(self.ffmpeg, &request(method), reencode);
         if copy_ok && matches!(clip, Err(VideoError::FrameCountMismatch { .. })) {
-            tracing::info!(clip = clip_id, "stream copy was not exact; re-encoding");
-            clip = cut(ffmpeg, &request(CutMethod::Reencode), &options.reencode);
+            tracing::info!(
+                clip = target.clip_id,
+                "stream copy was not exact; re-encoding"
+            );
+            clip = cut(self.ffmpeg, &request(CutMethod::Reencode), reencode);
         }
-        let clip = match clip {
-            Ok(c) => c,
-            Err(e) => {
-                result = Err(e.into());
-                break;
-            }
-        };
-        let rawframes = if options.rawframes {
-            let rel_frames = format!("{RAWFRAMES_DIR}/{label_dir}/{clip_id}");
-            if let Err(e) = crate::video::extract_frames(
-                ffmpeg,
-                &out,
-                &dir.join(&rel_frames),
-                range.frame_count,
-            ) {
-                result = Err(e.into());
-                break;
-            }
-            Some(rel_frames)
-        } else {
-            None
-        };
-        match clip.method {
-            CutMethod::StreamCopy => summary.copied += 1,
-            CutMethod::Reencode => summary.reencoded += 1,
+        let clip = clip?;
+        if !self.options.rawframes {
+            return Ok((clip.method, None));
         }
-        summary.frames_cut += range.frame_count;
+        let rel_frames = format!("{RAWFRAMES_DIR}/{}/{}", target.label_dir, target.clip_id);
+        crate::video::extract_frames(
+            self.ffmpeg,
+            out,
+            &self.dir.join(&rel_frames),
+            range.frame_count,
+        )?;
+        Ok((clip.method, Some(rel_frames)))
+    }
+
+    /// The manifest record of a clip cut by `method`.
+    fn record(
+        &self,
+        target: ClipTarget<'_>,
+        range: &FrameRange,
+        method: CutMethod,
+        rawframes: Option<String>,
+    ) -> ClipRecord {
+        let capture = self.capture;
+        let seg = target.segment;
+        let fps_f = self.fps.as_f64();
         let scene = capture.scenes.iter().find(|s| s.scene_id == seg.scene_id);
         let look = scene
             .and_then(|s| serde_json::to_value(&s.scene.look).ok())
             .unwrap_or(serde_json::Value::Null);
-        let record = ClipRecord {
-            clip_id: clip_id.clone(),
-            video: rel,
+        ClipRecord {
+            clip_id: target.clip_id,
+            video: target.video,
             rawframes,
-            label: label.clone(),
+            label: target.label.clone(),
             label_id: seg.label_id,
-            label_dir: label_dir.clone(),
+            label_dir: target.label_dir.clone(),
             frame_count: range.frame_count,
             fps: fps_f,
             start_s: range.start_frame as f64 / fps_f,
             end_s: (range.start_frame + range.frame_count) as f64 / fps_f,
             start_frame: range.start_frame,
-            method: clip.method,
-            capture_video: capture_video.clone(),
-            capture_duration_s: duration_s,
-            capture_resolution: resolution.clone(),
-            capture_bag: capture_bag.clone(),
+            method,
+            capture_video: self.capture_video.clone(),
+            capture_duration_s: self.duration_s,
+            capture_resolution: self.resolution.clone(),
+            capture_bag: self.capture_bag.clone(),
             session: capture.session.clone(),
             segment_id: seg.id.clone(),
             category: seg.category.clone(),
@@ -271,36 +398,6 @@ pub fn trim_capture(
             character_look: look,
             camera: format!("{}/c{}", seg.scene_id, seg.viewpoint),
             seed: capture.seed,
-        };
-        if let Err(e) = manifest.append(record) {
-            result = Err(e.into());
-            break;
-        }
-    }
-    progress(total, total);
-    // Lists from what is complete, whatever happened above.
-    let complete: std::collections::BTreeMap<String, ClipRecord> = manifest
-        .records()
-        .iter()
-        .filter(|(_, r)| dir.join(&r.video).is_file())
-        .map(|(k, r)| (k.clone(), r.clone()))
-        .collect();
-    let lists = assign(
-        &complete.values().cloned().collect::<Vec<_>>(),
-        &options.split,
-    )
-    .and_then(|splits| write_lists(dir, &complete, &splits));
-    match (result, lists) {
-        (Ok(()), Ok(lists)) => {
-            summary.lists = lists;
-            Ok(summary)
-        }
-        (Ok(()), Err(e)) => Err(e.into()),
-        (Err(e), lists) => {
-            if let Err(l) = lists {
-                tracing::warn!("the lists could not be rewritten either (the old ones stay): {l}");
-            }
-            Err(e)
         }
     }
 }

@@ -124,7 +124,7 @@ pub use crate::dataset::plan::stream_of as fnv1a;
 /// The split of every clip, by clip id.
 ///
 /// # Errors
-/// [`TrimError::Invalid`] for ratios that are negative, not finite or all zero.
+/// [`TrimError::SplitRatios`] for ratios that are negative, not finite or all zero.
 pub fn assign(
     clips: &[ClipRecord],
     config: &SplitConfig,
@@ -132,10 +132,9 @@ pub fn assign(
     let [tr, va, te] = config.ratios;
     let sum = tr + va + te;
     if !config.ratios.iter().all(|r| r.is_finite() && *r >= 0.0) || sum <= 0.0 {
-        return Err(TrimError::Invalid(format!(
-            "split ratios {:?}: need three non-negative numbers, not all zero",
-            config.ratios
-        )));
+        return Err(TrimError::SplitRatios {
+            ratios: config.ratios,
+        });
     }
     let (val, test) = (va / sum, te / sum);
     let mut out = BTreeMap::new();
