@@ -5,8 +5,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 
-use super::{BagOutput, Outcome, OutputArgs, print_stdout};
+use super::{Outcome, OutputArgs, print_stdout};
 use crate::bags;
+use crate::bags::output::BagOutput;
 use crate::file_name;
 use crate::formats::{bvh, bvh_map::BvhMapping, h36m_expmap, mmpose_json, ntu, zed_mat};
 use crate::skeleton::frames::SourceAxes;
@@ -127,7 +128,7 @@ pub fn run(args: Args) -> Result<Outcome> {
     metadata.insert("rate".to_string(), rate);
     metadata.insert("category".to_string(), category.unwrap_or_default());
     metadata.insert("action".to_string(), action.unwrap_or_default());
-    let mut out = BagOutput::create(&output)?;
+    let mut out = BagOutput::create(&output.options())?;
     let written = bags::pose::write_pose_bag(&mut out.writer, &sequences, &layout_name, metadata)?;
     let stats = out.finish()?;
     let (start, end) = stats.time_range.unwrap_or((0, 0));
