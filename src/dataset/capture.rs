@@ -151,8 +151,8 @@ pub fn convert_source(
 }
 
 /// The key frames, body and coverage of one person of a bag: a pose bag is converted (its own
-/// layout), and what of it could not be used is listed; an animation bag is read back
-/// ([`crate::bags::animation::read_animation`]).
+/// layout); an animation bag is read back ([`crate::bags::animation::read_animation`]). Either
+/// way, what of the bag could not be used is listed (of an animation bag: its unreadable parts).
 fn read_source(rig: &Rig, path: &Path, track: Option<u64>) -> Result<Source, SourceError> {
     let readers = BagReader::open_all(path).map_err(SourceError::Open)?;
     let is_animation = readers.iter().any(|r| {
@@ -164,11 +164,15 @@ fn read_source(rig: &Rig, path: &Path, track: Option<u64>) -> Result<Source, Sou
     if is_animation {
         let (keys, character, coverage) =
             read_animation(rig, &readers, track).map_err(SourceError::Animation)?;
+        // The animation reader passes over what it cannot read; those parts are lost all the same.
+        let issues = readers
+            .iter()
+            .flat_map(|r| r.messages().filter_map(Result::err));
         return Ok(Source {
             keys,
             character,
             coverage,
-            losses: Losses::new(),
+            losses: Losses::from_read_issues(issues),
         });
     }
     let topics = bags::pose::read_pose_topics(path, None, None)?;
@@ -571,5 +575,59 @@ mod tests {
         for name in &pose_cov.at_rest {
             assert!(anim_cov.at_rest.contains(name), "{name}");
         }
+    }
+
+    #[test]
+    fn an_animation_bag_source_with_an_unreadable_chunk_reports_it_as_lost() {
+        use crate::mcap_io::{BagWriter, Compression};
+        let rig = Rig::standard();
+        let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("bags/bandai_wave.anim.mcap");
+        // The sample re-chunked small, so that damage can hit one chunk.
+        let dir = tempfile::tempdir().unwrap();
+        let copy = dir.path().join("damaged.anim.mcap");
+        let config = WriteConfig {
+            compression: Compression::Zstd,
+            chunk_size_bytes: 4096,
+        };
+        let mut w = BagWriter::create(&copy, config).unwrap();
+        for m in BagReader::open(&sample).unwrap().messages() {
+            let m = m.unwrap();
+            let schema = m.channel.schema.clone().unwrap();
+            w.write_raw(
+                &m.channel.topic,
+                &schema.name,
+                || String::from_utf8_lossy(&schema.data).into_owned(),
+                m.log_time,
+                m.publish_time,
+                &m.data,
+            )
+            .unwrap();
+        }
+        w.finish().unwrap();
+        let clean = read_source(&rig, &copy, None).unwrap();
+        assert!(clean.losses.is_empty());
+
+        let mut bytes = std::fs::read(&copy).unwrap();
+        let chunk = |at: usize| u64::from_le_bytes(bytes[at + 1..at + 9].try_into().unwrap());
+        // The second chunk record: magic (8 bytes), then records of op (1) + length (8) + body.
+        let (mut at, mut chunks) = (8, 0);
+        while chunks < 2 {
+            if bytes[at] == 0x06 {
+                chunks += 1;
+            }
+            if chunks < 2 {
+                at += 9 + usize::try_from(chunk(at)).unwrap();
+            }
+        }
+        let end = at + 9 + usize::try_from(chunk(at)).unwrap();
+        bytes[end - 30] ^= 0xff;
+        std::fs::write(&copy, &bytes).unwrap();
+        let damaged = read_source(&rig, &copy, None).unwrap();
+        assert!(damaged.keys.len() < clean.keys.len());
+        let lost: Vec<String> = damaged.losses.iter().map(ToString::to_string).collect();
+        // The chunk itself, then (where it held a channel's definition) each message on that
+        // channel.
+        assert!(lost[0].contains("damaged.anim.mcap: chunk 2"), "{lost:?}");
+        assert!(lost.iter().all(|l| l.contains("damaged.anim.mcap")));
     }
 }
