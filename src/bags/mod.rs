@@ -7,9 +7,11 @@
 //! | [`capture`] | `.capture.mcap` | `convert --spec` | `render`, `trim`, `export` |
 //! | [`render`] | `.render.mcap` | `render` | `trim` |
 //!
-//! The MCAP layer under all four (chunks, schemas, metadata, recovery) is [`crate::mcap_io`].
+//! The MCAP layer under all four (chunks, schemas, metadata, recovery) is [`crate::mcap_io`];
+//! [`output`] opens the file a command writes one bag into (bare `.mcap` or rosbag2 directory).
 
 pub mod animation;
 pub mod capture;
+pub mod output;
 pub mod pose;
 pub mod render;

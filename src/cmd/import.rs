@@ -4,8 +4,9 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 
-use super::{BagOutput, Outcome, OutputArgs, print_stdout};
+use super::{Outcome, OutputArgs, print_stdout};
 use crate::bags;
+use crate::bags::output::BagOutput;
 use crate::formats::import::{self, ImportOptions, Imported, InputFormat};
 use crate::skeleton::frames::SourceAxes;
 
@@ -94,7 +95,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         layout: layout_name,
         ..
     } = imported;
-    let mut out = BagOutput::create(&output)?;
+    let mut out = BagOutput::create(&output.options())?;
     let written = bags::pose::write_pose_bag(&mut out.writer, &sequences, &layout_name, metadata)?;
     let stats = out.finish()?;
     let (start, end) = stats.time_range.unwrap_or((0, 0));

@@ -17,9 +17,9 @@ pub mod trim;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::Context;
-
-use crate::mcap_io::{BagStats, BagWriter, Compression, FileSink, WriteConfig};
+use crate::bags::output::OutputOptions;
+use crate::loss::Losses;
+use crate::mcap_io::Compression;
 pub(crate) use crate::table::table;
 
 /// Exit code for a failure that produced no usable result.
@@ -39,6 +39,16 @@ pub enum Outcome {
 }
 
 impl Outcome {
+    /// The one rule for lost input: done, and exit code 3 when any input was lost.
+    #[must_use]
+    pub fn from_losses(losses: &Losses) -> Outcome {
+        if losses.is_empty() {
+            Outcome::Success
+        } else {
+            Outcome::DataLost
+        }
+    }
+
     /// The process exit code for this outcome.
     #[must_use]
     pub fn exit_code(self) -> ExitCode {
@@ -117,75 +127,16 @@ pub struct OutputArgs {
     pub write_expected_json: bool,
 }
 
-/// An open output bag and how to finish it.
-pub(crate) struct BagOutput {
-    pub writer: BagWriter<FileSink>,
-    mcap_path: PathBuf,
-    args: OutputArgs,
-}
-
-impl BagOutput {
-    /// Creates the output (and the rosbag2 directory if asked).
-    pub fn create(args: &OutputArgs) -> anyhow::Result<BagOutput> {
-        let mcap_path = if args.rosbag2 {
-            std::fs::create_dir_all(&args.output).with_context(|| {
-                format!(
-                    "cannot create the rosbag2 directory {}",
-                    args.output.display()
-                )
-            })?;
-            let name = args
-                .output
-                .file_name()
-                .map_or_else(|| "bag".to_string(), |n| n.to_string_lossy().into_owned());
-            args.output.join(format!("{name}_0.mcap"))
-        } else {
-            args.output.clone()
-        };
-        let mut writer = BagWriter::create(
-            &mcap_path,
-            WriteConfig {
-                compression: args.compression,
-                ..WriteConfig::default()
-            },
-        )?;
-        if args.write_expected_json {
-            writer.keep_journal();
+impl OutputArgs {
+    /// The library's output options.
+    #[must_use]
+    pub fn options(&self) -> OutputOptions {
+        OutputOptions {
+            path: self.output.clone(),
+            compression: self.compression,
+            rosbag2: self.rosbag2,
+            journal: self.write_expected_json,
         }
-        Ok(BagOutput {
-            writer,
-            mcap_path,
-            args: args.clone(),
-        })
-    }
-
-    /// Finishes the file (and `metadata.yaml`, and the journal); returns what was written.
-    pub fn finish(self) -> anyhow::Result<BagStats> {
-        let BagOutput {
-            writer,
-            mcap_path,
-            args,
-        } = self;
-        let stats = if args.write_expected_json {
-            // The interop contract: `X.mcap` ↔ `X.expected.json`, directory `D` ↔ `D.expected.json`.
-            let journal = if args.rosbag2 {
-                let mut p = args.output.clone().into_os_string();
-                p.push(".expected.json");
-                PathBuf::from(p)
-            } else {
-                args.output.with_extension("expected.json")
-            };
-            writer.finish_with_journal(&journal)?
-        } else {
-            writer.finish()?
-        };
-        if args.rosbag2 {
-            let name = mcap_path
-                .file_name()
-                .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-            crate::mcap_io::write_rosbag2_metadata(&args.output, &[(name, stats.clone())])?;
-        }
-        Ok(stats)
     }
 }
 

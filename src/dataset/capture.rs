@@ -5,24 +5,26 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use super::plan::{Plan, SceneNode};
+use super::plan::{Leaf, Plan, SceneNode, Session};
 use super::spec::Spec;
 use crate::bags;
 use crate::bags::animation::{TrackWriter, read_animation};
 use crate::bags::capture::CaptureWriter;
-use crate::camera::{Intrinsics, Subject, Viewpoint, camera_at, framing_band};
+use crate::bags::pose::PoseBagError;
+use crate::camera::{CameraError, Intrinsics, Subject, Viewpoint, camera_at, framing_band};
 use crate::dsi::smoothing::Smoothing;
-use crate::dsi::{self, DsiOptions, Pace};
+use crate::dsi::{self, DsiError, DsiOptions, Pace};
+use crate::loss::Losses;
 use crate::mcap_io::{BagReader, McapIoError, WriteConfig};
 use crate::ros::RosMessage;
 use crate::ros::autoact_msgs::{BoneFrame, SceneState, Segment};
 use crate::ros::builtin_interfaces::Time;
 use crate::ros::std_msgs::Header;
 use crate::skeleton::character::Character;
-use crate::skeleton::convert::{AnimationFrame, ConvertOptions, convert_sequence};
+use crate::skeleton::convert::{AnimationFrame, ConvertError, ConvertOptions, convert_sequence};
 use crate::skeleton::fk::BonePose;
 use crate::skeleton::frames::WORLD_FRAME;
-use crate::skeleton::layout::{Coverage, Layout};
+use crate::skeleton::layout::{Coverage, Layout, LayoutError};
 use crate::skeleton::pose::stamp_nanos_at;
 use crate::skeleton::rig::Rig;
 
@@ -30,21 +32,58 @@ use crate::skeleton::rig::Rig;
 #[derive(Debug, thiserror::Error)]
 pub enum CaptureError {
     /// A source bag that cannot be turned into an animation.
-    #[error("{key} ({path}): {message}")]
+    #[error("{key} ({path})")]
     Source {
         /// `class[k].sources[i]`.
         key: String,
         /// The bag.
         path: PathBuf,
         /// Why.
-        message: String,
+        source: Box<SourceError>,
     },
-    /// The plan could not be made.
-    #[error("{0}")]
-    Plan(String),
+    /// The dataset's camera (resolution, field of view) cannot be made.
+    #[error(transparent)]
+    Camera(CameraError),
+    /// A scene's character, staged, cannot be framed by the camera.
+    #[error("{scene_id}")]
+    Framing {
+        /// The scene.
+        scene_id: String,
+        /// Why.
+        source: CameraError,
+    },
     /// Writing failed.
     #[error(transparent)]
     Write(#[from] McapIoError),
+}
+
+/// Why one source cannot be turned into an animation.
+#[derive(Debug, thiserror::Error)]
+pub enum SourceError {
+    /// The bag cannot be opened.
+    #[error(transparent)]
+    Open(McapIoError),
+    /// An animation bag whose frames cannot be read back (the reader's message).
+    #[error("{0}")]
+    Animation(String),
+    /// A pose bag whose pose topics cannot be read.
+    #[error(transparent)]
+    PoseTopics(#[from] PoseBagError),
+    /// No person with the spec's track id has frames.
+    #[error("no person with track id {0}")]
+    NoTrack(u64),
+    /// No pose topic has frames.
+    #[error("no pose topic with frames")]
+    NoFrames,
+    /// The layout the messages name cannot be loaded.
+    #[error(transparent)]
+    Layout(#[from] LayoutError),
+    /// The poses cannot be solved.
+    #[error(transparent)]
+    Convert(#[from] ConvertError),
+    /// DSI failed on the animation.
+    #[error(transparent)]
+    Dsi(#[from] DsiError),
 }
 
 /// One source animation, converted: its variants at the output rate and the body it was solved
@@ -57,11 +96,22 @@ pub struct Converted {
     pub character: Character,
     /// Which bones the source drives.
     pub coverage: Coverage,
+    /// What of the source could not be used (a pose bag's unreadable parts, skipped messages
+    /// and dropped frames).
+    pub losses: Losses,
+}
+
+/// One source read: its key frames, body, coverage and what of it was lost.
+struct Source {
+    keys: Vec<AnimationFrame>,
+    character: Character,
+    coverage: Coverage,
+    losses: Losses,
 }
 
 /// Reads one source (a pose bag or an animation bag) and runs DSI on it with the spec's
 /// options; the variants' seed mixes the dataset seed with the animation's name, so two
-/// animations never share perturbations.
+/// animations never share perturbations. What of the source was lost is returned, not logged.
 ///
 /// # Errors
 /// [`CaptureError::Source`] naming the source.
@@ -73,12 +123,12 @@ pub fn convert_source(
     animation_name: &str,
 ) -> Result<Converted, CaptureError> {
     let s = &spec.sources[class][source];
-    let err = |message: String| CaptureError::Source {
+    let err = |why: SourceError| CaptureError::Source {
         key: format!("class[{class}].sources[{source}]"),
         path: s.path.clone(),
-        message,
+        source: Box::new(why),
     };
-    let (keys, character, coverage) = read_source(rig, &s.path, s.track).map_err(err)?;
+    let read = read_source(rig, &s.path, s.track).map_err(err)?;
     let mut options = DsiOptions::new(rig);
     options.out_fps = spec.file.dataset.fps;
     options.pace = Pace::Speed(spec.file.dsi.speed);
@@ -87,26 +137,24 @@ pub fn convert_source(
     options.variants = u64::from(spec.file.counts.variants.saturating_sub(1));
     options.bounds = spec.variation;
     options.seed = spec.file.dataset.seed ^ super::plan::stream_of(animation_name);
-    let out = dsi::run(rig, &keys, &options).map_err(|e| err(e.to_string()))?;
+    let out = dsi::run(rig, &read.keys, &options).map_err(|e| err(e.into()))?;
     Ok(Converted {
         variants: out
             .animations
             .into_iter()
             .map(|frames| frames.into_iter().map(|f| f.pose).collect())
             .collect(),
-        character,
-        coverage,
+        character: read.character,
+        coverage: read.coverage,
+        losses: read.losses,
     })
 }
 
 /// The key frames, body and coverage of one person of a bag: a pose bag is converted (its own
-/// layout); an animation bag is read back ([`crate::bags::animation::read_animation`]).
-fn read_source(
-    rig: &Rig,
-    path: &Path,
-    track: Option<u64>,
-) -> Result<(Vec<AnimationFrame>, Character, Coverage), String> {
-    let readers = BagReader::open_all(path).map_err(|e| e.to_string())?;
+/// layout); an animation bag is read back ([`crate::bags::animation::read_animation`]). Either
+/// way, what of the bag could not be used is listed (of an animation bag: its unreadable parts).
+fn read_source(rig: &Rig, path: &Path, track: Option<u64>) -> Result<Source, SourceError> {
+    let readers = BagReader::open_all(path).map_err(SourceError::Open)?;
     let is_animation = readers.iter().any(|r| {
         r.messages()
             .take(64)
@@ -114,34 +162,44 @@ fn read_source(
             .any(|m| m.channel.schema_name() == BoneFrame::TYPE_NAME)
     });
     if is_animation {
-        return read_animation(rig, &readers, track);
+        let (keys, character, coverage) =
+            read_animation(rig, &readers, track).map_err(SourceError::Animation)?;
+        // The animation reader passes over what it cannot read; those parts are lost all the same.
+        let issues = readers
+            .iter()
+            .flat_map(|r| r.messages().filter_map(Result::err));
+        return Ok(Source {
+            keys,
+            character,
+            coverage,
+            losses: Losses::from_read_issues(issues),
+        });
     }
-    let topics = bags::pose::read_pose_topics(path, None, None).map_err(|e| e.to_string())?;
-    if topics.lost_data() {
-        tracing::warn!(
-            "{}: {} unreadable parts, {} skipped messages; using the rest",
-            path.display(),
-            topics.issues.len(),
-            topics.skipped.len()
-        );
-    }
-    let (index, (_, seq)) = topics
+    let topics = bags::pose::read_pose_topics(path, None, None)?;
+    let mut losses = Losses::from_pose_topics(&topics);
+    let (index, (topic, seq)) = topics
         .sequences
         .iter()
         .enumerate()
         .find(|(_, (_, seq))| track.is_none_or(|t| seq.track_id == t) && !seq.frames.is_empty())
-        .ok_or_else(|| match track {
-            Some(t) => format!("no person with track id {t}"),
-            None => "no pose topic with frames".to_string(),
+        .ok_or(match track {
+            Some(t) => SourceError::NoTrack(t),
+            None => SourceError::NoFrames,
         })?;
-    let layout = Layout::load(&topics.layouts[index]).map_err(|e| e.to_string())?;
-    let animation = convert_sequence(rig, &layout, seq, ConvertOptions::default())
-        .map_err(|e| e.to_string())?;
-    Ok((
-        animation.frames,
-        animation.character,
-        animation.report.coverage,
-    ))
+    let layout = Layout::load(&topics.layouts[index])?;
+    let animation = convert_sequence(rig, &layout, seq, ConvertOptions::default())?;
+    losses.append(Losses::non_monotonic(
+        &seq.source,
+        topic,
+        seq.track_id,
+        &animation.report.dropped_non_monotonic,
+    ));
+    Ok(Source {
+        keys: animation.frames,
+        character: animation.character,
+        coverage: animation.report.coverage,
+        losses,
+    })
 }
 
 /// One session bag written.
@@ -241,15 +299,18 @@ fn stage_scene(
             local_rotations: f.local_rotations.clone(),
         })
         .collect();
-    let subject = Subject::from_poses(rig, &character, &content, 1.0)
-        .map_err(|e| CaptureError::Plan(format!("{}: {e}", node.id)))?;
+    let framing = |source| CaptureError::Framing {
+        scene_id: node.id.clone(),
+        source,
+    };
+    let subject = Subject::from_poses(rig, &character, &content, 1.0).map_err(framing)?;
     let band = framing_band(
         intrinsics,
         &subject,
         spec.file.camera.margin,
         spec.file.camera.max_distance_m,
     )
-    .map_err(|e| CaptureError::Plan(format!("{}: {e}", node.id)))?;
+    .map_err(framing)?;
     Ok(Staged {
         writer: TrackWriter::new(rig, &character, &conv.coverage, 0, node.variant, ""),
         content,
@@ -275,16 +336,93 @@ pub fn write_sessions(
 ) -> Result<Vec<SessionWritten>, CaptureError> {
     let d = &spec.file.dataset;
     let intrinsics = Intrinsics::from_horizontal_fov(d.resolution[0], d.resolution[1], d.fov_deg)
-        .map_err(|e| CaptureError::Plan(e.to_string()))?;
-    let shot = spec.file.counts.shot;
-    let mut written = Vec::new();
-    for session in &plan.sessions {
+        .map_err(CaptureError::Camera)?;
+    let dataset = Dataset {
+        rig,
+        spec,
+        plan,
+        converted,
+        intrinsics,
+        fps: d.fps,
+    };
+    plan.sessions
+        .iter()
+        .map(|session| dataset.write_session(session, out_dir, config, journal))
+        .collect()
+}
+
+/// What every session of one dataset is written from.
+struct Dataset<'a> {
+    rig: &'a Rig,
+    spec: &'a Spec,
+    plan: &'a Plan,
+    converted: &'a [Converted],
+    intrinsics: Intrinsics,
+    fps: f64,
+}
+
+impl Dataset<'_> {
+    /// Writes one session's bag: its metadata, then clip by clip the scene (when it changes), the
+    /// segment and the frames.
+    fn write_session(
+        &self,
+        session: &Session,
+        out_dir: &Path,
+        config: WriteConfig,
+        journal: bool,
+    ) -> Result<SessionWritten, CaptureError> {
         let path = bags::capture::session_path(out_dir, &session.name);
+        let meta = self.session_metadata(session);
+        let mut w = CaptureWriter::create(&path, config, journal, meta, &self.intrinsics)?;
+        // The scene staged last, by its index in the plan.
+        let mut staged: Option<(usize, Staged)> = None;
+        let mut pushed_out = 0;
+        for leaf in &self.plan.leaves[session.leaves.clone()] {
+            let node = &self.plan.scenes[leaf.scene];
+            let start_nanos = nanos_at(leaf.start_frame, self.fps);
+            let scene = match staged.take() {
+                Some((index, s)) if index == leaf.scene => s,
+                _ => {
+                    let s = stage_scene(
+                        self.rig,
+                        self.spec,
+                        &self.intrinsics,
+                        node,
+                        &self.converted[node.animation],
+                    )?;
+                    let state = scene_state(
+                        self.spec,
+                        self.plan,
+                        node,
+                        &session.name,
+                        Time::from_nanos(start_nanos),
+                    );
+                    w.write_scene(start_nanos, &state, &s.writer)?;
+                    s
+                }
+            };
+            let scene = &mut staged.insert((leaf.scene, scene)).1;
+            w.write_segment(start_nanos, &self.segment(&session.name, leaf))?;
+            pushed_out += self.write_clip_frames(&mut w, leaf, scene)?;
+        }
+        w.finish(&path, journal)?;
+        Ok(SessionWritten {
+            path,
+            clips: session.leaves.len(),
+            frames: session.frames,
+            viewpoints_pushed_out: pushed_out,
+        })
+    }
+
+    /// The session's metadata record: the dataset, the session, the spec, the seed, the camera
+    /// and the labels.
+    fn session_metadata(&self, session: &Session) -> BTreeMap<String, String> {
+        let d = &self.spec.file.dataset;
         let mut meta = BTreeMap::new();
-        meta.insert("dataset".to_string(), plan.name.clone());
+        meta.insert("dataset".to_string(), self.plan.name.clone());
         meta.insert("session".to_string(), session.name.clone());
-        meta.insert("spec".to_string(), crate::file_name(&spec.path));
-        meta.insert("seed".to_string(), plan.seed.to_string());
+        meta.insert("spec".to_string(), crate::file_name(&self.spec.path));
+        meta.insert("seed".to_string(), self.plan.seed.to_string());
         meta.insert("fps".to_string(), d.fps.to_string());
         meta.insert(
             "resolution".to_string(),
@@ -293,108 +431,96 @@ pub fn write_sessions(
         meta.insert("fov_deg".to_string(), d.fov_deg.to_string());
         meta.insert(
             "labels".to_string(),
-            serde_json::to_string(&plan.labels).unwrap_or_default(),
+            serde_json::to_string(&self.plan.labels).unwrap_or_default(),
         );
         meta.insert("clips".to_string(), session.leaves.len().to_string());
-        let mut w = CaptureWriter::create(&path, config, journal, meta, &intrinsics)?;
-
-        let mut current_scene: Option<usize> = None;
-        let mut staged: Option<Staged> = None;
-        let mut pushed_out = 0;
-        for leaf in &plan.leaves[session.leaves.clone()] {
-            let node = &plan.scenes[leaf.scene];
-            let anim = &plan.animations[node.animation];
-            let class = &spec.file.classes[anim.class];
-            let start_nanos = nanos_at(leaf.start_frame, d.fps);
-            let start = Time::from_nanos(start_nanos);
-            if current_scene != Some(leaf.scene) {
-                current_scene = Some(leaf.scene);
-                let s = stage_scene(rig, spec, &intrinsics, node, &converted[node.animation])?;
-                w.write_scene(
-                    start_nanos,
-                    &scene_state(spec, plan, node, &session.name, start),
-                    &s.writer,
-                )?;
-                staged = Some(s);
-            }
-            let Some(Staged {
-                writer: tw,
-                content,
-                subject,
-                band,
-            }) = staged.as_mut()
-            else {
-                continue;
-            };
-            let segment = Segment {
-                header: Header {
-                    stamp: start,
-                    frame_id: WORLD_FRAME.to_string(),
-                },
-                session: session.name.clone(),
-                id: leaf.id.clone(),
-                category: class.category.clone(),
-                action: class.action.clone(),
-                label_id: leaf.label_id,
-                animation: anim.name.clone(),
-                variant: node.variant,
-                scene: node.scene,
-                viewpoint: leaf.viewpoint,
-                scene_id: node.id.clone(),
-                start,
-                end: time_at(leaf.end_frame, d.fps),
-                content_start: time_at(leaf.content_start_frame, d.fps),
-                content_end: time_at(leaf.content_end_frame, d.fps),
-            };
-            w.write_segment(start_nanos, &segment)?;
-
-            // The plan framed a standing body of the drawn height; an animation that reaches
-            // farther (a wide jump) pushes the camera out along its ray, never closer.
-            let mut fit = |v: &Viewpoint| {
-                let mut v = *v;
-                if v.distance_m < band[0] {
-                    v.distance_m = band[0];
-                    pushed_out += 1;
-                }
-                v
-            };
-            let from = fit(&node.viewpoints[leaf.viewpoint as usize]);
-            let to = node
-                .viewpoints
-                .get(leaf.viewpoint as usize + 1)
-                .map(&mut fit);
-            let clip_frames = leaf.end_frame - leaf.start_frame;
-            for f in leaf.start_frame..leaf.end_frame {
-                let k = usize::try_from(
-                    f.saturating_sub(leaf.content_start_frame)
-                        .min(leaf.content_end_frame - leaf.content_start_frame - 1),
-                )
-                .unwrap_or(0)
-                .min(content.len() - 1);
-                let pose = &content[k];
-                let stamp = nanos_at(f, d.fps);
-                #[expect(clippy::cast_precision_loss, reason = "frame counts far below 2^52")]
-                let s = (f - leaf.start_frame) as f64 / (clip_frames.max(2) - 1) as f64;
-                let cam = camera_at(
-                    &from,
-                    to.as_ref(),
-                    shot,
-                    s,
-                    subject.ground_xy_m[k],
-                    subject.centres_m[k],
-                );
-                w.write_frame(stamp, &cam, tw, pose)?;
-            }
-        }
-        w.finish(&path, journal)?;
-        written.push(SessionWritten {
-            path,
-            clips: session.leaves.len(),
-            frames: session.frames,
-            viewpoints_pushed_out: pushed_out,
-        });
+        meta
     }
-    Ok(written)
+
+    /// One clip's segment: its label, animation, scene and viewpoint, and its times.
+    fn segment(&self, session_name: &str, leaf: &Leaf) -> Segment {
+        let node = &self.plan.scenes[leaf.scene];
+        let anim = &self.plan.animations[node.animation];
+        let class = &self.spec.file.classes[anim.class];
+        let start = time_at(leaf.start_frame, self.fps);
+        Segment {
+            header: Header {
+                stamp: start,
+                frame_id: WORLD_FRAME.to_string(),
+            },
+            session: session_name.to_string(),
+            id: leaf.id.clone(),
+            category: class.category.clone(),
+            action: class.action.clone(),
+            label_id: leaf.label_id,
+            animation: anim.name.clone(),
+            variant: node.variant,
+            scene: node.scene,
+            viewpoint: leaf.viewpoint,
+            scene_id: node.id.clone(),
+            start,
+            end: time_at(leaf.end_frame, self.fps),
+            content_start: time_at(leaf.content_start_frame, self.fps),
+            content_end: time_at(leaf.content_end_frame, self.fps),
+        }
+    }
+
+    /// Writes one clip's frames: the staged pose held before and after the content, the camera
+    /// moving from the clip's viewpoint towards the next. Returns how many viewpoints had to be
+    /// pushed out to keep the animation in frame.
+    fn write_clip_frames(
+        &self,
+        w: &mut CaptureWriter,
+        leaf: &Leaf,
+        scene: &mut Staged,
+    ) -> Result<usize, CaptureError> {
+        let node = &self.plan.scenes[leaf.scene];
+        let Staged {
+            writer,
+            content,
+            subject,
+            band,
+        } = scene;
+        // The plan framed a standing body of the drawn height; an animation that reaches
+        // farther (a wide jump) pushes the camera out along its ray, never closer.
+        let mut pushed_out = 0;
+        let mut fit = |v: &Viewpoint| {
+            let mut v = *v;
+            if v.distance_m < band[0] {
+                v.distance_m = band[0];
+                pushed_out += 1;
+            }
+            v
+        };
+        let from = fit(&node.viewpoints[leaf.viewpoint as usize]);
+        let to = node
+            .viewpoints
+            .get(leaf.viewpoint as usize + 1)
+            .map(&mut fit);
+        let clip_frames = leaf.end_frame - leaf.start_frame;
+        for f in leaf.start_frame..leaf.end_frame {
+            let k = usize::try_from(
+                f.saturating_sub(leaf.content_start_frame)
+                    .min(leaf.content_end_frame - leaf.content_start_frame - 1),
+            )
+            .unwrap_or(0)
+            .min(content.len() - 1);
+            let pose = &content[k];
+            let stamp = nanos_at(f, self.fps);
+            #[expect(clippy::cast_precision_loss, reason = "frame counts far below 2^52")]
+            let s = (f - leaf.start_frame) as f64 / (clip_frames.max(2) - 1) as f64;
+            let cam = camera_at(
+                &from,
+                to.as_ref(),
+                self.spec.file.counts.shot,
+                s,
+                subject.ground_xy_m[k],
+                subject.centres_m[k],
+            );
+            w.write_frame(stamp, &cam, writer, pose)?;
+        }
+        Ok(pushed_out)
+    }
 }
 
 #[cfg(test)]
@@ -409,10 +535,11 @@ mod tests {
                 .join("bags")
                 .join(name)
         };
-        let (pose_keys, pose_body, pose_cov) =
-            read_source(&rig, &bag("bandai_wave.pose.mcap"), None).unwrap();
-        let (anim_keys, anim_body, anim_cov) =
-            read_source(&rig, &bag("bandai_wave.anim.mcap"), None).unwrap();
+        let pose = read_source(&rig, &bag("bandai_wave.pose.mcap"), None).unwrap();
+        let anim = read_source(&rig, &bag("bandai_wave.anim.mcap"), None).unwrap();
+        assert!(pose.losses.is_empty() && anim.losses.is_empty());
+        let (pose_keys, pose_body, pose_cov) = (pose.keys, pose.character, pose.coverage);
+        let (anim_keys, anim_body, anim_cov) = (anim.keys, anim.character, anim.coverage);
         assert_eq!(pose_keys.len(), anim_keys.len());
         // The animation bag was resampled on the 30 fps output clock, whose stamps drift up to
         // 33 ns a frame from the BVH's 0.0333333 s frames: rotations agree to the motion in that
@@ -448,5 +575,59 @@ mod tests {
         for name in &pose_cov.at_rest {
             assert!(anim_cov.at_rest.contains(name), "{name}");
         }
+    }
+
+    #[test]
+    fn an_animation_bag_source_with_an_unreadable_chunk_reports_it_as_lost() {
+        use crate::mcap_io::{BagWriter, Compression};
+        let rig = Rig::standard();
+        let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("bags/bandai_wave.anim.mcap");
+        // The sample re-chunked small, so that damage can hit one chunk.
+        let dir = tempfile::tempdir().unwrap();
+        let copy = dir.path().join("damaged.anim.mcap");
+        let config = WriteConfig {
+            compression: Compression::Zstd,
+            chunk_size_bytes: 4096,
+        };
+        let mut w = BagWriter::create(&copy, config).unwrap();
+        for m in BagReader::open(&sample).unwrap().messages() {
+            let m = m.unwrap();
+            let schema = m.channel.schema.clone().unwrap();
+            w.write_raw(
+                &m.channel.topic,
+                &schema.name,
+                || String::from_utf8_lossy(&schema.data).into_owned(),
+                m.log_time,
+                m.publish_time,
+                &m.data,
+            )
+            .unwrap();
+        }
+        w.finish().unwrap();
+        let clean = read_source(&rig, &copy, None).unwrap();
+        assert!(clean.losses.is_empty());
+
+        let mut bytes = std::fs::read(&copy).unwrap();
+        let chunk = |at: usize| u64::from_le_bytes(bytes[at + 1..at + 9].try_into().unwrap());
+        // The second chunk record: magic (8 bytes), then records of op (1) + length (8) + body.
+        let (mut at, mut chunks) = (8, 0);
+        while chunks < 2 {
+            if bytes[at] == 0x06 {
+                chunks += 1;
+            }
+            if chunks < 2 {
+                at += 9 + usize::try_from(chunk(at)).unwrap();
+            }
+        }
+        let end = at + 9 + usize::try_from(chunk(at)).unwrap();
+        bytes[end - 30] ^= 0xff;
+        std::fs::write(&copy, &bytes).unwrap();
+        let damaged = read_source(&rig, &copy, None).unwrap();
+        assert!(damaged.keys.len() < clean.keys.len());
+        let lost: Vec<String> = damaged.losses.iter().map(ToString::to_string).collect();
+        // The chunk itself, then (where it held a channel's definition) each message on that
+        // channel.
+        assert!(lost[0].contains("damaged.anim.mcap: chunk 2"), "{lost:?}");
+        assert!(lost.iter().all(|l| l.contains("damaged.anim.mcap")));
     }
 }

@@ -771,3 +771,82 @@ fn a_tracks_time_comes_from_its_header_stamps_or_else_its_log_times() {
         assert_eq!(first, if stamped { 0 } else { wall + 5_000_000 }, "{name}");
     }
 }
+
+/// `convert --spec` over one source bag: one variant, scene and viewpoint.
+fn one_source_spec(dir: &Path, source: &Path) -> PathBuf {
+    let spec = dir.join("one.toml");
+    let text = format!(
+        "[dataset]\nname = \"lossy\"\nseed = 1\nfps = 30.0\nresolution = [640, 360]\n\
+         [counts]\nvariants = 1\nscenes = 1\nviewpoints = 1\n\
+         [[class]]\ncategory = \"gesture\"\naction = \"wave\"\nsources = [\"{}\"]\n",
+        arg(source)
+    );
+    std::fs::write(&spec, text).unwrap();
+    spec
+}
+
+#[test]
+fn convert_spec_and_convert_agree_that_a_damaged_source_lost_data() {
+    let dir = tempfile::tempdir().unwrap();
+    // A corrupt chunk in the middle, and a message whose arrays disagree.
+    let input = pose_bag(dir.path(), "damaged.pose.mcap", 300, |k, s| {
+        if k == 250 {
+            s.positions.pop();
+        }
+    });
+    let mut bytes = std::fs::read(&input).unwrap();
+    let chunks = chunk_ranges(&bytes);
+    assert!(chunks.len() >= 4);
+    let (_, end) = chunks[1];
+    bytes[end - 30] ^= 0xff;
+    std::fs::write(&input, &bytes).unwrap();
+
+    let spec = one_source_spec(dir.path(), &input);
+    let out = dir.path().join("capture");
+    let o = autoact(&["convert", "--spec", arg(&spec), "-o", arg(&out)]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains("WARN") && err.contains("damaged.pose.mcap: chunk 2"),
+        "the unreadable chunk is named with its file: {err}"
+    );
+    assert!(
+        err.contains("damaged.pose.mcap: /skeleton message") && err.contains("equal lengths"),
+        "the skipped message is named: {err}"
+    );
+    assert!(
+        err.contains("1 unreadable parts, 1 skipped messages"),
+        "{err}"
+    );
+    // Everything else was captured.
+    assert!(
+        stdout_text(&o).contains("wrote 1 sessions"),
+        "{}",
+        stdout_text(&o)
+    );
+    assert!(out.join("plan.json").exists());
+
+    // Plain convert of the same bag says the same and ends the same way.
+    let anim = dir.path().join("damaged.anim.mcap");
+    let o = autoact(&["convert", arg(&input), "-o", arg(&anim)]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains("damaged.pose.mcap: chunk 2")
+            && err.contains("damaged.pose.mcap: /skeleton message")
+            && err.contains("1 unreadable parts, 1 skipped messages"),
+        "{err}"
+    );
+
+    // An undamaged source loses nothing: exit 0 on both paths.
+    let clean = pose_bag(dir.path(), "clean.pose.mcap", 60, |_, _| {});
+    let spec = one_source_spec(dir.path(), &clean);
+    let o = autoact(&["convert", "--spec", arg(&spec), "-o", arg(&out)]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let o = autoact(&["convert", arg(&clean), "-o", arg(&anim)]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+fn stdout_text(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
