@@ -21,12 +21,15 @@ pub mod dsi;
 pub mod export;
 pub mod formats;
 pub mod hash;
+pub mod interrupt;
 pub mod mcap_io;
+pub mod progress;
 pub mod record;
 pub mod render;
 pub mod ros;
 pub mod scene;
 pub mod skeleton;
+pub mod table;
 pub mod trim;
 pub mod video;
 

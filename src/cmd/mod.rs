@@ -60,22 +60,6 @@ pub fn dispatch(command: Command) -> anyhow::Result<Outcome> {
     }
 }
 
-/// ffmpeg from `AUTOACT_FFMPEG` or PATH; if absent and the user allowed it (`--download-ffmpeg`),
-/// a downloaded static build.
-///
-/// # Errors
-/// ffmpeg missing (with the install command) or the download failing.
-pub(crate) fn locate_ffmpeg(download: bool) -> anyhow::Result<crate::video::Ffmpeg> {
-    match crate::video::Ffmpeg::locate() {
-        Ok(found) => Ok(found),
-        Err(e) if download => {
-            tracing::warn!("{e}; downloading ffmpeg as --download-ffmpeg allows");
-            Ok(crate::video::Ffmpeg::download()?)
-        }
-        Err(e) => Err(e.into()),
-    }
-}
-
 /// Writes `text` to stdout (results go to stdout, diagnostics to stderr).
 pub(crate) fn print_stdout(text: &str) -> std::io::Result<()> {
     use std::io::Write;
@@ -84,40 +68,7 @@ pub(crate) fn print_stdout(text: &str) -> std::io::Result<()> {
     out.flush()
 }
 
-/// Formats rows as a left-aligned table with a header and a rule.
-pub(crate) fn table(header: &[&str], rows: &[Vec<String>]) -> String {
-    let mut widths: Vec<usize> = header.iter().map(|h| h.chars().count()).collect();
-    for r in rows {
-        for (w, c) in widths.iter_mut().zip(r) {
-            *w = (*w).max(c.chars().count());
-        }
-    }
-    let line = |cells: Vec<&str>| {
-        let mut s = String::new();
-        for (i, (c, w)) in cells.iter().zip(&widths).enumerate() {
-            if i + 1 == widths.len() {
-                s.push_str(c);
-            } else {
-                s.push_str(&format!("{c:<w$}  "));
-            }
-        }
-        s.trim_end().to_string() + "\n"
-    };
-    let mut out = line(header.to_vec());
-    out.push_str(&line(
-        widths
-            .iter()
-            .map(|w| "-".repeat(*w))
-            .collect::<Vec<_>>()
-            .iter()
-            .map(String::as_str)
-            .collect(),
-    ));
-    for r in rows {
-        out.push_str(&line(r.iter().map(String::as_str).collect()));
-    }
-    out
-}
+pub(crate) use crate::table::table;
 
 /// Where and how a command writes its bag.
 #[derive(Debug, Clone, clap::Args)]
