@@ -88,9 +88,9 @@ pub enum RenderJobError {
     Render {
         /// The capture bag.
         path: PathBuf,
-        /// The cause.
+        /// The cause (boxed: it is large).
         #[source]
-        source: RenderError,
+        source: Box<RenderError>,
     },
 }
 
@@ -148,7 +148,7 @@ pub fn render_job(job: &RenderJob, stop: &AtomicBool) -> Result<RenderReport, Re
     bar.finish();
     let summary = summary.map_err(|source| RenderJobError::Render {
         path: job.capture.clone(),
-        source,
+        source: Box::new(source),
     })?;
     if !summary.unknown_prop_kinds.is_empty() {
         tracing::warn!(

@@ -93,7 +93,7 @@ pub enum TrimJobError {
     RenderBag(#[from] RenderBagError),
     /// Stopped by a signal; the complete clips are listed.
     #[error(transparent)]
-    Interrupted(RunError),
+    Interrupted(Box<RunError>),
     /// Cutting or listing failed; the complete clips are kept and listed.
     #[error(
         "trimming `{}` into `{}` (complete clips are kept and listed; run again to resume)",
@@ -105,9 +105,9 @@ pub enum TrimJobError {
         video: PathBuf,
         /// The dataset folder.
         output: PathBuf,
-        /// The cause.
+        /// The cause (boxed: it is large).
         #[source]
-        source: RunError,
+        source: Box<RunError>,
     },
 }
 
@@ -155,12 +155,12 @@ pub fn trim_job(job: &TrimJob, stop: &AtomicBool) -> Result<TrimReport, TrimJobE
     bar.finish();
     let summary = match result {
         Ok(s) => s,
-        Err(e @ RunError::Interrupted) => return Err(TrimJobError::Interrupted(e)),
+        Err(e @ RunError::Interrupted) => return Err(TrimJobError::Interrupted(Box::new(e))),
         Err(source) => {
             return Err(TrimJobError::Trim {
                 video: job.video.clone(),
                 output: job.output.clone(),
-                source,
+                source: Box::new(source),
             });
         }
     };
