@@ -9,27 +9,9 @@ use regex::Regex;
 
 use super::{Outcome, print_stdout};
 use crate::mcap_io::Compression;
-use crate::record::dds::{DdsConfig, Durability, Reliability, parse_domain_id};
-use crate::record::run::{RecordOptions, TopicFilter, record};
+use crate::record::dds::{DdsConfig, parse_domain_id};
+use crate::record::run::{DurabilityArg, RecordOptions, ReliabilityArg, TopicFilter, record};
 use crate::record::session::SplitPolicy;
-
-/// Reader reliability on the command line.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum ReliabilityArg {
-    /// Lost samples are resent (matches reliable publishers, the ROS 2 default).
-    Reliable,
-    /// No resends (matches every publisher, e.g. sensor-data QoS).
-    BestEffort,
-}
-
-/// Reader durability on the command line.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum DurabilityArg {
-    /// Only what is published after the match.
-    Volatile,
-    /// Also a transient-local publisher's retained history.
-    TransientLocal,
-}
 
 /// Arguments of `autoact record`.
 #[derive(Debug, clap::Args)]
@@ -117,14 +99,8 @@ pub fn run(args: Args) -> Result<Outcome> {
             domain_id: args
                 .domain_id
                 .map_or_else(|| parse_domain_id(env_domain.as_deref()), Ok)?,
-            reliability: match args.reliability {
-                ReliabilityArg::Reliable => Reliability::Reliable,
-                ReliabilityArg::BestEffort => Reliability::BestEffort,
-            },
-            durability: match args.durability {
-                DurabilityArg::Volatile => Durability::Volatile,
-                DurabilityArg::TransientLocal => Durability::TransientLocal,
-            },
+            reliability: args.reliability.into(),
+            durability: args.durability.into(),
             history_depth: args.depth,
         },
         compression: args.compression,

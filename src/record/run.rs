@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use regex::Regex;
 
-use super::dds::{DdsConfig, DdsError, Recorder};
+use super::dds::{DdsConfig, DdsError, Durability, Recorder, Reliability};
 use super::session::{Output, Received, RecordWriter, SplitPolicy, TopicStats};
 use crate::mcap_io::{Compression, McapIoError, WriteConfig};
 use crate::ros;
@@ -19,6 +19,42 @@ const DISCOVERY_INTERVAL: Duration = Duration::from_millis(250);
 const WAIT: Duration = Duration::from_millis(50);
 /// How often the status line is redrawn.
 const STATUS_INTERVAL: Duration = Duration::from_secs(1);
+
+/// Reader reliability on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ReliabilityArg {
+    /// Lost samples are resent (matches reliable publishers, the ROS 2 default).
+    Reliable,
+    /// No resends (matches every publisher, e.g. sensor-data QoS).
+    BestEffort,
+}
+
+/// Reader durability on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum DurabilityArg {
+    /// Only what is published after the match.
+    Volatile,
+    /// Also a transient-local publisher's retained history.
+    TransientLocal,
+}
+
+impl From<ReliabilityArg> for Reliability {
+    fn from(arg: ReliabilityArg) -> Reliability {
+        match arg {
+            ReliabilityArg::Reliable => Reliability::Reliable,
+            ReliabilityArg::BestEffort => Reliability::BestEffort,
+        }
+    }
+}
+
+impl From<DurabilityArg> for Durability {
+    fn from(arg: DurabilityArg) -> Durability {
+        match arg {
+            DurabilityArg::Volatile => Durability::Volatile,
+            DurabilityArg::TransientLocal => Durability::TransientLocal,
+        }
+    }
+}
 
 /// Which topics to record.
 #[derive(Debug, Clone, Default)]
@@ -219,7 +255,11 @@ pub fn record(options: &RecordOptions, stop: &AtomicBool) -> Result<RecordSummar
             dds.reliability, dds.durability, dds.history_depth
         ),
     );
-    let failure = session.run(options, stop).err();
+    let failure = match session.run(options, stop) {
+        // A refused subscription ends the run at once; the open file is left for `recover`.
+        Err(e @ RecordError::Dds(_)) => return Err(e),
+        result => result.err(),
+    };
     let missing: Vec<&String> = (options.topics.explicit.iter())
         .filter(|t| !session.subscribed.contains(*t))
         .collect();
@@ -367,5 +407,46 @@ impl Session {
             "recording {elapsed:.0} s | {} topics | {messages} messages ({rate:.0}/s) | {mb:.1} MB | {dropped} dropped | {rejected} rejected",
             self.subscribed.len()
         ));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_filter_takes_named_topics_all_or_matches_and_never_excluded_ones() {
+        let named = TopicFilter::new(&["skeleton".into(), "/tf".into()], false, None, None);
+        assert!(named.wants("/skeleton") && named.wants("/tf") && !named.wants("/other"));
+        assert!(TopicFilter::new(&[], false, None, None).is_empty());
+        let include = Regex::new("^/cam").ok();
+        let exclude = Regex::new("info$").ok();
+        let matched = TopicFilter::new(&[], false, include, exclude);
+        assert!(!matched.is_empty());
+        assert!(matched.wants("/camera/image") && !matched.wants("/camera/camera_info"));
+        let all = TopicFilter::new(&[], true, None, Regex::new("^/tf").ok());
+        assert!(all.wants("/anything") && !all.wants("/tf_static"));
+    }
+
+    #[test]
+    fn the_summary_counts_losses_and_lists_every_topic() {
+        let mut stats = TopicStats::default();
+        stats.type_name = "autoact_msgs/msg/Skeleton".into();
+        stats.messages = 3;
+        stats.bytes = 300;
+        let mut summary = RecordSummary {
+            messages: 3,
+            elapsed: Duration::from_millis(1500),
+            files: vec![PathBuf::from("a.mcap"), PathBuf::from("a_1.mcap")],
+            topics: BTreeMap::from([("/skeleton".to_owned(), stats)]),
+            rejected: 0,
+        };
+        assert!(!summary.data_lost());
+        assert_eq!(
+            summary.report(),
+            "recorded 3 messages from 1 topics in 1.5 s into a.mcap, a_1.mcap\n  /skeleton (autoact_msgs/msg/Skeleton): 3 messages, 300 bytes, 0 dropped, 0 rejected\n"
+        );
+        summary.rejected = 1;
+        assert!(summary.data_lost());
     }
 }
