@@ -995,6 +995,8 @@ impl Iterator for Messages<'_> {
     }
 }
 
+pub mod recover;
+
 #[cfg(test)]
 #[path = "mcap_io_tests.rs"]
 mod tests;

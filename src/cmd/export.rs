@@ -1,13 +1,12 @@
 //! `autoact export`: animations of an animation bag → BVH, GTA V `.onim` or glTF/GLB files.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use anyhow::{Context, Result, bail};
+use anyhow::Result;
 
-use super::{Outcome, print_stdout, table};
-use crate::export::{self, EncodeOptions, ExportFormat, onim};
-use crate::mcap_io::BagReader;
-use crate::skeleton::rig::Rig;
+use super::{Outcome, print_stdout};
+use crate::export::job::{ExportRequest, export};
+use crate::export::{ExportFormat, onim};
 
 const AFTER_HELP: &str = "\
 Output naming:
@@ -87,149 +86,24 @@ pub struct Args {
 /// Runs `autoact export`.
 ///
 /// # Errors
-/// An unreadable bag or one without animation frames, an unknown `--animation`/`--variant`, an
-/// output that exists (without `--force`) or cannot be written, a `.onim` mapping that is
-/// invalid or does not cover the rig.
+/// See [`crate::export::job::ExportJobError`].
 pub fn run(args: Args) -> Result<Outcome> {
     if args.print_onim_template {
         print_stdout(onim::DEFAULT_MAPPING_TOML)?;
         return Ok(Outcome::Success);
     }
-    let Some(input) = args.input.as_deref() else {
-        bail!("give the animation bag to export");
+    let request = ExportRequest {
+        input: args.input,
+        format: args.format,
+        output: args.output,
+        animation: args.animation,
+        variant: args.variant,
+        force: args.force,
+        list: args.list,
+        fps: args.fps,
+        onim_template: args.onim_template,
+        write_expected_json: args.write_expected_json,
     };
-    if let Some(f) = args.fps
-        && !(f.is_finite() && f > 0.0)
-    {
-        bail!("--fps must be a positive number of frames per second, not {f}");
-    }
-    let readers = BagReader::open_all(input)?;
-    let available = export::list(input, &readers)?;
-    if args.list {
-        print_stdout(&listing(
-            &available,
-            args.fps.or_else(|| export::stated_frame_rate(&readers)),
-        ))?;
-        return Ok(Outcome::Success);
-    }
-    let (Some(format), Some(output)) = (args.format, args.output.as_deref()) else {
-        bail!("give `--format` and `-o OUT`");
-    };
-    if args.write_expected_json && format != ExportFormat::Bvh {
-        bail!("--write-expected-json is for --format bvh only");
-    }
-    let rig = Rig::standard();
-    let options = EncodeOptions {
-        onim_mapping: match (format, &args.onim_template) {
-            (ExportFormat::Onim, Some(path)) => Some(onim::OnimMapping::load(&rig, path)?),
-            (ExportFormat::Onim, None) => Some(onim::OnimMapping::builtin(&rig)?),
-            (_, _) => None,
-        },
-        gltf_scene: None,
-    };
-    if args.onim_template.is_some() && format != ExportFormat::Onim {
-        tracing::warn!("--onim-template is only used with --format onim");
-    }
-    let keys = export::select(input, &available, args.animation, args.variant)?;
-    let (targets, mut folder) = targets(input, output, &keys, format)?;
-    // Every target is checked before anything is written, and the folder is made only when the
-    // first file is ready, so a refused export writes nothing.
-    for path in &targets {
-        export::check_writable(path, args.force)?;
-        if args.write_expected_json {
-            export::check_writable(&expected_path(path), args.force)?;
-        }
-    }
-    let mut text = String::new();
-    for (key, path) in keys.iter().zip(&targets) {
-        let clip = export::read_clip(&rig, input, &readers, *key, args.fps)?;
-        let bytes = if matches!(format, ExportFormat::Gltf | ExportFormat::Glb) {
-            let scene = export::gltf::SceneContext::read(&rig, input, &readers, &clip)?;
-            let options = EncodeOptions {
-                gltf_scene: Some(scene),
-                ..options.clone()
-            };
-            export::encode(&rig, &clip, format, &options)?
-        } else {
-            export::encode(&rig, &clip, format, &options)?
-        };
-        if let Some(folder) = folder.take() {
-            std::fs::create_dir_all(folder)
-                .with_context(|| format!("cannot create the output folder {}", folder.display()))?;
-        }
-        export::write_atomically(path, &bytes, args.force)?;
-        if args.write_expected_json {
-            let json = serde_json::to_vec(&export::bvh::expected_json(&rig, &clip))
-                .context("cannot encode the expected JSON")?;
-            export::write_atomically(&expected_path(path), &json, args.force)?;
-        }
-        text.push_str(&format!(
-            "wrote {}: {key}, {} frames at {} fps\n",
-            path.display(),
-            clip.poses.len(),
-            clip.fps_hz
-        ));
-    }
-    print_stdout(&text)?;
+    print_stdout(&export(&request)?)?;
     Ok(Outcome::Success)
-}
-
-/// The file each animation goes to (see "Output naming" in the help), and the folder they go in
-/// when `output` names one (created only once every target is known to be writable).
-fn targets<'o>(
-    input: &Path,
-    output: &'o Path,
-    keys: &[export::AnimationKey],
-    format: ExportFormat,
-) -> Result<(Vec<PathBuf>, Option<&'o Path>)> {
-    if keys.len() == 1 && !output.is_dir() {
-        return Ok((vec![output.to_path_buf()], None));
-    }
-    if keys.len() > 1
-        && output
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case(format.extension()))
-    {
-        bail!(
-            "{} animations are selected, and `{}` names one .{} file: give a folder for them, or pick one with `--animation` and `--variant` (`--list` shows them)",
-            keys.len(),
-            output.display(),
-            format.extension()
-        );
-    }
-    let paths = keys
-        .iter()
-        .map(|k| output.join(export::output_name(input, *k, format)))
-        .collect();
-    Ok((paths, Some(output)))
-}
-
-/// `X.bvh` → `X.expected.json`.
-fn expected_path(path: &Path) -> PathBuf {
-    path.with_extension("expected.json")
-}
-
-/// The `--list` table.
-fn listing(available: &[export::AnimationListing], fps: Option<f64>) -> String {
-    let rows: Vec<Vec<String>> = available
-        .iter()
-        .map(|a| {
-            let seconds = crate::skeleton::pose::nanos_to_secs(
-                a.last_stamp_nanos.saturating_sub(a.first_stamp_nanos),
-            );
-            vec![
-                a.key.track_id.to_string(),
-                a.key.variant.to_string(),
-                a.frames.to_string(),
-                format!("{seconds:.3}"),
-                fps.or(a.frame_rate_hz)
-                    .map_or_else(|| "-".to_string(), |f| format!("{f:.2}")),
-                a.rig.clone(),
-            ]
-        })
-        .collect();
-    table(
-        &["track", "variant", "frames", "seconds", "fps", "rig"],
-        &rows,
-    )
 }

@@ -20,7 +20,6 @@ use std::process::ExitCode;
 use crate::bags::output::OutputOptions;
 use crate::loss::Losses;
 use crate::mcap_io::Compression;
-pub(crate) use crate::table::table;
 
 /// Exit code for a failure that produced no usable result.
 pub const EXIT_FAILURE: u8 = 1;
@@ -81,22 +80,6 @@ impl Format {
             Format::Table => table(),
             Format::Json => format!("{:#}\n", json()),
         }
-    }
-}
-
-/// ffmpeg from `AUTOACT_FFMPEG` or PATH; if absent and the user allowed it (`--download-ffmpeg`),
-/// a downloaded static build.
-///
-/// # Errors
-/// ffmpeg missing (with the install command) or the download failing.
-pub(crate) fn locate_ffmpeg(download: bool) -> anyhow::Result<crate::video::Ffmpeg> {
-    match crate::video::Ffmpeg::locate() {
-        Ok(found) => Ok(found),
-        Err(e) if download => {
-            tracing::warn!("{e}; downloading ffmpeg as --download-ffmpeg allows");
-            Ok(crate::video::Ffmpeg::download()?)
-        }
-        Err(e) => Err(e.into()),
     }
 }
 

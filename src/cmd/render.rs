@@ -2,15 +2,12 @@
 //! PNG frames and a contact sheet.
 
 use std::path::PathBuf;
-use std::sync::Arc;
-use std::sync::atomic::AtomicBool;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 
 use super::Outcome;
-use crate::bags::capture::Capture;
-use crate::render::session::{Outputs, RenderSettings, render_capture};
-use crate::skeleton::rig::Rig;
+use crate::render::job::{RenderJob, parse_resolution, render_job};
+use crate::render::session::Outputs;
 
 /// Render a capture bag's timeline with the embedded CPU renderer and encode it to H.264.
 #[derive(Debug, clap::Args)]
@@ -76,153 +73,36 @@ pub struct Args {
     pub download_ffmpeg: bool,
 }
 
-fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
-    let (w, h) = s
-        .split_once(['x', 'X'])
-        .ok_or_else(|| format!("`{s}`: expected WIDTHxHEIGHT, e.g. 640x360"))?;
-    let n = |v: &str| {
-        v.trim()
-            .parse::<u32>()
-            .map_err(|_| format!("`{s}`: `{v}` is not a whole number"))
-    };
-    Ok((n(w)?, n(h)?))
-}
-
 /// Runs `autoact render`.
 ///
 /// # Errors
 /// Unreadable or incomplete capture bags, ffmpeg missing or failing, unwritable outputs.
 pub fn run(args: Args) -> Result<Outcome> {
-    if args.output.is_none() && args.frames_out.is_none() && args.preview.is_none() {
-        bail!("nothing to write: give `-o VIDEO`, `--frames-out DIR` or `--preview PNG`");
-    }
     if let Some(n) = args.threads {
         rayon::ThreadPoolBuilder::new()
             .num_threads(n.max(1))
             .build_global()
             .context("cannot set the number of threads")?;
     }
-    let outputs = Outputs {
-        video: args.output.clone(),
-        render_bag: args.render_bag.clone(),
-        frames_dir: args.frames_out.clone(),
-        preview: args.preview.clone(),
-    };
-    for path in [
-        outputs.video.clone(),
-        outputs.render_bag_path(),
-        outputs.preview.clone(),
-    ]
-    .into_iter()
-    .flatten()
-    {
-        if path.exists() && !args.force {
-            bail!("`{}` exists; pass `--force` to replace it", path.display());
-        }
-    }
-    for path in [
-        outputs.video.as_ref(),
-        outputs.preview.as_ref(),
-        args.render_bag.as_ref(),
-    ]
-    .into_iter()
-    .flatten()
-    {
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir)
-                .with_context(|| format!("cannot create the folder `{}`", dir.display()))?;
-        }
-    }
-    let ffmpeg = if args.output.is_some() {
-        Some(super::locate_ffmpeg(args.download_ffmpeg)?)
-    } else {
-        None
-    };
-    let rig = Rig::standard();
-    let capture = Capture::read(&rig, &args.capture)?;
-    let (width, height) = args
-        .resolution
-        .unwrap_or((capture.intrinsics.width_px, capture.intrinsics.height_px));
-    if let Some(fps) = args.fps
-        && !(fps.is_finite() && fps > 0.0)
-    {
-        bail!("--fps {fps}: must be a positive number");
-    }
-    let settings = RenderSettings {
-        width,
-        height,
+    let job = RenderJob {
+        capture: args.capture,
+        outputs: Outputs {
+            video: args.output,
+            render_bag: args.render_bag,
+            frames_dir: args.frames_out,
+            preview: args.preview,
+        },
+        resolution: args.resolution,
         fps: args.fps,
         limit: args.limit,
         crf: args.crf,
-        preset: args.preset.clone(),
+        preset: args.preset,
         gop_frames: args.gop,
         embed_video: args.embed_video,
+        force: args.force,
+        download_ffmpeg: args.download_ffmpeg,
     };
-    let stop = Arc::new(AtomicBool::new(false));
-    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        signal_hook::flag::register(signal, Arc::clone(&stop))
-            .context("cannot install the signal handler")?;
-    }
-    let total = args
-        .limit
-        .map_or(capture.frames.len(), |n| n.min(capture.frames.len()));
-    let bar = indicatif::ProgressBar::new(total as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{spinner} rendering [{bar:30}] {pos}/{len} frames  {per_sec}  ETA {eta}",
-        )
-        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-        .progress_chars("=> "),
-    );
-    if tracing::enabled!(tracing::Level::ERROR) && !tracing::enabled!(tracing::Level::WARN) {
-        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-    }
-    let started = std::time::Instant::now();
-    let progress = |k: u64| bar.set_position(k);
-    let summary = render_capture(
-        &rig,
-        &capture,
-        &settings,
-        &outputs,
-        ffmpeg.as_ref(),
-        &progress,
-        &stop,
-    )
-    .with_context(|| format!("rendering `{}`", args.capture.display()));
-    bar.finish_and_clear();
-    let summary = summary?;
-    let seconds = started.elapsed().as_secs_f64();
-    let mut text = String::new();
-    let fps = summary.frames as f64 / seconds.max(1e-9);
-    text.push_str(&format!(
-        "rendered {} frames at {width}x{height} in {seconds:.1} s ({fps:.0} frames/s, {:.1}x real time)\n",
-        summary.frames,
-        fps / settings.fps.unwrap_or(capture.fps)
-    ));
-    if let Some(v) = &summary.video {
-        text.push_str(&format!(
-            "  video: {} ({} frames, {:.1} MB, keyframes forced at {} segment boundaries)\n",
-            v.path.display(),
-            v.frame_count,
-            v.bytes as f64 / 1e6,
-            summary.forced_keyframes.len()
-        ));
-    }
-    if let Some(b) = &summary.render_bag {
-        text.push_str(&format!("  render bag: {}\n", b.display()));
-    }
-    if let Some(dir) = &args.frames_out {
-        text.push_str(&format!("  frames: {}\n", dir.display()));
-    }
-    if let Some(p) = &summary.preview {
-        text.push_str(&format!("  preview: {}\n", p.display()));
-    }
-    if !summary.unknown_prop_kinds.is_empty() {
-        tracing::warn!(
-            "prop kinds without a shape were drawn as boxes: {}",
-            summary.unknown_prop_kinds.join(", ")
-        );
-    }
-    super::print_stdout(&text).context("writing to stdout")?;
+    let report = render_job(&job, crate::interrupt::Interrupt::install()?.flag())?;
+    super::print_stdout(&report.report()).context("writing to stdout")?;
     Ok(Outcome::Success)
 }

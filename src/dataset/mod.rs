@@ -3,6 +3,7 @@
 
 pub mod capture;
 pub mod plan;
+pub mod plan_report;
 pub mod spec;
 
 use crate::mcap_io::BagReader;

@@ -21,6 +21,7 @@
 
 pub mod bvh;
 pub mod gltf;
+pub mod job;
 pub mod onim;
 
 use std::path::{Path, PathBuf};

@@ -12,6 +12,7 @@
 
 pub mod annotate;
 pub mod cpu;
+pub mod job;
 pub(crate) mod raster;
 pub mod session;
 pub mod world;

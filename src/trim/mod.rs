@@ -29,6 +29,7 @@
 //! The split is not part of a clip's path: splits are drawn over every clip in the manifest, so
 //! a dataset can grow capture by capture (or be re-split with other ratios) without moving files.
 
+pub mod job;
 pub mod lists;
 pub mod manifest;
 pub mod plan;

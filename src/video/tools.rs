@@ -152,6 +152,22 @@ impl Ffmpeg {
         })
     }
 
+    /// [`Ffmpeg::locate`]; if that finds none and `download` allows it (`--download-ffmpeg`),
+    /// [`Ffmpeg::download`].
+    ///
+    /// # Errors
+    /// [`VideoError::NotFound`] (with the install command) or the download failing.
+    pub fn locate_or_download(download: bool) -> Result<Ffmpeg, VideoError> {
+        match Ffmpeg::locate() {
+            Ok(found) => Ok(found),
+            Err(e) if download => {
+                tracing::warn!("{e}; downloading ffmpeg as --download-ffmpeg allows");
+                Ffmpeg::download()
+            }
+            Err(e) => Err(e),
+        }
+    }
+
     fn in_dir(dir: &Path) -> Option<Ffmpeg> {
         let ffmpeg = dir.join(exe_name("ffmpeg"));
         let ffprobe = dir.join(exe_name("ffprobe"));

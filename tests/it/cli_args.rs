@@ -11,7 +11,7 @@ use autoact::cmd::EXIT_USAGE;
 use autoact::cmd::convert::SmoothArg;
 use autoact::cmd::import::Axes;
 use autoact::cmd::plan::PlanFormat;
-use autoact::cmd::record::{DurabilityArg, ReliabilityArg};
+use autoact::record::run::{DurabilityArg, ReliabilityArg};
 use autoact::dsi::plan::Threshold;
 use autoact::dsi::variants::VariationBounds;
 use autoact::dsi::{self, DsiOptions};

@@ -1,0 +1,184 @@
+//! `autoact plan`'s outputs: a spec's recording plan as text tables (counts per class, weather,
+//! time, location and character, the expected size), as one JSON document, or as CSV.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+use super::plan::{Plan, SceneNode};
+use super::spec::Spec;
+
+/// The whole plan as one pretty JSON document (with a trailing newline); the frame counts are
+/// estimates.
+///
+/// # Errors
+/// [`serde_json::Error`] if the plan cannot be encoded.
+pub fn json(spec: &Spec, plan: &Plan) -> Result<String, serde_json::Error> {
+    let mut s = serde_json::to_string_pretty(&serde_json::json!({
+        "spec": spec.path,
+        "estimated": true,
+        "plan": plan,
+    }))?;
+    s.push('\n');
+    Ok(s)
+}
+
+fn seconds(frames: u64, fps: f64) -> f64 {
+    #[expect(clippy::cast_precision_loss, reason = "frame counts far below 2^52")]
+    let f = frames as f64;
+    f / fps
+}
+
+/// The plan as text tables: totals and expected size, then clips per class, weather, time,
+/// location and character.
+#[must_use]
+pub fn summary(spec: &Spec, plan: &Plan) -> String {
+    let fps = plan.fps;
+    let total_frames: u64 = plan.sessions.iter().map(|s| s.frames).sum();
+    let clip_frames: u64 = plan
+        .leaves
+        .iter()
+        .map(|l| l.end_frame - l.start_frame)
+        .sum();
+    let c = &spec.file.counts;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "dataset {} (seed {}): {} classes, {} labels, {} animations × {} variants × {} scenes × {} viewpoints = {} clips in {} sessions",
+        plan.name,
+        plan.seed,
+        spec.file.classes.len(),
+        plan.labels.len(),
+        plan.animations.len(),
+        c.variants,
+        c.scenes,
+        c.viewpoints,
+        plan.leaves.len(),
+        plan.sessions.len(),
+    );
+    let [w, h] = spec.file.dataset.resolution;
+    let _ = writeln!(
+        out,
+        "expected size: {} clips, {} frames at {fps} fps, {:.2} h of video ({w}×{h}); timelines {:.2} h (lengths estimated from the source bags; DSI transitions may add frames)\n",
+        plan.leaves.len(),
+        clip_frames,
+        seconds(clip_frames, fps) / 3600.0,
+        seconds(total_frames, fps) / 3600.0,
+    );
+
+    let mut per_class: BTreeMap<(String, String), (u32, usize, usize, u64)> = BTreeMap::new();
+    for leaf in &plan.leaves {
+        let scene = &plan.scenes[leaf.scene];
+        let class = &spec.file.classes[plan.animations[scene.animation].class];
+        let e = per_class
+            .entry((class.category.clone(), class.action.clone()))
+            .or_insert((leaf.label_id, 0, 0, 0));
+        e.2 += 1;
+        e.3 += leaf.end_frame - leaf.start_frame;
+    }
+    for anim in &plan.animations {
+        let class = &spec.file.classes[anim.class];
+        if let Some(e) = per_class.get_mut(&(class.category.clone(), class.action.clone())) {
+            e.1 += 1;
+        }
+    }
+    let rows: Vec<Vec<String>> = per_class
+        .iter()
+        .map(|((cat, act), (label, anims, clips, frames))| {
+            vec![
+                cat.clone(),
+                act.clone(),
+                label.to_string(),
+                anims.to_string(),
+                clips.to_string(),
+                format!("{:.1}", seconds(*frames, fps) / 60.0),
+            ]
+        })
+        .collect();
+    out.push_str(&crate::table::table(
+        &[
+            "category",
+            "action",
+            "label_id",
+            "animations",
+            "clips",
+            "minutes",
+        ],
+        &rows,
+    ));
+    let count_by = |f: &dyn Fn(&SceneNode) -> String| {
+        let mut m: BTreeMap<String, usize> = BTreeMap::new();
+        for leaf in &plan.leaves {
+            *m.entry(f(&plan.scenes[leaf.scene])).or_default() += 1;
+        }
+        m
+    };
+    let sections: [(&str, BTreeMap<String, usize>); 4] = [
+        ("weather", count_by(&|s| s.drawn.weather.to_string())),
+        ("time", count_by(&|s| s.drawn.clock.to_string())),
+        ("location", count_by(&|s| s.drawn.location.name.clone())),
+        (
+            "character",
+            count_by(&|s| format!("{:?}", s.drawn.look.age_group).to_lowercase()),
+        ),
+    ];
+    for (name, counts) in sections {
+        let total: usize = counts.values().sum();
+        let rows: Vec<Vec<String>> = counts
+            .iter()
+            .map(|(k, n)| {
+                #[expect(clippy::cast_precision_loss, reason = "display only")]
+                let pct = 100.0 * *n as f64 / total.max(1) as f64;
+                vec![k.clone(), n.to_string(), format!("{pct:.1}")]
+            })
+            .collect();
+        out.push('\n');
+        out.push_str(&crate::table::table(&[name, "clips", "%"], &rows));
+    }
+    out
+}
+
+/// The plan as CSV, one row per clip.
+#[must_use]
+pub fn csv(spec: &Spec, plan: &Plan) -> String {
+    let mut out = String::from(
+        "id,session,category,action,label_id,animation,variant,scene,viewpoint,weather,clock,location,character_height_m,camera_distance_m,camera_azimuth_deg,camera_height_m,start_s,end_s,content_start_s,content_end_s\n",
+    );
+    let quote = |s: &str| {
+        if s.contains([',', '"', '\n']) {
+            format!("\"{}\"", s.replace('"', "\"\""))
+        } else {
+            s.to_string()
+        }
+    };
+    for leaf in &plan.leaves {
+        let scene = &plan.scenes[leaf.scene];
+        let anim = &plan.animations[scene.animation];
+        let class = &spec.file.classes[anim.class];
+        let vp = &scene.viewpoints[leaf.viewpoint as usize];
+        let _ = writeln!(
+            out,
+            "{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{:.1},{:.3},{:.4},{:.4},{:.4},{:.4}",
+            quote(&leaf.id),
+            quote(&plan.sessions[leaf.session].name),
+            quote(&class.category),
+            quote(&class.action),
+            leaf.label_id,
+            quote(&anim.name),
+            scene.variant,
+            scene.scene,
+            leaf.viewpoint,
+            scene.drawn.weather,
+            scene.drawn.clock,
+            quote(&scene.drawn.location.name),
+            scene.drawn.look.height_m,
+            vp.distance_m,
+            vp.azimuth_deg,
+            vp.height_m,
+            seconds(leaf.start_frame, plan.fps),
+            seconds(leaf.end_frame, plan.fps),
+            seconds(leaf.content_start_frame, plan.fps),
+            seconds(leaf.content_end_frame, plan.fps),
+        );
+    }
+    out
+}

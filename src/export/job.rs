@@ -1,0 +1,265 @@
+//! `autoact export` as one call: list a bag's animations, or export the selected ones, every
+//! target checked before anything is written.
+
+use std::path::{Path, PathBuf};
+
+use super::{
+    AnimationKey, AnimationListing, EncodeOptions, ExportError, ExportFormat, bvh, gltf, onim,
+};
+use crate::mcap_io::{BagReader, McapIoError};
+use crate::skeleton::rig::Rig;
+
+/// What `autoact export` was asked.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ExportRequest {
+    /// The animation bag.
+    pub input: Option<PathBuf>,
+    /// The output format.
+    pub format: Option<ExportFormat>,
+    /// Output file (one animation) or folder (several).
+    pub output: Option<PathBuf>,
+    /// Only this track.
+    pub animation: Option<u64>,
+    /// Only this variant.
+    pub variant: Option<u32>,
+    /// Replace output files that exist.
+    pub force: bool,
+    /// List the animations instead of exporting them.
+    pub list: bool,
+    /// Output frame rate; default: the bag's.
+    pub fps: Option<f64>,
+    /// A `.onim` bone mapping file; default: the built-in one.
+    pub onim_template: Option<PathBuf>,
+    /// Beside every `X.bvh` also write `X.expected.json`.
+    pub write_expected_json: bool,
+}
+
+/// Why an export failed.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ExportJobError {
+    /// No bag given.
+    #[error("give the animation bag to export")]
+    NoInput,
+    /// No format or output given.
+    #[error("give `--format` and `-o OUT`")]
+    NoFormatOrOutput,
+    /// The frame rate is not a positive number.
+    #[error("--fps must be a positive number of frames per second, not {0}")]
+    Fps(f64),
+    /// `--write-expected-json` with another format than BVH.
+    #[error("--write-expected-json is for --format bvh only")]
+    ExpectedJsonNotBvh,
+    /// Several animations selected but one file named.
+    #[error(
+        "{count} animations are selected, and `{}` names one .{extension} file: give a folder for them, or pick one with `--animation` and `--variant` (`--list` shows them)",
+        output.display()
+    )]
+    OneFileForMany {
+        /// Animations selected.
+        count: usize,
+        /// The output named.
+        output: PathBuf,
+        /// The format's extension.
+        extension: &'static str,
+    },
+    /// The bag cannot be opened.
+    #[error(transparent)]
+    Bag(#[from] McapIoError),
+    /// Reading, selecting or writing animations failed.
+    #[error(transparent)]
+    Export(#[from] ExportError),
+    /// The `.onim` mapping is invalid or does not cover the rig.
+    #[error(transparent)]
+    Onim(#[from] onim::OnimError),
+    /// The output folder could not be made.
+    #[error("cannot create the output folder {}", path.display())]
+    CreateDir {
+        /// The folder.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The expected JSON could not be encoded.
+    #[error("cannot encode the expected JSON")]
+    ExpectedJson(#[source] serde_json::Error),
+}
+
+/// Does what `request` asks and returns the text to print: the `--list` table, or one line per
+/// file written.
+///
+/// # Errors
+/// [`ExportJobError`]: an unreadable bag or one without animation frames, an unknown animation
+/// or variant, an output that exists (without `force`) or cannot be written, a `.onim` mapping
+/// that is invalid or does not cover the rig. A refused export writes nothing.
+pub fn export(request: &ExportRequest) -> Result<String, ExportJobError> {
+    let Some(input) = request.input.as_deref() else {
+        return Err(ExportJobError::NoInput);
+    };
+    if let Some(f) = request.fps
+        && !(f.is_finite() && f > 0.0)
+    {
+        return Err(ExportJobError::Fps(f));
+    }
+    let readers = BagReader::open_all(input)?;
+    let available = super::list(input, &readers)?;
+    if request.list {
+        let fps = request.fps.or_else(|| super::stated_frame_rate(&readers));
+        return Ok(listing(&available, fps));
+    }
+    let (Some(format), Some(output)) = (request.format, request.output.as_deref()) else {
+        return Err(ExportJobError::NoFormatOrOutput);
+    };
+    if request.write_expected_json && format != ExportFormat::Bvh {
+        return Err(ExportJobError::ExpectedJsonNotBvh);
+    }
+    let rig = Rig::standard();
+    let options = EncodeOptions {
+        onim_mapping: match (format, &request.onim_template) {
+            (ExportFormat::Onim, Some(path)) => Some(onim::OnimMapping::load(&rig, path)?),
+            (ExportFormat::Onim, None) => Some(onim::OnimMapping::builtin(&rig)?),
+            (_, _) => None,
+        },
+        gltf_scene: None,
+    };
+    if request.onim_template.is_some() && format != ExportFormat::Onim {
+        tracing::warn!("--onim-template is only used with --format onim");
+    }
+    let keys = super::select(input, &available, request.animation, request.variant)?;
+    let (targets, folder) = targets(input, output, &keys, format)?;
+    // Every target is checked before anything is written, and the folder is made only when the
+    // first file is ready, so a refused export writes nothing.
+    for path in &targets {
+        super::check_writable(path, request.force)?;
+        if request.write_expected_json {
+            super::check_writable(&expected_path(path), request.force)?;
+        }
+    }
+    let job = Job {
+        rig: &rig,
+        input,
+        readers: &readers,
+        format,
+        options: &options,
+        request,
+    };
+    let mut folder = folder;
+    let mut text = String::new();
+    for (key, path) in keys.iter().zip(&targets) {
+        text.push_str(&job.write(*key, path, folder.take())?);
+    }
+    Ok(text)
+}
+
+/// What every animation of one export shares.
+struct Job<'a> {
+    rig: &'a Rig,
+    input: &'a Path,
+    readers: &'a [BagReader],
+    format: ExportFormat,
+    options: &'a EncodeOptions,
+    request: &'a ExportRequest,
+}
+
+impl Job<'_> {
+    /// Reads, encodes and writes one animation to `path` (making `folder` first, if given);
+    /// returns the line saying so.
+    fn write(
+        &self,
+        key: AnimationKey,
+        path: &Path,
+        folder: Option<&Path>,
+    ) -> Result<String, ExportJobError> {
+        let (rig, input, force) = (self.rig, self.input, self.request.force);
+        let clip = super::read_clip(rig, input, self.readers, key, self.request.fps)?;
+        let bytes = if matches!(self.format, ExportFormat::Gltf | ExportFormat::Glb) {
+            let scene = gltf::SceneContext::read(rig, input, self.readers, &clip)?;
+            let options = EncodeOptions {
+                gltf_scene: Some(scene),
+                ..self.options.clone()
+            };
+            super::encode(rig, &clip, self.format, &options)?
+        } else {
+            super::encode(rig, &clip, self.format, self.options)?
+        };
+        if let Some(folder) = folder {
+            std::fs::create_dir_all(folder).map_err(|source| ExportJobError::CreateDir {
+                path: folder.to_path_buf(),
+                source,
+            })?;
+        }
+        super::write_atomically(path, &bytes, force)?;
+        if self.request.write_expected_json {
+            let json = serde_json::to_vec(&bvh::expected_json(rig, &clip))
+                .map_err(ExportJobError::ExpectedJson)?;
+            super::write_atomically(&expected_path(path), &json, force)?;
+        }
+        Ok(format!(
+            "wrote {}: {key}, {} frames at {} fps\n",
+            path.display(),
+            clip.poses.len(),
+            clip.fps_hz
+        ))
+    }
+}
+
+/// The file each animation goes to (see "Output naming" in `autoact export --help`), and the
+/// folder they go in when `output` names one (created only once every target is known to be
+/// writable).
+fn targets<'o>(
+    input: &Path,
+    output: &'o Path,
+    keys: &[AnimationKey],
+    format: ExportFormat,
+) -> Result<(Vec<PathBuf>, Option<&'o Path>), ExportJobError> {
+    if keys.len() == 1 && !output.is_dir() {
+        return Ok((vec![output.to_path_buf()], None));
+    }
+    if keys.len() > 1
+        && output
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case(format.extension()))
+    {
+        return Err(ExportJobError::OneFileForMany {
+            count: keys.len(),
+            output: output.to_path_buf(),
+            extension: format.extension(),
+        });
+    }
+    let paths = keys
+        .iter()
+        .map(|k| output.join(super::output_name(input, *k, format)))
+        .collect();
+    Ok((paths, Some(output)))
+}
+
+/// `X.bvh` → `X.expected.json`.
+fn expected_path(path: &Path) -> PathBuf {
+    path.with_extension("expected.json")
+}
+
+/// The `--list` table.
+fn listing(available: &[AnimationListing], fps: Option<f64>) -> String {
+    let rows: Vec<Vec<String>> = available
+        .iter()
+        .map(|a| {
+            let seconds = crate::skeleton::pose::nanos_to_secs(
+                a.last_stamp_nanos.saturating_sub(a.first_stamp_nanos),
+            );
+            vec![
+                a.key.track_id.to_string(),
+                a.key.variant.to_string(),
+                a.frames.to_string(),
+                format!("{seconds:.3}"),
+                fps.or(a.frame_rate_hz)
+                    .map_or_else(|| "-".to_string(), |f| format!("{f:.2}")),
+                a.rig.clone(),
+            ]
+        })
+        .collect();
+    crate::table::table(
+        &["track", "variant", "frames", "seconds", "fps", "rig"],
+        &rows,
+    )
+}
