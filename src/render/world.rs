@@ -255,9 +255,12 @@ const WOOD: [f32; 3] = [0.5, 0.34, 0.2];
 /// sRGB of a kind the renderer has no shape for (drawn as a box).
 const UNKNOWN_GREY: [f32; 3] = [0.6, 0.6, 0.6];
 
-/// Palettes a prop's colour is drawn from (by its variety hash).
+// Palettes a prop's colour is drawn from (by its variety hash), sRGB.
+/// Tree crowns.
 const LEAVES: [[f32; 3]; 3] = [[0.2, 0.42, 0.15], [0.16, 0.36, 0.14], [0.26, 0.45, 0.18]];
+/// Rocks.
 const STONE: [[f32; 3]; 2] = [[0.45, 0.44, 0.42], [0.38, 0.36, 0.33]];
+/// Cars and golf carts.
 const CAR_PAINT: [[f32; 3]; 6] = [
     [0.7, 0.08, 0.07],
     [0.9, 0.9, 0.92],
@@ -266,15 +269,20 @@ const CAR_PAINT: [[f32; 3]; 6] = [
     [0.1, 0.1, 0.1],
     [0.15, 0.3, 0.6],
 ];
+/// Parasol canopies.
 const CANOPY: [[f32; 3]; 4] = [
     [0.9, 0.3, 0.2],
     [0.95, 0.85, 0.3],
     [0.2, 0.5, 0.8],
     [0.95, 0.95, 0.95],
 ];
+/// Coolers.
 const COOLER: [[f32; 3]; 2] = [[0.2, 0.4, 0.8], [0.85, 0.2, 0.2]];
+/// Chair seats and backs.
 const UPHOLSTERY: [[f32; 3]; 3] = [[0.12, 0.12, 0.14], [0.2, 0.25, 0.4], [0.35, 0.2, 0.15]];
+/// Cabinets.
 const CABINET: [[f32; 3]; 2] = [[0.6, 0.6, 0.62], [0.35, 0.3, 0.25]];
+/// Beach towels and exercise mats.
 const FABRIC: [[f32; 3]; 4] = [
     [0.2, 0.6, 0.8],
     [0.9, 0.4, 0.5],
