@@ -19,14 +19,17 @@ use crate::bags::{
     self,
     render::{RenderBagError, RenderedFrame},
 };
-use crate::camera::CAMERA_FRAME;
+use crate::camera::{CAMERA_FRAME, Intrinsics};
 use crate::ros::autoact_msgs::{FrameAnnotation, VideoInfo};
 use crate::ros::builtin_interfaces::Time;
 use crate::ros::foxglove_msgs::CompressedVideo;
 use crate::ros::std_msgs::Header;
+use crate::skeleton::character::Character;
 use crate::skeleton::fk::{BonePose, forward};
 use crate::skeleton::rig::Rig;
-use crate::video::{EncodeSettings, EncodedVideo, Ffmpeg, Tile, VideoEncoder, VideoError};
+use crate::video::{
+    AccessUnit, EncodeSettings, EncodedVideo, Ffmpeg, Tile, VideoEncoder, VideoError,
+};
 
 /// Why a render failed.
 #[derive(Debug, thiserror::Error)]
@@ -48,13 +51,51 @@ pub enum RenderError {
         /// The cause.
         source: std::io::Error,
     },
-    /// The settings cannot be used.
-    #[error("{0}")]
-    Settings(String),
+    /// The output size cannot be encoded.
+    #[error(
+        "resolution {width}x{height}: width and height must be even and at least {}",
+        MIN_SIDE_PX
+    )]
+    Resolution {
+        /// The asked width, pixels.
+        width: u32,
+        /// The asked height, pixels.
+        height: u32,
+    },
+    /// The capture (or the first `limit` of its frames) gives no frame to render.
+    #[error("no frames to render")]
+    NoFrames {
+        /// The frame limit asked for, if any.
+        limit: Option<usize>,
+    },
+    /// A video was asked for, but no ffmpeg was given to encode it.
+    #[error("a video needs ffmpeg (none was found)")]
+    NoFfmpeg {
+        /// The video asked for.
+        video: PathBuf,
+    },
+    /// The encoded video does not split into one access unit per frame, so it cannot be
+    /// embedded into the render bag.
+    #[error(
+        "{}: {units} H.264 access units for {frames} frames; not embedding a stream that does \
+         not match",
+        video.display()
+    )]
+    AccessUnitCount {
+        /// The encoded video.
+        video: PathBuf,
+        /// Access units found in it.
+        units: usize,
+        /// Frames rendered.
+        frames: usize,
+    },
     /// Stopped by a signal; nothing complete-looking was left behind.
     #[error("interrupted; partial outputs were removed")]
     Interrupted,
 }
+
+/// The smallest output width and height, pixels.
+pub const MIN_SIDE_PX: u32 = 16;
 
 /// How to render.
 #[derive(Debug, Clone, PartialEq)]
@@ -240,6 +281,12 @@ fn keyframes(capture: &Capture, samples: &[Sample]) -> Vec<u64> {
 /// Renders `capture` as `settings` say into `outputs`. `progress` is called with the number of
 /// frames done; setting `stop` abandons the render (partial outputs are removed).
 ///
+/// The stages: check the settings, [plan](Plan) the output frames (samples, keyframes, preview
+/// picks), [prepare](Scenes::prepare) every scene for drawing, then either render only the
+/// preview's frames or render every frame in parallel and hand them in order to the
+/// [outputs](FrameSinks) (encoder, PNG frames, preview tiles, annotations), and finally write
+/// the video, the preview and the render bag.
+///
 /// # Errors
 /// [`RenderError`]; on any error, no output that looks complete is left.
 pub fn render_capture(
@@ -251,163 +298,324 @@ pub fn render_capture(
     progress: &(dyn Fn(u64) + Sync),
     stop: &AtomicBool,
 ) -> Result<RenderSummary, RenderError> {
-    if settings.width < 16
-        || settings.height < 16
-        || settings.width % 2 == 1
-        || settings.height % 2 == 1
-    {
-        return Err(RenderError::Settings(format!(
-            "resolution {}x{}: width and height must be even and at least 16",
-            settings.width, settings.height
-        )));
-    }
-    let samples = samples(capture, settings.fps, settings.limit);
-    if samples.is_empty() {
-        return Err(RenderError::Settings("no frames to render".into()));
-    }
-    let fps = settings.fps.unwrap_or(capture.fps);
-    let intrinsics = capture.intrinsics.resized(settings.width, settings.height);
-    let stages: Vec<Stage> = capture
-        .scenes
-        .par_iter()
-        .enumerate()
-        .map(|(i, s)| Stage::new(rig, &s.scene, s.stream, i as u64))
-        .collect();
-    let mut unknown: Vec<String> = stages
-        .iter()
-        .flat_map(|s| s.world.unknown_prop_kinds.clone())
-        .collect();
-    unknown.sort();
-    unknown.dedup();
-    let characters: Vec<_> = capture
-        .scenes
-        .iter()
-        .map(|s| s.scene.look.character(rig))
-        .collect();
-    let render_one = |renderer: &mut CpuRenderer, image: &mut Image, s: &Sample| {
-        let posed = forward(rig, &characters[s.scene], &s.pose, 1.0);
-        let camera = Camera {
-            world_from_optical: s.world_from_optical,
-            intrinsics,
-        };
-        let scene_start = capture.scenes[s.scene].start_nanos;
-        let input = FrameInput {
-            camera,
-            pose: &posed,
-            time_s: crate::skeleton::pose::nanos_to_secs(s.stamp_nanos.saturating_sub(scene_start)),
-        };
-        renderer.render(&stages[s.scene], &input, image);
-        annotate(&posed, &camera, image)
-    };
-
+    check_resolution(settings)?;
+    let plan = Plan::new(capture, settings)?;
+    let scenes = Scenes::prepare(rig, capture, settings);
     let mut summary = RenderSummary {
         frames: 0,
         video: None,
         render_bag: None,
         preview: None,
-        forced_keyframes: keyframes(capture, &samples),
-        unknown_prop_kinds: unknown,
+        forced_keyframes: plan.keyframes.clone(),
+        unknown_prop_kinds: scenes.unknown_prop_kinds(),
     };
-
-    // A preview alone renders only the sampled frames.
-    let preview_picks = preview_frames(capture, &samples);
-    let full = outputs.video.is_some() || outputs.frames_dir.is_some();
-    if !full {
+    if outputs.video.is_none() && outputs.frames_dir.is_none() {
+        // A preview alone renders only the sampled frames.
         if let Some(path) = &outputs.preview {
-            let tiles: Vec<(Vec<u8>, String)> = preview_picks
-                .par_iter()
-                .map_init(
-                    || (CpuRenderer::new(), Image::default()),
-                    |(r, image), &k| {
-                        render_one(r, image, &samples[k]);
-                        (image.rgb.clone(), preview_label(capture, &samples[k]))
-                    },
-                )
-                .collect();
-            write_preview(path, &tiles, settings)?;
+            summary.frames = render_preview_only(&scenes, &plan, path, settings)?;
             summary.preview = Some(path.clone());
-            summary.frames = tiles.len() as u64;
         }
         return Ok(summary);
     }
-
-    if let Some(dir) = &outputs.frames_dir {
-        std::fs::create_dir_all(dir).map_err(|source| RenderError::Io {
-            action: "create the frames folder",
-            path: dir.clone(),
-            source,
-        })?;
+    let mut sinks = FrameSinks::open(&plan, outputs, settings, ffmpeg)?;
+    let outcome = render_in_order(&scenes, &plan, &mut sinks, progress, stop);
+    let encoder = sinks.encoder.take();
+    if let Err(e) = outcome {
+        if let Some(enc) = encoder {
+            enc.abort();
+        }
+        return Err(e);
     }
-    let mut encoder = match (&outputs.video, ffmpeg) {
-        (Some(path), Some(ff)) => {
-            let mut enc = EncodeSettings::new(settings.width, settings.height, fps)
-                .with_keyframes(summary.forced_keyframes.iter().copied());
-            enc.crf = settings.crf;
-            enc.preset.clone_from(&settings.preset);
-            if let Some(g) = settings.gop_frames {
-                enc.gop_frames = g;
-            }
-            Some(VideoEncoder::start(ff, path, &enc)?)
-        }
-        (Some(_), None) => {
-            return Err(RenderError::Settings(
-                "a video needs ffmpeg (none was found)".into(),
-            ));
-        }
-        _ => None,
+    summary.frames = sinks.annotations.len() as u64;
+    let video = match encoder {
+        Some(enc) => Some(enc.finish()?),
+        None => None,
     };
+    if let Some(path) = &outputs.preview {
+        write_preview(path, &sinks.preview_tiles, settings)?;
+        summary.preview = Some(path.clone());
+    }
+    if let Some(bag) = outputs.render_bag_path().filter(|_| video.is_some()) {
+        let units = embedded_units(video.as_ref(), ffmpeg, settings, plan.samples.len())?;
+        let rendered = Rendered {
+            samples: &plan.samples,
+            annotations: &sinks.annotations,
+            video: video.as_ref(),
+            forced_keyframes: &summary.forced_keyframes,
+            units: units.as_deref(),
+        };
+        write_render_bag(&bag, capture, settings, &rendered, rig)?;
+        summary.render_bag = Some(bag);
+    }
+    summary.video = video;
+    Ok(summary)
+}
 
-    // Render in parallel batches, hand frames over in order.
-    let threads = rayon::current_num_threads().max(1);
-    let batch = 4 * threads;
-    let mut annotations: Vec<Annotation> = Vec::with_capacity(samples.len());
-    let mut preview_tiles: Vec<(Vec<u8>, String)> = Vec::new();
+/// Width and height must be even (for `yuv420p`) and at least [`MIN_SIDE_PX`].
+fn check_resolution(settings: &RenderSettings) -> Result<(), RenderError> {
+    let (width, height) = (settings.width, settings.height);
+    if width < MIN_SIDE_PX || height < MIN_SIDE_PX || width % 2 == 1 || height % 2 == 1 {
+        return Err(RenderError::Resolution { width, height });
+    }
+    Ok(())
+}
+
+/// The output frames and what is special about them.
+struct Plan {
+    /// Every output frame, in order.
+    samples: Vec<Sample>,
+    /// Output frames where a clip starts or ends (they become keyframes).
+    keyframes: Vec<u64>,
+    /// Output frames shown on the contact sheet.
+    preview_picks: Vec<usize>,
+    /// The output frame rate.
+    fps: f64,
+}
+
+impl Plan {
+    /// The frames `settings` ask of `capture`.
+    fn new(capture: &Capture, settings: &RenderSettings) -> Result<Plan, RenderError> {
+        let samples = samples(capture, settings.fps, settings.limit);
+        if samples.is_empty() {
+            return Err(RenderError::NoFrames {
+                limit: settings.limit,
+            });
+        }
+        Ok(Plan {
+            keyframes: keyframes(capture, &samples),
+            preview_picks: preview_frames(capture, &samples),
+            fps: settings.fps.unwrap_or(capture.fps),
+            samples,
+        })
+    }
+}
+
+/// Every scene of a capture made ready to draw, and how one output frame is drawn.
+struct Scenes<'a> {
+    rig: &'a Rig,
+    capture: &'a Capture,
+    /// One per capture scene.
+    stages: Vec<Stage>,
+    /// Each scene's character on the rig.
+    characters: Vec<Character>,
+    /// The capture's camera at the output resolution.
+    intrinsics: Intrinsics,
+}
+
+impl<'a> Scenes<'a> {
+    /// Builds every scene's stage (in parallel) and character.
+    fn prepare(rig: &'a Rig, capture: &'a Capture, settings: &RenderSettings) -> Scenes<'a> {
+        let stages: Vec<Stage> = capture
+            .scenes
+            .par_iter()
+            .enumerate()
+            .map(|(i, s)| Stage::new(rig, &s.scene, s.stream, i as u64))
+            .collect();
+        let characters = capture
+            .scenes
+            .iter()
+            .map(|s| s.scene.look.character(rig))
+            .collect();
+        Scenes {
+            rig,
+            capture,
+            stages,
+            characters,
+            intrinsics: capture.intrinsics.resized(settings.width, settings.height),
+        }
+    }
+
+    /// Prop kinds some scene draws as plain boxes, sorted, once each.
+    fn unknown_prop_kinds(&self) -> Vec<String> {
+        let mut unknown: Vec<String> = self
+            .stages
+            .iter()
+            .flat_map(|s| s.world.unknown_prop_kinds.clone())
+            .collect();
+        unknown.sort();
+        unknown.dedup();
+        unknown
+    }
+
+    /// Renders sample `s` into `image` and returns its labels.
+    fn render(&self, renderer: &mut CpuRenderer, image: &mut Image, s: &Sample) -> Annotation {
+        let posed = forward(self.rig, &self.characters[s.scene], &s.pose, 1.0);
+        let camera = Camera {
+            world_from_optical: s.world_from_optical,
+            intrinsics: self.intrinsics,
+        };
+        let scene_start = self.capture.scenes[s.scene].start_nanos;
+        let input = FrameInput {
+            camera,
+            pose: &posed,
+            time_s: crate::skeleton::pose::nanos_to_secs(s.stamp_nanos.saturating_sub(scene_start)),
+        };
+        renderer.render(&self.stages[s.scene], &input, image);
+        annotate(&posed, &camera, image)
+    }
+
+    /// Renders samples `picks` in parallel; each frame's `rgb24` and the value `keep` makes of it
+    /// and its labels, in order.
+    fn render_each<T: Send>(
+        &self,
+        picks: &[&Sample],
+        keep: impl Fn(&[u8], Annotation, &Sample) -> T + Sync,
+    ) -> Vec<T> {
+        picks
+            .par_iter()
+            .map_init(
+                || (CpuRenderer::new(), Image::default()),
+                |(r, image), s| {
+                    let a = self.render(r, image, s);
+                    keep(&image.rgb, a, s)
+                },
+            )
+            .collect()
+    }
+}
+
+/// Renders only the contact sheet's frames and writes the sheet to `path`; returns how many
+/// frames were rendered.
+fn render_preview_only(
+    scenes: &Scenes<'_>,
+    plan: &Plan,
+    path: &Path,
+    settings: &RenderSettings,
+) -> Result<u64, RenderError> {
+    let picks: Vec<&Sample> = plan
+        .preview_picks
+        .iter()
+        .map(|&k| &plan.samples[k])
+        .collect();
+    let tiles = scenes.render_each(&picks, |rgb, _, s| {
+        (rgb.to_vec(), preview_label(scenes.capture, s))
+    });
+    write_preview(path, &tiles, settings)?;
+    Ok(tiles.len() as u64)
+}
+
+/// Where each rendered frame goes, in order: the encoder, the PNG frames folder, the preview's
+/// tiles and the annotations for the render bag.
+struct FrameSinks<'a> {
+    encoder: Option<VideoEncoder>,
+    frames_dir: Option<&'a Path>,
+    width: u32,
+    height: u32,
+    preview_tiles: Vec<(Vec<u8>, String)>,
+    annotations: Vec<Annotation>,
+}
+
+impl<'a> FrameSinks<'a> {
+    /// Creates the frames folder and starts the encoder, as `outputs` ask.
+    fn open(
+        plan: &Plan,
+        outputs: &'a Outputs,
+        settings: &RenderSettings,
+        ffmpeg: Option<&Ffmpeg>,
+    ) -> Result<FrameSinks<'a>, RenderError> {
+        if let Some(dir) = &outputs.frames_dir {
+            std::fs::create_dir_all(dir).map_err(|source| RenderError::Io {
+                action: "create the frames folder",
+                path: dir.clone(),
+                source,
+            })?;
+        }
+        let encoder = match (&outputs.video, ffmpeg) {
+            (Some(path), Some(ff)) => Some(start_encoder(ff, path, plan, settings)?),
+            (Some(path), None) => {
+                return Err(RenderError::NoFfmpeg {
+                    video: path.clone(),
+                });
+            }
+            _ => None,
+        };
+        Ok(FrameSinks {
+            encoder,
+            frames_dir: outputs.frames_dir.as_deref(),
+            width: settings.width,
+            height: settings.height,
+            preview_tiles: Vec::new(),
+            annotations: Vec::with_capacity(plan.samples.len()),
+        })
+    }
+
+    /// Takes output frame `k`.
+    fn take(
+        &mut self,
+        k: usize,
+        rgb: Vec<u8>,
+        annotation: Annotation,
+        plan: &Plan,
+        capture: &Capture,
+    ) -> Result<(), RenderError> {
+        if let Some(enc) = self.encoder.as_mut() {
+            enc.write_frame(&rgb)?;
+        }
+        if let Some(dir) = self.frames_dir {
+            let path = dir.join(format!("frame_{k:06}.png"));
+            crate::video::write_png(&path, self.width, self.height, &rgb)?;
+        }
+        if plan.preview_picks.contains(&k) {
+            let label = preview_label(capture, &plan.samples[k]);
+            self.preview_tiles.push((rgb, label));
+        }
+        self.annotations.push(annotation);
+        Ok(())
+    }
+}
+
+/// Starts encoding `path` at the plan's rate, its keyframes forced, as `settings` say.
+fn start_encoder(
+    ffmpeg: &Ffmpeg,
+    path: &Path,
+    plan: &Plan,
+    settings: &RenderSettings,
+) -> Result<VideoEncoder, RenderError> {
+    let mut enc = EncodeSettings::new(settings.width, settings.height, plan.fps)
+        .with_keyframes(plan.keyframes.iter().copied());
+    enc.crf = settings.crf;
+    enc.preset.clone_from(&settings.preset);
+    if let Some(g) = settings.gop_frames {
+        enc.gop_frames = g;
+    }
+    Ok(VideoEncoder::start(ffmpeg, path, &enc)?)
+}
+
+/// Renders every sample in parallel batches on a producer thread and hands the frames to
+/// `sinks` in order. Stops with [`RenderError::Interrupted`] when `stop` is set or fewer frames
+/// than planned came through.
+fn render_in_order(
+    scenes: &Scenes<'_>,
+    plan: &Plan,
+    sinks: &mut FrameSinks<'_>,
+    progress: &(dyn Fn(u64) + Sync),
+    stop: &AtomicBool,
+) -> Result<(), RenderError> {
+    let batch = 4 * rayon::current_num_threads().max(1);
     let (sender, receiver) = std::sync::mpsc::sync_channel::<Vec<(Vec<u8>, Annotation)>>(2);
-    let result: Result<(), RenderError> = std::thread::scope(|scope| {
+    std::thread::scope(|scope| {
         let producer = scope.spawn(|| {
             // Owned here, so the channel closes when rendering ends.
             let sender = sender;
-            for chunk in samples.chunks(batch) {
+            for chunk in plan.samples.chunks(batch) {
                 if stop.load(Ordering::Relaxed) {
                     break;
                 }
-                let frames: Vec<(Vec<u8>, Annotation)> = chunk
-                    .par_iter()
-                    .map_init(
-                        || (CpuRenderer::new(), Image::default()),
-                        |(r, image), s| {
-                            let a = render_one(r, image, s);
-                            (image.rgb.clone(), a)
-                        },
-                    )
-                    .collect();
+                let chunk: Vec<&Sample> = chunk.iter().collect();
+                let frames = scenes.render_each(&chunk, |rgb, a, _| (rgb.to_vec(), a));
                 if sender.send(frames).is_err() {
                     break;
                 }
             }
         });
-        let mut k = 0usize;
         let mut consume = || -> Result<(), RenderError> {
+            let mut k = 0usize;
             for frames in receiver.iter() {
                 for (rgb, annotation) in frames {
                     if stop.load(Ordering::Relaxed) {
                         return Err(RenderError::Interrupted);
                     }
-                    if let Some(enc) = encoder.as_mut() {
-                        enc.write_frame(&rgb)?;
-                    }
-                    if let Some(dir) = &outputs.frames_dir {
-                        crate::video::write_png(
-                            &dir.join(format!("frame_{k:06}.png")),
-                            settings.width,
-                            settings.height,
-                            &rgb,
-                        )?;
-                    }
-                    if preview_picks.contains(&k) {
-                        preview_tiles.push((rgb, preview_label(capture, &samples[k])));
-                    }
-                    annotations.push(annotation);
+                    sinks.take(k, rgb, annotation, plan, scenes.capture)?;
                     k += 1;
                     progress(k as u64);
                 }
@@ -418,59 +626,36 @@ pub fn render_capture(
         drop(receiver);
         let _ = producer.join();
         outcome
-    });
-    if let Err(e) = result {
-        if let Some(enc) = encoder {
-            enc.abort();
-        }
-        return Err(e);
-    }
-    if stop.load(Ordering::Relaxed) || annotations.len() < samples.len() {
-        if let Some(enc) = encoder {
-            enc.abort();
-        }
+    })?;
+    if stop.load(Ordering::Relaxed) || sinks.annotations.len() < plan.samples.len() {
         return Err(RenderError::Interrupted);
     }
-    summary.frames = annotations.len() as u64;
-    let video = match encoder {
-        Some(enc) => Some(enc.finish()?),
-        None => None,
+    Ok(())
+}
+
+/// The encoded video's access units, one per frame, when `settings` embed the video into the
+/// render bag (and it has one per frame).
+fn embedded_units(
+    video: Option<&EncodedVideo>,
+    ffmpeg: Option<&Ffmpeg>,
+    settings: &RenderSettings,
+    frames: usize,
+) -> Result<Option<Vec<AccessUnit>>, RenderError> {
+    let (Some(v), Some(ff)) = (video, ffmpeg) else {
+        return Ok(None);
     };
-    if let Some(path) = &outputs.preview {
-        write_preview(path, &preview_tiles, settings)?;
-        summary.preview = Some(path.clone());
+    if !settings.embed_video {
+        return Ok(None);
     }
-    if let Some(bag) = outputs.render_bag_path().filter(|_| video.is_some()) {
-        let units = match (&video, ffmpeg) {
-            (Some(v), Some(ff)) if settings.embed_video => {
-                let units = crate::video::annexb_access_units(ff, &v.path)?;
-                if units.len() != samples.len() {
-                    return Err(RenderError::Settings(format!(
-                        "{}: {} H.264 access units for {} frames; not embedding a stream that does not match",
-                        v.path.display(),
-                        units.len(),
-                        samples.len()
-                    )));
-                }
-                Some(units)
-            }
-            _ => None,
-        };
-        write_render_bag(
-            &bag,
-            capture,
-            settings,
-            &samples,
-            &annotations,
-            video.as_ref(),
-            &summary.forced_keyframes,
-            units.as_deref(),
-            rig,
-        )?;
-        summary.render_bag = Some(bag);
+    let units = crate::video::annexb_access_units(ff, &v.path)?;
+    if units.len() != frames {
+        return Err(RenderError::AccessUnitCount {
+            video: v.path.clone(),
+            units: units.len(),
+            frames,
+        });
     }
-    summary.video = video;
-    Ok(summary)
+    Ok(Some(units))
 }
 
 /// Frames for the contact sheet: the middle of each clip's animation, at most 12, evenly chosen.
@@ -527,19 +712,35 @@ fn write_preview(
     Ok(())
 }
 
+/// What a render made, for its render bag.
+struct Rendered<'a> {
+    /// The output frames.
+    samples: &'a [Sample],
+    /// Their labels.
+    annotations: &'a [Annotation],
+    /// The encoded video.
+    video: Option<&'a EncodedVideo>,
+    /// Frames forced to be keyframes.
+    forced_keyframes: &'a [u64],
+    /// One access unit per frame, to embed.
+    units: Option<&'a [AccessUnit]>,
+}
+
 /// Writes the render bag: the video's description, then each frame's labels (and access unit).
-#[allow(clippy::too_many_arguments)]
 fn write_render_bag(
     path: &Path,
     capture: &Capture,
     settings: &RenderSettings,
-    samples: &[Sample],
-    annotations: &[Annotation],
-    video: Option<&EncodedVideo>,
-    forced_keyframes: &[u64],
-    units: Option<&[crate::video::AccessUnit]>,
+    rendered: &Rendered<'_>,
     rig: &Rig,
 ) -> Result<(), RenderBagError> {
+    let Rendered {
+        samples,
+        annotations,
+        video,
+        forced_keyframes,
+        units,
+    } = *rendered;
     let header = |stamp_nanos: u64| Header {
         stamp: Time::from_nanos(stamp_nanos),
         frame_id: CAMERA_FRAME.to_owned(),
@@ -594,4 +795,61 @@ fn write_render_bag(
             }),
         });
     bags::render::write(path, first, &info, frames)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn settings(width: u32, height: u32) -> RenderSettings {
+        RenderSettings {
+            width,
+            height,
+            fps: None,
+            limit: None,
+            crf: 23,
+            preset: "superfast".into(),
+            gop_frames: None,
+            embed_video: false,
+        }
+    }
+
+    #[test]
+    fn resolutions_must_be_even_and_at_least_the_minimum() {
+        assert!(check_resolution(&settings(16, 16)).is_ok());
+        assert!(check_resolution(&settings(320, 240)).is_ok());
+        for (w, h) in [(14, 240), (320, 14), (321, 240), (320, 241), (0, 0)] {
+            let err = check_resolution(&settings(w, h)).unwrap_err();
+            assert!(
+                matches!(err, RenderError::Resolution { width, height } if (width, height) == (w, h)),
+                "{err:?}"
+            );
+        }
+        assert_eq!(
+            RenderError::Resolution {
+                width: 321,
+                height: 240
+            }
+            .to_string(),
+            "resolution 321x240: width and height must be even and at least 16"
+        );
+    }
+
+    #[test]
+    fn setting_errors_name_the_value() {
+        let err = RenderError::AccessUnitCount {
+            video: PathBuf::from("out/v.mp4"),
+            units: 9,
+            frames: 10,
+        };
+        assert_eq!(
+            err.to_string(),
+            "out/v.mp4: 9 H.264 access units for 10 frames; not embedding a stream that does not \
+             match"
+        );
+        let err = RenderError::NoFfmpeg {
+            video: PathBuf::from("v.mp4"),
+        };
+        assert_eq!(err.to_string(), "a video needs ffmpeg (none was found)");
+    }
 }

@@ -4,9 +4,10 @@
 //! [`LocationInstance`] and [`Environment`]; the layout of the backdrop comes from the scene's
 //! seed, so two scenes at one location differ.
 //!
-//! Props are drawn from their kind's name (the built-in pool's `tree`, `car`, `bench`, …) inside
-//! their placed bounding box; a kind the renderer does not know is drawn as a box of that size
-//! (never skipped), and [`World::unknown_prop_kinds`] lists them so the caller can say so.
+//! Props are drawn from their kind's name (the built-in pool's `tree`, `car`, `bench`, …),
+//! parsed once into a [`PropKind`] whose shape is data, inside their placed bounding box; a kind
+//! the renderer does not know is drawn as a box of that size (never skipped), and
+//! [`World::unknown_prop_kinds`] lists them so the caller can say so.
 
 use crate::hash::{hash2, unit2};
 use crate::scene::color::{Rgb, linear_from_srgb, mix, scale};
@@ -245,295 +246,575 @@ fn srgb(c: [f32; 3]) -> Rgb {
     linear_from_srgb(c)
 }
 
-/// Kinds [`add_prop`] draws with a shape of their own.
-pub const KNOWN_PROP_KINDS: [&str; 25] = [
-    "ball_basket",
-    "beach_towel",
-    "bench",
-    "cabinet",
-    "car",
-    "cooler",
-    "crate",
-    "desk",
-    "dumbbell_rack",
-    "exercise_mat",
-    "flagstick",
-    "forklift",
-    "golf_cart",
-    "lamp_post",
-    "office_chair",
-    "pallet",
-    "parasol",
-    "plant",
-    "rock",
-    "sun_lounger",
-    "trash_bin",
-    "tree",
-    "treadmill",
-    "umpire_chair",
-    "weight_bench",
+/// sRGB of bare metal (legs, posts, frames).
+const METAL: [f32; 3] = [0.55, 0.57, 0.6];
+/// sRGB of black plastic and rubber (wheels, weight benches, treadmill belts).
+const DARK: [f32; 3] = [0.08, 0.08, 0.09];
+/// sRGB of varnished wood (benches, desks).
+const WOOD: [f32; 3] = [0.5, 0.34, 0.2];
+/// sRGB of a kind the renderer has no shape for (drawn as a box).
+const UNKNOWN_GREY: [f32; 3] = [0.6, 0.6, 0.6];
+
+// Palettes a prop's colour is drawn from (by its variety hash), sRGB.
+/// Tree crowns.
+const LEAVES: [[f32; 3]; 3] = [[0.2, 0.42, 0.15], [0.16, 0.36, 0.14], [0.26, 0.45, 0.18]];
+/// Rocks.
+const STONE: [[f32; 3]; 2] = [[0.45, 0.44, 0.42], [0.38, 0.36, 0.33]];
+/// Cars and golf carts.
+const CAR_PAINT: [[f32; 3]; 6] = [
+    [0.7, 0.08, 0.07],
+    [0.9, 0.9, 0.92],
+    [0.1, 0.12, 0.2],
+    [0.5, 0.52, 0.55],
+    [0.1, 0.1, 0.1],
+    [0.15, 0.3, 0.6],
+];
+/// Parasol canopies.
+const CANOPY: [[f32; 3]; 4] = [
+    [0.9, 0.3, 0.2],
+    [0.95, 0.85, 0.3],
+    [0.2, 0.5, 0.8],
+    [0.95, 0.95, 0.95],
+];
+/// Coolers.
+const COOLER: [[f32; 3]; 2] = [[0.2, 0.4, 0.8], [0.85, 0.2, 0.2]];
+/// Chair seats and backs.
+const UPHOLSTERY: [[f32; 3]; 3] = [[0.12, 0.12, 0.14], [0.2, 0.25, 0.4], [0.35, 0.2, 0.15]];
+/// Cabinets.
+const CABINET: [[f32; 3]; 2] = [[0.6, 0.6, 0.62], [0.35, 0.3, 0.25]];
+/// Beach towels and exercise mats.
+const FABRIC: [[f32; 3]; 4] = [
+    [0.2, 0.6, 0.8],
+    [0.9, 0.4, 0.5],
+    [0.3, 0.7, 0.3],
+    [0.6, 0.3, 0.7],
 ];
 
-/// Draws one placed prop into `m`; returns whether its kind is known (else a plain box).
-fn add_prop(m: &mut Mesh, prop: &PlacedProp, variety: u64) -> bool {
-    let [sx, sy, sz] = prop.size_m.map(|v| v as f32);
-    let at = Place::new(
-        [prop.position_m[0] as f32, prop.position_m[1] as f32, 0.0],
-        (prop.yaw_deg as f32).to_radians(),
-    );
-    let pick = |palette: &[[f32; 3]]| srgb(palette[(variety % palette.len() as u64) as usize]);
-    let (hx, hy) = (sx / 2.0, sy / 2.0);
-    let metal = srgb([0.55, 0.57, 0.6]);
-    let dark = srgb([0.08, 0.08, 0.09]);
-    let wood = srgb([0.5, 0.34, 0.2]);
-    match prop.kind.as_str() {
-        "tree" => {
-            let trunk_h = sz * 0.35;
-            cylinder(
-                m,
-                at,
-                [0.0, 0.0],
-                sx * 0.07,
-                0.0,
-                trunk_h + 0.3,
-                6,
-                srgb([0.33, 0.22, 0.13]),
-            );
-            let leaf = pick(&[[0.2, 0.42, 0.15], [0.16, 0.36, 0.14], [0.26, 0.45, 0.18]]);
-            add_lathe(
-                m,
-                at,
-                [0.0, 0.0],
-                &[
-                    (0.0, trunk_h * 0.9),
-                    (hx * 0.95, trunk_h + 0.2 * sz),
-                    (hx * 0.75, trunk_h + 0.45 * sz),
-                    (0.0, sz),
-                ],
-                8,
-                leaf,
-            );
+/// A prop kind the renderer draws with a shape of its own, parsed once from the location's prop
+/// name (the built-in pool's `tree`, `car`, `bench`, …). Adding a prop is adding a variant, its
+/// name and its [`Shape`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum PropKind {
+    /// `ball_basket`.
+    BallBasket,
+    /// `beach_towel`.
+    BeachTowel,
+    /// `bench`.
+    Bench,
+    /// `cabinet`.
+    Cabinet,
+    /// `car`.
+    Car,
+    /// `cooler`.
+    Cooler,
+    /// `crate`.
+    Crate,
+    /// `desk`.
+    Desk,
+    /// `dumbbell_rack`.
+    DumbbellRack,
+    /// `exercise_mat`.
+    ExerciseMat,
+    /// `flagstick`.
+    Flagstick,
+    /// `forklift`.
+    Forklift,
+    /// `golf_cart`.
+    GolfCart,
+    /// `lamp_post`.
+    LampPost,
+    /// `office_chair`.
+    OfficeChair,
+    /// `pallet`.
+    Pallet,
+    /// `parasol`.
+    Parasol,
+    /// `plant`.
+    Plant,
+    /// `rock`.
+    Rock,
+    /// `sun_lounger`.
+    SunLounger,
+    /// `trash_bin`.
+    TrashBin,
+    /// `treadmill`.
+    Treadmill,
+    /// `tree`.
+    Tree,
+    /// `umpire_chair`.
+    UmpireChair,
+    /// `weight_bench`.
+    WeightBench,
+}
+
+impl PropKind {
+    /// Every kind, in the order of their names.
+    pub const ALL: [PropKind; 25] = [
+        PropKind::BallBasket,
+        PropKind::BeachTowel,
+        PropKind::Bench,
+        PropKind::Cabinet,
+        PropKind::Car,
+        PropKind::Cooler,
+        PropKind::Crate,
+        PropKind::Desk,
+        PropKind::DumbbellRack,
+        PropKind::ExerciseMat,
+        PropKind::Flagstick,
+        PropKind::Forklift,
+        PropKind::GolfCart,
+        PropKind::LampPost,
+        PropKind::OfficeChair,
+        PropKind::Pallet,
+        PropKind::Parasol,
+        PropKind::Plant,
+        PropKind::Rock,
+        PropKind::SunLounger,
+        PropKind::TrashBin,
+        PropKind::Treadmill,
+        PropKind::Tree,
+        PropKind::UmpireChair,
+        PropKind::WeightBench,
+    ];
+
+    /// The kind named `name` in a location's props, if the renderer has a shape for it.
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<PropKind> {
+        PropKind::ALL.into_iter().find(|k| k.name() == name)
+    }
+
+    /// The name locations use for this kind.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            PropKind::BallBasket => "ball_basket",
+            PropKind::BeachTowel => "beach_towel",
+            PropKind::Bench => "bench",
+            PropKind::Cabinet => "cabinet",
+            PropKind::Car => "car",
+            PropKind::Cooler => "cooler",
+            PropKind::Crate => "crate",
+            PropKind::Desk => "desk",
+            PropKind::DumbbellRack => "dumbbell_rack",
+            PropKind::ExerciseMat => "exercise_mat",
+            PropKind::Flagstick => "flagstick",
+            PropKind::Forklift => "forklift",
+            PropKind::GolfCart => "golf_cart",
+            PropKind::LampPost => "lamp_post",
+            PropKind::OfficeChair => "office_chair",
+            PropKind::Pallet => "pallet",
+            PropKind::Parasol => "parasol",
+            PropKind::Plant => "plant",
+            PropKind::Rock => "rock",
+            PropKind::SunLounger => "sun_lounger",
+            PropKind::TrashBin => "trash_bin",
+            PropKind::Treadmill => "treadmill",
+            PropKind::Tree => "tree",
+            PropKind::UmpireChair => "umpire_chair",
+            PropKind::WeightBench => "weight_bench",
         }
-        "rock" => add_lathe(
-            m,
+    }
+
+    /// How this kind is built inside its box.
+    fn shape(self) -> Shape {
+        use Paint::{Fixed, Pick};
+        match self {
+            PropKind::Tree => Shape::Tree {
+                leaves: Pick(&LEAVES),
+            },
+            PropKind::Rock => Shape::Rock {
+                stone: Pick(&STONE),
+            },
+            PropKind::Bench => Shape::Bench {
+                seat: Fixed(WOOD),
+                backrest: true,
+            },
+            PropKind::WeightBench => Shape::Bench {
+                seat: Fixed(DARK),
+                backrest: false,
+            },
+            PropKind::Car => Shape::Vehicle {
+                body: Pick(&CAR_PAINT),
+                cabin_of_length: 0.5,
+            },
+            PropKind::GolfCart => Shape::Vehicle {
+                body: Pick(&CAR_PAINT),
+                cabin_of_length: 0.6,
+            },
+            PropKind::LampPost => Shape::Pole {
+                top: TopBlock {
+                    centre_m: [0.0, 0.0],
+                    size_m: [0.5, 0.25, 0.15],
+                    below_top_m: 0.15,
+                    srgb: [0.95, 0.92, 0.8],
+                },
+            },
+            PropKind::Flagstick => Shape::Pole {
+                top: TopBlock {
+                    centre_m: [0.25, 0.0],
+                    size_m: [0.5, 0.02, 0.35],
+                    below_top_m: 0.4,
+                    srgb: [0.9, 0.1, 0.1],
+                },
+            },
+            PropKind::Parasol => Shape::Parasol {
+                canopy: Pick(&CANOPY),
+            },
+            PropKind::Plant => Shape::Plant,
+            PropKind::TrashBin => Shape::Drum {
+                paint: Fixed([0.2, 0.35, 0.25]),
+            },
+            PropKind::BallBasket => Shape::Drum {
+                paint: Fixed([0.8, 0.85, 0.2]),
+            },
+            PropKind::Cooler => Shape::Block {
+                paint: Pick(&COOLER),
+            },
+            PropKind::Cabinet => Shape::Block {
+                paint: Pick(&CABINET),
+            },
+            PropKind::Crate => Shape::Block {
+                paint: Fixed([0.62, 0.45, 0.25]),
+            },
+            PropKind::DumbbellRack => Shape::Block { paint: Fixed(DARK) },
+            PropKind::Desk => Shape::Desk,
+            PropKind::OfficeChair => Shape::Chair {
+                seat_of_height: 0.42,
+            },
+            PropKind::UmpireChair => Shape::Chair {
+                seat_of_height: 0.7,
+            },
+            PropKind::Forklift => Shape::Forklift {
+                body: Fixed([0.95, 0.7, 0.1]),
+            },
+            PropKind::Treadmill => Shape::Treadmill,
+            PropKind::Pallet => Shape::Slab {
+                paint: Fixed([0.6, 0.48, 0.3]),
+            },
+            PropKind::SunLounger => Shape::Slab {
+                paint: Fixed([0.92, 0.92, 0.9]),
+            },
+            PropKind::BeachTowel | PropKind::ExerciseMat => Shape::Slab {
+                paint: Pick(&FABRIC),
+            },
+        }
+    }
+}
+
+/// A prop's colour: one sRGB colour, or one of a palette chosen by the prop's variety hash.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Paint {
+    Fixed([f32; 3]),
+    Pick(&'static [[f32; 3]]),
+}
+
+impl Paint {
+    /// The linear colour of the prop with `variety`.
+    fn rgb(self, variety: u64) -> Rgb {
+        match self {
+            Paint::Fixed(c) => srgb(c),
+            Paint::Pick(palette) => srgb(palette[(variety % palette.len() as u64) as usize]),
+        }
+    }
+}
+
+/// The block at the top of a pole.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct TopBlock {
+    /// Centre `[x, y]` in the prop's frame, metres.
+    centre_m: [f32; 2],
+    /// Size `[x, y, z]`, metres.
+    size_m: [f32; 3],
+    /// Its bottom, below the prop's height, metres.
+    below_top_m: f32,
+    /// Its sRGB colour.
+    srgb: [f32; 3],
+}
+
+/// How a kind is built inside its placed box, from boxes, cylinders and lathed profiles.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Shape {
+    /// A trunk under a crown of leaves.
+    Tree { leaves: Paint },
+    /// A lathed boulder.
+    Rock { stone: Paint },
+    /// A seat on two legs, with a backrest or not.
+    Bench { seat: Paint, backrest: bool },
+    /// A body on four wheels under a glass cabin that long (a fraction of the box's length).
+    Vehicle { body: Paint, cabin_of_length: f32 },
+    /// A thin metal pole with a block at its top.
+    Pole { top: TopBlock },
+    /// A thin pole under a canopy.
+    Parasol { canopy: Paint },
+    /// A pot and its foliage.
+    Plant,
+    /// An upright cylinder filling the box.
+    Drum { paint: Paint },
+    /// A block filling the box.
+    Block { paint: Paint },
+    /// A block filling the box, at least 1 cm high.
+    Slab { paint: Paint },
+    /// A wooden top on four metal legs.
+    Desk,
+    /// A seat at that fraction of the height on a post, with a backrest.
+    Chair { seat_of_height: f32 },
+    /// A body and a mast at its front.
+    Forklift { body: Paint },
+    /// A low belt and an upright console at its front.
+    Treadmill,
+}
+
+/// A placed prop's frame and box: the size `[sx, sy, sz]` and half footprint `[hx, hy]`, metres.
+#[derive(Debug, Clone, Copy)]
+struct PropFrame {
+    at: Place,
+    sx: f32,
+    sy: f32,
+    sz: f32,
+    hx: f32,
+    hy: f32,
+}
+
+impl Shape {
+    /// Draws the shape into `m` inside `f`; `variety` picks palette colours.
+    fn draw(self, m: &mut Mesh, f: PropFrame, variety: u64) {
+        let PropFrame {
             at,
-            [0.0, 0.0],
-            &[
-                (hx * 0.8, 0.0),
-                (hx, sz * 0.35),
-                (hx * 0.6, sz * 0.85),
-                (0.0, sz),
-            ],
-            7,
-            pick(&[[0.45, 0.44, 0.42], [0.38, 0.36, 0.33]]),
-        ),
-        "bench" | "weight_bench" => {
-            let seat = if prop.kind == "bench" { wood } else { dark };
-            add_block(m, at, [0.0, 0.0], [sx, sy * 0.9, 0.06], sz * 0.48, seat);
-            if prop.kind == "bench" {
-                add_block(
-                    m,
-                    at,
-                    [0.0, hy * 0.8],
-                    [sx, 0.05, sz * 0.45],
-                    sz * 0.55,
-                    seat,
-                );
-            }
-            for x in [-hx * 0.8, hx * 0.8] {
-                add_block(m, at, [x, 0.0], [0.06, sy * 0.8, sz * 0.48], 0.0, metal);
-            }
-        }
-        "car" | "golf_cart" => {
-            let body = pick(&[
-                [0.7, 0.08, 0.07],
-                [0.9, 0.9, 0.92],
-                [0.1, 0.12, 0.2],
-                [0.5, 0.52, 0.55],
-                [0.1, 0.1, 0.1],
-                [0.15, 0.3, 0.6],
-            ]);
-            let wheel_r = sz * 0.22;
-            add_block(m, at, [0.0, 0.0], [sx, sy, sz * 0.42], wheel_r * 0.8, body);
-            let glass = srgb([0.12, 0.16, 0.2]);
-            let cabin_len = if prop.kind == "car" {
-                sx * 0.5
-            } else {
-                sx * 0.6
-            };
-            add_block(
-                m,
-                at,
-                [-sx * 0.05, 0.0],
-                [cabin_len, sy * 0.86, sz * 0.36],
-                wheel_r * 0.8 + sz * 0.42,
-                glass,
-            );
-            for (x, y) in [
-                (-hx * 0.65, -hy),
-                (hx * 0.65, -hy),
-                (-hx * 0.65, hy),
-                (hx * 0.65, hy),
-            ] {
-                let wheel = Place::new(
-                    at.point([x, y, wheel_r]),
-                    (prop.yaw_deg as f32).to_radians(),
-                );
-                // A wheel: a short cylinder about the local y axis, drawn as an 8-sided block.
-                add_block(
-                    m,
-                    wheel,
-                    [0.0, 0.0],
-                    [wheel_r * 1.8, 0.2, wheel_r * 1.8],
-                    -wheel_r * 0.9,
-                    dark,
-                );
-            }
-        }
-        "lamp_post" | "flagstick" => {
-            cylinder(m, at, [0.0, 0.0], hx.min(0.08), 0.0, sz, 6, metal);
-            if prop.kind == "lamp_post" {
-                add_block(
-                    m,
-                    at,
-                    [0.0, 0.0],
-                    [0.5, 0.25, 0.15],
-                    sz - 0.15,
-                    srgb([0.95, 0.92, 0.8]),
-                );
-            } else {
-                add_block(
-                    m,
-                    at,
-                    [0.25, 0.0],
-                    [0.5, 0.02, 0.35],
-                    sz - 0.4,
-                    srgb([0.9, 0.1, 0.1]),
-                );
-            }
-        }
-        "parasol" => {
-            cylinder(m, at, [0.0, 0.0], 0.03, 0.0, sz, 6, srgb([0.9, 0.9, 0.88]));
-            let canopy = pick(&[
-                [0.9, 0.3, 0.2],
-                [0.95, 0.85, 0.3],
-                [0.2, 0.5, 0.8],
-                [0.95, 0.95, 0.95],
-            ]);
-            add_lathe(
-                m,
-                at,
-                [0.0, 0.0],
-                &[(hx, sz * 0.8), (hx * 0.5, sz * 0.92), (0.0, sz)],
-                8,
-                canopy,
-            );
-        }
-        "plant" => {
-            cylinder(
-                m,
-                at,
-                [0.0, 0.0],
-                hx * 0.6,
-                0.0,
-                sz * 0.3,
-                8,
-                srgb([0.6, 0.35, 0.25]),
-            );
-            add_lathe(
+            sx,
+            sy,
+            sz,
+            hx,
+            hy,
+        } = f;
+        match self {
+            Shape::Tree { leaves } => draw_tree(m, f, leaves.rgb(variety)),
+            Shape::Rock { stone } => add_lathe(
                 m,
                 at,
                 [0.0, 0.0],
                 &[
-                    (0.0, sz * 0.3),
-                    (hx, sz * 0.6),
-                    (hx * 0.6, sz * 0.9),
+                    (hx * 0.8, 0.0),
+                    (hx, sz * 0.35),
+                    (hx * 0.6, sz * 0.85),
                     (0.0, sz),
                 ],
                 7,
-                srgb([0.18, 0.45, 0.16]),
-            );
-        }
-        "trash_bin" | "ball_basket" | "cooler" => {
-            let c = match prop.kind.as_str() {
-                "trash_bin" => srgb([0.2, 0.35, 0.25]),
-                "cooler" => pick(&[[0.2, 0.4, 0.8], [0.85, 0.2, 0.2]]),
-                _ => srgb([0.8, 0.85, 0.2]),
-            };
-            if prop.kind == "cooler" {
-                add_block(m, at, [0.0, 0.0], [sx, sy, sz], 0.0, c);
-            } else {
-                cylinder(m, at, [0.0, 0.0], hx.min(hy), 0.0, sz, 10, c);
+                stone.rgb(variety),
+            ),
+            Shape::Bench { seat, backrest } => draw_bench(m, f, seat.rgb(variety), backrest),
+            Shape::Vehicle {
+                body,
+                cabin_of_length,
+            } => draw_vehicle(m, f, body.rgb(variety), cabin_of_length),
+            Shape::Pole { top } => {
+                cylinder(m, at, [0.0, 0.0], hx.min(0.08), 0.0, sz, 6, srgb(METAL));
+                let z0 = sz - top.below_top_m;
+                add_block(m, at, top.centre_m, top.size_m, z0, srgb(top.srgb));
             }
-        }
-        "desk" => {
-            add_block(m, at, [0.0, 0.0], [sx, sy, 0.04], sz - 0.04, wood);
-            for (x, y) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)] {
+            Shape::Parasol { canopy } => {
+                cylinder(m, at, [0.0, 0.0], 0.03, 0.0, sz, 6, srgb([0.9, 0.9, 0.88]));
+                let profile = [(hx, sz * 0.8), (hx * 0.5, sz * 0.92), (0.0, sz)];
+                add_lathe(m, at, [0.0, 0.0], &profile, 8, canopy.rgb(variety));
+            }
+            Shape::Plant => draw_plant(m, f),
+            Shape::Drum { paint } => {
+                cylinder(
+                    m,
+                    at,
+                    [0.0, 0.0],
+                    hx.min(hy),
+                    0.0,
+                    sz,
+                    10,
+                    paint.rgb(variety),
+                );
+            }
+            Shape::Block { paint } => {
+                add_block(m, at, [0.0, 0.0], [sx, sy, sz], 0.0, paint.rgb(variety));
+            }
+            Shape::Slab { paint } => {
+                let size = [sx, sy, sz.max(0.01)];
+                add_block(m, at, [0.0, 0.0], size, 0.0, paint.rgb(variety));
+            }
+            Shape::Desk => draw_desk(m, f),
+            Shape::Chair { seat_of_height } => {
+                draw_chair(m, f, Paint::Pick(&UPHOLSTERY).rgb(variety), seat_of_height);
+            }
+            Shape::Forklift { body } => {
+                let c = body.rgb(variety);
+                add_block(m, at, [-sx * 0.1, 0.0], [sx * 0.7, sy, sz * 0.5], 0.1, c);
                 add_block(
                     m,
                     at,
-                    [x * (hx - 0.05), y * (hy - 0.05)],
-                    [0.05, 0.05, sz - 0.04],
+                    [hx * 0.75, 0.0],
+                    [0.1, sy * 0.8, sz],
                     0.0,
-                    metal,
+                    srgb(DARK),
                 );
             }
-        }
-        "office_chair" | "umpire_chair" => {
-            let seat_z = sz
-                * if prop.kind == "umpire_chair" {
-                    0.7
-                } else {
-                    0.42
-                };
-            let c = pick(&[[0.12, 0.12, 0.14], [0.2, 0.25, 0.4], [0.35, 0.2, 0.15]]);
-            cylinder(m, at, [0.0, 0.0], 0.04, 0.0, seat_z, 6, metal);
-            add_block(m, at, [0.0, 0.0], [sx * 0.8, sy * 0.8, 0.08], seat_z, c);
-            add_block(
-                m,
-                at,
-                [0.0, hy * 0.75],
-                [sx * 0.8, 0.06, sz - seat_z - 0.08],
-                seat_z + 0.08,
-                c,
-            );
-        }
-        "cabinet" | "crate" | "dumbbell_rack" | "treadmill" | "forklift" => {
-            let c = match prop.kind.as_str() {
-                "cabinet" => pick(&[[0.6, 0.6, 0.62], [0.35, 0.3, 0.25]]),
-                "crate" => srgb([0.62, 0.45, 0.25]),
-                "forklift" => srgb([0.95, 0.7, 0.1]),
-                _ => dark,
-            };
-            if prop.kind == "forklift" {
-                add_block(m, at, [-sx * 0.1, 0.0], [sx * 0.7, sy, sz * 0.5], 0.1, c);
-                add_block(m, at, [hx * 0.75, 0.0], [0.1, sy * 0.8, sz], 0.0, dark);
-            } else if prop.kind == "treadmill" {
-                add_block(m, at, [0.0, 0.0], [sx, sy, 0.2], 0.0, dark);
-                add_block(m, at, [hx * 0.85, 0.0], [0.08, sy, sz], 0.0, metal);
-            } else {
-                add_block(m, at, [0.0, 0.0], [sx, sy, sz], 0.0, c);
+            Shape::Treadmill => {
+                add_block(m, at, [0.0, 0.0], [sx, sy, 0.2], 0.0, srgb(DARK));
+                add_block(m, at, [hx * 0.85, 0.0], [0.08, sy, sz], 0.0, srgb(METAL));
             }
         }
-        "pallet" | "beach_towel" | "exercise_mat" | "sun_lounger" => {
-            let c = match prop.kind.as_str() {
-                "pallet" => srgb([0.6, 0.48, 0.3]),
-                "sun_lounger" => srgb([0.92, 0.92, 0.9]),
-                _ => pick(&[
-                    [0.2, 0.6, 0.8],
-                    [0.9, 0.4, 0.5],
-                    [0.3, 0.7, 0.3],
-                    [0.6, 0.3, 0.7],
-                ]),
-            };
-            add_block(m, at, [0.0, 0.0], [sx, sy, sz.max(0.01)], 0.0, c);
-        }
-        _ => {
-            add_block(m, at, [0.0, 0.0], [sx, sy, sz], 0.0, srgb([0.6, 0.6, 0.6]));
-            return false;
-        }
     }
-    true
+}
+
+/// A trunk and a crown of `leaf` colour.
+fn draw_tree(m: &mut Mesh, f: PropFrame, leaf: Rgb) {
+    let PropFrame { at, sx, sz, hx, .. } = f;
+    let trunk_h = sz * 0.35;
+    let bark = srgb([0.33, 0.22, 0.13]);
+    cylinder(m, at, [0.0, 0.0], sx * 0.07, 0.0, trunk_h + 0.3, 6, bark);
+    let crown = [
+        (0.0, trunk_h * 0.9),
+        (hx * 0.95, trunk_h + 0.2 * sz),
+        (hx * 0.75, trunk_h + 0.45 * sz),
+        (0.0, sz),
+    ];
+    add_lathe(m, at, [0.0, 0.0], &crown, 8, leaf);
+}
+
+/// A seat of `seat` colour on two metal legs, with a backrest if `backrest`.
+fn draw_bench(m: &mut Mesh, f: PropFrame, seat: Rgb, backrest: bool) {
+    let PropFrame {
+        at,
+        sx,
+        sy,
+        sz,
+        hx,
+        hy,
+    } = f;
+    add_block(m, at, [0.0, 0.0], [sx, sy * 0.9, 0.06], sz * 0.48, seat);
+    if backrest {
+        let size = [sx, 0.05, sz * 0.45];
+        add_block(m, at, [0.0, hy * 0.8], size, sz * 0.55, seat);
+    }
+    for x in [-hx * 0.8, hx * 0.8] {
+        add_block(
+            m,
+            at,
+            [x, 0.0],
+            [0.06, sy * 0.8, sz * 0.48],
+            0.0,
+            srgb(METAL),
+        );
+    }
+}
+
+/// A `body`-coloured body, a glass cabin `cabin_of_length` of its length and four wheels.
+fn draw_vehicle(m: &mut Mesh, f: PropFrame, body: Rgb, cabin_of_length: f32) {
+    let PropFrame {
+        at,
+        sx,
+        sy,
+        sz,
+        hx,
+        hy,
+    } = f;
+    let wheel_r = sz * 0.22;
+    add_block(m, at, [0.0, 0.0], [sx, sy, sz * 0.42], wheel_r * 0.8, body);
+    let glass = srgb([0.12, 0.16, 0.2]);
+    let cabin_len = sx * cabin_of_length;
+    add_block(
+        m,
+        at,
+        [-sx * 0.05, 0.0],
+        [cabin_len, sy * 0.86, sz * 0.36],
+        wheel_r * 0.8 + sz * 0.42,
+        glass,
+    );
+    for (x, y) in [
+        (-hx * 0.65, -hy),
+        (hx * 0.65, -hy),
+        (-hx * 0.65, hy),
+        (hx * 0.65, hy),
+    ] {
+        let wheel = Place {
+            origin: at.point([x, y, wheel_r]),
+            ..at
+        };
+        // A wheel: a short cylinder about the local y axis, drawn as a block.
+        let size = [wheel_r * 1.8, 0.2, wheel_r * 1.8];
+        add_block(m, wheel, [0.0, 0.0], size, -wheel_r * 0.9, srgb(DARK));
+    }
+}
+
+/// A clay pot and a lathed bush.
+fn draw_plant(m: &mut Mesh, f: PropFrame) {
+    let PropFrame { at, sz, hx, .. } = f;
+    let pot = srgb([0.6, 0.35, 0.25]);
+    cylinder(m, at, [0.0, 0.0], hx * 0.6, 0.0, sz * 0.3, 8, pot);
+    let bush = [
+        (0.0, sz * 0.3),
+        (hx, sz * 0.6),
+        (hx * 0.6, sz * 0.9),
+        (0.0, sz),
+    ];
+    add_lathe(m, at, [0.0, 0.0], &bush, 7, srgb([0.18, 0.45, 0.16]));
+}
+
+/// A wooden top on four metal legs at its corners.
+fn draw_desk(m: &mut Mesh, f: PropFrame) {
+    let PropFrame {
+        at,
+        sx,
+        sy,
+        sz,
+        hx,
+        hy,
+    } = f;
+    add_block(m, at, [0.0, 0.0], [sx, sy, 0.04], sz - 0.04, srgb(WOOD));
+    for (x, y) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)] {
+        let leg = [x * (hx - 0.05), y * (hy - 0.05)];
+        add_block(m, at, leg, [0.05, 0.05, sz - 0.04], 0.0, srgb(METAL));
+    }
+}
+
+/// A `c`-coloured seat at `seat_of_height` of the height on a metal post, with a backrest.
+fn draw_chair(m: &mut Mesh, f: PropFrame, c: Rgb, seat_of_height: f32) {
+    let PropFrame {
+        at, sx, sy, sz, hy, ..
+    } = f;
+    let seat_z = sz * seat_of_height;
+    cylinder(m, at, [0.0, 0.0], 0.04, 0.0, seat_z, 6, srgb(METAL));
+    add_block(m, at, [0.0, 0.0], [sx * 0.8, sy * 0.8, 0.08], seat_z, c);
+    add_block(
+        m,
+        at,
+        [0.0, hy * 0.75],
+        [sx * 0.8, 0.06, sz - seat_z - 0.08],
+        seat_z + 0.08,
+        c,
+    );
+}
+
+/// Draws one placed prop of `kind` (`None`: a kind without a shape, drawn as a plain grey box)
+/// into `m`; `variety` picks its colours.
+fn add_prop(m: &mut Mesh, prop: &PlacedProp, kind: Option<PropKind>, variety: u64) {
+    let [sx, sy, sz] = prop.size_m.map(|v| v as f32);
+    let frame = PropFrame {
+        at: Place::new(
+            [prop.position_m[0] as f32, prop.position_m[1] as f32, 0.0],
+            (prop.yaw_deg as f32).to_radians(),
+        ),
+        sx,
+        sy,
+        sz,
+        hx: sx / 2.0,
+        hy: sy / 2.0,
+    };
+    match kind {
+        Some(kind) => kind.shape().draw(m, frame, variety),
+        None => add_block(
+            m,
+            frame.at,
+            [0.0, 0.0],
+            [sx, sy, sz],
+            0.0,
+            srgb(UNKNOWN_GREY),
+        ),
+    }
 }
 
 /// Side of the ground texture tile, texels.
@@ -727,160 +1008,178 @@ impl World {
     /// Builds the world of `location` under `env`, its backdrop laid out by `seed`.
     #[must_use]
     pub fn build(location: &LocationInstance, env: &Environment, seed: u64) -> World {
-        let mut props = Mesh::default();
-        let mut unknown = Vec::new();
-        for (i, p) in location.props.iter().enumerate() {
-            if !add_prop(&mut props, p, hash2(seed, i as u64)) && !unknown.contains(&p.kind) {
-                unknown.push(p.kind.clone());
-            }
-        }
-        unknown.sort();
+        let (props, unknown_prop_kinds) = build_props(&location.props, seed);
         let half = [
             (location.size_m[0] / 2.0) as f32,
             (location.size_m[1] / 2.0) as f32,
         ];
-        let surround_ground = match (location.ground, location.backdrop) {
-            (_, Backdrop::Walls) => location.ground,
-            (Ground::Grass, _) | (_, Backdrop::Hills | Backdrop::Trees) => Ground::Grass,
-            (Ground::Sand, _) | (_, Backdrop::Sea) => Ground::Sand,
-            (Ground::Tiles, _) => Ground::Concrete,
-            (_, Backdrop::CityBlocks) => Ground::Concrete,
-            (g, Backdrop::Sky) => g,
-        };
-        let water = match (location.backdrop, location.has_water) {
-            (Backdrop::Sea, _) => Some([-1e4, half[1], 1e4, 1e4]),
-            (_, true) => Some([-4.0, 3.0, 4.0, half[1].max(8.0)]),
-            _ => None,
-        };
-        let mut backdrop = Mesh::default();
-        let mut rng_i = 0u64;
-        let mut next = || {
-            rng_i += 1;
-            unit2(seed ^ 0xbac, rng_i)
-        };
-        let tau = std::f32::consts::TAU;
-        let at0 = Place::new([0.0, 0.0, 0.0], 0.0);
-        match location.backdrop {
-            Backdrop::Hills => {
-                for k in 0..14 {
-                    let a = tau * (k as f32 + next()) / 14.0;
-                    let r = 180.0 + 160.0 * next();
-                    let (w, h) = (70.0 + 80.0 * next(), 25.0 + 45.0 * next());
-                    let c = srgb(mix([0.25, 0.38, 0.18], [0.45, 0.42, 0.3], next()));
-                    let xy = [r * a.cos(), r * a.sin()];
-                    add_lathe(
-                        &mut backdrop,
-                        at0,
-                        xy,
-                        &[(w, -2.0), (w * 0.6, h * 0.6), (w * 0.2, h * 0.95), (0.0, h)],
-                        10,
-                        c,
-                    );
-                }
-            }
-            Backdrop::Trees => {
-                for k in 0..48 {
-                    let a = tau * (k as f32 + 0.8 * next()) / 48.0;
-                    let r = half[0].max(half[1]) + 8.0 + 20.0 * next();
-                    let h = 6.0 + 8.0 * next();
-                    let xy = [r * a.cos(), r * a.sin()];
-                    cylinder(
-                        &mut backdrop,
-                        at0,
-                        xy,
-                        0.25,
-                        0.0,
-                        h * 0.4,
-                        5,
-                        srgb([0.3, 0.2, 0.12]),
-                    );
-                    let c = srgb(mix([0.12, 0.3, 0.1], [0.22, 0.4, 0.15], next()));
-                    add_lathe(
-                        &mut backdrop,
-                        at0,
-                        xy,
-                        &[(h * 0.3, h * 0.3), (h * 0.22, h * 0.65), (0.0, h)],
-                        7,
-                        c,
-                    );
-                }
-            }
-            Backdrop::CityBlocks => {
-                for k in 0..28 {
-                    let a = tau * (k as f32 + 0.5 * next()) / 28.0;
-                    let r = half[0].max(half[1]) + 25.0 + 40.0 * next();
-                    let (w, d, h) = (
-                        14.0 + 14.0 * next(),
-                        12.0 + 10.0 * next(),
-                        10.0 + 50.0 * next(),
-                    );
-                    let c = srgb(mix([0.55, 0.53, 0.5], [0.7, 0.62, 0.52], next()));
-                    let block = Place::new([r * a.cos(), r * a.sin(), 0.0], a);
-                    add_block(&mut backdrop, block, [0.0, 0.0], [d, w, h], 0.0, c);
-                    // A darker band of windows on every other floor group.
-                    let glass = scale(c, 0.45);
-                    let mut z = 3.0;
-                    while z + 2.0 < h {
-                        add_block(
-                            &mut backdrop,
-                            block,
-                            [-d * 0.5 - 0.05, 0.0],
-                            [0.1, w * 0.85, 1.4],
-                            z,
-                            glass,
-                        );
-                        z += 4.0;
-                    }
-                }
-            }
-            Backdrop::Walls => {
-                let height =
-                    (location.size_m[0].min(location.size_m[1]) as f32 * 0.35).clamp(3.0, 9.0);
-                let wall = srgb(mix([0.82, 0.8, 0.76], [0.7, 0.74, 0.78], next()));
-                let (hx, hy, t) = (half[0] + 0.2, half[1] + 0.2, 0.2);
-                // Four walls and a ceiling as boxes seen from inside: draw inverted boxes.
-                for (lo, hi) in [
-                    ([-hx - t, -hy - t, 0.0], [hx + t, -hy, height]),
-                    ([-hx - t, hy, 0.0], [hx + t, hy + t, height]),
-                    ([-hx - t, -hy, 0.0], [-hx, hy, height]),
-                    ([hx, -hy, 0.0], [hx + t, hy, height]),
-                ] {
-                    add_box(&mut backdrop, at0, lo, hi, wall);
-                }
-                add_box(
-                    &mut backdrop,
-                    at0,
-                    [-hx - t, -hy - t, height],
-                    [hx + t, hy + t, height + t],
-                    scale(wall, 0.9),
-                );
-                // Ceiling lights.
-                let mut x = -hx + 2.0;
-                while x < hx - 1.0 {
-                    add_box(
-                        &mut backdrop,
-                        at0,
-                        [x - 0.6, -0.15, height - 0.05],
-                        [x + 0.6, 0.15, height],
-                        [3.0, 3.0, 2.9],
-                    );
-                    x += 4.0;
-                }
-            }
-            Backdrop::Sea | Backdrop::Sky => {}
-        }
         World {
             ground: GroundModel {
                 floor: GroundTexture::generate(location.ground, seed, env),
-                surround: GroundTexture::generate(surround_ground, seed ^ 1, env),
+                surround: GroundTexture::generate(surround_ground(location), seed ^ 1, env),
                 floor_half_m: half,
-                water,
+                water: water_rect(location, half),
                 water_rgb: srgb([0.05, 0.16, 0.24]),
             },
             props,
-            backdrop,
-            unknown_prop_kinds: unknown,
+            backdrop: build_backdrop(location, half, seed),
+            unknown_prop_kinds,
         }
+    }
+}
+
+/// The props' mesh, and the sorted names of the kinds drawn as plain boxes.
+fn build_props(props: &[PlacedProp], seed: u64) -> (Mesh, Vec<String>) {
+    let mut mesh = Mesh::default();
+    let mut unknown = Vec::new();
+    for (i, p) in props.iter().enumerate() {
+        let kind = PropKind::from_name(&p.kind);
+        add_prop(&mut mesh, p, kind, hash2(seed, i as u64));
+        if kind.is_none() && !unknown.contains(&p.kind) {
+            unknown.push(p.kind.clone());
+        }
+    }
+    unknown.sort();
+    (mesh, unknown)
+}
+
+/// The material around the floor: the backdrop's (grass under hills and trees, sand by the
+/// sea, concrete among buildings), the floor's own in a room.
+fn surround_ground(location: &LocationInstance) -> Ground {
+    match (location.ground, location.backdrop) {
+        (_, Backdrop::Walls) => location.ground,
+        (Ground::Grass, _) | (_, Backdrop::Hills | Backdrop::Trees) => Ground::Grass,
+        (Ground::Sand, _) | (_, Backdrop::Sea) => Ground::Sand,
+        (Ground::Tiles, _) => Ground::Concrete,
+        (_, Backdrop::CityBlocks) => Ground::Concrete,
+        (g, Backdrop::Sky) => g,
+    }
+}
+
+/// The water rectangle `[x0, y0, x1, y1]`: the sea beyond the floor's north edge (`half` is
+/// the floor's half size), or a pool.
+fn water_rect(location: &LocationInstance, half: [f32; 2]) -> Option<[f32; 4]> {
+    match (location.backdrop, location.has_water) {
+        (Backdrop::Sea, _) => Some([-1e4, half[1], 1e4, 1e4]),
+        (_, true) => Some([-4.0, 3.0, 4.0, half[1].max(8.0)]),
+        _ => None,
+    }
+}
+
+/// The backdrop's random draws: one stream per scene seed, in the order the backdrop asks.
+struct BackdropDraws {
+    seed: u64,
+    drawn: u64,
+}
+
+impl BackdropDraws {
+    /// The next draw in `[0, 1)`.
+    fn next(&mut self) -> f32 {
+        self.drawn += 1;
+        unit2(self.seed ^ 0xbac, self.drawn)
+    }
+}
+
+/// The backdrop around a floor of half size `half`, laid out by `seed`.
+fn build_backdrop(location: &LocationInstance, half: [f32; 2], seed: u64) -> Mesh {
+    let mut backdrop = Mesh::default();
+    let mut draws = BackdropDraws { seed, drawn: 0 };
+    match location.backdrop {
+        Backdrop::Hills => add_hills(&mut backdrop, &mut draws),
+        Backdrop::Trees => add_tree_line(&mut backdrop, &mut draws, half),
+        Backdrop::CityBlocks => add_city_blocks(&mut backdrop, &mut draws, half),
+        Backdrop::Walls => add_room(&mut backdrop, &mut draws, location, half),
+        Backdrop::Sea | Backdrop::Sky => {}
+    }
+    backdrop
+}
+
+/// Fourteen hills in a ring 180–340 m out.
+fn add_hills(m: &mut Mesh, draws: &mut BackdropDraws) {
+    let tau = std::f32::consts::TAU;
+    let at0 = Place::new([0.0, 0.0, 0.0], 0.0);
+    for k in 0..14 {
+        let a = tau * (k as f32 + draws.next()) / 14.0;
+        let r = 180.0 + 160.0 * draws.next();
+        let (w, h) = (70.0 + 80.0 * draws.next(), 25.0 + 45.0 * draws.next());
+        let c = srgb(mix([0.25, 0.38, 0.18], [0.45, 0.42, 0.3], draws.next()));
+        let xy = [r * a.cos(), r * a.sin()];
+        add_lathe(
+            m,
+            at0,
+            xy,
+            &[(w, -2.0), (w * 0.6, h * 0.6), (w * 0.2, h * 0.95), (0.0, h)],
+            10,
+            c,
+        );
+    }
+}
+
+/// A ring of 48 trees just beyond the floor (of half size `half`).
+fn add_tree_line(m: &mut Mesh, draws: &mut BackdropDraws, half: [f32; 2]) {
+    let tau = std::f32::consts::TAU;
+    let at0 = Place::new([0.0, 0.0, 0.0], 0.0);
+    for k in 0..48 {
+        let a = tau * (k as f32 + 0.8 * draws.next()) / 48.0;
+        let r = half[0].max(half[1]) + 8.0 + 20.0 * draws.next();
+        let h = 6.0 + 8.0 * draws.next();
+        let xy = [r * a.cos(), r * a.sin()];
+        let bark = srgb([0.3, 0.2, 0.12]);
+        cylinder(m, at0, xy, 0.25, 0.0, h * 0.4, 5, bark);
+        let c = srgb(mix([0.12, 0.3, 0.1], [0.22, 0.4, 0.15], draws.next()));
+        let crown = [(h * 0.3, h * 0.3), (h * 0.22, h * 0.65), (0.0, h)];
+        add_lathe(m, at0, xy, &crown, 7, c);
+    }
+}
+
+/// A ring of 28 buildings with bands of windows beyond the floor (of half size `half`).
+fn add_city_blocks(m: &mut Mesh, draws: &mut BackdropDraws, half: [f32; 2]) {
+    let tau = std::f32::consts::TAU;
+    for k in 0..28 {
+        let a = tau * (k as f32 + 0.5 * draws.next()) / 28.0;
+        let r = half[0].max(half[1]) + 25.0 + 40.0 * draws.next();
+        let (w, d, h) = (
+            14.0 + 14.0 * draws.next(),
+            12.0 + 10.0 * draws.next(),
+            10.0 + 50.0 * draws.next(),
+        );
+        let c = srgb(mix([0.55, 0.53, 0.5], [0.7, 0.62, 0.52], draws.next()));
+        let block = Place::new([r * a.cos(), r * a.sin(), 0.0], a);
+        add_block(m, block, [0.0, 0.0], [d, w, h], 0.0, c);
+        // A darker band of windows on every other floor group.
+        let glass = scale(c, 0.45);
+        let mut z = 3.0;
+        while z + 2.0 < h {
+            let band = [0.1, w * 0.85, 1.4];
+            add_block(m, block, [-d * 0.5 - 0.05, 0.0], band, z, glass);
+            z += 4.0;
+        }
+    }
+}
+
+/// A room's four walls, ceiling and ceiling lights around the floor (of half size `half`).
+fn add_room(m: &mut Mesh, draws: &mut BackdropDraws, location: &LocationInstance, half: [f32; 2]) {
+    let at0 = Place::new([0.0, 0.0, 0.0], 0.0);
+    let height = (location.size_m[0].min(location.size_m[1]) as f32 * 0.35).clamp(3.0, 9.0);
+    let wall = srgb(mix([0.82, 0.8, 0.76], [0.7, 0.74, 0.78], draws.next()));
+    let (hx, hy, t) = (half[0] + 0.2, half[1] + 0.2, 0.2);
+    // Four walls and a ceiling as boxes seen from inside: draw inverted boxes.
+    for (lo, hi) in [
+        ([-hx - t, -hy - t, 0.0], [hx + t, -hy, height]),
+        ([-hx - t, hy, 0.0], [hx + t, hy + t, height]),
+        ([-hx - t, -hy, 0.0], [-hx, hy, height]),
+        ([hx, -hy, 0.0], [hx + t, hy, height]),
+    ] {
+        add_box(m, at0, lo, hi, wall);
+    }
+    let ceiling = ([-hx - t, -hy - t, height], [hx + t, hy + t, height + t]);
+    add_box(m, at0, ceiling.0, ceiling.1, scale(wall, 0.9));
+    // Ceiling lights.
+    let mut x = -hx + 2.0;
+    while x < hx - 1.0 {
+        let (lo, hi) = ([x - 0.6, -0.15, height - 0.05], [x + 0.6, 0.15, height]);
+        add_box(m, at0, lo, hi, [3.0, 3.0, 2.9]);
+        x += 4.0;
     }
 }
 
@@ -960,21 +1259,22 @@ mod tests {
 
     #[test]
     fn every_builtin_prop_kind_has_a_shape_inside_its_box() {
-        for kind in KNOWN_PROP_KINDS {
+        for kind in PropKind::ALL {
             let prop = PlacedProp {
-                kind: kind.into(),
+                kind: kind.name().into(),
                 position_m: [3.0, -2.0, 0.0],
                 yaw_deg: 30.0,
                 size_m: [1.2, 0.8, 1.5],
             };
             let mut m = Mesh::default();
-            assert!(add_prop(&mut m, &prop, 5), "{kind}");
+            assert_eq!(PropKind::from_name(&prop.kind), Some(kind));
+            add_prop(&mut m, &prop, Some(kind), 5);
             assert!(m.triangle_count() > 0);
             // Within the yawed box's circumscribed circle and height (small slack for wheels).
             let r = 0.5 * (1.2f32.hypot(0.8)) + 0.15;
             for p in &m.positions {
-                assert!((p[0] - 3.0).hypot(p[1] + 2.0) <= r, "{kind}: {p:?}");
-                assert!(p[2] >= -0.01 && p[2] <= 1.5 + 0.01, "{kind}: {p:?}");
+                assert!((p[0] - 3.0).hypot(p[1] + 2.0) <= r, "{kind:?}: {p:?}");
+                assert!(p[2] >= -0.01 && p[2] <= 1.5 + 0.01, "{kind:?}: {p:?}");
             }
         }
         let mut m = Mesh::default();
@@ -984,8 +1284,44 @@ mod tests {
             yaw_deg: 0.0,
             size_m: [1.0; 3],
         };
-        assert!(!add_prop(&mut m, &odd, 0));
+        assert_eq!(PropKind::from_name(&odd.kind), None);
+        add_prop(&mut m, &odd, None, 0);
         assert_eq!(m.triangle_count(), 12);
+    }
+
+    #[test]
+    fn prop_kind_names_are_sorted_unique_and_parse_back() {
+        let names: Vec<&str> = PropKind::ALL.iter().map(|k| k.name()).collect();
+        assert!(names.windows(2).all(|w| w[0] < w[1]), "{names:?}");
+        for kind in PropKind::ALL {
+            assert_eq!(PropKind::from_name(kind.name()), Some(kind));
+        }
+        assert_eq!(PropKind::from_name("Tree"), None);
+    }
+
+    #[test]
+    fn unknown_prop_kinds_are_drawn_as_boxes_and_listed_once_sorted() {
+        let prop = |kind: &str| PlacedProp {
+            kind: kind.into(),
+            position_m: [0.0; 3],
+            yaw_deg: 0.0,
+            size_m: [1.0; 3],
+        };
+        let props = [
+            prop("zeppelin"),
+            prop("tree"),
+            prop("anvil"),
+            prop("zeppelin"),
+        ];
+        let (mesh, unknown) = build_props(&props, 9);
+        assert_eq!(unknown, ["anvil", "zeppelin"]);
+        let mut tree = Mesh::default();
+        add_prop(&mut tree, &props[1], Some(PropKind::Tree), 0);
+        assert_eq!(
+            mesh.triangle_count(),
+            3 * 12 + tree.triangle_count(),
+            "three boxes and a tree"
+        );
     }
 
     #[test]

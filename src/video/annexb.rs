@@ -56,7 +56,7 @@ impl AccessUnit {
 ///
 /// # Errors
 /// [`VideoError::Exited`] if ffmpeg fails (e.g. the stream is not H.264),
-/// [`VideoError::Probe`] if the output is not delimited as expected.
+/// [`VideoError::AccessUnits`] if the output is not delimited as expected.
 pub fn annexb_access_units(ffmpeg: &Ffmpeg, path: &Path) -> Result<Vec<AccessUnit>, VideoError> {
     let input = ffmpeg_path_arg(path);
     let args: [&OsStr; 16] = [
@@ -78,24 +78,47 @@ pub fn annexb_access_units(ffmpeg: &Ffmpeg, path: &Path) -> Result<Vec<AccessUni
         OsStr::new("-"),
     ];
     let stream = ffmpeg.run_ffmpeg(args, path)?;
-    split_access_units(&stream).map_err(|detail| VideoError::Probe {
+    split_access_units(&stream).map_err(|source| VideoError::AccessUnits {
         path: path.to_path_buf(),
-        detail,
+        source,
     })
+}
+
+/// Why an Annex B stream does not split into access units.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum AnnexBError {
+    /// No start code at all.
+    #[error("the H.264 stream is empty (no start code)")]
+    Empty,
+    /// Bytes other than zeros before the first start code.
+    #[error("{bytes} bytes before the first start code")]
+    LeadingBytes {
+        /// Offset of the first start code.
+        bytes: usize,
+    },
+    /// A NAL unit before the first access unit delimiter.
+    #[error("NAL unit of type {nal_type} at byte {offset} before any access unit delimiter")]
+    BeforeDelimiter {
+        /// Its NAL unit type.
+        nal_type: u8,
+        /// Offset of its start code.
+        offset: usize,
+    },
 }
 
 /// Splits an Annex B byte stream at its access unit delimiters. Every unit must begin with a
 /// delimiter (the stream may not hold bytes before the first one).
 ///
 /// # Errors
-/// A description of the problem when the stream is empty or does not start with a delimiter.
-pub fn split_access_units(stream: &[u8]) -> Result<Vec<AccessUnit>, String> {
+/// [`AnnexBError`] when the stream is empty or does not start with a delimiter.
+pub fn split_access_units(stream: &[u8]) -> Result<Vec<AccessUnit>, AnnexBError> {
     let nals = nal_units(stream);
     let Some(&(first_code, _)) = nals.first() else {
-        return Err("the H.264 stream is empty (no start code)".into());
+        return Err(AnnexBError::Empty);
     };
     if stream[..first_code].iter().any(|&b| b != 0) {
-        return Err(format!("{first_code} bytes before the first start code"));
+        return Err(AnnexBError::LeadingBytes { bytes: first_code });
     }
     let nal_type = |start: usize| stream.get(start).map_or(0, |b| b & 0x1f);
     let mut units = Vec::new();
@@ -112,9 +135,10 @@ pub fn split_access_units(stream: &[u8]) -> Result<Vec<AccessUnit>, String> {
             current = Some((code, false));
         } else {
             let Some((_, key)) = current.as_mut() else {
-                return Err(format!(
-                    "NAL unit of type {kind} at byte {code} before any access unit delimiter"
-                ));
+                return Err(AnnexBError::BeforeDelimiter {
+                    nal_type: kind,
+                    offset: code,
+                });
             };
             *key |= kind == NAL_IDR;
         }
@@ -151,7 +175,7 @@ fn nal_units(stream: &[u8]) -> Vec<(usize, usize)> {
 
 #[cfg(test)]
 mod tests {
-    use super::split_access_units;
+    use super::{AnnexBError, split_access_units};
 
     #[test]
     fn splits_at_delimiters_and_marks_idr_units() {
@@ -179,8 +203,16 @@ mod tests {
 
     #[test]
     fn rejects_streams_without_delimiters() {
-        assert!(split_access_units(&[]).is_err());
-        assert!(split_access_units(&[0, 0, 1, 0x65, 1]).is_err());
-        assert!(split_access_units(&[7, 0, 0, 1, 0x09, 0xf0]).is_err());
+        assert_eq!(split_access_units(&[]), Err(AnnexBError::Empty));
+        assert_eq!(
+            split_access_units(&[0, 0, 1, 0x65, 1]),
+            Err(AnnexBError::BeforeDelimiter {
+                nal_type: 5,
+                offset: 0
+            })
+        );
+        let err = split_access_units(&[7, 0, 0, 1, 0x09, 0xf0]).unwrap_err();
+        assert_eq!(err, AnnexBError::LeadingBytes { bytes: 1 });
+        assert_eq!(err.to_string(), "1 bytes before the first start code");
     }
 }

@@ -26,7 +26,7 @@ use super::encode::{container_for, remove_part};
 use super::probe::probe_packets;
 use super::stderr_tail::tail_of_text;
 use super::tools::{ffmpeg_path_arg, run};
-use super::{Ffmpeg, Rational, VideoError};
+use super::{Ffmpeg, InvalidSetting, Rational, VideoError};
 use crate::atomic_file::temporary_sibling as part_path;
 
 /// How a clip is cut.
@@ -147,21 +147,18 @@ pub fn cut(
     reencode: &ReencodeSettings,
 ) -> Result<CutClip, VideoError> {
     let output = request.output;
-    let invalid = |detail: String| VideoError::InvalidSettings {
+    let invalid = |reason: InvalidSetting| VideoError::InvalidSettings {
         path: output.to_path_buf(),
-        detail,
+        reason,
     };
     if request.frame_count == 0 {
-        return Err(invalid("a clip needs at least one frame".into()));
+        return Err(invalid(InvalidSetting::EmptyClip));
     }
     if request.fps.num <= 0 || request.fps.den <= 0 {
-        return Err(invalid(format!(
-            "frame rate {} is not positive",
-            request.fps
-        )));
+        return Err(invalid(InvalidSetting::FrameRate { fps: request.fps }));
     }
     let container = container_for(output).map_err(invalid)?;
-    let part = part_path(output).ok_or_else(|| invalid("the output has no file name".into()))?;
+    let part = part_path(output).ok_or_else(|| invalid(InvalidSetting::NoFileName))?;
     let start = u128::from(request.start_frame);
     let count = u128::from(request.frame_count);
     let mut command = FfmpegCommand::new_with_path(ffmpeg.ffmpeg_path());
@@ -277,11 +274,11 @@ pub fn extract_frames(
     dir: &Path,
     frame_count: u64,
 ) -> Result<(), VideoError> {
-    let invalid = |detail: String| VideoError::InvalidSettings {
+    let invalid = |reason: InvalidSetting| VideoError::InvalidSettings {
         path: dir.to_path_buf(),
-        detail,
+        reason,
     };
-    let part = part_path(dir).ok_or_else(|| invalid("the folder has no name".into()))?;
+    let part = part_path(dir).ok_or_else(|| invalid(InvalidSetting::NoFolderName))?;
     let io = VideoError::io;
     let _ = std::fs::remove_dir_all(&part);
     std::fs::create_dir_all(&part).map_err(io("create", &part))?;

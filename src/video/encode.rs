@@ -13,7 +13,7 @@ use ffmpeg_sidecar::command::FfmpegCommand;
 use super::probe::probe_packets;
 use super::stderr_tail::StderrTail;
 use super::tools::spawn_error;
-use super::{Ffmpeg, Rational, VideoError};
+use super::{Ffmpeg, InvalidSetting, Rational, VideoError};
 
 /// The default libx264 preset. Measured on a synthetic moving render (2 shared cores, ffmpeg
 /// 5.1, CRF 23; `encode_speed_report` in `tests/video.rs`), ffmpeg CPU per frame and bytes per
@@ -276,96 +276,20 @@ impl VideoEncoder {
         output: &Path,
         settings: &EncodeSettings,
     ) -> Result<VideoEncoder, VideoError> {
-        let invalid = |detail: String| VideoError::InvalidSettings {
-            path: output.to_path_buf(),
-            detail,
-        };
-        let fps = validate(settings).map_err(invalid)?;
-        let container = container_for(output).map_err(invalid)?;
-        let keyframe_arg = match force_key_frames_arg(&settings.keyframes, fps) {
-            Some(arg) if arg.len() > MAX_KEYFRAME_ARG_BYTES => {
-                return Err(invalid(format!(
-                    "{} keyframes need a {}-byte `-force_key_frames` argument, over the {} bytes \
-                     ffmpeg can be given; split the video into shorter ones",
-                    settings.keyframes.len(),
-                    arg.len(),
-                    MAX_KEYFRAME_ARG_BYTES
-                )));
-            }
-            Some(arg) => Some(arg),
-            None if settings.keyframes.iter().any(|&k| k > 0) => {
-                return Err(invalid(format!("cannot place keyframes at {fps} fps")));
-            }
-            None => None,
-        };
-        let part = crate::atomic_file::temporary_sibling(output)
-            .ok_or_else(|| invalid("the output has no file name".into()))?;
-        let dir = part.parent().unwrap_or(Path::new("."));
-        if !dir.as_os_str().is_empty() && !dir.is_dir() {
-            return Err(VideoError::Io {
-                action: "write a video into",
-                path: dir.to_path_buf(),
-                source: std::io::Error::new(
-                    std::io::ErrorKind::NotFound,
-                    "the directory does not exist",
-                ),
-            });
-        }
-
-        let mut command = FfmpegCommand::new_with_path(ffmpeg.ffmpeg_path());
-        command
-            .hide_banner()
-            // ffmpeg-sidecar put `-loglevel level+info` first; the last `-loglevel` wins.
-            .args(["-nostats", "-loglevel", "level+warning"])
-            .format("rawvideo")
-            .pix_fmt("rgb24")
-            .args([
-                "-video_size".to_owned(),
-                format!("{}x{}", settings.width, settings.height),
-                "-framerate".to_owned(),
-                fps.to_string(),
-            ])
-            .input("-")
-            .args(["-map", "0:v:0", "-an", "-sn", "-dn"])
-            .codec_video("libx264")
-            .preset(&settings.preset)
-            .crf(u32::from(settings.crf))
-            .pix_fmt("yuv420p")
-            .args([
-                "-bf".to_owned(),
-                "0".to_owned(),
-                "-g".to_owned(),
-                settings.gop_frames.to_string(),
-                "-sc_threshold".to_owned(),
-                "0".to_owned(),
-                "-forced-idr".to_owned(),
-                "1".to_owned(),
-            ]);
-        if let Some(arg) = &keyframe_arg {
-            command.args(["-force_key_frames", arg]);
-        }
-        command
-            .format(container)
-            .overwrite()
-            .output(part.as_os_str());
-        #[cfg(unix)]
-        {
-            use std::os::unix::process::CommandExt;
-            command.as_inner_mut().process_group(0);
-        }
+        let plan = EncodePlan::check(output, settings)?;
+        let mut command = encode_command(ffmpeg, settings, &plan);
         tracing::debug!(command = %command_line(&mut command), "starting ffmpeg");
-
         let mut child = command
             .spawn()
             .map_err(|source| spawn_error("ffmpeg", ffmpeg.ffmpeg_path(), source))?;
         let mut encoder = VideoEncoder {
             ffmpeg: ffmpeg.clone(),
             output: output.to_path_buf(),
-            part,
+            part: plan.part,
             width: settings.width,
             height: settings.height,
             frame_bytes: settings.frame_bytes(),
-            fps,
+            fps: plan.fps,
             keyframes: sorted_keyframes(&settings.keyframes),
             frames_written: 0,
             running: None,
@@ -480,7 +404,7 @@ impl VideoEncoder {
             remove_part(&self.part);
             return Err(VideoError::InvalidSettings {
                 path: self.output.clone(),
-                detail: "no frames were written".into(),
+                reason: InvalidSetting::NoFramesWritten,
             });
         }
         let result = self.complete(running);
@@ -623,6 +547,110 @@ impl Drop for VideoEncoder {
     }
 }
 
+/// What [`VideoEncoder::start`] derives from its settings before starting ffmpeg.
+struct EncodePlan {
+    /// The exact frame rate.
+    fps: Rational,
+    /// ffmpeg's name of the container.
+    container: &'static str,
+    /// The `-force_key_frames` value, if frames other than 0 must be keyframes.
+    keyframe_arg: Option<String>,
+    /// The hidden sibling ffmpeg writes.
+    part: PathBuf,
+}
+
+impl EncodePlan {
+    /// Checks `settings` and `output` (an existing folder, a known extension).
+    fn check(output: &Path, settings: &EncodeSettings) -> Result<EncodePlan, VideoError> {
+        let invalid = |reason: InvalidSetting| VideoError::InvalidSettings {
+            path: output.to_path_buf(),
+            reason,
+        };
+        let fps = validate(settings).map_err(invalid)?;
+        let container = container_for(output).map_err(invalid)?;
+        let keyframe_arg = match force_key_frames_arg(&settings.keyframes, fps) {
+            Some(arg) if arg.len() > MAX_KEYFRAME_ARG_BYTES => {
+                return Err(invalid(InvalidSetting::TooManyKeyframes {
+                    keyframes: settings.keyframes.len(),
+                    arg_bytes: arg.len(),
+                    max_bytes: MAX_KEYFRAME_ARG_BYTES,
+                }));
+            }
+            Some(arg) => Some(arg),
+            None if settings.keyframes.iter().any(|&k| k > 0) => {
+                return Err(invalid(InvalidSetting::KeyframeTimes { fps }));
+            }
+            None => None,
+        };
+        let part = crate::atomic_file::temporary_sibling(output)
+            .ok_or_else(|| invalid(InvalidSetting::NoFileName))?;
+        let dir = part.parent().unwrap_or(Path::new("."));
+        if !dir.as_os_str().is_empty() && !dir.is_dir() {
+            return Err(VideoError::Io {
+                action: "write a video into",
+                path: dir.to_path_buf(),
+                source: std::io::Error::new(
+                    std::io::ErrorKind::NotFound,
+                    "the directory does not exist",
+                ),
+            });
+        }
+        Ok(EncodePlan {
+            fps,
+            container,
+            keyframe_arg,
+            part,
+        })
+    }
+}
+
+/// The ffmpeg command encoding raw frames as `settings` and `plan` say (in its own process
+/// group, so a terminal's Ctrl-C reaches only autoact).
+fn encode_command(ffmpeg: &Ffmpeg, settings: &EncodeSettings, plan: &EncodePlan) -> FfmpegCommand {
+    let mut command = FfmpegCommand::new_with_path(ffmpeg.ffmpeg_path());
+    command
+        .hide_banner()
+        // ffmpeg-sidecar put `-loglevel level+info` first; the last `-loglevel` wins.
+        .args(["-nostats", "-loglevel", "level+warning"])
+        .format("rawvideo")
+        .pix_fmt("rgb24")
+        .args([
+            "-video_size".to_owned(),
+            format!("{}x{}", settings.width, settings.height),
+            "-framerate".to_owned(),
+            plan.fps.to_string(),
+        ])
+        .input("-")
+        .args(["-map", "0:v:0", "-an", "-sn", "-dn"])
+        .codec_video("libx264")
+        .preset(&settings.preset)
+        .crf(u32::from(settings.crf))
+        .pix_fmt("yuv420p")
+        .args([
+            "-bf".to_owned(),
+            "0".to_owned(),
+            "-g".to_owned(),
+            settings.gop_frames.to_string(),
+            "-sc_threshold".to_owned(),
+            "0".to_owned(),
+            "-forced-idr".to_owned(),
+            "1".to_owned(),
+        ]);
+    if let Some(arg) = &plan.keyframe_arg {
+        command.args(["-force_key_frames", arg]);
+    }
+    command
+        .format(plan.container)
+        .overwrite()
+        .output(plan.part.as_os_str());
+    #[cfg(unix)]
+    {
+        use std::os::unix::process::CommandExt;
+        command.as_inner_mut().process_group(0);
+    }
+    command
+}
+
 type Threads = (
     SyncSender<Vec<u8>>,
     Receiver<Vec<u8>>,
@@ -704,7 +732,8 @@ pub(super) fn remove_part(part: &Path) {
     }
 }
 
-fn validate(settings: &EncodeSettings) -> Result<Rational, String> {
+/// The exact frame rate of `settings`, or which setting cannot be used.
+fn validate(settings: &EncodeSettings) -> Result<Rational, InvalidSetting> {
     let EncodeSettings {
         width,
         height,
@@ -714,40 +743,37 @@ fn validate(settings: &EncodeSettings) -> Result<Rational, String> {
         gop_frames,
         ..
     } = settings;
-    if *width < 2 || *height < 2 || width % 2 != 0 || height % 2 != 0 {
-        return Err(format!(
-            "frame size {width}x{height}: both sides must be even and at least 2 (H.264 yuv420p)"
-        ));
+    let (width, height) = (*width, *height);
+    if width < 2 || height < 2 || width % 2 != 0 || height % 2 != 0 {
+        return Err(InvalidSetting::FrameSize { width, height });
     }
-    if *width > MAX_SIDE_PX || *height > MAX_SIDE_PX {
-        return Err(format!(
-            "frame size {width}x{height}: at most {MAX_SIDE_PX} per side"
-        ));
+    if width > MAX_SIDE_PX || height > MAX_SIDE_PX {
+        return Err(InvalidSetting::FrameTooLarge {
+            width,
+            height,
+            max_side_px: MAX_SIDE_PX,
+        });
     }
     let rate = Rational::from_f64(*fps)
         .filter(|r| r.as_f64() <= 10_000.0)
-        .ok_or_else(|| {
-            format!(
-                "fps {fps}: must be a positive rate up to 10000 that is a fraction with a \
-                 denominator up to 1000000 (e.g. 30, 29.97 or 30000/1001)"
-            )
-        })?;
+        .ok_or(InvalidSetting::Fps { fps: *fps })?;
     if *crf > 51 {
-        return Err(format!("crf {crf}: must be 0..=51"));
+        return Err(InvalidSetting::Crf { crf: *crf });
     }
     if !PRESETS.contains(&preset.as_str()) {
-        return Err(format!(
-            "unknown preset `{preset}`; use one of {}",
-            PRESETS.join(", ")
-        ));
+        return Err(InvalidSetting::Preset {
+            preset: preset.clone(),
+            known: &PRESETS,
+        });
     }
     if *gop_frames == 0 {
-        return Err("gop_frames is 0; it must be at least 1".into());
+        return Err(InvalidSetting::GopZero);
     }
     Ok(rate)
 }
 
-pub(super) fn container_for(output: &Path) -> Result<&'static str, String> {
+/// ffmpeg's name of the container `output`'s extension asks for.
+pub(super) fn container_for(output: &Path) -> Result<&'static str, InvalidSetting> {
     let ext = output
         .extension()
         .and_then(|e| e.to_str())
@@ -756,13 +782,9 @@ pub(super) fn container_for(output: &Path) -> Result<&'static str, String> {
         Some("mp4" | "m4v") => Ok("mp4"),
         Some("mov") => Ok("mov"),
         Some("mkv") => Ok("matroska"),
-        _ => Err(format!(
-            "unsupported file extension `{}`; use `.mp4`, `.mov` or `.mkv`",
-            output.extension().map_or_else(
-                || String::from("(none)"),
-                |e| e.to_string_lossy().into_owned()
-            )
-        )),
+        _ => Err(InvalidSetting::Extension {
+            extension: output.extension().map(|e| e.to_string_lossy().into_owned()),
+        }),
     }
 }
 
@@ -784,7 +806,8 @@ fn command_line(command: &mut FfmpegCommand) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::{EncodeSettings, force_key_frames_arg, keyframe_time, validate};
+    use super::{EncodeSettings, container_for, force_key_frames_arg, keyframe_time, validate};
+    use crate::video::InvalidSetting;
     use crate::video::Rational;
 
     fn rate(num: i64, den: i64) -> Rational {
@@ -854,6 +877,46 @@ mod tests {
             "{err:?}"
         );
         assert!(err.to_string().contains("split the video"), "{err}");
+    }
+
+    #[test]
+    fn invalid_settings_name_the_setting_and_say_what_would_do() {
+        let slow = EncodeSettings {
+            preset: "ludicrous".into(),
+            ..EncodeSettings::new(320, 240, 30.0)
+        };
+        assert_eq!(
+            validate(&slow).unwrap_err().to_string(),
+            "unknown preset `ludicrous`; use one of ultrafast, superfast, veryfast, faster, fast, \
+             medium, slow, slower, veryslow, placebo"
+        );
+        assert_eq!(
+            validate(&EncodeSettings::new(321, 240, 30.0)),
+            Err(InvalidSetting::FrameSize {
+                width: 321,
+                height: 240
+            })
+        );
+        assert_eq!(
+            validate(&EncodeSettings::new(320, 240, -1.0)),
+            Err(InvalidSetting::Fps { fps: -1.0 })
+        );
+        assert_eq!(
+            container_for(std::path::Path::new("out"))
+                .unwrap_err()
+                .to_string(),
+            "unsupported file extension `(none)`; use `.mp4`, `.mov` or `.mkv`"
+        );
+        assert_eq!(
+            container_for(std::path::Path::new("out.AVI")),
+            Err(InvalidSetting::Extension {
+                extension: Some("AVI".into())
+            })
+        );
+        assert_eq!(
+            container_for(std::path::Path::new("out.MKV")),
+            Ok("matroska")
+        );
     }
 
     #[test]

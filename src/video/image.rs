@@ -9,8 +9,8 @@ use std::fs::File;
 use std::io::{BufReader, BufWriter};
 use std::path::{Path, PathBuf};
 
-use super::VideoError;
 use super::font::{GLYPH_H, draw_text, text_width};
+use super::{InvalidSetting, VideoError};
 
 /// Border around and between contact-sheet tiles, in pixels.
 const BORDER_PX: u32 = 2;
@@ -54,7 +54,7 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgb24: &[u8]) -> Result<(
     let part =
         crate::atomic_file::temporary_sibling(path).ok_or_else(|| VideoError::InvalidSettings {
             path: path.to_path_buf(),
-            detail: "not a file name".into(),
+            reason: InvalidSetting::NotAFileName,
         })?;
     let result = encode_png(&part, width, height, rgb24).and_then(|()| {
         crate::atomic_file::commit(&part, path)
@@ -169,14 +169,15 @@ pub fn contact_sheet(
     columns: u32,
     tile_width: u32,
 ) -> Result<(u32, u32, Vec<u8>), VideoError> {
-    let invalid = |detail: String| VideoError::InvalidSettings {
+    let invalid = |reason: InvalidSetting| VideoError::InvalidSettings {
         path: PathBuf::from("(contact sheet)"),
-        detail,
+        reason,
     };
     if tile_width == 0 || columns == 0 {
-        return Err(invalid(format!(
-            "columns {columns} and tile width {tile_width} must be at least 1"
-        )));
+        return Err(invalid(InvalidSetting::SheetLayout {
+            columns,
+            tile_width,
+        }));
     }
     if tiles.is_empty() {
         return Ok((0, 0, Vec::new()));
@@ -185,31 +186,32 @@ pub fn contact_sheet(
     for (index, tile) in tiles.iter().enumerate() {
         let expected = tile.width as usize * tile.height as usize * 3;
         if tile.rgb24.len() != expected || expected == 0 {
-            return Err(invalid(format!(
-                "tile {index} has {} bytes; {}x{} rgb24 needs {expected}",
-                tile.rgb24.len(),
-                tile.width,
-                tile.height
-            )));
+            return Err(invalid(InvalidSetting::TileSize {
+                index,
+                got: tile.rgb24.len(),
+                width: tile.width,
+                height: tile.height,
+                expected,
+            }));
         }
         let h = (u64::from(tile.height) * u64::from(tile_width) + u64::from(tile.width) / 2)
             / u64::from(tile.width);
-        scaled_heights.push(u32::try_from(h.max(1)).map_err(|_| {
-            invalid(format!(
-                "tile {index} would be too tall at width {tile_width}"
-            ))
-        })?);
+        scaled_heights.push(
+            u32::try_from(h.max(1))
+                .map_err(|_| invalid(InvalidSetting::TileTooTall { index, tile_width }))?,
+        );
     }
-    let count = u32::try_from(tiles.len()).map_err(|_| invalid("too many tiles".into()))?;
+    let count = u32::try_from(tiles.len()).map_err(|_| invalid(InvalidSetting::TooManyTiles))?;
     let columns = columns.min(count);
     let rows = count.div_ceil(columns);
     let cell_height = scaled_heights.iter().copied().max().unwrap_or(1);
     let sheet_width = u64::from(columns) * u64::from(tile_width + BORDER_PX) + u64::from(BORDER_PX);
     let sheet_height = u64::from(rows) * u64::from(cell_height + BORDER_PX) + u64::from(BORDER_PX);
     if sheet_width * sheet_height > 1 << 30 {
-        return Err(invalid(format!(
-            "the sheet would be {sheet_width}x{sheet_height} pixels; use fewer or smaller tiles"
-        )));
+        return Err(invalid(InvalidSetting::SheetTooLarge {
+            width: sheet_width,
+            height: sheet_height,
+        }));
     }
     #[expect(clippy::cast_possible_truncation, reason = "checked above")]
     let (sheet_width, sheet_height) = (sheet_width as u32, sheet_height as u32);

@@ -48,7 +48,7 @@ mod tools;
 use std::path::{Path, PathBuf};
 use std::process::ExitStatus;
 
-pub use annexb::{AccessUnit, annexb_access_units, split_access_units};
+pub use annexb::{AccessUnit, AnnexBError, annexb_access_units, split_access_units};
 pub use cut::{
     CutClip, CutMethod, CutRequest, ReencodeSettings, cut, extract_frames, keyframe_frames,
 };
@@ -167,19 +167,28 @@ pub enum VideoError {
         /// The frame index.
         frame: u64,
     },
-    /// The encoder settings cannot be used.
-    #[error("invalid video settings for `{path}`: {detail}")]
+    /// The encoder settings (or an output path, or a contact sheet's tiles) cannot be used.
+    #[error("invalid video settings for `{path}`: {reason}")]
     InvalidSettings {
         /// The output file.
         path: PathBuf,
         /// What is wrong and how to fix it.
-        detail: String,
+        reason: InvalidSetting,
     },
     /// The encoder already failed, was finished or aborted.
     #[error("the encoder for `{path}` has already stopped; start a new one")]
     Stopped {
         /// The output file.
         path: PathBuf,
+    },
+    /// An encoded stream does not split into Annex B access units.
+    #[error("cannot read video `{path}`")]
+    AccessUnits {
+        /// The file.
+        path: PathBuf,
+        /// What was wrong.
+        #[source]
+        source: AnnexBError,
     },
     /// `ffprobe` output (or an encoded stream) could not be understood.
     #[error("cannot read video `{path}`: {detail}")]
@@ -197,4 +206,196 @@ pub enum VideoError {
         /// What the `png` crate said.
         detail: String,
     },
+}
+
+/// Which setting of a video, an output path or a contact sheet cannot be used, with the value
+/// asked; its message says why and what would do. The detail of [`VideoError::InvalidSettings`]
+/// (not an error of its own: nothing failed below it).
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum InvalidSetting {
+    /// A side is odd or under 2 pixels.
+    FrameSize {
+        /// Width, pixels.
+        width: u32,
+        /// Height, pixels.
+        height: u32,
+    },
+    /// A side is over the largest the encoder accepts.
+    FrameTooLarge {
+        /// Width, pixels.
+        width: u32,
+        /// Height, pixels.
+        height: u32,
+        /// The largest side accepted, pixels.
+        max_side_px: u32,
+    },
+    /// The frame rate is not a usable positive fraction.
+    Fps {
+        /// The asked rate, frames per second.
+        fps: f64,
+    },
+    /// A frame rate that is zero or negative.
+    FrameRate {
+        /// The asked rate.
+        fps: Rational,
+    },
+    /// The constant rate factor is over 51.
+    Crf {
+        /// The asked factor.
+        crf: u8,
+    },
+    /// libx264 has no such preset.
+    Preset {
+        /// The asked preset.
+        preset: String,
+        /// The presets there are.
+        known: &'static [&'static str],
+    },
+    /// The longest keyframe interval is 0.
+    GopZero,
+    /// The output's extension names no container we write.
+    Extension {
+        /// The extension (`None`: the path has none).
+        extension: Option<String>,
+    },
+    /// So many keyframes that their times do not fit one command-line argument.
+    TooManyKeyframes {
+        /// Keyframes asked for.
+        keyframes: usize,
+        /// The argument's length, bytes.
+        arg_bytes: usize,
+        /// The longest argument passed, bytes.
+        max_bytes: usize,
+    },
+    /// No decimal time up to microseconds selects the asked keyframes at this rate.
+    KeyframeTimes {
+        /// The frame rate.
+        fps: Rational,
+    },
+    /// The output path has no file name (its partial sibling cannot be named).
+    NoFileName,
+    /// The PNG path has no file name.
+    NotAFileName,
+    /// The frames folder's path has no name.
+    NoFolderName,
+    /// The encoder was finished before any frame was written.
+    NoFramesWritten,
+    /// A clip of zero frames was asked for.
+    EmptyClip,
+    /// A contact sheet with no column or tiles of no width.
+    SheetLayout {
+        /// Columns asked for.
+        columns: u32,
+        /// Tile width asked for, pixels.
+        tile_width: u32,
+    },
+    /// A tile's buffer does not hold `width × height × 3` bytes (or a side is 0).
+    TileSize {
+        /// The tile's index.
+        index: usize,
+        /// The buffer's length.
+        got: usize,
+        /// The tile's width, pixels.
+        width: u32,
+        /// The tile's height, pixels.
+        height: u32,
+        /// `width × height × 3`.
+        expected: usize,
+    },
+    /// A tile scaled to the sheet's tile width would be over `u32::MAX` pixels tall.
+    TileTooTall {
+        /// The tile's index.
+        index: usize,
+        /// The sheet's tile width, pixels.
+        tile_width: u32,
+    },
+    /// More tiles than a `u32` counts.
+    TooManyTiles,
+    /// The sheet would be over 2³⁰ pixels.
+    SheetTooLarge {
+        /// The sheet's width, pixels.
+        width: u64,
+        /// The sheet's height, pixels.
+        height: u64,
+    },
+}
+
+impl std::fmt::Display for InvalidSetting {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            InvalidSetting::FrameSize { width, height } => write!(
+                f,
+                "frame size {width}x{height}: both sides must be even and at least 2 (H.264 yuv420p)"
+            ),
+            InvalidSetting::FrameTooLarge {
+                width,
+                height,
+                max_side_px,
+            } => write!(
+                f,
+                "frame size {width}x{height}: at most {max_side_px} per side"
+            ),
+            InvalidSetting::Fps { fps } => write!(
+                f,
+                "fps {fps}: must be a positive rate up to 10000 that is a fraction with a \
+                 denominator up to 1000000 (e.g. 30, 29.97 or 30000/1001)"
+            ),
+            InvalidSetting::FrameRate { fps } => write!(f, "frame rate {fps} is not positive"),
+            InvalidSetting::Crf { crf } => write!(f, "crf {crf}: must be 0..=51"),
+            InvalidSetting::Preset { preset, known } => write!(
+                f,
+                "unknown preset `{preset}`; use one of {}",
+                known.join(", ")
+            ),
+            InvalidSetting::GopZero => f.write_str("gop_frames is 0; it must be at least 1"),
+            InvalidSetting::Extension { extension } => write!(
+                f,
+                "unsupported file extension `{}`; use `.mp4`, `.mov` or `.mkv`",
+                extension.as_deref().unwrap_or("(none)")
+            ),
+            InvalidSetting::TooManyKeyframes {
+                keyframes,
+                arg_bytes,
+                max_bytes,
+            } => write!(
+                f,
+                "{keyframes} keyframes need a {arg_bytes}-byte `-force_key_frames` argument, over \
+                 the {max_bytes} bytes ffmpeg can be given; split the video into shorter ones"
+            ),
+            InvalidSetting::KeyframeTimes { fps } => {
+                write!(f, "cannot place keyframes at {fps} fps")
+            }
+            InvalidSetting::NoFileName => f.write_str("the output has no file name"),
+            InvalidSetting::NotAFileName => f.write_str("not a file name"),
+            InvalidSetting::NoFolderName => f.write_str("the folder has no name"),
+            InvalidSetting::NoFramesWritten => f.write_str("no frames were written"),
+            InvalidSetting::EmptyClip => f.write_str("a clip needs at least one frame"),
+            InvalidSetting::SheetLayout {
+                columns,
+                tile_width,
+            } => write!(
+                f,
+                "columns {columns} and tile width {tile_width} must be at least 1"
+            ),
+            InvalidSetting::TileSize {
+                index,
+                got,
+                width,
+                height,
+                expected,
+            } => write!(
+                f,
+                "tile {index} has {got} bytes; {width}x{height} rgb24 needs {expected}"
+            ),
+            InvalidSetting::TileTooTall { index, tile_width } => {
+                write!(f, "tile {index} would be too tall at width {tile_width}")
+            }
+            InvalidSetting::TooManyTiles => f.write_str("too many tiles"),
+            InvalidSetting::SheetTooLarge { width, height } => write!(
+                f,
+                "the sheet would be {width}x{height} pixels; use fewer or smaller tiles"
+            ),
+        }
+    }
 }
