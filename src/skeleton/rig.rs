@@ -434,21 +434,22 @@ fn landmark_defs() -> Vec<(&'static str, &'static str, [f64; 3])> {
         ("l_elbow", "l_upper_arm", [-0.46, 0.0, SHOULDER_Z]),
         ("l_wrist", "l_forearm", [-0.71, 0.0, SHOULDER_Z]),
     ];
-    for (f, (finger, joints)) in LEFT_FINGERS.iter().enumerate() {
+    for (f, (_, joints)) in LEFT_FINGERS.iter().enumerate() {
         for (k, p) in joints.iter().enumerate() {
             let bone = if k == 0 {
                 "l_hand"
             } else {
                 FINGER_BONE_NAMES[f][k - 1]
             };
-            v.push((finger_landmark_name(finger, k), bone, *p));
+            v.push((finger_landmark_name(f, k), bone, *p));
         }
     }
     v
 }
 
-/// `l_thumb1` .. `l_pinky4`: the numbering follows COCO-WholeBody (1 = base joint, 4 = tip).
-fn finger_landmark_name(finger: &str, k: usize) -> &'static str {
+/// `l_thumb1` .. `l_pinky4` for finger `f` of [`LEFT_FINGERS`] and joint `k`: the numbering
+/// follows COCO-WholeBody (1 = base joint, 4 = tip).
+fn finger_landmark_name(f: usize, k: usize) -> &'static str {
     const NAMES: [[&str; 4]; 5] = [
         ["l_thumb1", "l_thumb2", "l_thumb3", "l_thumb4"],
         ["l_index1", "l_index2", "l_index3", "l_index4"],
@@ -456,10 +457,6 @@ fn finger_landmark_name(finger: &str, k: usize) -> &'static str {
         ["l_ring1", "l_ring2", "l_ring3", "l_ring4"],
         ["l_pinky1", "l_pinky2", "l_pinky3", "l_pinky4"],
     ];
-    let f = ["thumb", "index", "middle", "ring", "pinky"]
-        .iter()
-        .position(|n| *n == finger)
-        .unwrap_or(0);
     NAMES[f][k]
 }
 
@@ -821,10 +818,7 @@ fn limb_recipes(rig: &Rig, side: &str) -> Result<Vec<RecipeDef>, RigTableError> 
 /// One side's (`l` or `r`) phalanges: each points from its joint to the next.
 fn finger_recipes(side: &str) -> Vec<RecipeDef> {
     let mut out = Vec::new();
-    for (f, finger) in ["thumb", "index", "middle", "ring", "pinky"]
-        .iter()
-        .enumerate()
-    {
+    for (f, (finger, _)) in LEFT_FINGERS.iter().enumerate() {
         for (k, left_bone) in FINGER_BONE_NAMES[f].iter().enumerate() {
             let bone = if side == "l" {
                 (*left_bone).to_string()
