@@ -189,7 +189,25 @@ pub fn is_broken_pipe(err: &anyhow::Error) -> bool {
 /// Prints an error once, with its causes, on stderr.
 pub fn report_error(err: &anyhow::Error) {
     use std::io::Write;
-    let _ = writeln!(std::io::stderr(), "Error: {err:#}");
+    let _ = writeln!(std::io::stderr(), "Error: {}", error_chain(err));
+}
+
+/// `err` and its causes joined by `: `, as `{:#}` joins them, less any cause whose text the
+/// message already ends with: an error that names its cause in its own message and also keeps
+/// it as its `source` would otherwise print the cause twice.
+#[must_use]
+pub fn error_chain(err: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in err.chain() {
+        let text = cause.to_string();
+        if out.is_empty() {
+            out = text;
+        } else if !out.ends_with(text.trim_end()) {
+            out.push_str(": ");
+            out.push_str(&text);
+        }
+    }
+    out
 }
 
 #[cfg(test)]
@@ -197,6 +215,28 @@ mod tests {
     use super::*;
     use crate::cmd::Format;
     use clap::CommandFactory;
+
+    #[test]
+    fn an_error_chain_prints_each_cause_once() {
+        #[derive(Debug, thiserror::Error)]
+        #[error("outer: {source}")]
+        struct Names {
+            #[source]
+            source: std::io::Error,
+        }
+        #[derive(Debug, thiserror::Error)]
+        #[error("outer")]
+        struct Keeps {
+            #[source]
+            source: std::io::Error,
+        }
+        let io = || std::io::Error::other("the cause");
+        let named = anyhow::Error::new(Names { source: io() }).context("reading x");
+        assert_eq!(error_chain(&named), "reading x: outer: the cause");
+        let kept = anyhow::Error::new(Keeps { source: io() });
+        assert_eq!(error_chain(&kept), "outer: the cause");
+        assert_eq!(error_chain(&kept), format!("{kept:#}"));
+    }
 
     #[test]
     fn cli_definition_is_consistent() {

@@ -906,7 +906,7 @@ impl Messages<'_> {
         let decompressed = match decompress(&header.compression, data, header.uncompressed_size) {
             Ok(d) => d,
             Err(reason) => {
-                self.pending.push_back(Err(corrupt(reason)));
+                self.pending.push_back(Err(corrupt(reason.to_string())));
                 return;
             }
         };
@@ -935,26 +935,51 @@ impl Messages<'_> {
     }
 }
 
-fn decompress(compression: &str, data: &[u8], size: u64) -> Result<Vec<u8>, String> {
-    let size = usize::try_from(size).map_err(|e| e.to_string())?;
+/// Why a chunk does not decompress (its text becomes the chunk's [`ReadIssue`] reason).
+#[derive(Debug, thiserror::Error)]
+enum DecompressError {
+    /// A declared size beyond this machine's address space.
+    #[error("{0}")]
+    Size(#[source] std::num::TryFromIntError),
+    /// zstd refused the data.
+    #[error("zstd: {0}")]
+    Zstd(#[source] std::io::Error),
+    /// lz4 refused the data.
+    #[error("lz4: {0}")]
+    Lz4(#[source] std::io::Error),
+    /// A compression MCAP readers need not know.
+    #[error("unsupported compression `{0}`")]
+    Unsupported(String),
+    /// Data of another size than the chunk declares.
+    #[error("decompressed to {actual} bytes, the chunk says {declared}")]
+    Length {
+        /// Bytes decompressed.
+        actual: usize,
+        /// Bytes the chunk declares.
+        declared: usize,
+    },
+}
+
+fn decompress(compression: &str, data: &[u8], size: u64) -> Result<Vec<u8>, DecompressError> {
+    let size = usize::try_from(size).map_err(DecompressError::Size)?;
     let out = match compression {
         "" => data.to_vec(),
-        "zstd" => zstd::bulk::decompress(data, size).map_err(|e| format!("zstd: {e}"))?,
+        "zstd" => zstd::bulk::decompress(data, size).map_err(DecompressError::Zstd)?,
         "lz4" => {
             let mut out = Vec::with_capacity(size);
-            let mut decoder = lz4::Decoder::new(data).map_err(|e| format!("lz4: {e}"))?;
-            std::io::copy(&mut decoder, &mut out).map_err(|e| format!("lz4: {e}"))?;
+            let mut decoder = lz4::Decoder::new(data).map_err(DecompressError::Lz4)?;
+            std::io::copy(&mut decoder, &mut out).map_err(DecompressError::Lz4)?;
             out
         }
-        other => return Err(format!("unsupported compression `{other}`")),
+        other => return Err(DecompressError::Unsupported(other.to_string())),
     };
     if out.len() == size {
         Ok(out)
     } else {
-        Err(format!(
-            "decompressed to {} bytes, the chunk says {size}",
-            out.len()
-        ))
+        Err(DecompressError::Length {
+            actual: out.len(),
+            declared: size,
+        })
     }
 }
 

@@ -26,7 +26,9 @@
 use crate::mcap_io::{BagWriter, McapIoError};
 use crate::ros::autoact_msgs::BoneFrame;
 use crate::ros::builtin_interfaces::Time;
-use crate::ros::geometry_msgs::{Point, Quaternion, Transform, TransformStamped, Vector3};
+use crate::ros::geometry_msgs::{
+    BadQuaternion, Point, Quaternion, Transform, TransformStamped, Vector3,
+};
 use crate::ros::std_msgs::{ColorRGBA, Header};
 use crate::ros::tf2_msgs::TFMessage;
 use crate::ros::visualization_msgs::{Marker, MarkerArray};
@@ -99,6 +101,17 @@ pub fn parse_frame_name(name: &str) -> (Option<u64>, u32, &str) {
     (track, variant, rest)
 }
 
+/// A `/tf` or `/tf_static` transform whose rotation is not a usable quaternion.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("tf frame `{child_frame_id}`: {source}")]
+pub struct TfRotationError {
+    /// The transform's child frame.
+    pub child_frame_id: String,
+    /// Why the rotation is not usable.
+    #[source]
+    pub source: BadQuaternion,
+}
+
 /// The latest transform of every tf frame, composed as tf viewers (RViz, Foxglove) compose
 /// them: what a bag shows at an instant, for checking it.
 #[derive(Debug, Clone, Default)]
@@ -111,11 +124,17 @@ impl TfTree {
     /// Takes in the transforms of a `/tf` or `/tf_static` message.
     ///
     /// # Errors
-    /// A transform whose rotation is not a usable quaternion, naming its child frame.
-    pub fn update(&mut self, tf: &TFMessage) -> Result<(), String> {
+    /// [`TfRotationError`]: a transform whose rotation is not a usable quaternion, naming its
+    /// child frame.
+    pub fn update(&mut self, tf: &TFMessage) -> Result<(), TfRotationError> {
         for t in &tf.transforms {
-            let rotation = nalgebra::UnitQuaternion::try_from(t.transform.rotation)
-                .map_err(|e| format!("tf frame `{}`: {e}", t.child_frame_id))?;
+            let rotation =
+                nalgebra::UnitQuaternion::try_from(t.transform.rotation).map_err(|source| {
+                    TfRotationError {
+                        child_frame_id: t.child_frame_id.clone(),
+                        source,
+                    }
+                })?;
             self.parent_from_child.insert(
                 t.child_frame_id.clone(),
                 (
@@ -366,28 +385,72 @@ pub fn frame_stamp(frame: &BoneFrame, log_time_nanos: u64) -> u64 {
     frame.header.stamp.to_nanos().unwrap_or(log_time_nanos)
 }
 
+/// A bone frame that does not fit the rig.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum BonePoseError {
+    /// Not one rotation per bone of the rig.
+    #[error("{rotations} rotations; rig {rig} has {bones} bones")]
+    RotationCount {
+        /// Rotations in the frame.
+        rotations: usize,
+        /// The rig's name.
+        rig: &'static str,
+        /// Bones of the rig.
+        bones: usize,
+    },
+    /// Bone names given, but not one per rotation.
+    #[error("{names} bone names for {rotations} rotations")]
+    NameCount {
+        /// Names in the frame.
+        names: usize,
+        /// Rotations in the frame.
+        rotations: usize,
+    },
+    /// A bone named otherwise than the rig names it.
+    #[error("rig `{frame_rig}` names bone {index} `{theirs}`, where rig {rig} has `{ours}`")]
+    BoneName {
+        /// The rig the frame names.
+        frame_rig: String,
+        /// The bone's index.
+        index: usize,
+        /// The frame's name for it.
+        theirs: String,
+        /// Our rig's name.
+        rig: &'static str,
+        /// Our rig's name for it.
+        ours: String,
+    },
+    /// A rotation that is not a usable quaternion.
+    #[error("bone `{bone}`: {source}")]
+    Rotation {
+        /// The bone.
+        bone: String,
+        /// Why.
+        #[source]
+        source: BadQuaternion,
+    },
+}
+
 /// The pose a bone frame carries, on `rig`: one rotation per bone in rig order (names, where the
 /// frame has them, must be the rig's), each a usable quaternion (normalised here). The one place
 /// a `BoneFrame` becomes a [`BonePose`].
 ///
 /// # Errors
-/// What does not fit the rig, naming the bone.
-pub fn bone_pose(rig: &Rig, frame: &BoneFrame) -> Result<BonePose, String> {
+/// [`BonePoseError`]: what does not fit the rig, naming the bone.
+pub fn bone_pose(rig: &Rig, frame: &BoneFrame) -> Result<BonePose, BonePoseError> {
     if frame.local_rotations.len() != rig.bones.len() {
-        return Err(format!(
-            "{} rotations; rig {} has {} bones",
-            frame.local_rotations.len(),
-            rig.name,
-            rig.bones.len()
-        ));
+        return Err(BonePoseError::RotationCount {
+            rotations: frame.local_rotations.len(),
+            rig: rig.name,
+            bones: rig.bones.len(),
+        });
     }
     if !frame.bone_names.is_empty() {
         if frame.bone_names.len() != rig.bones.len() {
-            return Err(format!(
-                "{} bone names for {} rotations",
-                frame.bone_names.len(),
-                frame.local_rotations.len()
-            ));
+            return Err(BonePoseError::NameCount {
+                names: frame.bone_names.len(),
+                rotations: frame.local_rotations.len(),
+            });
         }
         if let Some((k, (theirs, ours))) = frame
             .bone_names
@@ -396,10 +459,13 @@ pub fn bone_pose(rig: &Rig, frame: &BoneFrame) -> Result<BonePose, String> {
             .enumerate()
             .find(|(_, (theirs, ours))| **theirs != ours.name)
         {
-            return Err(format!(
-                "rig `{}` names bone {k} `{theirs}`, where rig {} has `{}`",
-                frame.rig, rig.name, ours.name
-            ));
+            return Err(BonePoseError::BoneName {
+                frame_rig: frame.rig.clone(),
+                index: k,
+                theirs: theirs.clone(),
+                rig: rig.name,
+                ours: ours.name.clone(),
+            });
         }
     }
     let local_rotations = frame
@@ -407,7 +473,10 @@ pub fn bone_pose(rig: &Rig, frame: &BoneFrame) -> Result<BonePose, String> {
         .iter()
         .zip(&rig.bones)
         .map(|(&q, bone)| {
-            nalgebra::UnitQuaternion::try_from(q).map_err(|e| format!("bone `{}`: {e}", bone.name))
+            nalgebra::UnitQuaternion::try_from(q).map_err(|source| BonePoseError::Rotation {
+                bone: bone.name.clone(),
+                source,
+            })
         })
         .collect::<Result<Vec<_>, _>>()?;
     Ok(BonePose {
@@ -823,12 +892,19 @@ mod tests {
         };
         assert_eq!(
             bone_pose(&rig, &short).unwrap_err(),
+            BonePoseError::NameCount {
+                names: 3,
+                rotations: 53
+            }
+        );
+        assert_eq!(
+            bone_pose(&rig, &short).unwrap_err().to_string(),
             "3 bone names for 53 rotations"
         );
 
         let mut renamed = frame.clone();
         renamed.bone_names[elbow] = "forearm_L".into();
-        let e = bone_pose(&rig, &renamed).unwrap_err();
+        let e = bone_pose(&rig, &renamed).unwrap_err().to_string();
         assert!(
             e.contains(&format!(
                 "names bone {elbow} `forearm_L`, where rig autoact53 has `l_forearm`"
@@ -852,7 +928,11 @@ mod tests {
             let mut broken = frame.clone();
             broken.local_rotations[elbow] = bad;
             let e = bone_pose(&rig, &broken).unwrap_err();
-            assert!(e.starts_with("bone `l_forearm`: "), "{e}");
+            assert!(
+                matches!(&e, BonePoseError::Rotation { bone, .. } if bone == "l_forearm"),
+                "{e}"
+            );
+            assert!(e.to_string().starts_with("bone `l_forearm`: "), "{e}");
         }
         let e = bone_pose(
             &rig,
@@ -861,7 +941,8 @@ mod tests {
                 ..frame
             },
         )
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
         assert_eq!(e, "2 rotations; rig autoact53 has 53 bones");
     }
 }

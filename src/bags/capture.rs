@@ -26,14 +26,15 @@ use std::path::{Path, PathBuf};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
 
 use crate::bags;
-use crate::bags::animation::{TF_STATIC_TOPIC, TF_TOPIC, TrackWriter};
+use crate::bags::animation::{BonePoseError, TF_STATIC_TOPIC, TF_TOPIC, TrackWriter};
 use crate::camera::Intrinsics;
 use crate::camera::{CAMERA_FRAME, CameraPose, DISTORTION_MODEL};
-use crate::mcap_io::BagReader;
+use crate::mcap_io::{BagMessage, BagReader, ReadIssue};
 use crate::mcap_io::{BagWriter, FileSink, McapIoError, WriteConfig};
 use crate::ros::autoact_msgs::{BoneFrame, SceneState, Segment};
 use crate::ros::builtin_interfaces::Time;
-use crate::ros::geometry_msgs::PoseStamped;
+use crate::ros::cdr::CdrError;
+use crate::ros::geometry_msgs::{BadQuaternion, PoseStamped};
 use crate::ros::geometry_msgs::{Pose, Quaternion, Transform, TransformStamped, Vector3};
 use crate::ros::sensor_msgs::CameraInfo;
 use crate::ros::std_msgs::Header;
@@ -230,13 +231,34 @@ impl CameraTrack {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum TimelineError {
-    /// The file could not be opened or read.
-    #[error("{path}: {message}")]
-    Read {
+    /// The file could not be opened.
+    #[error("{path}: {source}")]
+    Open {
         /// The bag.
         path: PathBuf,
         /// Why.
-        message: String,
+        #[source]
+        source: McapIoError,
+    },
+    /// The file could not be read to its end.
+    #[error("{path}: {source}")]
+    Read {
+        /// The bag.
+        path: PathBuf,
+        /// What was lost.
+        #[source]
+        source: ReadIssue,
+    },
+    /// The dataset record's `labels` is not a JSON list of strings.
+    #[error("{path}: metadata `{name}`: `labels` is not a JSON list of strings: {source}")]
+    Labels {
+        /// The bag.
+        path: PathBuf,
+        /// The metadata record.
+        name: String,
+        /// Why.
+        #[source]
+        source: serde_json::Error,
     },
     /// Something the renderer needs is not in the bag.
     #[error(
@@ -259,6 +281,58 @@ pub enum TimelineError {
         stamp_nanos: u64,
         /// Why.
         message: String,
+    },
+    /// A message that cannot be decoded.
+    #[error("{path}: {topic} at {stamp_nanos} ns: cannot decode: {source}")]
+    Decode {
+        /// The bag.
+        path: PathBuf,
+        /// Its topic.
+        topic: String,
+        /// Its stamp.
+        stamp_nanos: u64,
+        /// Why.
+        #[source]
+        source: CdrError,
+    },
+    /// A scene state whose `parameters_json` is not a scene.
+    #[error("{path}: {topic} at {stamp_nanos} ns: parameters_json: {source}")]
+    SceneParameters {
+        /// The bag.
+        path: PathBuf,
+        /// Its topic.
+        topic: String,
+        /// Its stamp.
+        stamp_nanos: u64,
+        /// Why.
+        #[source]
+        source: serde_json::Error,
+    },
+    /// An animation frame that does not fit the rig.
+    #[error("{path}: {topic} at {stamp_nanos} ns: {source}")]
+    Pose {
+        /// The bag.
+        path: PathBuf,
+        /// Its topic.
+        topic: String,
+        /// Its stamp.
+        stamp_nanos: u64,
+        /// Why.
+        #[source]
+        source: Box<BonePoseError>,
+    },
+    /// A camera pose whose orientation is not a rotation.
+    #[error("{path}: {topic} at {stamp_nanos} ns: {source}")]
+    Orientation {
+        /// The bag.
+        path: PathBuf,
+        /// Its topic.
+        topic: String,
+        /// Its stamp.
+        stamp_nanos: u64,
+        /// Why.
+        #[source]
+        source: BadQuaternion,
     },
 }
 
@@ -318,110 +392,31 @@ impl Capture {
     /// # Errors
     /// [`TimelineError`] naming the file and, for a bad message, its topic and stamp.
     pub fn read(rig: &Rig, path: &Path) -> Result<Capture, TimelineError> {
-        let readers = BagReader::open_all(path).map_err(|e| TimelineError::Read {
+        let readers = BagReader::open_all(path).map_err(|source| TimelineError::Open {
             path: path.to_path_buf(),
-            message: e.to_string(),
+            source,
         })?;
-        let bad = |topic: &str, stamp_nanos: u64, message: String| TimelineError::Bad {
-            path: path.to_path_buf(),
-            topic: topic.to_owned(),
-            stamp_nanos,
-            message,
-        };
+        let record = DatasetRecord::read(&readers, path)?;
+        let mut found = Found::default();
+        for m in readers.iter().flat_map(|r| r.messages()) {
+            let m = m.map_err(|source| TimelineError::Read {
+                path: path.to_path_buf(),
+                source,
+            })?;
+            found.take(rig, &m, path)?;
+        }
+        let Found {
+            mut scenes,
+            mut segments,
+            poses,
+            cameras,
+            intrinsics,
+            session,
+        } = found;
         let missing = |what: &str| TimelineError::Missing {
             path: path.to_path_buf(),
             what: what.to_owned(),
         };
-        let mut fps = None;
-        let mut labels = Vec::new();
-        let mut seed = None;
-        for r in &readers {
-            for (name, meta) in r.metadata() {
-                if name != METADATA_NAME {
-                    continue;
-                }
-                if let Some(v) = meta.get("fps").and_then(|v| v.parse::<f64>().ok()) {
-                    fps = Some(v);
-                }
-                if let Some(v) = meta.get("seed").and_then(|v| v.parse::<u64>().ok()) {
-                    seed = Some(v);
-                }
-                if let Some(text) = meta.get("labels") {
-                    labels = serde_json::from_str::<Vec<String>>(text).map_err(|e| {
-                        TimelineError::Read {
-                            path: path.to_path_buf(),
-                            message: format!(
-                                "metadata `{name}`: `labels` is not a JSON list of strings: {e}"
-                            ),
-                        }
-                    })?;
-                }
-            }
-        }
-        let mut scenes = Vec::new();
-        let mut segments = Vec::new();
-        let mut poses: BTreeMap<u64, BonePose> = BTreeMap::new();
-        let mut cameras: BTreeMap<u64, Isometry3<f64>> = BTreeMap::new();
-        let mut intrinsics = None;
-        let mut session = String::new();
-        for m in readers.iter().flat_map(|r| r.messages()) {
-            let m = m.map_err(|e| TimelineError::Read {
-                path: path.to_path_buf(),
-                message: e.to_string(),
-            })?;
-            let topic = m.channel.topic.as_str();
-            let schema = m.channel.schema_name();
-            let stamp = m.log_time;
-            let decode_error =
-                |e: &dyn std::fmt::Display| bad(topic, stamp, format!("cannot decode: {e}"));
-            match (topic, schema) {
-                (SCENE_TOPIC, SceneState::TYPE_NAME) => {
-                    let s: SceneState = cdr::decode(&m.data).map_err(|e| decode_error(&e))?;
-                    let scene: Scene = serde_json::from_str(&s.parameters_json)
-                        .map_err(|e| bad(topic, stamp, format!("parameters_json: {e}")))?;
-                    session.clone_from(&s.session);
-                    scenes.push(CaptureScene {
-                        start_nanos: s.header.stamp.to_nanos().unwrap_or(stamp),
-                        scene_id: s.scene_id,
-                        stream: s.stream,
-                        scene,
-                    });
-                }
-                (SEGMENTS_TOPIC, Segment::TYPE_NAME) => {
-                    segments.push(cdr::decode::<Segment>(&m.data).map_err(|e| decode_error(&e))?);
-                }
-                (_, BoneFrame::TYPE_NAME) => {
-                    let f: BoneFrame = cdr::decode(&m.data).map_err(|e| decode_error(&e))?;
-                    let pose =
-                        bags::animation::bone_pose(rig, &f).map_err(|e| bad(topic, stamp, e))?;
-                    let at = bags::animation::frame_stamp(&f, stamp);
-                    if poses.insert(at, pose).is_some() {
-                        return Err(bad(topic, at, "two animation frames at one stamp (several tracks or variants: a capture bag has one)".into()));
-                    }
-                }
-                (CAMERA_POSE_TOPIC, PoseStamped::TYPE_NAME) => {
-                    let p: PoseStamped = cdr::decode(&m.data).map_err(|e| decode_error(&e))?;
-                    let q = UnitQuaternion::try_from(p.pose.orientation)
-                        .map_err(|e| bad(topic, stamp, e.to_string()))?;
-                    let o = p.pose.position;
-                    if ![o.x, o.y, o.z].iter().all(|v| v.is_finite()) {
-                        return Err(bad(topic, stamp, "camera position is not finite".into()));
-                    }
-                    let at = p.header.stamp.to_nanos().unwrap_or(stamp);
-                    cameras.insert(
-                        at,
-                        Isometry3::from_parts(Translation3::new(o.x, o.y, o.z), q),
-                    );
-                }
-                (CAMERA_INFO_TOPIC, CameraInfo::TYPE_NAME) if intrinsics.is_none() => {
-                    let c: CameraInfo = cdr::decode(&m.data).map_err(|e| decode_error(&e))?;
-                    intrinsics = Some(Intrinsics::from_ros(c.width, c.height, &c.k).ok_or_else(
-                        || bad(topic, stamp, format!("unusable camera matrix {:?}", c.k)),
-                    )?);
-                }
-                _ => {}
-            }
-        }
         if poses.is_empty() {
             return Err(missing("animation (autoact_msgs/BoneFrame on /animation)"));
         }
@@ -437,41 +432,18 @@ impl Capture {
         segments.sort_by_key(|s| s.start.to_nanos().unwrap_or(0));
         // Without the dataset record, the median spacing of the frames.
         let stamps: Vec<u64> = poses.keys().copied().collect();
-        let fps =
-            crate::skeleton::pose::frame_rate(fps.filter(|f| f.is_finite() && *f > 0.0), &stamps)
-                .ok_or_else(|| {
-                missing("frame rate (the autoact.dataset record's fps, or two frames)")
-            })?;
-        let mut frames = Vec::with_capacity(poses.len());
-        for (stamp_nanos, pose) in poses {
-            let world_from_optical = *cameras.get(&stamp_nanos).ok_or_else(|| {
-                bad(
-                    CAMERA_POSE_TOPIC,
-                    stamp_nanos,
-                    "no camera pose at this animation frame's stamp".into(),
-                )
-            })?;
-            let scene = scenes.partition_point(|s| s.start_nanos <= stamp_nanos);
-            if scene == 0 {
-                return Err(bad(
-                    SCENE_TOPIC,
-                    stamp_nanos,
-                    "an animation frame comes before the first scene starts".into(),
-                ));
-            }
-            frames.push(CaptureFrame {
-                stamp_nanos,
-                scene: scene - 1,
-                pose,
-                world_from_optical,
-            });
-        }
+        let fps = crate::skeleton::pose::frame_rate(
+            record.fps.filter(|f| f.is_finite() && *f > 0.0),
+            &stamps,
+        )
+        .ok_or_else(|| missing("frame rate (the autoact.dataset record's fps, or two frames)"))?;
+        let frames = timeline_frames(path, poses, &cameras, &scenes)?;
         Ok(Capture {
             path: path.to_path_buf(),
             session,
             fps,
-            labels,
-            seed,
+            labels: record.labels,
+            seed: record.seed,
             intrinsics,
             scenes,
             segments,
@@ -496,4 +468,183 @@ impl Capture {
         out.dedup();
         out
     }
+}
+
+/// What the `autoact.dataset` metadata record says (the last record's values win).
+#[derive(Debug, Default)]
+struct DatasetRecord {
+    fps: Option<f64>,
+    labels: Vec<String>,
+    seed: Option<u64>,
+}
+
+impl DatasetRecord {
+    fn read(readers: &[BagReader], path: &Path) -> Result<DatasetRecord, TimelineError> {
+        let mut record = DatasetRecord::default();
+        for r in readers {
+            for (name, meta) in r.metadata() {
+                if name != METADATA_NAME {
+                    continue;
+                }
+                if let Some(v) = meta.get("fps").and_then(|v| v.parse::<f64>().ok()) {
+                    record.fps = Some(v);
+                }
+                if let Some(v) = meta.get("seed").and_then(|v| v.parse::<u64>().ok()) {
+                    record.seed = Some(v);
+                }
+                if let Some(text) = meta.get("labels") {
+                    record.labels =
+                        serde_json::from_str::<Vec<String>>(text).map_err(|source| {
+                            TimelineError::Labels {
+                                path: path.to_path_buf(),
+                                name: name.clone(),
+                                source,
+                            }
+                        })?;
+                }
+            }
+        }
+        Ok(record)
+    }
+}
+
+/// What the messages of a capture bag carry, as read (unsorted, unchecked).
+#[derive(Debug, Default)]
+struct Found {
+    scenes: Vec<CaptureScene>,
+    segments: Vec<Segment>,
+    poses: BTreeMap<u64, BonePose>,
+    cameras: BTreeMap<u64, Isometry3<f64>>,
+    intrinsics: Option<Intrinsics>,
+    session: String,
+}
+
+impl Found {
+    /// Takes in one message: a scene, a segment, an animation frame, a camera pose or the first
+    /// camera calibration; other topics are ignored.
+    fn take(&mut self, rig: &Rig, m: &BagMessage, path: &Path) -> Result<(), TimelineError> {
+        let topic = m.channel.topic.as_str();
+        let schema = m.channel.schema_name();
+        let stamp = m.log_time;
+        let bad = |stamp_nanos: u64, message: String| TimelineError::Bad {
+            path: path.to_path_buf(),
+            topic: topic.to_owned(),
+            stamp_nanos,
+            message,
+        };
+        let decode_error = |source: CdrError| TimelineError::Decode {
+            path: path.to_path_buf(),
+            topic: topic.to_owned(),
+            stamp_nanos: stamp,
+            source,
+        };
+        match (topic, schema) {
+            (SCENE_TOPIC, SceneState::TYPE_NAME) => {
+                let s: SceneState = cdr::decode(&m.data).map_err(decode_error)?;
+                let scene: Scene = serde_json::from_str(&s.parameters_json).map_err(|source| {
+                    TimelineError::SceneParameters {
+                        path: path.to_path_buf(),
+                        topic: topic.to_owned(),
+                        stamp_nanos: stamp,
+                        source,
+                    }
+                })?;
+                self.session.clone_from(&s.session);
+                self.scenes.push(CaptureScene {
+                    start_nanos: s.header.stamp.to_nanos().unwrap_or(stamp),
+                    scene_id: s.scene_id,
+                    stream: s.stream,
+                    scene,
+                });
+            }
+            (SEGMENTS_TOPIC, Segment::TYPE_NAME) => {
+                self.segments
+                    .push(cdr::decode::<Segment>(&m.data).map_err(decode_error)?);
+            }
+            (_, BoneFrame::TYPE_NAME) => {
+                let f: BoneFrame = cdr::decode(&m.data).map_err(decode_error)?;
+                let pose =
+                    bags::animation::bone_pose(rig, &f).map_err(|source| TimelineError::Pose {
+                        path: path.to_path_buf(),
+                        topic: topic.to_owned(),
+                        stamp_nanos: stamp,
+                        source: Box::new(source),
+                    })?;
+                let at = bags::animation::frame_stamp(&f, stamp);
+                if self.poses.insert(at, pose).is_some() {
+                    return Err(bad(at, "two animation frames at one stamp (several tracks or variants: a capture bag has one)".into()));
+                }
+            }
+            (CAMERA_POSE_TOPIC, PoseStamped::TYPE_NAME) => {
+                let p: PoseStamped = cdr::decode(&m.data).map_err(decode_error)?;
+                let q = UnitQuaternion::try_from(p.pose.orientation).map_err(|source| {
+                    TimelineError::Orientation {
+                        path: path.to_path_buf(),
+                        topic: topic.to_owned(),
+                        stamp_nanos: stamp,
+                        source,
+                    }
+                })?;
+                let o = p.pose.position;
+                if ![o.x, o.y, o.z].iter().all(|v| v.is_finite()) {
+                    return Err(bad(stamp, "camera position is not finite".into()));
+                }
+                let at = p.header.stamp.to_nanos().unwrap_or(stamp);
+                self.cameras.insert(
+                    at,
+                    Isometry3::from_parts(Translation3::new(o.x, o.y, o.z), q),
+                );
+            }
+            (CAMERA_INFO_TOPIC, CameraInfo::TYPE_NAME) if self.intrinsics.is_none() => {
+                let c: CameraInfo = cdr::decode(&m.data).map_err(decode_error)?;
+                self.intrinsics = Some(
+                    Intrinsics::from_ros(c.width, c.height, &c.k)
+                        .ok_or_else(|| bad(stamp, format!("unusable camera matrix {:?}", c.k)))?,
+                );
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+}
+
+/// The timeline: one frame per animation frame, in stamp order, each with the camera pose at
+/// its stamp and the scene it falls in (`scenes` sorted by start).
+fn timeline_frames(
+    path: &Path,
+    poses: BTreeMap<u64, BonePose>,
+    cameras: &BTreeMap<u64, Isometry3<f64>>,
+    scenes: &[CaptureScene],
+) -> Result<Vec<CaptureFrame>, TimelineError> {
+    let bad = |topic: &str, stamp_nanos: u64, message: String| TimelineError::Bad {
+        path: path.to_path_buf(),
+        topic: topic.to_owned(),
+        stamp_nanos,
+        message,
+    };
+    let mut frames = Vec::with_capacity(poses.len());
+    for (stamp_nanos, pose) in poses {
+        let world_from_optical = *cameras.get(&stamp_nanos).ok_or_else(|| {
+            bad(
+                CAMERA_POSE_TOPIC,
+                stamp_nanos,
+                "no camera pose at this animation frame's stamp".into(),
+            )
+        })?;
+        let scene = scenes.partition_point(|s| s.start_nanos <= stamp_nanos);
+        if scene == 0 {
+            return Err(bad(
+                SCENE_TOPIC,
+                stamp_nanos,
+                "an animation frame comes before the first scene starts".into(),
+            ));
+        }
+        frames.push(CaptureFrame {
+            stamp_nanos,
+            scene: scene - 1,
+            pose,
+            world_from_optical,
+        });
+    }
+    Ok(frames)
 }

@@ -165,153 +165,37 @@ pub fn read_pose_topics(
     layout: Option<&crate::skeleton::layout::Layout>,
 ) -> Result<PoseTopics, PoseBagError> {
     let readers = BagReader::open_all(path)?;
-    // Topic → track id → the track.
-    let mut tracks: BTreeMap<String, BTreeMap<u64, Collected>> = BTreeMap::new();
+    let mut gathered = Gathered::default();
+    // Skeletons are decoded into this one, reused from one message to the next.
     let mut skeleton = Skeleton3D::default();
-    let mut skipped = Vec::new();
-    let mut issues = Vec::new();
-    let mut nan_first = Vec::new();
-    let mut nan_total = 0u64;
-    let mut seen_topics: BTreeMap<String, String> = BTreeMap::new();
     for (reader_index, reader, item) in readers
         .iter()
         .enumerate()
         .flat_map(|(i, r)| r.messages().map(move |m| (i, r, m)))
     {
-        let msg = match item {
-            Ok(m) => m,
-            Err(issue) => {
-                issues.push(issue);
-                continue;
-            }
-        };
-        let type_name = msg.channel.schema_name();
-        if !seen_topics.contains_key(&msg.channel.topic) {
-            seen_topics.insert(msg.channel.topic.clone(), type_name.to_string());
-        }
-        let wanted = match topic {
-            Some(t) => msg.channel.topic == t,
-            None => POSE_TYPES.contains(&type_name),
-        };
-        if !wanted {
-            continue;
-        }
-        let path_s = || reader.path().display().to_string();
-        let skip = |reason: String| SkippedMessage {
-            path: path_s(),
-            topic: msg.channel.topic.clone(),
-            index: msg.index_on_channel,
-            log_time: msg.log_time,
-            reason,
-        };
-        if msg.channel.message_encoding != "cdr" {
-            skipped.push(skip(format!(
-                "message encoding `{}` is not cdr",
-                msg.channel.message_encoding
-            )));
-            continue;
-        }
-        let people = match decode_people(&msg, type_name, layout, &mut skeleton) {
-            Ok(p) => p,
-            Err(DecodeProblem::Skip(reason)) => {
-                skipped.push(skip(reason));
-                continue;
-            }
-            Err(DecodeProblem::NeedsLayout) => {
-                return Err(PoseBagError::LayoutNeeded {
-                    path: path_s(),
-                    topic: msg.channel.topic.clone(),
-                    type_name: type_name.to_string(),
-                });
-            }
-            Err(DecodeProblem::NotPose) => {
-                return Err(PoseBagError::NoPoseTopic {
-                    path: path_s(),
-                    why: format!(
-                        "{} carries {type_name}, not a pose type ({})",
-                        msg.channel.topic,
-                        POSE_TYPES.join(", ")
-                    ),
-                });
-            }
-        };
-        // Looked up before inserting, so that a message costs no copy of its topic name.
-        let topic_tracks = match tracks.get_mut(&msg.channel.topic) {
-            Some(t) => t,
-            None => tracks.entry(msg.channel.topic.clone()).or_default(),
-        };
-        for person in people {
-            if person
-                .frame
-                .positions_m
-                .iter()
-                .any(|p| p.coords.iter().any(|v| v.is_nan()))
-            {
-                nan_total += 1;
-                if nan_first.len() < 5 {
-                    nan_first.push((msg.channel.topic.clone(), msg.index_on_channel));
-                }
-            }
-            let entry = topic_tracks
-                .entry(person.track_id)
-                .or_insert_with(|| Collected {
-                    seq: PoseSequence {
-                        source: path_s(),
-                        track_id: person.track_id,
-                        joint_names: person.joint_names.to_vec(),
-                        frames: Vec::new(),
-                    },
-                    layout: person.layout.to_string(),
-                    clocks: Vec::new(),
-                });
-            if entry.seq.joint_names != person.joint_names {
-                skipped.push(skip(format!(
-                    "track {}: joint names differ from the track's earlier messages",
-                    person.track_id
-                )));
-                continue;
-            }
-            entry.seq.frames.push(person.frame);
-            entry.clocks.push(Clock {
-                header: person.header_stamp,
-                log_time: msg.log_time,
-                index: msg.index_on_channel,
-                reader: reader_index,
-            });
+        match item {
+            Ok(msg) => gathered.take(&msg, reader_index, reader, topic, layout, &mut skeleton)?,
+            Err(issue) => gathered.issues.push(issue),
         }
     }
+    let Gathered {
+        mut tracks,
+        mut skipped,
+        issues,
+        nan_first,
+        nan_total,
+        seen_topics,
+    } = gathered;
     for (topic, by_track) in &mut tracks {
         for c in by_track.values_mut() {
             c.settle_stamps(topic, &readers, &mut skipped);
         }
     }
-    if tracks.is_empty() && skipped.is_empty() {
-        let why = match topic {
-            Some(t) if !seen_topics.contains_key(t) => format!(
-                "no topic {t} (topics: {})",
-                if seen_topics.is_empty() {
-                    "none".to_string()
-                } else {
-                    seen_topics.keys().cloned().collect::<Vec<_>>().join(", ")
-                }
-            ),
-            _ if seen_topics.is_empty() => "no readable messages".to_string(),
-            _ => format!(
-                "no pose topic: autoact reads {}; the file has {}",
-                POSE_TYPES.join(", "),
-                seen_topics
-                    .iter()
-                    .map(|(t, ty)| format!("{t} ({ty})"))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-        };
-        if issues.is_empty() {
-            return Err(PoseBagError::NoPoseTopic {
-                path: path.display().to_string(),
-                why,
-            });
-        }
+    if tracks.is_empty() && skipped.is_empty() && issues.is_empty() {
+        return Err(PoseBagError::NoPoseTopic {
+            path: path.display().to_string(),
+            why: no_pose_topic(topic, &seen_topics),
+        });
     }
     let mut sequences = Vec::new();
     let mut layouts = Vec::new();
@@ -329,6 +213,183 @@ pub fn read_pose_topics(
         nan_messages: (nan_first, nan_total),
         metadata: readers.iter().flat_map(BagReader::metadata).collect(),
     })
+}
+
+/// Why a bag gave no pose track: the asked topic is not in it, it has no readable message, or
+/// none of its topics carries a pose type (`seen_topics`: topic → type).
+fn no_pose_topic(topic: Option<&str>, seen_topics: &BTreeMap<String, String>) -> String {
+    match topic {
+        Some(t) if !seen_topics.contains_key(t) => format!(
+            "no topic {t} (topics: {})",
+            if seen_topics.is_empty() {
+                "none".to_string()
+            } else {
+                seen_topics.keys().cloned().collect::<Vec<_>>().join(", ")
+            }
+        ),
+        _ if seen_topics.is_empty() => "no readable messages".to_string(),
+        _ => format!(
+            "no pose topic: autoact reads {}; the file has {}",
+            POSE_TYPES.join(", "),
+            seen_topics
+                .iter()
+                .map(|(t, ty)| format!("{t} ({ty})"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
+}
+
+/// The pose tracks of a bag as its messages are read.
+#[derive(Default)]
+struct Gathered {
+    /// Topic → track id → the track.
+    tracks: BTreeMap<String, BTreeMap<u64, Collected>>,
+    skipped: Vec<SkippedMessage>,
+    issues: Vec<ReadIssue>,
+    /// (topic, index) of the first few messages with NaN positions.
+    nan_first: Vec<(String, u64)>,
+    nan_total: u64,
+    /// Every topic seen → its type.
+    seen_topics: BTreeMap<String, String>,
+}
+
+/// A message of `reader` skipped for `reason`.
+fn skipped_message(reader: &BagReader, msg: &BagMessage, reason: String) -> SkippedMessage {
+    SkippedMessage {
+        path: reader.path().display().to_string(),
+        topic: msg.channel.topic.clone(),
+        index: msg.index_on_channel,
+        log_time: msg.log_time,
+        reason,
+    }
+}
+
+impl Gathered {
+    /// Takes in one message of reader `reader_index`: a pose message on a wanted topic (`topic`,
+    /// else any pose type) adds its people to their tracks, one that cannot be used is skipped.
+    ///
+    /// # Errors
+    /// A wanted topic that needs a layout or carries no pose type: nothing can be read.
+    fn take(
+        &mut self,
+        msg: &BagMessage,
+        reader_index: usize,
+        reader: &BagReader,
+        topic: Option<&str>,
+        layout: Option<&crate::skeleton::layout::Layout>,
+        skeleton: &mut Skeleton3D,
+    ) -> Result<(), PoseBagError> {
+        let type_name = msg.channel.schema_name();
+        if !self.seen_topics.contains_key(&msg.channel.topic) {
+            self.seen_topics
+                .insert(msg.channel.topic.clone(), type_name.to_string());
+        }
+        let wanted = match topic {
+            Some(t) => msg.channel.topic == t,
+            None => POSE_TYPES.contains(&type_name),
+        };
+        if !wanted {
+            return Ok(());
+        }
+        if msg.channel.message_encoding != "cdr" {
+            self.skipped.push(skipped_message(
+                reader,
+                msg,
+                format!(
+                    "message encoding `{}` is not cdr",
+                    msg.channel.message_encoding
+                ),
+            ));
+            return Ok(());
+        }
+        let people = match decode_people(msg, type_name, layout, skeleton) {
+            Ok(p) => p,
+            Err(DecodeProblem::Skip(reason)) => {
+                self.skipped.push(skipped_message(reader, msg, reason));
+                return Ok(());
+            }
+            Err(DecodeProblem::NeedsLayout) => {
+                return Err(PoseBagError::LayoutNeeded {
+                    path: reader.path().display().to_string(),
+                    topic: msg.channel.topic.clone(),
+                    type_name: type_name.to_string(),
+                });
+            }
+            Err(DecodeProblem::NotPose) => {
+                return Err(PoseBagError::NoPoseTopic {
+                    path: reader.path().display().to_string(),
+                    why: format!(
+                        "{} carries {type_name}, not a pose type ({})",
+                        msg.channel.topic,
+                        POSE_TYPES.join(", ")
+                    ),
+                });
+            }
+        };
+        self.add_people(msg, reader_index, reader, people);
+        Ok(())
+    }
+
+    /// Appends each person of `msg` to its track (created on first sight), counting NaN
+    /// positions; a person whose joint names differ from its track's is skipped.
+    fn add_people(
+        &mut self,
+        msg: &BagMessage,
+        reader_index: usize,
+        reader: &BagReader,
+        people: Vec<Person<'_>>,
+    ) {
+        // Looked up before inserting, so that a message costs no copy of its topic name.
+        let topic_tracks = match self.tracks.get_mut(&msg.channel.topic) {
+            Some(t) => t,
+            None => self.tracks.entry(msg.channel.topic.clone()).or_default(),
+        };
+        for person in people {
+            if person
+                .frame
+                .positions_m
+                .iter()
+                .any(|p| p.coords.iter().any(|v| v.is_nan()))
+            {
+                self.nan_total += 1;
+                if self.nan_first.len() < 5 {
+                    self.nan_first
+                        .push((msg.channel.topic.clone(), msg.index_on_channel));
+                }
+            }
+            let entry = topic_tracks
+                .entry(person.track_id)
+                .or_insert_with(|| Collected {
+                    seq: PoseSequence {
+                        source: reader.path().display().to_string(),
+                        track_id: person.track_id,
+                        joint_names: person.joint_names.to_vec(),
+                        frames: Vec::new(),
+                    },
+                    layout: person.layout.to_string(),
+                    clocks: Vec::new(),
+                });
+            if entry.seq.joint_names != person.joint_names {
+                self.skipped.push(skipped_message(
+                    reader,
+                    msg,
+                    format!(
+                        "track {}: joint names differ from the track's earlier messages",
+                        person.track_id
+                    ),
+                ));
+                continue;
+            }
+            entry.seq.frames.push(person.frame);
+            entry.clocks.push(Clock {
+                header: person.header_stamp,
+                log_time: msg.log_time,
+                index: msg.index_on_channel,
+                reader: reader_index,
+            });
+        }
+    }
 }
 
 /// Where one frame's time can come from.

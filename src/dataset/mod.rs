@@ -6,15 +6,39 @@ pub mod plan;
 pub mod plan_report;
 pub mod spec;
 
-use crate::mcap_io::BagReader;
+use std::path::PathBuf;
+
+use crate::mcap_io::{BagReader, McapIoError};
 use spec::Spec;
+
+/// Why a source's length cannot be estimated.
+#[derive(Debug, thiserror::Error)]
+pub enum EstimateError {
+    /// The source's bag cannot be opened.
+    #[error("{key}: {source}")]
+    Open {
+        /// The spec key of the source, e.g. `class[2].sources[0]`.
+        key: String,
+        /// Why.
+        #[source]
+        source: McapIoError,
+    },
+    /// A bag without summary statistics (an unfinished recording).
+    #[error("{key}: {path} has no summary statistics to plan with (was it finished?)")]
+    NoSummary {
+        /// The spec key of the source.
+        key: String,
+        /// The bag file.
+        path: PathBuf,
+    },
+}
 
 /// Each source's estimated length at the output rate, `[class][source]`: its bag's time range
 /// (from the summary, no message read) at the spec's speed, both ends included.
 ///
 /// # Errors
-/// A bag that cannot be opened or has no summary statistics, named.
-pub fn estimated_frames(spec: &Spec) -> Result<Vec<Vec<u64>>, String> {
+/// [`EstimateError`]: a bag that cannot be opened or has no summary statistics, named.
+pub fn estimated_frames(spec: &Spec) -> Result<Vec<Vec<u64>>, EstimateError> {
     let fps = spec.file.dataset.fps;
     let speed = spec.file.dsi.speed;
     spec.sources
@@ -26,14 +50,16 @@ pub fn estimated_frames(spec: &Spec) -> Result<Vec<Vec<u64>>, String> {
                 .enumerate()
                 .map(|(i, s)| {
                     let key = format!("class[{k}].sources[{i}]");
-                    let readers = BagReader::open_all(&s.path).map_err(|e| format!("{key}: {e}"))?;
+                    let readers =
+                        BagReader::open_all(&s.path).map_err(|source| EstimateError::Open {
+                            key: key.clone(),
+                            source,
+                        })?;
                     let mut range: Option<(u64, u64)> = None;
                     for r in &readers {
-                        let (a, b) = r.time_range().ok_or_else(|| {
-                            format!(
-                                "{key}: {} has no summary statistics to plan with (was it finished?)",
-                                r.path().display()
-                            )
+                        let (a, b) = r.time_range().ok_or_else(|| EstimateError::NoSummary {
+                            key: key.clone(),
+                            path: r.path().to_path_buf(),
                         })?;
                         range = Some(range.map_or((a, b), |(x, y)| (x.min(a), y.max(b))));
                     }
@@ -43,8 +69,9 @@ pub fn estimated_frames(spec: &Spec) -> Result<Vec<Vec<u64>>, String> {
                         clippy::cast_sign_loss,
                         reason = "frame counts far inside f64's exact range"
                     )]
-                    let frames =
-                        (crate::skeleton::pose::nanos_to_secs(b - a) * fps / speed).round() as u64 + 1;
+                    let frames = (crate::skeleton::pose::nanos_to_secs(b - a) * fps / speed).round()
+                        as u64
+                        + 1;
                     Ok(frames)
                 })
                 .collect()

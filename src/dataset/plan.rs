@@ -21,8 +21,40 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use super::spec::{SessionBy, Spec};
-use crate::camera::{Intrinsics, Shot, Subject, Viewpoint, framing_band, random_viewpoints};
-use crate::scene::Scene;
+use crate::camera::{
+    CameraError, Intrinsics, Shot, Subject, Viewpoint, framing_band, random_viewpoints,
+};
+use crate::scene::{Scene, SceneError};
+
+/// Why a plan cannot be drawn.
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    /// The dataset's resolution and field of view make no camera.
+    #[error("dataset: {source}")]
+    Intrinsics {
+        /// Why.
+        #[source]
+        source: CameraError,
+    },
+    /// A scene cannot be drawn.
+    #[error("{scene_id}: {source}")]
+    Scene {
+        /// The scene's id, `<category>/<action>/<animation>/v<variant>/s<scene>`.
+        scene_id: String,
+        /// Why.
+        #[source]
+        source: SceneError,
+    },
+    /// A scene's character cannot be framed or its viewpoints placed.
+    #[error("{scene_id}: {source}")]
+    Camera {
+        /// The scene's id.
+        scene_id: String,
+        /// Why.
+        #[source]
+        source: CameraError,
+    },
+}
 
 /// Radius of the sphere a standing body with raised arms sweeps, as a fraction of its height,
 /// used to frame a character before its animation is known (the framing band then never
@@ -155,15 +187,15 @@ impl Plan {
     /// the output rate.
     ///
     /// # Errors
-    /// A message when the camera cannot frame a character (field of view too narrow for the
-    /// farthest distance).
-    pub fn build(spec: &Spec, frames: &dyn Fn(usize, usize) -> u64) -> Result<Plan, String> {
+    /// [`PlanError`], e.g. when the camera cannot frame a character (field of view too narrow
+    /// for the farthest distance).
+    pub fn build(spec: &Spec, frames: &dyn Fn(usize, usize) -> u64) -> Result<Plan, PlanError> {
         let file = &spec.file;
         let d = &file.dataset;
         let counts = &file.counts;
         let intrinsics =
             Intrinsics::from_horizontal_fov(d.resolution[0], d.resolution[1], d.fov_deg)
-                .map_err(|e| format!("dataset: {e}"))?;
+                .map_err(|source| PlanError::Intrinsics { source })?;
 
         let mut animations = Vec::new();
         for (class, sources) in spec.sources.iter().enumerate() {
@@ -203,7 +235,10 @@ impl Plan {
                     let drawn = file
                         .scene
                         .draw(&mut rng, &class.requires)
-                        .map_err(|e| format!("{id}: {e}"))?;
+                        .map_err(|source| PlanError::Scene {
+                            scene_id: id.clone(),
+                            source,
+                        })?;
                     let subject = planning_subject(drawn.look.height_m);
                     let band = framing_band(
                         &intrinsics,
@@ -211,14 +246,20 @@ impl Plan {
                         file.camera.margin,
                         file.camera.max_distance_m,
                     )
-                    .map_err(|e| format!("{id}: {e}"))?;
+                    .map_err(|source| PlanError::Camera {
+                        scene_id: id.clone(),
+                        source,
+                    })?;
                     let viewpoints = random_viewpoints(
                         &mut rng,
                         &file.camera.ranges,
                         band,
                         viewpoints_per_scene,
                     )
-                    .map_err(|e| format!("{id}: {e}"))?;
+                    .map_err(|source| PlanError::Camera {
+                        scene_id: id.clone(),
+                        source,
+                    })?;
                     scenes.push(SceneNode {
                         id,
                         animation: a,

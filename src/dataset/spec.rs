@@ -11,10 +11,10 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::camera::{RcmRanges, Shot};
-use crate::dsi::plan::Threshold;
-use crate::dsi::variants::VariationBounds;
-use crate::scene::SceneConfig;
+use crate::camera::{CameraError, RcmRanges, Shot};
+use crate::dsi::plan::{Threshold, ThresholdError};
+use crate::dsi::variants::{VariationBounds, VariationBoundsError};
+use crate::scene::{SceneConfig, SceneError};
 
 /// What is wrong with a spec.
 #[derive(Debug, thiserror::Error)]
@@ -28,12 +28,60 @@ pub enum SpecError {
         source: std::io::Error,
     },
     /// Not TOML, or a key that does not exist / has the wrong type (toml names line and key).
-    #[error("{path}: {message}")]
+    #[error("{path}: {}", .source.to_string().trim_end())]
     Parse {
         /// The spec file.
         path: PathBuf,
-        /// toml's message, with line, column and key.
-        message: String,
+        /// toml's error, with line, column and key.
+        #[source]
+        source: toml::de::Error,
+    },
+    /// A name (dataset, category, action) that cannot name files.
+    #[error("{path}: {key}: {source}")]
+    Name {
+        /// The spec file.
+        path: PathBuf,
+        /// The offending key, e.g. `class[2].action`.
+        key: String,
+        /// What is wrong with the name.
+        #[source]
+        source: NameError,
+    },
+    /// `dsi.threshold` does not parse.
+    #[error("{path}: dsi.threshold: {source}")]
+    Threshold {
+        /// The spec file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: ThresholdError,
+    },
+    /// `dsi.variation_deg` does not parse.
+    #[error("{path}: dsi.variation_deg: {source}")]
+    Variation {
+        /// The spec file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: VariationBoundsError,
+    },
+    /// The `[scene]` section is out of range.
+    #[error("{path}: scene: {source}")]
+    Scene {
+        /// The spec file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: SceneError,
+    },
+    /// The camera's RCM ranges are out of range.
+    #[error("{path}: camera: {source}")]
+    Camera {
+        /// The spec file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: CameraError,
     },
     /// A value out of its range, or a reference to something that does not exist.
     #[error("{path}: {key}: {message}")]
@@ -304,25 +352,64 @@ impl Spec {
     /// # Errors
     /// [`SpecError`] naming the file and the offending key.
     pub fn parse(path: &Path, text: &str) -> Result<Spec, SpecError> {
-        let file: SpecFile = toml::from_str(text).map_err(|e| SpecError::Parse {
+        let file: SpecFile = toml::from_str(text).map_err(|source| SpecError::Parse {
             path: path.to_path_buf(),
-            message: e.to_string().trim_end().to_string(),
+            source,
         })?;
-        let invalid = |key: &str, message: String| SpecError::Invalid {
+        let check = Checker { path };
+        check.dataset(&file.dataset)?;
+        check.counts(&file.counts)?;
+        let (threshold, variation) = check.dsi(&file.dsi)?;
+        check.scene_and_camera(&file.scene, &file.camera)?;
+        let sources = check.classes(&file)?;
+        let mut labels: Vec<String> = file.classes.iter().map(|c| c.action.clone()).collect();
+        labels.sort();
+        labels.dedup();
+        check.class_identities(&file.classes)?;
+        Ok(Spec {
             path: path.to_path_buf(),
+            file,
+            sources,
+            threshold,
+            variation,
+            labels,
+        })
+    }
+}
+
+/// The checks of [`Spec::parse`], one per section of the spec, each naming `path` and the key.
+struct Checker<'a> {
+    path: &'a Path,
+}
+
+impl Checker<'_> {
+    fn invalid(&self, key: &str, message: String) -> SpecError {
+        SpecError::Invalid {
+            path: self.path.to_path_buf(),
             key: key.to_string(),
             message,
-        };
-        let d = &file.dataset;
-        check_name("dataset.name", &d.name).map_err(|m| invalid("dataset.name", m))?;
+        }
+    }
+
+    fn name(&self, key: &str, name: &str) -> Result<(), SpecError> {
+        check_name(name).map_err(|source| SpecError::Name {
+            path: self.path.to_path_buf(),
+            key: key.to_string(),
+            source,
+        })
+    }
+
+    /// `[dataset]`: the name, rate, resolution and leads.
+    fn dataset(&self, d: &DatasetSection) -> Result<(), SpecError> {
+        self.name("dataset.name", &d.name)?;
         if !(d.fps.is_finite() && d.fps > 0.0 && d.fps <= 1000.0) {
-            return Err(invalid(
+            return Err(self.invalid(
                 "dataset.fps",
                 format!("{} is not a frame rate in (0, 1000]", d.fps),
             ));
         }
         if d.resolution.contains(&0) || d.resolution.iter().any(|&r| r > 16384) {
-            return Err(invalid(
+            return Err(self.invalid(
                 "dataset.resolution",
                 format!(
                     "{:?}: width and height must be 1–16384 pixels",
@@ -335,72 +422,96 @@ impl Spec {
             ("dataset.lead_out_s", d.lead_out_s),
         ] {
             if !(v.is_finite() && (0.0..=60.0).contains(&v)) {
-                return Err(invalid(key, format!("{v} is not a duration in [0, 60] s")));
+                return Err(self.invalid(key, format!("{v} is not a duration in [0, 60] s")));
             }
         }
-        let c = &file.counts;
+        Ok(())
+    }
+
+    /// `[counts]`: each 1–10000.
+    fn counts(&self, c: &Counts) -> Result<(), SpecError> {
         for (key, v) in [
             ("counts.variants", c.variants),
             ("counts.scenes", c.scenes),
             ("counts.viewpoints", c.viewpoints),
         ] {
             if v == 0 || v > 10_000 {
-                return Err(invalid(key, format!("{v}: must be 1–10000")));
+                return Err(self.invalid(key, format!("{v}: must be 1–10000")));
             }
         }
-        let threshold: Threshold = file
-            .dsi
-            .threshold
-            .parse()
-            .map_err(|m: String| invalid("dsi.threshold", m))?;
-        let variation: VariationBounds = file
-            .dsi
-            .variation_deg
-            .parse()
-            .map_err(|m: String| invalid("dsi.variation_deg", m))?;
-        if !(file.dsi.speed.is_finite() && file.dsi.speed > 0.0) {
-            return Err(invalid(
+        Ok(())
+    }
+
+    /// `[dsi]`: the threshold and the variant bounds parsed, the speed positive.
+    fn dsi(&self, dsi: &DsiSection) -> Result<(Threshold, VariationBounds), SpecError> {
+        let threshold: Threshold =
+            dsi.threshold
+                .parse()
+                .map_err(|source| SpecError::Threshold {
+                    path: self.path.to_path_buf(),
+                    source,
+                })?;
+        let variation: VariationBounds =
+            dsi.variation_deg
+                .parse()
+                .map_err(|source| SpecError::Variation {
+                    path: self.path.to_path_buf(),
+                    source,
+                })?;
+        if !(dsi.speed.is_finite() && dsi.speed > 0.0) {
+            return Err(self.invalid(
                 "dsi.speed",
-                format!("{} is not a positive speed", file.dsi.speed),
+                format!("{} is not a positive speed", dsi.speed),
             ));
         }
+        Ok((threshold, variation))
+    }
 
-        file.scene
-            .validate()
-            .map_err(|e| invalid("scene", e.to_string()))?;
-        file.camera
+    /// `[scene]` and `[camera]`: their own checks, then the camera's distance and margin.
+    fn scene_and_camera(
+        &self,
+        scene: &SceneConfig,
+        camera: &CameraSection,
+    ) -> Result<(), SpecError> {
+        scene.validate().map_err(|source| SpecError::Scene {
+            path: self.path.to_path_buf(),
+            source,
+        })?;
+        camera
             .ranges
             .validate()
-            .map_err(|e| invalid("camera", e.to_string()))?;
-        if !(file.camera.max_distance_m.is_finite() && file.camera.max_distance_m > 0.0) {
-            return Err(invalid(
+            .map_err(|source| SpecError::Camera {
+                path: self.path.to_path_buf(),
+                source,
+            })?;
+        if !(camera.max_distance_m.is_finite() && camera.max_distance_m > 0.0) {
+            return Err(self.invalid(
                 "camera.max_distance_m",
-                format!("{} is not a positive distance", file.camera.max_distance_m),
+                format!("{} is not a positive distance", camera.max_distance_m),
             ));
         }
-        if !(file.camera.margin.is_finite() && (0.0..0.5).contains(&file.camera.margin)) {
-            return Err(invalid(
+        if !(camera.margin.is_finite() && (0.0..0.5).contains(&camera.margin)) {
+            return Err(self.invalid(
                 "camera.margin",
-                format!("{} is not a fraction in [0, 0.5)", file.camera.margin),
+                format!("{} is not a fraction in [0, 0.5)", camera.margin),
             ));
         }
+        Ok(())
+    }
 
+    /// `[[class]]`: at least one; each named, with sources, a location that suits it, and its
+    /// sources resolved against the spec's folder.
+    fn classes(&self, file: &SpecFile) -> Result<Vec<Vec<Source>>, SpecError> {
         if file.classes.is_empty() {
-            return Err(invalid(
-                "class",
-                "no [[class]]: nothing to record".to_string(),
-            ));
+            return Err(self.invalid("class", "no [[class]]: nothing to record".to_string()));
         }
-        let base = path.parent().unwrap_or_else(|| Path::new("."));
         let mut sources = Vec::new();
         for (k, class) in file.classes.iter().enumerate() {
             let key = format!("class[{k}]");
-            check_name(&format!("{key}.category"), &class.category)
-                .map_err(|m| invalid(&format!("{key}.category"), m))?;
-            check_name(&format!("{key}.action"), &class.action)
-                .map_err(|m| invalid(&format!("{key}.action"), m))?;
+            self.name(&format!("{key}.category"), &class.category)?;
+            self.name(&format!("{key}.action"), &class.action)?;
             if class.sources.is_empty() {
-                return Err(invalid(
+                return Err(self.invalid(
                     &format!("{key}.sources"),
                     format!("{}/{} has no sources", class.category, class.action),
                 ));
@@ -411,51 +522,59 @@ impl Spec {
                 .iter()
                 .any(|l| l.suits(&class.requires))
             {
-                return Err(invalid(
+                return Err(self.invalid(
                     &format!("{key}.requires"),
                     format!("no location in the pool meets {:?}", class.requires),
                 ));
             }
-            let mut list = Vec::new();
-            for (i, written) in class.sources.iter().enumerate() {
-                let skey = format!("{key}.sources[{i}]");
-                let (file_part, track) = match written.rsplit_once('#') {
-                    Some((f, t)) => (
-                        f,
-                        Some(t.parse::<u64>().map_err(|_| {
-                            invalid(
-                                &skey,
-                                format!("`{written}`: the part after # must be a track id"),
-                            )
-                        })?),
-                    ),
-                    None => (written.as_str(), None),
-                };
-                let resolved = base.join(file_part);
-                if !resolved.exists() {
-                    return Err(invalid(
-                        &skey,
-                        format!("{}: no such file or directory", resolved.display()),
-                    ));
-                }
-                list.push(Source {
-                    written: written.clone(),
-                    path: resolved,
-                    track,
-                });
-            }
-            sources.push(list);
+            sources.push(self.class_sources(&key, class)?);
         }
-        let mut labels: Vec<String> = file.classes.iter().map(|c| c.action.clone()).collect();
-        labels.sort();
-        labels.dedup();
+        Ok(sources)
+    }
+
+    /// One class's sources (`BAG` or `BAG#TRACK`), resolved; each must exist.
+    fn class_sources(&self, key: &str, class: &ClassSpec) -> Result<Vec<Source>, SpecError> {
+        let base = self.path.parent().unwrap_or_else(|| Path::new("."));
+        let mut list = Vec::new();
+        for (i, written) in class.sources.iter().enumerate() {
+            let skey = format!("{key}.sources[{i}]");
+            let (file_part, track) = match written.rsplit_once('#') {
+                Some((f, t)) => (
+                    f,
+                    Some(t.parse::<u64>().map_err(|_| {
+                        self.invalid(
+                            &skey,
+                            format!("`{written}`: the part after # must be a track id"),
+                        )
+                    })?),
+                ),
+                None => (written.as_str(), None),
+            };
+            let resolved = base.join(file_part);
+            if !resolved.exists() {
+                return Err(self.invalid(
+                    &skey,
+                    format!("{}: no such file or directory", resolved.display()),
+                ));
+            }
+            list.push(Source {
+                written: written.clone(),
+                path: resolved,
+                track,
+            });
+        }
+        Ok(list)
+    }
+
+    /// Each category/action once, and each action in one category.
+    fn class_identities(&self, classes: &[ClassSpec]) -> Result<(), SpecError> {
         let mut seen = BTreeMap::new();
-        for (k, class) in file.classes.iter().enumerate() {
-            if let Some(j) = file.classes[..k]
+        for (k, class) in classes.iter().enumerate() {
+            if let Some(j) = classes[..k]
                 .iter()
                 .position(|c| c.category == class.category && c.action == class.action)
             {
-                return Err(invalid(
+                return Err(self.invalid(
                     &format!("class[{k}]"),
                     format!(
                         "{}/{} is defined again (first in class[{j}]): put all its sources in one [[class]]",
@@ -466,7 +585,7 @@ impl Spec {
             if let Some(other) = seen.insert(class.action.clone(), (k, class.category.clone()))
                 && other.1 != class.category
             {
-                return Err(invalid(
+                return Err(self.invalid(
                     &format!("class[{k}].action"),
                     format!(
                         "`{}` is also in category `{}` (class[{}]): an action belongs to one category",
@@ -475,38 +594,62 @@ impl Spec {
                 ));
             }
         }
-        Ok(Spec {
-            path: path.to_path_buf(),
-            file,
-            sources,
-            threshold,
-            variation,
-            labels,
-        })
+        Ok(())
     }
+}
+
+/// A name (dataset, category, action) that cannot name a folder or file.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum NameError {
+    /// Empty or blank.
+    #[error("must not be empty")]
+    Empty,
+    /// A path separator or a leading `.`.
+    #[error("`{name}` would escape the output folder (no `/`, `\\` or leading `.`)")]
+    Escapes {
+        /// The name.
+        name: String,
+    },
+    /// A character outside letters, digits, space, `_`, `-` and `.`.
+    #[error("`{name}`: `{character}` is not allowed (letters, digits, space, _ - .)")]
+    Character {
+        /// The name.
+        name: String,
+        /// The first character not allowed.
+        character: char,
+    },
+    /// Over 100 bytes.
+    #[error("`{name}` is longer than 100 bytes")]
+    TooLong {
+        /// The name.
+        name: String,
+    },
 }
 
 /// Names become folder and file names downstream: letters, digits, spaces, `_`, `-`, `.`; not
 /// empty, not starting with `.`, no path separators — so a label can never escape the output.
-fn check_name(_key: &str, name: &str) -> Result<(), String> {
+fn check_name(name: &str) -> Result<(), NameError> {
     if name.trim().is_empty() {
-        return Err("must not be empty".to_string());
+        return Err(NameError::Empty);
     }
     if name.starts_with('.') || name.contains('/') || name.contains('\\') {
-        return Err(format!(
-            "`{name}` would escape the output folder (no `/`, `\\` or leading `.`)"
-        ));
+        return Err(NameError::Escapes {
+            name: name.to_string(),
+        });
     }
     if let Some(c) = name
         .chars()
         .find(|c| !(c.is_alphanumeric() || matches!(c, ' ' | '_' | '-' | '.')))
     {
-        return Err(format!(
-            "`{name}`: `{c}` is not allowed (letters, digits, space, _ - .)"
-        ));
+        return Err(NameError::Character {
+            name: name.to_string(),
+            character: c,
+        });
     }
     if name.len() > 100 {
-        return Err(format!("`{name}` is longer than 100 bytes"));
+        return Err(NameError::TooLong {
+            name: name.to_string(),
+        });
     }
     Ok(())
 }

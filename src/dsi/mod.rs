@@ -33,9 +33,50 @@ use variants::VariationBounds;
 /// What DSI cannot do.
 #[derive(Debug, thiserror::Error)]
 pub enum DsiError {
-    /// A parameter out of its range.
-    #[error("{0}")]
-    Parameter(String),
+    /// Smoothing parameters out of their range.
+    #[error(transparent)]
+    Smoothing(#[from] smoothing::SmoothingError),
+    /// A parameter whose range is the positive numbers, (0, ∞), given another value.
+    #[error("{parameter} must be a positive number, not {value}")]
+    NotPositive {
+        /// The parameter, e.g. `the output frame rate`.
+        parameter: &'static str,
+        /// The value given.
+        value: f64,
+    },
+    /// A bone weight that is not `BONE=WEIGHT`.
+    #[error("`{pair}`: a bone weight is BONE=WEIGHT, e.g. l_hand=2")]
+    WeightSyntax {
+        /// The text given.
+        pair: String,
+    },
+    /// A bone weight for a bone the rig does not have.
+    #[error("`{bone}` is not a bone of {rig} (see `autoact rig`)")]
+    UnknownBone {
+        /// The bone name given.
+        bone: String,
+        /// The rig's name.
+        rig: &'static str,
+    },
+    /// A bone weight that is not a number in [0, ∞).
+    #[error("`{pair}`: a bone weight is a number ≥ 0")]
+    Weight {
+        /// The `BONE=WEIGHT` text given.
+        pair: String,
+        /// Its weight part.
+        value: String,
+    },
+    /// Not one weight per bone of the rig.
+    #[error("{weights} bone weights for a rig of {bones} bones")]
+    WeightCount {
+        /// Weights given.
+        weights: usize,
+        /// Bones of the rig.
+        bones: usize,
+    },
+    /// No key frames.
+    #[error("no frames to interpolate")]
+    NoFrames,
     /// Input stamps that do not increase.
     #[error("frame {index}: stamps must increase strictly")]
     NonMonotonic {
@@ -142,23 +183,22 @@ pub fn apply_weight_overrides(
     pairs: &[String],
 ) -> Result<(), DsiError> {
     for pair in pairs {
-        let (name, value) = pair.split_once('=').ok_or_else(|| {
-            DsiError::Parameter(format!(
-                "`{pair}`: a bone weight is BONE=WEIGHT, e.g. l_hand=2"
-            ))
-        })?;
-        let b = rig.bone_index(name.trim()).ok_or_else(|| {
-            DsiError::Parameter(format!(
-                "`{name}` is not a bone of {} (see `autoact rig`)",
-                rig.name
-            ))
-        })?;
+        let (name, value) = pair
+            .split_once('=')
+            .ok_or_else(|| DsiError::WeightSyntax { pair: pair.clone() })?;
+        let b = rig
+            .bone_index(name.trim())
+            .ok_or_else(|| DsiError::UnknownBone {
+                bone: name.to_string(),
+                rig: rig.name,
+            })?;
         weights[b] = match value.trim().parse::<f64>() {
             Ok(w) if w.is_finite() && w >= 0.0 => w,
             _ => {
-                return Err(DsiError::Parameter(format!(
-                    "`{pair}`: a bone weight is a number ≥ 0"
-                )));
+                return Err(DsiError::Weight {
+                    pair: pair.clone(),
+                    value: value.to_string(),
+                });
             }
         };
     }
@@ -184,17 +224,16 @@ pub fn run(
     options: &DsiOptions,
 ) -> Result<DsiOutput, DsiError> {
     if let Some(s) = &options.smoothing {
-        s.validate().map_err(DsiError::Parameter)?;
+        s.validate()?;
     }
     if options.weights.len() != rig.bones.len() {
-        return Err(DsiError::Parameter(format!(
-            "{} bone weights for a rig of {} bones",
-            options.weights.len(),
-            rig.bones.len()
-        )));
+        return Err(DsiError::WeightCount {
+            weights: options.weights.len(),
+            bones: rig.bones.len(),
+        });
     }
     let Some(first) = keys.first() else {
-        return Err(DsiError::Parameter("no frames to interpolate".to_string()));
+        return Err(DsiError::NoFrames);
     };
     if let Some(index) = keys
         .windows(2)
@@ -393,8 +432,35 @@ mod tests {
                 "{bad}"
             );
         }
+        assert!(matches!(
+            apply_weight_overrides(&rig, &mut w, &["knee=1".to_string()]),
+            Err(DsiError::UnknownBone { bone, rig: "autoact53" }) if bone == "knee"
+        ));
+        let e = apply_weight_overrides(&rig, &mut w, &["l_hand=-1".to_string()]).unwrap_err();
+        assert!(matches!(&e, DsiError::Weight { value, .. } if value == "-1"));
+        assert_eq!(e.to_string(), "`l_hand=-1`: a bone weight is a number ≥ 0");
         let options = DsiOptions::new(&rig);
-        assert!(run(&rig, &[], &options).is_err());
+        assert!(matches!(run(&rig, &[], &options), Err(DsiError::NoFrames)));
+        let mut slow = DsiOptions::new(&rig);
+        slow.out_fps = 0.0;
+        let e = run(&rig, &keys(&rig), &slow).unwrap_err();
+        assert!(matches!(
+            e,
+            DsiError::NotPositive { parameter: "the output frame rate", value } if value == 0.0
+        ));
+        assert_eq!(
+            e.to_string(),
+            "the output frame rate must be a positive number, not 0"
+        );
+        let mut rough = DsiOptions::new(&rig);
+        rough.smoothing = Some(smoothing::Smoothing {
+            spans_s: [0.1, 0.2, 0.6],
+            bass: Some(11.0),
+        });
+        assert!(matches!(
+            run(&rig, &keys(&rig), &rough),
+            Err(DsiError::Smoothing(smoothing::SmoothingError::Bass { alpha })) if alpha == 11.0
+        ));
         let mut k = keys(&rig);
         k[5].stamp_nanos = k[4].stamp_nanos;
         assert!(matches!(

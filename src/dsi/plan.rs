@@ -64,10 +64,29 @@ impl fmt::Display for Threshold {
     }
 }
 
-impl FromStr for Threshold {
-    type Err = String;
+/// A threshold that does not parse.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ThresholdError {
+    /// Not one of the threshold's forms.
+    #[error(
+        "`{given}`: give `off`, a multiple of the median distance (`3x`), radians per source frame (`0.05rad`), or an angular speed (`1.5rad/s`, `90deg/s`)"
+    )]
+    Form {
+        /// The text given (trimmed).
+        given: String,
+    },
+    /// A number that is not positive (the range is (0, ∞)).
+    #[error("`{given}`: the number must be positive")]
+    NotPositive {
+        /// The text given (trimmed).
+        given: String,
+    },
+}
 
-    fn from_str(s: &str) -> Result<Threshold, String> {
+impl FromStr for Threshold {
+    type Err = ThresholdError;
+
+    fn from_str(s: &str) -> Result<Threshold, ThresholdError> {
         let s = s.trim();
         if s == "off" {
             return Ok(Threshold::Off);
@@ -82,13 +101,15 @@ impl FromStr for Threshold {
         } else if let Some(n) = s.strip_suffix('x') {
             (n, Threshold::TimesMedian)
         } else {
-            return Err(format!(
-                "`{s}`: give `off`, a multiple of the median distance (`3x`), radians per source frame (`0.05rad`), or an angular speed (`1.5rad/s`, `90deg/s`)"
-            ));
+            return Err(ThresholdError::Form {
+                given: s.to_string(),
+            });
         };
         match number.trim().parse::<f64>() {
             Ok(v) if v.is_finite() && v > 0.0 => Ok(make(v)),
-            _ => Err(format!("`{s}`: the number must be positive")),
+            _ => Err(ThresholdError::NotPositive {
+                given: s.to_string(),
+            }),
         }
     }
 }
@@ -176,7 +197,7 @@ pub fn source_period_s(times_s: &[f64]) -> f64 {
 /// transitions stretched by `options.eta` (default `1 / threshold`).
 ///
 /// # Errors
-/// [`DsiError::Parameter`] for a non-positive rate, speed or η.
+/// [`DsiError::NotPositive`] for a non-positive rate, speed or η.
 pub fn plan(keys: &[BonePose], times_s: &[f64], options: &DsiOptions) -> Result<Plan, DsiError> {
     let DsiOptions {
         out_fps,
@@ -188,13 +209,14 @@ pub fn plan(keys: &[BonePose], times_s: &[f64], options: &DsiOptions) -> Result<
     } = *options;
     let period_s = source_period_s(times_s);
     let speed = pace.speed(period_s, out_fps);
-    let positive = |name: &str, v: f64| {
+    let positive = |name: &'static str, v: f64| {
         if v.is_finite() && v > 0.0 {
             Ok(())
         } else {
-            Err(DsiError::Parameter(format!(
-                "{name} must be a positive number, not {v}"
-            )))
+            Err(DsiError::NotPositive {
+                parameter: name,
+                value: v,
+            })
         }
     };
     positive("the output frame rate", out_fps)?;

@@ -42,22 +42,42 @@ impl Default for Smoothing {
     }
 }
 
+/// Smoothing parameters out of their range.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum SmoothingError {
+    /// Spans that are not positive, finite, strictly ascending seconds.
+    #[error(
+        "smoothing spans must be positive and strictly ascending seconds (tweeter < midrange < woofer), not {}, {}, {}",
+        spans_s[0], spans_s[1], spans_s[2]
+    )]
+    Spans {
+        /// The tweeter, midrange and woofer spans given, seconds.
+        spans_s: [f64; 3],
+    },
+    /// A bass control outside [0, 10].
+    #[error("the bass control must be in [0, 10], not {alpha}")]
+    Bass {
+        /// The bass control given.
+        alpha: f64,
+    },
+}
+
 impl Smoothing {
     /// Checks the spans (positive, finite, strictly ascending) and the bass (in [0, 10]).
     ///
     /// # Errors
-    /// A message naming the bad value.
-    pub fn validate(&self) -> Result<(), String> {
+    /// [`SmoothingError`] naming the bad value and its range.
+    pub fn validate(&self) -> Result<(), SmoothingError> {
         let [a, b, c] = self.spans_s;
         if !(a.is_finite() && c.is_finite() && a > 0.0 && a < b && b < c) {
-            return Err(format!(
-                "smoothing spans must be positive and strictly ascending seconds (tweeter < midrange < woofer), not {a}, {b}, {c}"
-            ));
+            return Err(SmoothingError::Spans {
+                spans_s: self.spans_s,
+            });
         }
         if let Some(alpha) = self.bass
             && !(alpha.is_finite() && (0.0..=10.0).contains(&alpha))
         {
-            return Err(format!("the bass control must be in [0, 10], not {alpha}"));
+            return Err(SmoothingError::Bass { alpha });
         }
         Ok(())
     }

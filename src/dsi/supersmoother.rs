@@ -573,7 +573,6 @@ impl SmoothPlan {
             spans,
         } = scratch;
         let x = &self.centred_index[..];
-        let [p1, p2, p3] = self.spans;
 
         // Shift by a sample so that the sums are of the curve's variation, not its level.
         let offset = Some(y[n / 2]).filter(|v| v.is_finite()).unwrap_or(0.0);
@@ -586,31 +585,7 @@ impl SmoothPlan {
         for (smooth, c) in self.primary.iter().zip(primary.iter_mut()) {
             smooth.apply(sums, moments, shifted, x, 0.0, c);
         }
-        {
-            let [c1, c2, c3] = &*primary;
-            let [s1, s2, s3] = residual_sums;
-            let [m1, m2, m3] = residual_moments;
-            let (mut a1, mut a2, mut a3, mut b1, mut b2, mut b3) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-            for i in 0..n {
-                let (v, xi) = (shifted[i], x[i]);
-                let (r1, r2, r3) = ((c1[i] - v).abs(), (c2[i] - v).abs(), (c3[i] - v).abs());
-                a1 += r1;
-                a2 += r2;
-                a3 += r3;
-                b1 += xi * r1;
-                b2 += xi * r2;
-                b3 += xi * r3;
-                s1[i + 1] = a1;
-                s2[i + 1] = a2;
-                s3[i + 1] = a3;
-                m1[i + 1] = b1;
-                m2[i + 1] = b2;
-                m3[i + 1] = b3;
-            }
-            for v in [s1, s2, s3, m1, m2, m3] {
-                v[0] = 0.0;
-            }
-        }
+        residual_prefix_sums(primary, shifted, x, residual_sums, residual_moments);
 
         // 2. The residuals smoothed with the middle span.
         for ((s, m), e) in residual_sums
@@ -622,54 +597,8 @@ impl SmoothPlan {
         }
 
         // 3. The best span at each sample (first least smoothed residual), with bass, summed.
-        let tie = TIE_TOLERANCE * mean_residual(residual_sums);
-        let mut outliers = false;
-        {
-            let [e1, e2, e3] = &*errors;
-            let choose = |i: usize| {
-                let (e1, e2, e3) = (e1[i], e2[i], e3[i]);
-                let least = e1.min(e2).min(e3);
-                let best = if e1 <= least + tie {
-                    p1
-                } else if e2 <= least + tie {
-                    p2
-                } else {
-                    p3
-                };
-                (best, least, e3)
-            };
-            match self.bass_exponent {
-                None => prefix_sums((0..n).map(|i| choose(i).0), x, sums, moments),
-                Some(exponent) => {
-                    // Bass can throw a span far outside [p1, p3] (a negative or tiny woofer
-                    // residual, taken as the package takes it). Such a value would drown every
-                    // later window's prefix-sum difference in its rounding, so the excess over
-                    // [p1, p3] is summed apart: away from it its sums are exactly constant.
-                    let excess_sums = &mut residual_sums[0];
-                    let excess_moments = &mut residual_moments[0];
-                    let (mut s, mut m, mut es, mut em) = (0.0, 0.0, 0.0, 0.0);
-                    sums[0] = 0.0;
-                    moments[0] = 0.0;
-                    excess_sums[0] = 0.0;
-                    excess_moments[0] = 0.0;
-                    for i in 0..n {
-                        let (best, least, woofer) = choose(i);
-                        let best = best + bass_factor(least, woofer, exponent) * (p3 - best);
-                        let base = best.max(p1).min(p3);
-                        let excess = best - base;
-                        outliers |= excess != 0.0;
-                        s += base;
-                        m += x[i] * base;
-                        es += excess;
-                        em += x[i] * excess;
-                        sums[i + 1] = s;
-                        moments[i + 1] = m;
-                        excess_sums[i + 1] = es;
-                        excess_moments[i + 1] = em;
-                    }
-                }
-            }
-        }
+        let outliers =
+            self.best_span_sums(errors, x, sums, moments, residual_sums, residual_moments);
 
         // 4. The best spans smoothed with the middle span.
         self.middle.apply(sums, moments, shifted, x, 0.0, spans);
@@ -684,22 +613,135 @@ impl SmoothPlan {
         }
 
         // 5. Interpolate between the primary smooths at the (clamped) smoothed span.
-        {
-            let [c1, c2, c3] = &*primary;
-            let [lower_slope, upper_slope] = self.interpolation_slopes;
-            let raw = (0..n).map(|i| {
-                let span = spans[i].max(p1).min(p3);
-                if span < p2 {
-                    c1[i] + (span - p1) * (c2[i] - c1[i]) * lower_slope
-                } else {
-                    c2[i] + (span - p2) * (c3[i] - c2[i]) * upper_slope
-                }
-            });
-            prefix_sums(raw, x, sums, moments);
-        }
+        self.interpolated_sums(primary, spans, x, sums, moments);
 
         // 6. The final smooth, shifted back.
         self.last.apply(sums, moments, shifted, x, offset, out);
+    }
+
+    /// Step 3 of [`SmoothPlan::smooth_into`]: the prefix sums (and moments) of the best span at
+    /// each sample — the first whose smoothed residual in `errors` is least, within the tie
+    /// tolerance — moved towards the woofer by the bass. Returns whether the bass threw any span
+    /// outside `[p1, p3]`; the excess is then summed apart into `residual_sums[0]` and
+    /// `residual_moments[0]` (the residuals' sums are no longer needed).
+    fn best_span_sums(
+        &self,
+        errors: &[Vec<f64>; 3],
+        x: &[f64],
+        sums: &mut [f64],
+        moments: &mut [f64],
+        residual_sums: &mut [Vec<f64>; 3],
+        residual_moments: &mut [Vec<f64>; 3],
+    ) -> bool {
+        let n = self.n;
+        let [p1, p2, p3] = self.spans;
+        let tie = TIE_TOLERANCE * mean_residual(residual_sums);
+        let mut outliers = false;
+        let [e1, e2, e3] = errors;
+        let choose = |i: usize| {
+            let (e1, e2, e3) = (e1[i], e2[i], e3[i]);
+            let least = e1.min(e2).min(e3);
+            let best = if e1 <= least + tie {
+                p1
+            } else if e2 <= least + tie {
+                p2
+            } else {
+                p3
+            };
+            (best, least, e3)
+        };
+        match self.bass_exponent {
+            None => prefix_sums((0..n).map(|i| choose(i).0), x, sums, moments),
+            Some(exponent) => {
+                // Bass can throw a span far outside [p1, p3] (a negative or tiny woofer
+                // residual, taken as the package takes it). Such a value would drown every
+                // later window's prefix-sum difference in its rounding, so the excess over
+                // [p1, p3] is summed apart: away from it its sums are exactly constant.
+                let excess_sums = &mut residual_sums[0];
+                let excess_moments = &mut residual_moments[0];
+                let (mut s, mut m, mut es, mut em) = (0.0, 0.0, 0.0, 0.0);
+                sums[0] = 0.0;
+                moments[0] = 0.0;
+                excess_sums[0] = 0.0;
+                excess_moments[0] = 0.0;
+                for i in 0..n {
+                    let (best, least, woofer) = choose(i);
+                    let best = best + bass_factor(least, woofer, exponent) * (p3 - best);
+                    let base = best.max(p1).min(p3);
+                    let excess = best - base;
+                    outliers |= excess != 0.0;
+                    s += base;
+                    m += x[i] * base;
+                    es += excess;
+                    em += x[i] * excess;
+                    sums[i + 1] = s;
+                    moments[i + 1] = m;
+                    excess_sums[i + 1] = es;
+                    excess_moments[i + 1] = em;
+                }
+            }
+        }
+        outliers
+    }
+
+    /// Step 5 of [`SmoothPlan::smooth_into`]: the prefix sums (and moments) of the primary smooths
+    /// interpolated at each sample's smoothed span, clamped into `[p1, p3]`.
+    fn interpolated_sums(
+        &self,
+        primary: &[Vec<f64>; 3],
+        spans: &[f64],
+        x: &[f64],
+        sums: &mut [f64],
+        moments: &mut [f64],
+    ) {
+        let n = self.n;
+        let [p1, p2, p3] = self.spans;
+        let [c1, c2, c3] = primary;
+        let [lower_slope, upper_slope] = self.interpolation_slopes;
+        let raw = (0..n).map(|i| {
+            let span = spans[i].max(p1).min(p3);
+            if span < p2 {
+                c1[i] + (span - p1) * (c2[i] - c1[i]) * lower_slope
+            } else {
+                c2[i] + (span - p2) * (c3[i] - c2[i]) * upper_slope
+            }
+        });
+        prefix_sums(raw, x, sums, moments);
+    }
+}
+
+/// Step 1 of [`SmoothPlan::smooth_into`], second half: the prefix sums (and moments) of the
+/// absolute residuals `|c_k − v|` of the three primary smooths.
+fn residual_prefix_sums(
+    primary: &[Vec<f64>; 3],
+    shifted: &[f64],
+    x: &[f64],
+    residual_sums: &mut [Vec<f64>; 3],
+    residual_moments: &mut [Vec<f64>; 3],
+) {
+    let n = shifted.len();
+    let [c1, c2, c3] = primary;
+    let [s1, s2, s3] = residual_sums;
+    let [m1, m2, m3] = residual_moments;
+    let (mut a1, mut a2, mut a3, mut b1, mut b2, mut b3) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    for i in 0..n {
+        let (v, xi) = (shifted[i], x[i]);
+        let (r1, r2, r3) = ((c1[i] - v).abs(), (c2[i] - v).abs(), (c3[i] - v).abs());
+        a1 += r1;
+        a2 += r2;
+        a3 += r3;
+        b1 += xi * r1;
+        b2 += xi * r2;
+        b3 += xi * r3;
+        s1[i + 1] = a1;
+        s2[i + 1] = a2;
+        s3[i + 1] = a3;
+        m1[i + 1] = b1;
+        m2[i + 1] = b2;
+        m3[i + 1] = b3;
+    }
+    for v in [s1, s2, s3, m1, m2, m3] {
+        v[0] = 0.0;
     }
 }
 

@@ -62,14 +62,39 @@ impl VariationBounds {
     }
 }
 
+/// Variation bounds that do not parse.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum VariationBoundsError {
+    /// A bound that is not a number of degrees in [0, 90].
+    #[error("`{given}`: a bound is a number of degrees in [0, 90]")]
+    Bound {
+        /// The text given.
+        given: String,
+    },
+    /// A part that is not `CLASS=DEGREES`.
+    #[error("`{part}`: expected CLASS=DEGREES")]
+    Syntax {
+        /// The part given.
+        part: String,
+    },
+    /// A class that is not one of 3d, 2d, hinge and root.
+    #[error("`{class}`: the classes are 3d, 2d, hinge and root")]
+    Class {
+        /// The class given.
+        class: String,
+    },
+}
+
 impl std::str::FromStr for VariationBounds {
-    type Err = String;
+    type Err = VariationBoundsError;
 
     /// `6` (every class but the root), or `3d=6,2d=6,hinge=8,root=0` (any subset).
-    fn from_str(s: &str) -> Result<VariationBounds, String> {
+    fn from_str(s: &str) -> Result<VariationBounds, VariationBoundsError> {
         let number = |v: &str| match v.trim().parse::<f64>() {
             Ok(x) if x.is_finite() && (0.0..=90.0).contains(&x) => Ok(x),
-            _ => Err(format!("`{v}`: a bound is a number of degrees in [0, 90]")),
+            _ => Err(VariationBoundsError::Bound {
+                given: v.to_string(),
+            }),
         };
         if !s.contains('=') {
             let a = number(s)?;
@@ -82,16 +107,20 @@ impl std::str::FromStr for VariationBounds {
         }
         let mut out = VariationBounds::default();
         for part in s.split(',') {
-            let (class, value) = part
-                .split_once('=')
-                .ok_or_else(|| format!("`{part}`: expected CLASS=DEGREES"))?;
+            let (class, value) =
+                part.split_once('=')
+                    .ok_or_else(|| VariationBoundsError::Syntax {
+                        part: part.to_string(),
+                    })?;
             let slot = match class.trim() {
                 "3d" | "3-D" => &mut out.three_d_deg,
                 "2d" | "2-D" => &mut out.two_d_deg,
                 "hinge" | "1d" | "1-D" => &mut out.hinge_deg,
                 "root" => &mut out.root_deg,
                 other => {
-                    return Err(format!("`{other}`: the classes are 3d, 2d, hinge and root"));
+                    return Err(VariationBoundsError::Class {
+                        class: other.to_string(),
+                    });
                 }
             };
             *slot = number(value)?;

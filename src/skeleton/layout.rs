@@ -42,12 +42,13 @@ pub enum LayoutError {
         source: std::io::Error,
     },
     /// The TOML did not parse or did not have the layout's form.
-    #[error("invalid layout in {source_name}: {message}")]
+    #[error("invalid layout in {source_name}: {source}")]
     Parse {
         /// File or built-in name.
         source_name: String,
         /// What the TOML parser said, with the line and column.
-        message: String,
+        #[source]
+        source: Box<toml::de::Error>,
     },
     /// Not a built-in layout name, and no such file.
     #[error(
@@ -200,9 +201,9 @@ impl Layout {
     /// # Errors
     /// [`LayoutError::Parse`] with the TOML parser's position, or a validation error.
     pub fn from_toml(text: &str, source_name: &str) -> Result<Layout, LayoutError> {
-        let layout: Layout = toml::from_str(text).map_err(|e| LayoutError::Parse {
+        let layout: Layout = toml::from_str(text).map_err(|source| LayoutError::Parse {
             source_name: source_name.to_string(),
-            message: e.to_string(),
+            source: Box::new(source),
         })?;
         layout.validate()?;
         Ok(layout)

@@ -243,8 +243,16 @@ impl Rig {
     /// The default rig: the 53 bones of the GTA V ped skeleton used by the paper, with an adult
     /// (1.75 m) T-pose rest skeleton.
     #[must_use]
+    ///
+    /// # Panics
+    /// Never for a released build: the built-in tables name only bones and landmarks the rig
+    /// has, which the test `built_in_tables_resolve` proves. A misspelt name in them is a bug
+    /// and stops here, naming the bone and the landmark, rather than building a wrong rig.
     pub fn standard() -> Rig {
-        build_standard()
+        match build_standard() {
+            Ok(rig) => rig,
+            Err(e) => panic!("the built-in rig tables are inconsistent: {e}"),
+        }
     }
 }
 
@@ -426,21 +434,22 @@ fn landmark_defs() -> Vec<(&'static str, &'static str, [f64; 3])> {
         ("l_elbow", "l_upper_arm", [-0.46, 0.0, SHOULDER_Z]),
         ("l_wrist", "l_forearm", [-0.71, 0.0, SHOULDER_Z]),
     ];
-    for (f, (finger, joints)) in LEFT_FINGERS.iter().enumerate() {
+    for (f, (_, joints)) in LEFT_FINGERS.iter().enumerate() {
         for (k, p) in joints.iter().enumerate() {
             let bone = if k == 0 {
                 "l_hand"
             } else {
                 FINGER_BONE_NAMES[f][k - 1]
             };
-            v.push((finger_landmark_name(finger, k), bone, *p));
+            v.push((finger_landmark_name(f, k), bone, *p));
         }
     }
     v
 }
 
-/// `l_thumb1` .. `l_pinky4`: the numbering follows COCO-WholeBody (1 = base joint, 4 = tip).
-fn finger_landmark_name(finger: &str, k: usize) -> &'static str {
+/// `l_thumb1` .. `l_pinky4` for finger `f` of [`LEFT_FINGERS`] and joint `k`: the numbering
+/// follows COCO-WholeBody (1 = base joint, 4 = tip).
+fn finger_landmark_name(f: usize, k: usize) -> &'static str {
     const NAMES: [[&str; 4]; 5] = [
         ["l_thumb1", "l_thumb2", "l_thumb3", "l_thumb4"],
         ["l_index1", "l_index2", "l_index3", "l_index4"],
@@ -448,10 +457,6 @@ fn finger_landmark_name(finger: &str, k: usize) -> &'static str {
         ["l_ring1", "l_ring2", "l_ring3", "l_ring4"],
         ["l_pinky1", "l_pinky2", "l_pinky3", "l_pinky4"],
     ];
-    let f = ["thumb", "index", "middle", "ring", "pinky"]
-        .iter()
-        .position(|n| *n == finger)
-        .unwrap_or(0);
     NAMES[f][k]
 }
 
@@ -559,7 +564,60 @@ fn right_gta(left_name: &str) -> (&'static str, u16) {
     ("", 0)
 }
 
-fn build_standard() -> Rig {
+/// A name in the built-in rig tables that the rig does not have.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum RigTableError {
+    /// A recipe for a bone the rig does not have.
+    #[error("recipe for bone `{bone}`: the rig has no such bone")]
+    UnknownBone {
+        /// The bone the recipe names.
+        bone: String,
+    },
+    /// A recipe naming a landmark the rig does not have.
+    #[error("recipe for bone `{bone}`: the rig has no landmark `{landmark}`")]
+    UnknownLandmark {
+        /// The bone the recipe drives.
+        bone: String,
+        /// The landmark name it gives.
+        landmark: String,
+    },
+    /// A landmark on a bone the rig does not have.
+    #[error("landmark `{landmark}`: the rig has no bone `{bone}`")]
+    LandmarkBone {
+        /// The landmark.
+        landmark: String,
+        /// The bone it is said to ride on.
+        bone: String,
+    },
+    /// A width measure naming a landmark the rig does not have.
+    #[error("width measure `{from}` → `{to}`: the rig has no landmark `{landmark}`")]
+    MeasureLandmark {
+        /// Start landmark of the measure.
+        from: String,
+        /// End landmark of the measure.
+        to: String,
+        /// The name not found.
+        landmark: String,
+    },
+}
+
+fn build_standard() -> Result<Rig, RigTableError> {
+    let bones = build_bones();
+    let landmarks = build_landmarks(&bones)?;
+    let mut rig = Rig {
+        name: "autoact53",
+        bones,
+        landmarks,
+        recipes: Vec::new(),
+        width_measures: Vec::new(),
+    };
+    rig.recipes = build_recipes(&rig)?;
+    rig.width_measures = build_width_measures(&rig)?;
+    Ok(rig)
+}
+
+/// The bones: centre, legs (left then mirrored), spine, arms (left then mirrored).
+fn build_bones() -> Vec<Bone> {
     let mut b = Builder {
         bones: Vec::with_capacity(BONE_COUNT),
     };
@@ -579,95 +637,111 @@ fn build_standard() -> Rig {
             b.push(&d, mirrored);
         }
     }
-    let bones = b.bones;
+    b.bones
+}
 
+/// The landmarks of [`landmark_defs`], each sided one followed by its mirror image.
+fn build_landmarks(bones: &[Bone]) -> Result<Vec<Landmark>, RigTableError> {
+    let bone_of = |landmark: &str, bone: &str| {
+        bones
+            .iter()
+            .position(|x| x.name == bone)
+            .ok_or_else(|| RigTableError::LandmarkBone {
+                landmark: landmark.to_string(),
+                bone: bone.to_string(),
+            })
+    };
     let mut landmarks = Vec::new();
     for (name, bone, p) in landmark_defs() {
-        let sided = name.starts_with("l_");
-        let bi = bones.iter().position(|x| x.name == bone);
         landmarks.push(Landmark {
             name: name.to_string(),
-            bone: bi.unwrap_or(ROOT),
+            bone: bone_of(name, bone)?,
             rest_m: Point3::from(p),
         });
-        if sided {
+        if name.starts_with("l_") {
             let rname = mirror_name(name);
             let rbone = mirror_name(bone);
-            let bi = bones.iter().position(|x| x.name == rbone);
             landmarks.push(Landmark {
+                bone: bone_of(&rname, &rbone)?,
                 name: rname,
-                bone: bi.unwrap_or(ROOT),
                 rest_m: Point3::from(mirror_point(p)),
             });
         }
     }
-    let mut rig = Rig {
-        name: "autoact53",
-        bones,
-        landmarks,
-        recipes: Vec::new(),
-        width_measures: Vec::new(),
-    };
-    rig.recipes = build_recipes(&rig);
-    rig.width_measures = build_width_measures(&rig);
-    rig
+    Ok(landmarks)
 }
 
-/// Landmark-set shorthand used by the recipe table.
-fn set(rig: &Rig, names: &[&str]) -> LandmarkSet {
-    names.iter().filter_map(|n| rig.landmark_index(n)).collect()
+/// Landmark names, as the recipe table writes them.
+type Names = Vec<String>;
+
+/// A recipe as the built-in table writes it, by names; [`resolve_recipe`] makes it a [`Recipe`].
+#[derive(Debug, Clone, PartialEq)]
+struct RecipeDef {
+    bone: String,
+    /// `(from, to)` landmark names per direction alternative.
+    directions: Vec<(Names, Names)>,
+    references: Vec<ReferenceDef>,
 }
 
-fn build_recipes(rig: &Rig) -> Vec<Recipe> {
-    let mut recipes = Vec::new();
-    let dir = |from: &[&str], to: &[&str]| DirectionSource {
-        from: set(rig, from),
-        to: set(rig, to),
-    };
-    let refdir = |from: &[&str], to: &[&str]| Reference::Direction {
-        from: set(rig, from),
-        to: set(rig, to),
-    };
-    let mut add = |bone: &str, directions: Vec<DirectionSource>, references: Vec<Reference>| {
-        if let Some(bone) = rig.bone_index(bone) {
-            recipes.push(Recipe {
-                bone,
-                directions,
-                references,
-            });
-        }
-    };
-    let hips = refdir(&["l_hip"], &["r_hip"]);
-    let shoulders = refdir(&["l_shoulder"], &["r_shoulder"]);
+/// A [`Reference`] by landmark names.
+#[derive(Debug, Clone, PartialEq)]
+enum ReferenceDef {
+    Direction(Names, Names),
+    Normal([String; 3], Unit<Vector3<f64>>),
+}
+
+fn names(list: &[&str]) -> Names {
+    list.iter().map(|n| (*n).to_string()).collect()
+}
+
+/// A direction alternative `from → to` by names.
+fn dir(from: &[&str], to: &[&str]) -> (Names, Names) {
+    (names(from), names(to))
+}
+
+fn recipe(bone: &str, directions: Vec<(Names, Names)>, references: Vec<ReferenceDef>) -> RecipeDef {
+    RecipeDef {
+        bone: bone.to_string(),
+        directions,
+        references,
+    }
+}
+
+/// The spine, neck and head: directions along the trunk, twist from the hips, the shoulders,
+/// the ears or the eyes.
+fn trunk_recipes() -> Vec<RecipeDef> {
+    let hips = ReferenceDef::Direction(names(&["l_hip"]), names(&["r_hip"]));
+    let shoulders = ReferenceDef::Direction(names(&["l_shoulder"]), names(&["r_shoulder"]));
+    let mut out = Vec::new();
     for s in ["spine0", "spine1"] {
-        add(
+        out.push(recipe(
             s,
             vec![
                 dir(&["pelvis"], &["spine_mid"]),
                 dir(&["pelvis"], &["chest"]),
             ],
             vec![hips.clone()],
-        );
+        ));
     }
     for s in ["spine2", "spine3"] {
-        add(
+        out.push(recipe(
             s,
             vec![
                 dir(&["spine_mid"], &["chest"]),
                 dir(&["pelvis"], &["chest"]),
             ],
             vec![shoulders.clone()],
-        );
+        ));
     }
-    add(
+    out.push(recipe(
         "neck",
         vec![
             dir(&["chest"], &["neck"]),
             dir(&["chest"], &["head_center"]),
         ],
-        vec![shoulders.clone()],
-    );
-    add(
+        vec![shoulders],
+    ));
+    out.push(recipe(
         "head",
         vec![
             dir(&["neck"], &["head_top"]),
@@ -675,102 +749,163 @@ fn build_recipes(rig: &Rig) -> Vec<Recipe> {
             dir(&["head_center"], &["nose"]),
         ],
         vec![
-            refdir(&["l_ear"], &["r_ear"]),
-            refdir(&["l_eye"], &["r_eye"]),
+            ReferenceDef::Direction(names(&["l_ear"]), names(&["r_ear"])),
+            ReferenceDef::Direction(names(&["l_eye"]), names(&["r_eye"])),
         ],
-    );
-    for side in ["l", "r"] {
-        let n = |s: &str| format!("{side}_{s}");
-        let lm = |s: &str| -> usize { rig.landmark_index(&n(s)).unwrap_or(0) };
-        let sdir = |from: &str, to: &str| DirectionSource {
-            from: vec![lm(from)],
-            to: vec![lm(to)],
-        };
-        let mirrored = |a: [f64; 3]| {
-            Unit::new_normalize(Vector3::from(if side == "l" { a } else { mirror_axis(a) }))
-        };
-        let (Some(calf), Some(forearm)) =
-            (rig.bone_index(&n("calf")), rig.bone_index(&n("forearm")))
-        else {
-            continue;
-        };
-        let knee_axis = match rig.bones[calf].dof {
+    ));
+    out
+}
+
+/// One side's (`l` or `r`) leg, arm and hand: twist of the thigh and upper arm from the plane of
+/// the limb (at rest, the knee's and elbow's hinge axes), of the hand from its knuckles.
+fn limb_recipes(rig: &Rig, side: &str) -> Result<Vec<RecipeDef>, RigTableError> {
+    let n = |s: &str| format!("{side}_{s}");
+    let sdir = |from: &str, to: &str| (vec![n(from)], vec![n(to)]);
+    let mirrored = |a: [f64; 3]| {
+        Unit::new_normalize(Vector3::from(if side == "l" { a } else { mirror_axis(a) }))
+    };
+    let hinge_axis = |bone: &str, otherwise: [f64; 3]| {
+        let b = rig
+            .bone_index(&n(bone))
+            .ok_or_else(|| RigTableError::UnknownBone { bone: n(bone) })?;
+        Ok(match rig.bones[b].dof {
             Dof::Hinge { axis } => axis,
-            _ => mirrored([-1.0, 0.0, 0.0]),
-        };
-        let elbow_axis = match rig.bones[forearm].dof {
-            Dof::Hinge { axis } => axis,
-            _ => mirrored([0.0, 0.0, -1.0]),
-        };
-        add(
+            _ => mirrored(otherwise),
+        })
+    };
+    let knee_axis = hinge_axis("calf", [-1.0, 0.0, 0.0])?;
+    let elbow_axis = hinge_axis("forearm", [0.0, 0.0, -1.0])?;
+    let direction = |from: &str, to: &str| ReferenceDef::Direction(vec![n(from)], vec![n(to)]);
+    Ok(vec![
+        recipe(
             &n("thigh"),
             vec![sdir("hip", "knee")],
-            vec![Reference::Normal {
-                points: [lm("hip"), lm("knee"), lm("ankle")],
-                rest: knee_axis,
-            }],
-        );
-        add(&n("calf"), vec![sdir("knee", "ankle")], vec![]);
-        add(
+            vec![ReferenceDef::Normal(
+                [n("hip"), n("knee"), n("ankle")],
+                knee_axis,
+            )],
+        ),
+        recipe(&n("calf"), vec![sdir("knee", "ankle")], vec![]),
+        recipe(
             &n("foot"),
             vec![
-                DirectionSource {
-                    from: vec![lm("ankle")],
-                    to: vec![lm("big_toe"), lm("small_toe")],
-                },
+                (vec![n("ankle")], vec![n("big_toe"), n("small_toe")]),
                 sdir("ankle", "toe"),
             ],
             vec![],
-        );
-        add(
+        ),
+        recipe(
             &n("upper_arm"),
             vec![sdir("shoulder", "elbow")],
-            vec![Reference::Normal {
-                points: [lm("shoulder"), lm("elbow"), lm("wrist")],
-                rest: elbow_axis,
-            }],
-        );
-        add(&n("forearm"), vec![sdir("elbow", "wrist")], vec![]);
-        add(
+            vec![ReferenceDef::Normal(
+                [n("shoulder"), n("elbow"), n("wrist")],
+                elbow_axis,
+            )],
+        ),
+        recipe(&n("forearm"), vec![sdir("elbow", "wrist")], vec![]),
+        recipe(
             &n("hand"),
             vec![sdir("wrist", "middle1")],
             vec![
-                Reference::Direction {
-                    from: vec![lm("index1")],
-                    to: vec![lm("pinky1")],
-                },
-                Reference::Direction {
-                    from: vec![lm("index1")],
-                    to: vec![lm("ring1")],
-                },
-                Reference::Direction {
-                    from: vec![lm("wrist")],
-                    to: vec![lm("thumb4")],
-                },
+                direction("index1", "pinky1"),
+                direction("index1", "ring1"),
+                direction("wrist", "thumb4"),
             ],
-        );
-        for (f, finger) in ["thumb", "index", "middle", "ring", "pinky"]
-            .iter()
-            .enumerate()
-        {
-            for (k, left_bone) in FINGER_BONE_NAMES[f].iter().enumerate() {
-                let bone = if side == "l" {
-                    (*left_bone).to_string()
-                } else {
-                    mirror_name(left_bone)
-                };
-                add(
-                    &bone,
-                    vec![sdir(
-                        &format!("{finger}{}", k + 1),
-                        &format!("{finger}{}", k + 2),
-                    )],
-                    vec![],
-                );
-            }
+        ),
+    ])
+}
+
+/// One side's (`l` or `r`) phalanges: each points from its joint to the next.
+fn finger_recipes(side: &str) -> Vec<RecipeDef> {
+    let mut out = Vec::new();
+    for (f, (finger, _)) in LEFT_FINGERS.iter().enumerate() {
+        for (k, left_bone) in FINGER_BONE_NAMES[f].iter().enumerate() {
+            let bone = if side == "l" {
+                (*left_bone).to_string()
+            } else {
+                mirror_name(left_bone)
+            };
+            out.push(recipe(
+                &bone,
+                vec![(
+                    vec![format!("{side}_{finger}{}", k + 1)],
+                    vec![format!("{side}_{finger}{}", k + 2)],
+                )],
+                vec![],
+            ));
         }
     }
-    recipes
+    out
+}
+
+/// The recipe table by names, in the rig's recipe order: trunk, then each side's limbs and
+/// fingers.
+fn recipe_table(rig: &Rig) -> Result<Vec<RecipeDef>, RigTableError> {
+    let mut table = trunk_recipes();
+    for side in ["l", "r"] {
+        table.extend(limb_recipes(rig, side)?);
+        table.extend(finger_recipes(side));
+    }
+    Ok(table)
+}
+
+/// A recipe's names as indices of `rig`: an unknown bone or landmark is an error naming both.
+fn resolve_recipe(rig: &Rig, def: &RecipeDef) -> Result<Recipe, RigTableError> {
+    let bone = rig
+        .bone_index(&def.bone)
+        .ok_or_else(|| RigTableError::UnknownBone {
+            bone: def.bone.clone(),
+        })?;
+    let landmark = |name: &String| {
+        rig.landmark_index(name)
+            .ok_or_else(|| RigTableError::UnknownLandmark {
+                bone: def.bone.clone(),
+                landmark: name.clone(),
+            })
+    };
+    let set = |list: &Names| {
+        list.iter()
+            .map(landmark)
+            .collect::<Result<LandmarkSet, _>>()
+    };
+    let directions = def
+        .directions
+        .iter()
+        .map(|(from, to)| {
+            Ok(DirectionSource {
+                from: set(from)?,
+                to: set(to)?,
+            })
+        })
+        .collect::<Result<_, RigTableError>>()?;
+    let references = def
+        .references
+        .iter()
+        .map(|r| {
+            Ok(match r {
+                ReferenceDef::Direction(from, to) => Reference::Direction {
+                    from: set(from)?,
+                    to: set(to)?,
+                },
+                ReferenceDef::Normal([a, b, c], rest) => Reference::Normal {
+                    points: [landmark(a)?, landmark(b)?, landmark(c)?],
+                    rest: *rest,
+                },
+            })
+        })
+        .collect::<Result<_, RigTableError>>()?;
+    Ok(Recipe {
+        bone,
+        directions,
+        references,
+    })
+}
+
+fn build_recipes(rig: &Rig) -> Result<Vec<Recipe>, RigTableError> {
+    recipe_table(rig)?
+        .iter()
+        .map(|def| resolve_recipe(rig, def))
+        .collect()
 }
 
 impl Rig {
@@ -802,16 +937,25 @@ impl Rig {
     }
 }
 
-fn build_width_measures(rig: &Rig) -> Vec<Measure> {
-    [
+fn build_width_measures(rig: &Rig) -> Result<Vec<Measure>, RigTableError> {
+    let mut measures = Vec::new();
+    for (from, to) in [
         ("chest", "l_shoulder"),
         ("chest", "r_shoulder"),
         ("pelvis", "l_hip"),
         ("pelvis", "r_hip"),
-    ]
-    .iter()
-    .filter_map(|(from, to)| rig.measure(&set(rig, &[from]), &set(rig, &[to])))
-    .collect()
+    ] {
+        let landmark = |name: &str| {
+            rig.landmark_index(name)
+                .ok_or_else(|| RigTableError::MeasureLandmark {
+                    from: from.to_string(),
+                    to: to.to_string(),
+                    landmark: name.to_string(),
+                })
+        };
+        measures.extend(rig.measure(&[landmark(from)?], &[landmark(to)?]));
+    }
+    Ok(measures)
 }
 
 #[cfg(test)]
@@ -901,6 +1045,59 @@ mod tests {
         let names: std::collections::BTreeSet<_> =
             rig.landmarks.iter().map(|l| l.name.as_str()).collect();
         assert_eq!(names.len(), rig.landmarks.len());
+    }
+
+    #[test]
+    fn built_in_tables_resolve() {
+        let rig = build_standard().unwrap();
+        assert_eq!(rig, Rig::standard());
+        // Every entry of the recipe table resolves on its own, so none is dropped on the way.
+        let table = recipe_table(&rig).unwrap();
+        assert_eq!(table.len(), rig.recipes.len());
+        for def in &table {
+            resolve_recipe(&rig, def).unwrap();
+        }
+        assert_eq!(rig.width_measures.len(), 4);
+    }
+
+    #[test]
+    fn a_misspelt_recipe_name_is_refused_naming_bone_and_landmark() {
+        let rig = Rig::standard();
+        let mut table = recipe_table(&rig).unwrap();
+        let thigh = table.iter_mut().find(|d| d.bone == "l_thigh").unwrap();
+        thigh.directions[0].1 = vec!["l_kne".to_string()];
+        let e = resolve_recipe(&rig, thigh).unwrap_err();
+        assert_eq!(
+            e,
+            RigTableError::UnknownLandmark {
+                bone: "l_thigh".into(),
+                landmark: "l_kne".into()
+            }
+        );
+        assert_eq!(
+            e.to_string(),
+            "recipe for bone `l_thigh`: the rig has no landmark `l_kne`"
+        );
+        let mut normal = table
+            .iter()
+            .find(|d| d.bone == "r_upper_arm")
+            .unwrap()
+            .clone();
+        let ReferenceDef::Normal(points, _) = &mut normal.references[0] else {
+            panic!("the upper arm's twist comes from the arm's plane")
+        };
+        points[2] = "r_wirst".into();
+        assert!(matches!(
+            resolve_recipe(&rig, &normal),
+            Err(RigTableError::UnknownLandmark { bone, landmark }) if bone == "r_upper_arm" && landmark == "r_wirst"
+        ));
+        let unknown_bone = recipe("l_tail", vec![dir(&["pelvis"], &["chest"])], vec![]);
+        assert_eq!(
+            resolve_recipe(&rig, &unknown_bone).unwrap_err(),
+            RigTableError::UnknownBone {
+                bone: "l_tail".into()
+            }
+        );
     }
 
     #[test]
