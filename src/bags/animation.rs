@@ -184,7 +184,7 @@ pub fn read_animation(
         Character,
         Coverage,
     ),
-    String,
+    ReadAnimationError,
 > {
     read_animation_variant(rig, readers, track, 0)
 }
@@ -274,7 +274,7 @@ pub fn list_animations(readers: &[crate::mcap_io::BagReader]) -> Vec<AnimationLi
 /// coverage the bones that move. Frames whose stamp does not increase are skipped.
 ///
 /// # Errors
-/// A message when the bag has no such frames, or their bones are not the rig's.
+/// [`ReadAnimationError`]: the bag has no such frames, or their bones are not the rig's.
 pub fn read_animation_variant(
     rig: &Rig,
     readers: &[crate::mcap_io::BagReader],
@@ -286,7 +286,7 @@ pub fn read_animation_variant(
         Character,
         Coverage,
     ),
-    String,
+    ReadAnimationError,
 > {
     use crate::ros::{RosMessage, cdr};
     let mut keys: Vec<crate::skeleton::convert::AnimationFrame> = Vec::new();
@@ -313,11 +313,10 @@ pub fn read_animation_variant(
                 if keys.last().is_some_and(|k| k.stamp_nanos >= stamp) {
                     continue;
                 }
-                let pose = bone_pose(rig, &f).map_err(|e| {
-                    format!(
-                        "{ANIMATION_TOPIC} message {} (stamp {stamp} ns): {e}",
-                        m.index_on_channel
-                    )
+                let pose = bone_pose(rig, &f).map_err(|source| ReadAnimationError::Frame {
+                    index: m.index_on_channel,
+                    stamp_nanos: stamp,
+                    source,
                 })?;
                 keys.push(crate::skeleton::convert::AnimationFrame {
                     stamp_nanos: stamp,
@@ -346,12 +345,7 @@ pub fn read_animation_variant(
         }
     }
     if keys.is_empty() {
-        return Err(match (track, variant) {
-            (Some(t), 0) => format!("no /animation frames of track {t}"),
-            (Some(t), v) => format!("no /animation frames of track {t} variant {v}"),
-            (None, 0) => "no /animation frames".to_string(),
-            (None, v) => format!("no /animation frames of variant {v}"),
-        });
+        return Err(ReadAnimationError::NoFrames { track, variant });
     }
     let mut character = Character::standard(rig);
     // Variant 0's offsets first, then the variant's own (the map's order puts them after).
@@ -383,6 +377,41 @@ pub fn read_animation_variant(
 #[must_use]
 pub fn frame_stamp(frame: &BoneFrame, log_time_nanos: u64) -> u64 {
     frame.header.stamp.to_nanos().unwrap_or(log_time_nanos)
+}
+
+/// Why an animation cannot be read back from an animation bag.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ReadAnimationError {
+    /// A frame's bones do not fit the rig.
+    #[error("{ANIMATION_TOPIC} message {index} (stamp {stamp_nanos} ns): {source}")]
+    Frame {
+        /// The message's index on its channel.
+        index: u64,
+        /// Its stamp.
+        stamp_nanos: u64,
+        /// What does not fit.
+        #[source]
+        source: BonePoseError,
+    },
+    /// The bag holds no frames of the animation asked for.
+    #[error("no {ANIMATION_TOPIC} frames{}", animation_named(*track, *variant))]
+    NoFrames {
+        /// The track asked for (`None`: any).
+        track: Option<u64>,
+        /// The variant asked for.
+        variant: u32,
+    },
+}
+
+/// " of track T variant V", as much of it as names what was asked for.
+fn animation_named(track: Option<u64>, variant: u32) -> String {
+    match (track, variant) {
+        (Some(t), 0) => format!(" of track {t}"),
+        (Some(t), v) => format!(" of track {t} variant {v}"),
+        (None, 0) => String::new(),
+        (None, v) => format!(" of variant {v}"),
+    }
 }
 
 /// A bone frame that does not fit the rig.

@@ -183,7 +183,7 @@ impl DsiArgs {
         options.bounds = self.variation_deg;
         options.seed = self.seed;
         if let Some(s) = &options.smoothing {
-            s.validate().map_err(anyhow::Error::msg)?;
+            s.validate()?;
         }
         Ok(Some(options))
     }

@@ -41,9 +41,8 @@ pub struct Args {
 /// An invalid spec (naming the key), an unreadable source bag, or a write failure.
 pub fn run(args: Args) -> Result<Outcome> {
     let spec = Spec::load(&args.spec)?;
-    let frames = estimated_frames(&spec).map_err(anyhow::Error::msg)?;
+    let frames = estimated_frames(&spec)?;
     let plan = Plan::build(&spec, &|class, source| frames[class][source])
-        .map_err(anyhow::Error::msg)
         .with_context(|| format!("planning {}", spec.path.display()))?;
     let text = match args.format {
         PlanFormat::Summary => plan_report::summary(&spec, &plan),

@@ -63,9 +63,9 @@ pub enum SourceError {
     /// The bag cannot be opened.
     #[error(transparent)]
     Open(McapIoError),
-    /// An animation bag whose frames cannot be read back (the reader's message).
-    #[error("{0}")]
-    Animation(String),
+    /// An animation bag whose frames cannot be read back.
+    #[error(transparent)]
+    Animation(#[from] crate::bags::animation::ReadAnimationError),
     /// A pose bag whose pose topics cannot be read.
     #[error(transparent)]
     PoseTopics(#[from] PoseBagError),

@@ -115,19 +115,14 @@ impl SceneContext {
     /// metadata, the label and the seed where stated.
     ///
     /// # Errors
-    /// [`ExportError::BadAnimation`] when a capture bag cannot be read as one, or has no camera
-    /// pose at one of the clip's frames.
+    /// [`ExportError::Capture`] when a capture bag cannot be read as one,
+    /// [`ExportError::NoCameraPose`] when it has no camera pose at one of the clip's frames.
     pub fn read(
         rig: &Rig,
         path: &Path,
         readers: &[BagReader],
         clip: &Clip,
     ) -> Result<SceneContext, ExportError> {
-        let bad = |message: String| ExportError::BadAnimation {
-            path: path.to_path_buf(),
-            key: clip.key,
-            message,
-        };
         let mut extras = base_extras(path, clip);
         let mut metadata = BTreeMap::new();
         for r in readers {
@@ -157,13 +152,21 @@ impl SceneContext {
                 extras,
             });
         }
-        let capture = Capture::read(rig, path).map_err(|e| bad(e.to_string()))?;
+        let capture = Capture::read(rig, path).map_err(|source| ExportError::Capture {
+            path: path.to_path_buf(),
+            key: clip.key,
+            source: Box::new(source),
+        })?;
         let mut world_from_optical = Vec::with_capacity(clip.stamps_nanos.len());
         for &stamp in &clip.stamps_nanos {
             let k = capture
                 .frames
                 .binary_search_by_key(&stamp, |f| f.stamp_nanos)
-                .map_err(|_| bad(format!("no camera pose at the frame stamped {stamp} ns")))?;
+                .map_err(|_| ExportError::NoCameraPose {
+                    path: path.to_path_buf(),
+                    key: clip.key,
+                    stamp_nanos: stamp,
+                })?;
             world_from_optical.push(capture.frames[k].world_from_optical);
         }
         let i = &capture.intrinsics;

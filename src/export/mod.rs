@@ -56,14 +56,36 @@ pub enum ExportError {
         available: String,
     },
     /// The frames of an animation could not be used.
-    #[error("{path}: {key}: {message}")]
+    #[error("{path}: {key}: {source}")]
     BadAnimation {
         /// The bag.
         path: PathBuf,
         /// Which animation.
         key: AnimationKey,
         /// What was wrong.
-        message: String,
+        #[source]
+        source: Box<crate::bags::animation::ReadAnimationError>,
+    },
+    /// A capture bag's camera and scenes cannot be read.
+    #[error("{path}: {key}: {source}")]
+    Capture {
+        /// The bag.
+        path: PathBuf,
+        /// Which animation.
+        key: AnimationKey,
+        /// Why.
+        #[source]
+        source: Box<crate::bags::capture::TimelineError>,
+    },
+    /// A capture bag has no camera pose at one of the animation's frames.
+    #[error("{path}: {key}: no camera pose at the frame stamped {stamp_nanos} ns")]
+    NoCameraPose {
+        /// The bag.
+        path: PathBuf,
+        /// Which animation.
+        key: AnimationKey,
+        /// The frame's stamp.
+        stamp_nanos: u64,
     },
     /// No frame rate: the bag states none and has too few frames to measure one.
     #[error(
@@ -230,10 +252,10 @@ pub fn read_clip(
         Some(key.track_id),
         key.variant,
     )
-    .map_err(|message| ExportError::BadAnimation {
+    .map_err(|source| ExportError::BadAnimation {
         path: path.to_path_buf(),
         key,
-        message,
+        source: Box::new(source),
     })?;
     let stamps: Vec<u64> = frames.iter().map(|f| f.stamp_nanos).collect();
     let fps_hz =

@@ -90,10 +90,12 @@ pub enum PipelineError {
     /// The dataset spec cannot be loaded.
     #[error(transparent)]
     Spec(#[from] SpecError),
-    /// The dataset cannot be planned (the planner's message: `dataset::estimated_frames` and
-    /// `Plan::build` report their problems as text).
-    #[error("{0}")]
-    Plan(String),
+    /// A source's length cannot be estimated for the plan.
+    #[error(transparent)]
+    Estimate(#[from] crate::dataset::EstimateError),
+    /// The dataset cannot be planned.
+    #[error(transparent)]
+    Plan(#[from] crate::dataset::plan::PlanError),
     /// A source or a session of the dataset failed.
     #[error(transparent)]
     Capture(#[from] CaptureError),

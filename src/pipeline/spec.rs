@@ -72,9 +72,8 @@ impl std::fmt::Display for SpecSummary {
 /// converted, or an output that cannot be written.
 pub fn convert_spec(rig: &Rig, job: &SpecJob) -> Result<SpecSummary, PipelineError> {
     let spec = Spec::load(&job.spec)?;
-    let estimated = crate::dataset::estimated_frames(&spec).map_err(PipelineError::Plan)?;
-    let mut plan = Plan::build(&spec, &|class, source| estimated[class][source])
-        .map_err(PipelineError::Plan)?;
+    let estimated = crate::dataset::estimated_frames(&spec)?;
+    let mut plan = Plan::build(&spec, &|class, source| estimated[class][source])?;
     let converted = convert_sources(rig, &spec, &mut plan)?;
     let dir = &job.output.path;
     std::fs::create_dir_all(dir).map_err(|source| PipelineError::Io {
