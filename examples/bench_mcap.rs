@@ -111,7 +111,7 @@ fn main() -> Result<()> {
                 .collect();
             let payload: usize = messages
                 .iter()
-                .map(|m| cdr::encode(m).map(|b| b.len()).unwrap_or(0))
+                .map(|m| cdr::encode(m).map_or(0, |b| b.len()))
                 .sum();
             let seconds = median_of_three(|| {
                 let mut w = BagWriter::create(out, WriteConfig::default())?;

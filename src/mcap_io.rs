@@ -305,20 +305,19 @@ impl<W: Write + Seek> BagWriter<W> {
             }
             return Ok(k);
         }
-        let schema_id = match self.schemas.get(type_name) {
-            Some(&id) => id,
-            None => {
-                let id = self
-                    .writer
-                    .add_schema(type_name, "ros2msg", definition().as_bytes())
-                    .map_err(|source| McapIoError::Mcap {
-                        action: "cannot add a schema to",
-                        path: self.path.clone(),
-                        source,
-                    })?;
-                self.schemas.insert(type_name.to_string(), id);
-                id
-            }
+        let schema_id = if let Some(&id) = self.schemas.get(type_name) {
+            id
+        } else {
+            let id = self
+                .writer
+                .add_schema(type_name, "ros2msg", definition().as_bytes())
+                .map_err(|source| McapIoError::Mcap {
+                    action: "cannot add a schema to",
+                    path: self.path.clone(),
+                    source,
+                })?;
+            self.schemas.insert(type_name.to_string(), id);
+            id
         };
         let mut metadata = BTreeMap::new();
         // Empty, as rosbags writes it: a QoS list here that differs from a rosbag2 directory's

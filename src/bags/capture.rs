@@ -459,7 +459,7 @@ impl Capture {
             .segments
             .iter()
             .flat_map(|s| [s.start, s.end])
-            .filter_map(|t| t.to_nanos())
+            .filter_map(crate::ros::builtin_interfaces::Time::to_nanos)
             .filter_map(|t| self.frames.binary_search_by_key(&t, |f| f.stamp_nanos).ok())
             .map(|i| i as u64)
             .collect();

@@ -976,8 +976,8 @@ mod tests {
         let n = 200;
         let y: Vec<f64> = (0..n)
             .map(|i| {
-                let noise = ((i * 37) % 11) as f64 / 5.0 - 1.0;
-                0.01 * i as f64 + if i < n - 20 { noise } else { 0.0 }
+                let noise = f64::from((i * 37) % 11) / 5.0 - 1.0;
+                0.01 * f64::from(i) + if i < n - 20 { noise } else { 0.0 }
             })
             .collect();
         for bass in [0.0, 3.0, 8.0, 2.5] {
@@ -1129,7 +1129,7 @@ mod tests {
         let sigma = 0.3;
         let mut rng = Rng(42);
         let clean: Vec<f64> = (0..n)
-            .map(|i| (std::f64::consts::TAU * 3.0 * i as f64 / n as f64).sin())
+            .map(|i| (std::f64::consts::TAU * 3.0 * f64::from(i) / f64::from(n)).sin())
             .collect();
         let noisy: Vec<f64> = clean.iter().map(|c| c + sigma * rng.normal()).collect();
         let rms = |a: &[f64]| {
@@ -1137,8 +1137,8 @@ mod tests {
                 .zip(&clean)
                 .map(|(x, c)| (x - c).powi(2))
                 .sum::<f64>()
-                / n as f64)
-                .sqrt()
+                / f64::from(n))
+            .sqrt()
         };
         let input_rms = rms(&noisy);
         assert!(

@@ -374,12 +374,11 @@ pub fn encode(
         ExportFormat::Bvh => bvh::write(rig, clip).into_bytes(),
         ExportFormat::Onim => {
             let default;
-            let mapping = match &options.onim_mapping {
-                Some(m) => m,
-                None => {
-                    default = onim::OnimMapping::builtin(rig)?;
-                    &default
-                }
+            let mapping = if let Some(m) = &options.onim_mapping {
+                m
+            } else {
+                default = onim::OnimMapping::builtin(rig)?;
+                &default
             };
             onim::write(rig, clip, mapping)?.into_bytes()
         }

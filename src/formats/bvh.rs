@@ -1374,8 +1374,7 @@ Frame Time: 0.5
         let q = b.world_orientations_autoact(1, SourceAxes::YUp)[1];
         let axis = q
             .axis()
-            .map(|a| a.into_inner())
-            .unwrap_or_else(Vector3::zeros);
+            .map_or_else(Vector3::zeros, nalgebra::Unit::into_inner);
         assert!(
             (axis - Vector3::z()).norm() < 1e-9 && (q.angle() - 90_f64.to_radians()).abs() < 1e-9
         );

@@ -610,7 +610,7 @@ fn render_in_order(
         });
         let mut consume = || -> Result<(), RenderError> {
             let mut k = 0usize;
-            for frames in receiver.iter() {
+            for frames in &receiver {
                 for (rgb, annotation) in frames {
                     if stop.load(Ordering::Relaxed) {
                         return Err(RenderError::Interrupted);

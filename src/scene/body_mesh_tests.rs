@@ -736,8 +736,7 @@ fn limb_joints_blend_half_and_half_fading_over_a_quarter_bone() {
         for w in samples.windows(2) {
             assert!(
                 w[1].1 >= w[0].1 - 1e-6,
-                "{limb}: child weight falls at {:?}",
-                w
+                "{limb}: child weight falls at {w:?}"
             );
         }
         for &(s, wc) in &samples {

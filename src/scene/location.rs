@@ -256,8 +256,8 @@ impl Location {
                 } else {
                     None
                 };
-                match spot {
-                    Some((position_m, yaw_deg)) => placed.push((
+                if let Some((position_m, yaw_deg)) = spot {
+                    placed.push((
                         PlacedProp {
                             kind: spec.kind.clone(),
                             position_m,
@@ -265,11 +265,10 @@ impl Location {
                             size_m: spec.size_m,
                         },
                         radius,
-                    )),
-                    None => {
-                        not_placed = not_placed.saturating_add(n - i);
-                        break;
-                    }
+                    ));
+                } else {
+                    not_placed = not_placed.saturating_add(n - i);
+                    break;
                 }
             }
         }

@@ -134,7 +134,7 @@ pub fn resample(frames: &[AnimationFrame], fps: f64) -> Vec<AnimationFrame> {
         out.push(AnimationFrame {
             stamp_nanos,
             pose: pose.clone(),
-        })
+        });
     };
     for f in frames {
         r.push(f.stamp_nanos, &f.pose, &mut emit);

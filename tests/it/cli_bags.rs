@@ -288,7 +288,7 @@ fn a_truncated_bag_converts_what_it_has_and_exits_3() {
     let bytes = std::fs::read(&input).unwrap();
     let chunks = chunk_ranges(&bytes);
     let (start, end) = chunks[2];
-    std::fs::write(&input, &bytes[..(start + end) / 2]).unwrap();
+    std::fs::write(&input, &bytes[..usize::midpoint(start, end)]).unwrap();
     let out = dir.path().join("out.mcap");
     let o = autoact(&["convert", arg(&input), "-o", arg(&out)]);
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
@@ -704,7 +704,7 @@ fn recover_rewrites_a_cut_bag_with_every_complete_chunk_and_says_data_was_lost()
     // Cut in the middle of the fourth chunk, as a kill -9 would leave it.
     let (start, end) = chunks[3];
     let cut = dir.path().join("cut.mcap");
-    std::fs::write(&cut, &bytes[..(start + end) / 2]).unwrap();
+    std::fs::write(&cut, &bytes[..usize::midpoint(start, end)]).unwrap();
     let before: usize = BagReader::open(&cut)
         .unwrap()
         .messages()

@@ -835,8 +835,7 @@ fn children_cpu_s() -> f64 {
     let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
     let fields: Vec<&str> = stat
         .rsplit_once(')')
-        .map(|(_, r)| r)
-        .unwrap_or("")
+        .map_or("", |(_, r)| r)
         .split_whitespace()
         .collect();
     // After the command name: field 3 is index 0, so cutime (16) and cstime (17) are 13 and 14.
