@@ -111,7 +111,9 @@ fn scan(readers: &[BagReader]) -> Scan {
                 .as_ref()
                 .map(|s| s.encoding.clone())
                 .unwrap_or_default();
-            stats.message_encoding = msg.channel.message_encoding.clone();
+            stats
+                .message_encoding
+                .clone_from(&msg.channel.message_encoding);
         }
         if stats.first.is_some() && msg.log_time < stats.last {
             stats.non_monotonic += 1;

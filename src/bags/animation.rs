@@ -289,11 +289,11 @@ pub fn read_animation_variant(
     ReadAnimationError,
 > {
     use crate::ros::{RosMessage, cdr};
-    let mut keys: Vec<crate::skeleton::convert::AnimationFrame> = Vec::new();
-    let mut chosen = track;
     // Rest offsets seen per (track prefix, variant, bone), for variant 0 and `variant`; the first
     // one wins.
     type OffsetKey = (Option<u64>, u32, usize);
+    let mut keys: Vec<crate::skeleton::convert::AnimationFrame> = Vec::new();
+    let mut chosen = track;
     let mut offsets: std::collections::BTreeMap<OffsetKey, nalgebra::Vector3<f64>> =
         std::collections::BTreeMap::new();
     let mut f = BoneFrame::default();

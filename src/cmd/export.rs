@@ -34,6 +34,10 @@ glTF/GLB: the renderer's body as a skinned mesh (one primitive per material), th
   renders it.";
 
 /// Arguments of `autoact export`.
+#[expect(
+    clippy::struct_excessive_bools,
+    reason = "clap flags: each bool is an independent command-line switch"
+)]
 #[derive(Debug, clap::Args)]
 #[command(after_help = AFTER_HELP)]
 pub struct Args {

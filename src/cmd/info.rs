@@ -22,8 +22,9 @@ pub struct Args {
 /// # Errors
 /// A file that cannot be opened or is not MCAP.
 pub fn run(args: Args) -> Result<Outcome> {
-    let report = inspect::inspect(&args.input)?;
-    print_stdout(&args.format.pick(|| report.table(), || report.json()))?;
+    let Args { input, format } = args;
+    let report = inspect::inspect(&input)?;
+    print_stdout(&format.pick(|| report.table(), || report.json()))?;
     Ok(if report.lost_data() {
         Outcome::DataLost
     } else {

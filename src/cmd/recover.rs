@@ -31,19 +31,19 @@ pub struct Args {
 /// # Errors
 /// An unreadable input, an output that exists (without `--force`) or cannot be written.
 pub fn run(args: Args) -> Result<Outcome> {
-    if args.output.exists() && !args.force {
-        bail!(
-            "{} exists: give --force to replace it",
-            args.output.display()
-        );
+    let Args {
+        input,
+        output,
+        force,
+        compression,
+    } = args;
+    if output.exists() && !force {
+        bail!("{} exists: give --force to replace it", output.display());
     }
-    if args.output == args.input {
-        bail!(
-            "the output must not be the input ({})",
-            args.input.display()
-        );
+    if output == input {
+        bail!("the output must not be the input ({})", input.display());
     }
-    let recovery = recover(&args.input, &args.output, args.compression)?;
+    let recovery = recover(&input, &output, compression)?;
     print_stdout(&recovery.report())?;
     for warning in recovery.warnings() {
         tracing::warn!("{warning}");

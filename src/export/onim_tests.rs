@@ -124,7 +124,7 @@ fn builtin_mapping_covers_the_rig_and_has_the_templates_translations() {
     assert_eq!(mapping.translations.len(), 77);
     assert_eq!(
         mapping.translations[&64729],
-        Vector3::new(-0.0218301, 0.042174, 0.0319188)
+        Vector3::new(-0.021_830_1, 0.042_174, 0.031_918_8)
     );
     assert!(
         !mapping.translations.contains_key(&4169),
@@ -136,7 +136,7 @@ fn mapping_without(rig: &Rig, dropped: &[&str]) -> String {
     DEFAULT_MAPPING_TOML
         .lines()
         .filter(|l| !dropped.iter().any(|d| l.starts_with(&format!("{d} ="))))
-        .map(|l| format!("{l}\n"))
+        .flat_map(|l| [l, "\n"])
         .collect::<String>()
         + &format!("# for {}\n", rig.name)
 }
@@ -159,8 +159,8 @@ fn a_mapping_that_leaves_bones_out_names_them() {
 
 #[test]
 fn bad_mapping_entries_are_named() {
-    let rig = Rig::standard();
     type Kind = fn(&OnimError) -> bool;
+    let rig = Rig::standard();
     let template: Kind = |e| matches!(e, OnimError::Template { .. });
     let frame: Kind = |e| matches!(e, OnimError::Frame { name, .. } if name == "SKEL_ROOT");
     let toml: Kind = |e| matches!(e, OnimError::Toml { .. });
@@ -316,7 +316,7 @@ fn written_onim_has_the_native_structure() {
         .unwrap();
     assert_eq!(
         template.blocks[1].values[0],
-        vec![-0.0218301, 0.042174, 0.0319188]
+        vec![-0.021_830_1, 0.042_174, 0.031_918_8]
     );
 }
 
@@ -413,7 +413,7 @@ fn parse_names_the_line_at_fault() {
     let e = parse(&lines.join("\n"), "b.onim").unwrap_err();
     assert_eq!(e.line, row, "{e}");
     assert!(e.to_string().contains("expected 4 numbers"), "{e}");
-    let half: String = text.lines().take(400).map(|l| format!("{l}\n")).collect();
+    let half: String = text.lines().take(400).flat_map(|l| [l, "\n"]).collect();
     let e = parse(&half, "b.onim").unwrap_err();
     assert_eq!(e.line, 400, "{e}");
     assert!(e.to_string().contains("file ends early"), "{e}");

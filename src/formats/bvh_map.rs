@@ -184,6 +184,8 @@ impl BvhMapping {
     /// [`BvhMapError`] when the mapping has no table for the layout, names an unknown joint, or
     /// the units are unknown.
     pub fn keypoints(&self, bvh: &Bvh, layout: &Layout) -> Result<PoseSequence, BvhMapError> {
+        // Per layout joint: (BVH joint, offset in its frame, weight) terms, or None if unmapped.
+        type Terms = Vec<(usize, Vector3<f64>, f64)>;
         let table = self
             .layouts
             .get(&layout.name)
@@ -192,14 +194,12 @@ impl BvhMapping {
                 layout: layout.name.clone(),
                 available: self.layouts.keys().cloned().collect::<Vec<_>>().join(", "),
             })?;
-        let metres_per_unit = match self.metres_per_unit.or_else(|| bvh.guess_metres_per_unit()) {
-            Some(m) => m,
-            None => {
-                return Err(BvhMapError::UnknownUnits {
-                    source_name: bvh.source.clone(),
-                    extent: bvh.rest_extent().max(),
-                });
-            }
+        let Some(metres_per_unit) = self.metres_per_unit.or_else(|| bvh.guess_metres_per_unit())
+        else {
+            return Err(BvhMapError::UnknownUnits {
+                source_name: bvh.source.clone(),
+                extent: bvh.rest_extent().max(),
+            });
         };
         // Resolve every name to (joint index, offset in the joint's frame).
         let resolve = |name: &String| -> Result<(usize, Vector3<f64>), BvhMapError> {
@@ -215,8 +215,6 @@ impl BvhMapping {
                     name: name.clone(),
                 })
         };
-        // Per layout joint: (BVH joint, offset in its frame, weight) terms, or None if unmapped.
-        type Terms = Vec<(usize, Vector3<f64>, f64)>;
         let mut terms: Vec<Option<Terms>> = Vec::with_capacity(layout.joints.len());
         for joint in &layout.joints {
             let Some(expr) = table.get(joint) else {

@@ -677,9 +677,9 @@ pub(crate) mod test_files {
             self
         }
 
-        pub(crate) fn push_compressed(mut self, element: Vec<u8>) -> Self {
+        pub(crate) fn push_compressed(mut self, element: &[u8]) -> Self {
             let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
-            z.write_all(&element).expect("in memory");
+            z.write_all(element).expect("in memory");
             let packed = z.finish().expect("in memory");
             self.bytes.extend(self.u32(15));
             self.bytes.extend(self.u32(packed.len() as u32));
@@ -711,9 +711,9 @@ mod tests {
             &m.f32s(&[0.5, 1.0, 1.5, 2.0, 2.5, 3.0]),
         );
         if compressed {
-            m.push_compressed(stamps)
-                .push_compressed(other)
-                .push_compressed(kp)
+            m.push_compressed(&stamps)
+                .push_compressed(&other)
+                .push_compressed(&kp)
                 .bytes
         } else {
             m.push(stamps).push(other).push(kp).bytes

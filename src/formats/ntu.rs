@@ -573,11 +573,6 @@ fn parse_joint(
     body: usize,
     joint: usize,
 ) -> Result<NtuJoint, NtuError> {
-    let name = JOINT_NAMES.get(joint).copied().unwrap_or("?");
-    let what = || format!("frame {frame}, body {body}, joint {joint} ({name})");
-    let (line, fields) =
-        cursor.record(|| format!("joint {joint} ({name}) of body {body} in frame {frame}"))?;
-    let texts = cursor.fields::<JOINT_FIELDS>(line, &fields, what)?;
     const NAMES: [&str; JOINT_FIELDS - 1] = [
         "x",
         "y",
@@ -591,6 +586,11 @@ fn parse_joint(
         "orientationY",
         "orientationZ",
     ];
+    let name = JOINT_NAMES.get(joint).copied().unwrap_or("?");
+    let what = || format!("frame {frame}, body {body}, joint {joint} ({name})");
+    let (line, fields) =
+        cursor.record(|| format!("joint {joint} ({name}) of body {body} in frame {frame}"))?;
+    let texts = cursor.fields::<JOINT_FIELDS>(line, &fields, what)?;
     let mut v = [0.0_f64; JOINT_FIELDS - 1];
     for ((value, text), field) in v.iter_mut().zip(texts).zip(NAMES) {
         *value = cursor.finite(line, text, field, what)?;
@@ -831,7 +831,7 @@ mod tests {
     #[test]
     fn truncated_file_names_the_missing_line() {
         let text = synth(&[&[7]]);
-        let cut: String = text.lines().take(10).map(|l| format!("{l}\n")).collect();
+        let cut: String = text.lines().take(10).flat_map(|l| [l, "\n"]).collect();
         match err(&cut) {
             NtuError::Truncated {
                 file,

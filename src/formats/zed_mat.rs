@@ -382,27 +382,23 @@ fn decode_keypoints(
     array: &mat::Array,
 ) -> Result<Vec<[[f64; 3]; JOINT_COUNT]>, ZedError> {
     let variable = KEYPOINTS_VARIABLE;
-    let values = match (&array.values, array.class, array.complex) {
-        (mat::Values::Float(v), mat::Class::Double | mat::Class::Single, false) => v,
-        _ => {
-            return Err(ZedError::WrongType {
-                file: file.to_owned(),
-                variable,
-                expected: "a real single or double array",
-                found: array.describe_type(),
-            });
-        }
+    let (mat::Values::Float(values), mat::Class::Double | mat::Class::Single, false) =
+        (&array.values, array.class, array.complex)
+    else {
+        return Err(ZedError::WrongType {
+            file: file.to_owned(),
+            variable,
+            expected: "a real single or double array",
+            found: array.describe_type(),
+        });
     };
-    let frames = match array.dims.as_slice() {
-        &[t, JOINT_COUNT, 3] => t,
-        _ => {
-            return Err(ZedError::WrongShape {
-                file: file.to_owned(),
-                variable,
-                expected: "(T, 34, 3)".to_owned(),
-                found: mat::shape(&array.dims),
-            });
-        }
+    let &[frames, JOINT_COUNT, 3] = array.dims.as_slice() else {
+        return Err(ZedError::WrongShape {
+            file: file.to_owned(),
+            variable,
+            expected: "(T, 34, 3)".to_owned(),
+            found: mat::shape(&array.dims),
+        });
     };
     let mut out = Vec::with_capacity(frames);
     for t in 0..frames {
@@ -508,9 +504,9 @@ mod tests {
         let kp = m.matrix(7, &[3, 34, 3], "keypoints", 7, &m.f32s(&keypoint_data(3)));
         let other = m.matrix(6, &[1, 1], "fps", 9, &2.5f64.to_le_bytes());
         if compressed {
-            m.push_compressed(stamps)
-                .push_compressed(other)
-                .push_compressed(kp)
+            m.push_compressed(&stamps)
+                .push_compressed(&other)
+                .push_compressed(&kp)
                 .bytes
         } else {
             m.push(stamps).push(other).push(kp).bytes
@@ -724,6 +720,10 @@ mod tests {
     }
 
     #[test]
+    #[expect(
+        clippy::match_same_arms,
+        reason = "each accepted error is its own arm, with why a cut can cause it"
+    )]
     fn truncation_at_every_offset_is_an_error() {
         for compressed in [false, true] {
             let b = recording(false, compressed);

@@ -104,7 +104,7 @@ impl DdsConfig {
         }
     }
 
-    fn qos(&self) -> QosPolicies {
+    fn qos(self) -> QosPolicies {
         let builder = QosPolicyBuilder::new()
             .durability(match self.durability {
                 Durability::Volatile => policy::Durability::Volatile,

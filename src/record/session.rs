@@ -214,16 +214,16 @@ impl RecordWriter {
     /// [`McapIoError`] from the file (e.g. a full disk): stop recording then.
     pub fn write(&mut self, m: &Received<'_>) -> Result<(), McapIoError> {
         // Keys are allocated once per topic and writer, not once per message.
-        if !self.topics.contains_key(m.topic) {
-            self.topics.insert(
-                m.topic.to_string(),
-                TopicStats {
+        let stats = match self.topics.get_mut(m.topic) {
+            Some(stats) => stats,
+            None => self
+                .topics
+                .entry(m.topic.to_string())
+                .or_insert(TopicStats {
                     type_name: m.type_name.to_string(),
                     ..TopicStats::default()
-                },
-            );
-        }
-        let stats = self.topics.get_mut(m.topic).expect("inserted above");
+                }),
+        };
         match stats.last_sequence.get_mut(&m.writer) {
             Some(last) => {
                 if m.sequence_number > *last + 1 {
@@ -444,7 +444,7 @@ mod tests {
         std::mem::forget(w);
         let r = BagReader::open(&base).unwrap();
         assert!(r.time_range().is_none(), "no summary: an unfinished file");
-        let kept = r.messages().filter(Result::is_ok).count();
+        let kept = r.messages().flatten().count();
         assert_eq!(kept, 30, "every flushed message is readable");
     }
 }

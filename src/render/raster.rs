@@ -209,7 +209,7 @@ mod tests {
         let mut hits = vec![0u32; w * h];
         for &t in tris {
             // A fresh depth buffer per triangle: counts coverage, not visibility.
-            depth.iter_mut().for_each(|d| *d = 0.0);
+            depth.fill(0.0);
             fill_triangle(t, w, h, &mut depth, Cull::None, |i, _, _| hits[i] += 1);
         }
         hits

@@ -1050,8 +1050,7 @@ fn surround_ground(location: &LocationInstance) -> Ground {
         (_, Backdrop::Walls) => location.ground,
         (Ground::Grass, _) | (_, Backdrop::Hills | Backdrop::Trees) => Ground::Grass,
         (Ground::Sand, _) | (_, Backdrop::Sea) => Ground::Sand,
-        (Ground::Tiles, _) => Ground::Concrete,
-        (_, Backdrop::CityBlocks) => Ground::Concrete,
+        (Ground::Tiles, _) | (_, Backdrop::CityBlocks) => Ground::Concrete,
         (g, Backdrop::Sky) => g,
     }
 }

@@ -158,8 +158,7 @@ pub fn msg_text(type_name: &str) -> Option<&'static str> {
 fn full_name(name: &str, package: &str) -> String {
     let parts: Vec<&str> = name.split('/').collect();
     match parts.as_slice() {
-        [pkg, "msg", ty] => format!("{pkg}/msg/{ty}"),
-        [pkg, ty] => format!("{pkg}/msg/{ty}"),
+        [pkg, "msg", ty] | [pkg, ty] => format!("{pkg}/msg/{ty}"),
         [ty] => format!("{package}/msg/{ty}"),
         _ => name.to_string(),
     }

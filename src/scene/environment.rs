@@ -250,11 +250,11 @@ impl Environment {
     /// seconds, with a second pulse, at times fixed by `seed`.
     #[must_use]
     pub fn lightning_flash(&self, t_s: f64, seed: u64) -> f32 {
+        // Time is cut into 5 s windows; each window flashes once at a seeded offset.
+        const WINDOW_S: f64 = 5.0;
         if !self.lightning {
             return 0.0;
         }
-        // Time is cut into 5 s windows; each window flashes once at a seeded offset.
-        const WINDOW_S: f64 = 5.0;
         let window = (t_s / WINDOW_S).floor();
         let h = crate::hash::hash2(seed, window as i64 as u64);
         let at = (h as f64 / u64::MAX as f64) * (WINDOW_S - 0.5);

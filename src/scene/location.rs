@@ -699,6 +699,10 @@ mod tests {
 
     #[test]
     fn the_documented_toml_parses_and_bad_locations_are_named() {
+        #[derive(Deserialize)]
+        struct Spec {
+            location: Vec<Location>,
+        }
         let text = r#"
             [[location]]
             name = "rooftop"
@@ -708,10 +712,6 @@ mod tests {
             tags = ["urban", "open_space"]
             props = [ { kind = "vent", count = [1, 3], size_m = [1.0, 1.0, 1.2] } ]
         "#;
-        #[derive(Deserialize)]
-        struct Spec {
-            location: Vec<Location>,
-        }
         let spec: Spec = toml::from_str(text).unwrap();
         let roof = &spec.location[0];
         roof.validate().unwrap();

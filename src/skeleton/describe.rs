@@ -1,6 +1,8 @@
 //! The rig and the keypoint layouts described for people: the listings `autoact rig` and
 //! `autoact layouts` print, each as a text table and as a JSON document.
 
+use std::fmt::Write as _;
+
 use serde_json::json;
 
 use crate::skeleton::layout::{Coverage, JointExpr, Layout, LayoutError};
@@ -354,20 +356,18 @@ pub fn layout_table(layout: &Layout, coverage: &Coverage) -> String {
             v.join(", ")
         }
     };
-    let overrides: String = layout
-        .bones
-        .iter()
-        .map(|(b, o)| {
-            let reference = o
-                .reference
-                .as_ref()
-                .map_or(String::new(), |[a, c]| format!(", twist from {a}→{c}"));
-            format!(
-                "bone {b}: driven by {}→{}{reference}\n",
-                o.direction[0], o.direction[1]
-            )
-        })
-        .collect();
+    let overrides = layout.bones.iter().fold(String::new(), |mut out, (b, o)| {
+        let reference = o
+            .reference
+            .as_ref()
+            .map_or(String::new(), |[a, c]| format!(", twist from {a}→{c}"));
+        let _ = writeln!(
+            out,
+            "bone {b}: driven by {}→{}{reference}",
+            o.direction[0], o.direction[1]
+        );
+        out
+    });
     format!(
         "layout {}: {}\n\n{}\n{}\n{overrides}driven: {}\ndriven, twist unobserved: {}\nat rest (not in this layout): {}\n",
         layout.name,

@@ -5,6 +5,8 @@
 //! the last input — stamp rounding — is that input), and gaps in the input (dropped frames) are
 //! bridged by the same interpolation instead of being assumed away.
 
+use std::cmp::Ordering;
+
 use nalgebra::UnitQuaternion;
 
 use crate::skeleton::convert::AnimationFrame;
@@ -72,22 +74,22 @@ impl Resampler {
             self.first = Some(stamp);
         }
         while let Some(t) = self.next_time() {
-            if t == stamp {
-                emit(t, pose);
-            } else if t < stamp {
-                let Some((t0, p0)) = &self.previous else {
-                    break;
-                };
-                #[expect(
-                    clippy::cast_precision_loss,
-                    reason = "stamp differences within a clip are far below 2^52 ns"
-                )]
-                let s = (t - t0) as f64 / (stamp - t0) as f64;
-                let scratch = self.scratch.get_or_insert_with(|| pose.clone());
-                interpolate_into(p0, pose, s, scratch);
-                emit(t, scratch);
-            } else {
-                break;
+            match t.cmp(&stamp) {
+                Ordering::Equal => emit(t, pose),
+                Ordering::Less => {
+                    let Some((t0, p0)) = &self.previous else {
+                        break;
+                    };
+                    #[expect(
+                        clippy::cast_precision_loss,
+                        reason = "stamp differences within a clip are far below 2^52 ns"
+                    )]
+                    let s = (t - t0) as f64 / (stamp - t0) as f64;
+                    let scratch = self.scratch.get_or_insert_with(|| pose.clone());
+                    interpolate_into(p0, pose, s, scratch);
+                    emit(t, scratch);
+                }
+                Ordering::Greater => break,
             }
             self.k += 1;
         }

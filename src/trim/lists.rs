@@ -23,6 +23,7 @@
 //!   character, camera, seed, …) plus its `split`.
 
 use std::collections::BTreeMap;
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use serde_json::{Value, json};
@@ -197,10 +198,10 @@ fn kinetics_csv(clips: &[&ClipRecord], split: Split) -> String {
 
 /// `<split>_list_videos.txt`: MMAction2 `VideoDataset` lines `<path> <label_id>`.
 fn video_list(clips: &[&ClipRecord]) -> String {
-    clips
-        .iter()
-        .map(|c| format!("{} {}\n", c.video, c.label_id))
-        .collect()
+    clips.iter().fold(String::new(), |mut list, c| {
+        let _ = writeln!(list, "{} {}", c.video, c.label_id);
+        list
+    })
 }
 
 /// `<split>_list_rawframes.txt`: MMAction2 `RawframeDataset` lines

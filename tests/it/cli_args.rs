@@ -65,8 +65,8 @@ macro_rules! args_of {
     };
 }
 
-fn path(p: &str) -> Option<PathBuf> {
-    Some(PathBuf::from(p))
+fn path(p: &str) -> PathBuf {
+    PathBuf::from(p)
 }
 
 #[test]
@@ -234,7 +234,7 @@ fn import_defaults_formats_labels_and_output() {
 #[test]
 fn convert_defaults_and_bag_flags() {
     let args = args_of!(Convert, &["convert", "in.mcap", "-o", "out.mcap"]);
-    assert_eq!(args.input, path("in.mcap"));
+    assert_eq!(args.input, Some(path("in.mcap")));
     assert_eq!((args.spec, args.topic, args.layout), (None, None, None));
     assert_eq!(args.fps, 30.0);
     assert_eq!(args.root_motion, RootMotion::Full);
@@ -472,7 +472,7 @@ fn convert_a_spec_instead_of_a_bag_and_what_is_refused() {
         &["convert", "--spec", "dataset.toml", "-o", "capture"]
     );
     assert_eq!(args.input, None);
-    assert_eq!(args.spec, path("dataset.toml"));
+    assert_eq!(args.spec, Some(path("dataset.toml")));
     assert_eq!(args.output.output, Path::new("capture"));
     let args = args_of!(
         Convert,
@@ -532,7 +532,7 @@ fn plan_prints_a_summary_json_or_csv() {
         &["plan", "d.toml", "--format", "json", "-o", "plan.json"]
     );
     assert_eq!(args.format, PlanFormat::Json);
-    assert_eq!(args.output, path("plan.json"));
+    assert_eq!(args.output, Some(path("plan.json")));
     let args = args_of!(Plan, &["plan", "d.toml", "--format", "csv"]);
     assert_eq!(args.format, PlanFormat::Csv);
     assert_eq!(
@@ -706,15 +706,15 @@ fn render_resolution_encoder_and_outputs() {
             "--download-ffmpeg",
         ]
     );
-    assert_eq!(args.output, path("c.mp4"));
+    assert_eq!(args.output, Some(path("c.mp4")));
     assert_eq!(args.resolution, Some((640, 360)));
     assert_eq!(args.fps, Some(25.0));
     assert_eq!(args.crf, 0);
     assert_eq!(args.preset, "veryslow");
     assert_eq!(args.gop, Some(60));
-    assert_eq!(args.frames_out, path("frames"));
-    assert_eq!(args.preview, path("sheet.png"));
-    assert_eq!(args.render_bag, path("r.mcap"));
+    assert_eq!(args.frames_out, Some(path("frames")));
+    assert_eq!(args.preview, Some(path("sheet.png")));
+    assert_eq!(args.render_bag, Some(path("r.mcap")));
     assert_eq!((args.limit, args.threads), (Some(10), Some(2)));
     assert!(args.embed_video && args.force && args.download_ffmpeg);
     let args = args_of!(
@@ -797,7 +797,7 @@ fn trim_splits_hold_outs_and_encoding() {
     );
     assert_eq!(args.video_start, Some(-1.5));
     assert_eq!(args.video_fps, Some(29.97));
-    assert_eq!(args.render_bag, path("v.render.mcap"));
+    assert_eq!(args.render_bag, Some(path("v.render.mcap")));
     assert_eq!(args.split_by, Key::Clip);
     assert_eq!(args.split_ratios, [0.8, 0.1, 0.1]);
     assert_eq!(args.seed, Some(9));
@@ -905,9 +905,9 @@ fn export_formats_selection_listing_and_the_onim_template() {
             "walk.bvh"
         ]
     );
-    assert_eq!(args.input, path("walk.anim.mcap"));
+    assert_eq!(args.input, Some(path("walk.anim.mcap")));
     assert_eq!(args.format, Some(ExportFormat::Bvh));
-    assert_eq!(args.output, path("walk.bvh"));
+    assert_eq!(args.output, Some(path("walk.bvh")));
     assert_eq!((args.animation, args.variant, args.fps), (None, None, None));
     assert_eq!(args.onim_template, None);
     assert!(!args.force && !args.list && !args.print_onim_template && !args.write_expected_json);
@@ -934,10 +934,10 @@ fn export_formats_selection_listing_and_the_onim_template() {
         ]
     );
     assert_eq!(args.format, Some(ExportFormat::Onim));
-    assert_eq!(args.output, path("anims"));
+    assert_eq!(args.output, Some(path("anims")));
     assert_eq!((args.animation, args.variant), (Some(2), Some(1)));
     assert_eq!(args.fps, Some(60.0));
-    assert_eq!(args.onim_template, path("ped.toml"));
+    assert_eq!(args.onim_template, Some(path("ped.toml")));
     assert!(args.force && args.write_expected_json);
     for (name, format) in [("gltf", ExportFormat::Gltf), ("glb", ExportFormat::Glb)] {
         let args = args_of!(Export, &["export", "b", "--format", name, "-o", "o"]);

@@ -488,7 +488,11 @@ fn bad_input_gets_clear_errors() {
     let leftovers: Vec<_> = std::fs::read_dir(dir.path())
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(".part"))
+        .filter(|n| {
+            Path::new(n)
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("part"))
+        })
         .collect();
     assert!(leftovers.is_empty(), "{leftovers:?}");
 
@@ -509,7 +513,7 @@ fn bad_input_gets_clear_errors() {
     let text: String = onim::DEFAULT_MAPPING_TOML
         .lines()
         .filter(|l| !l.starts_with("SKEL_R_Hand ") && !l.starts_with("SKEL_Spine2 "))
-        .map(|l| format!("{l}\n"))
+        .flat_map(|l| [l, "\n"])
         .collect();
     std::fs::write(&template, text).unwrap();
     let e = export_fails(

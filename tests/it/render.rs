@@ -149,7 +149,11 @@ fn video_has_every_timeline_frame_at_its_stamp_with_keyframes_on_every_boundary(
 
     // Outputs exist only complete: no temporary files left.
     assert!(
-        files_in(dir.path()).iter().all(|f| !f.ends_with(".part")),
+        files_in(dir.path()).iter().all(|f| {
+            !Path::new(f)
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("part"))
+        }),
         "{:?}",
         files_in(dir.path())
     );
