@@ -178,14 +178,7 @@ pub fn read_animation(
     rig: &Rig,
     readers: &[crate::mcap_io::BagReader],
     track: Option<u64>,
-) -> Result<
-    (
-        Vec<crate::skeleton::convert::AnimationFrame>,
-        Character,
-        Coverage,
-    ),
-    ReadAnimationError,
-> {
+) -> Result<ReadBack, ReadAnimationError> {
     read_animation_variant(rig, readers, track, 0)
 }
 
@@ -280,14 +273,7 @@ pub fn read_animation_variant(
     readers: &[crate::mcap_io::BagReader],
     track: Option<u64>,
     variant: u32,
-) -> Result<
-    (
-        Vec<crate::skeleton::convert::AnimationFrame>,
-        Character,
-        Coverage,
-    ),
-    ReadAnimationError,
-> {
+) -> Result<ReadBack, ReadAnimationError> {
     use crate::ros::{RosMessage, cdr};
     // Rest offsets seen per (track prefix, variant, bone), for variant 0 and `variant`; the first
     // one wins.
@@ -378,6 +364,14 @@ pub fn read_animation_variant(
 pub fn frame_stamp(frame: &BoneFrame, log_time_nanos: u64) -> u64 {
     frame.header.stamp.to_nanos().unwrap_or(log_time_nanos)
 }
+
+/// An animation read back: its frames in stamp order, the body its rest offsets describe, and as
+/// coverage the bones that move.
+pub type ReadBack = (
+    Vec<crate::skeleton::convert::AnimationFrame>,
+    Character,
+    Coverage,
+);
 
 /// Why an animation cannot be read back from an animation bag.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
