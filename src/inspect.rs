@@ -42,7 +42,7 @@ pub struct Report {
 ///
 /// # Errors
 /// A file that cannot be opened or is not MCAP. Damage past the header is not an error: it is
-/// reported (see [`Report::lost_data`]).
+/// reported (see [`crate::loss::LostInput::lost_input`]).
 pub fn inspect(path: &Path) -> Result<Report, McapIoError> {
     let readers = BagReader::open_all(path)?;
     let (profile, library) = readers
@@ -195,12 +195,6 @@ impl Report {
     #[must_use]
     pub fn is_valid(&self) -> bool {
         self.problems.is_empty()
-    }
-
-    /// Whether parts of the file could not be read (damaged or cut-off chunks or records).
-    #[must_use]
-    pub fn lost_data(&self) -> bool {
-        !self.unreadable.is_empty()
     }
 
     /// Every failed check, in the order the report lists them.
@@ -522,9 +516,17 @@ impl Hierarchy {
     }
 }
 
+impl crate::loss::LostInput for Report {
+    /// Whether parts of the file could not be read (damaged or cut-off chunks or records).
+    fn lost_input(&self) -> bool {
+        !self.unreadable.is_empty()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::loss::LostInput;
 
     fn sample(name: &str) -> PathBuf {
         Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -536,7 +538,7 @@ mod tests {
     fn a_whole_animation_bag_is_valid_with_its_rates_and_metadata() {
         let report = inspect(&sample("bandai_walk.anim.mcap")).unwrap();
         assert!(report.is_valid(), "{:?}", report.problems());
-        assert!(!report.lost_data());
+        assert!(!report.lost_input());
         let text = report.table();
         assert!(text.starts_with("file: "), "{text}");
         assert!(
@@ -566,7 +568,7 @@ mod tests {
         let cut = dir.path().join("cut.mcap");
         std::fs::write(&cut, &bytes[..bytes.len() * 2 / 3]).unwrap();
         let report = inspect(&cut).unwrap();
-        assert!(report.lost_data() && !report.is_valid());
+        assert!(report.lost_input() && !report.is_valid());
         assert!(
             report
                 .problems()

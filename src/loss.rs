@@ -1,11 +1,29 @@
-//! Lost input: what of a conversion's input could not be used. Every path that reads input
-//! (`convert` and `convert --spec`) collects it as [`Losses`], logs it with [`Losses::warn`]
-//! and ends with exit code 3 when it is not empty, so one rule decides for all of them.
+//! Lost input, and the one rule for it: input lost anywhere ⇒ a warning naming the file and the
+//! place, and exit code 3.
+//!
+//! Every command's result answers one question, [`LostInput::lost_input`], and
+//! `cmd::Outcome::from_run` turns the answer into the exit code, so no command decides on its
+//! own. The conversion paths (`convert` and `convert --spec`) collect what they lose as
+//! [`Losses`] and log it with [`Losses::warn`]; `trim`, `record`, `recover` and `info` answer
+//! from their own counts (segments a video does not cover, dropped or rejected samples,
+//! unreadable chunks).
 
 use std::path::Path;
 
 use crate::bags::pose::{PoseTopics, SkippedMessage};
 use crate::mcap_io::ReadIssue;
+
+/// A finished run's account of its input.
+pub trait LostInput {
+    /// Whether any input was lost: unreadable, skipped, dropped, or left out.
+    fn lost_input(&self) -> bool;
+}
+
+impl LostInput for Losses {
+    fn lost_input(&self) -> bool {
+        !self.is_empty()
+    }
+}
 
 /// How many losses of each kind [`Losses::warn`] logs in full before it counts the rest.
 pub const WARN_LIMIT: usize = 5;

@@ -145,13 +145,7 @@ pub struct PoseTopics {
     pub metadata: Vec<(String, BTreeMap<String, String>)>,
 }
 
-impl PoseTopics {
-    /// Whether any input was lost.
-    #[must_use]
-    pub fn lost_data(&self) -> bool {
-        !self.skipped.is_empty() || !self.issues.is_empty()
-    }
-}
+impl PoseTopics {}
 
 /// Reads the pose topics of a bag. `topic` selects one (else every channel of a pose type);
 /// `layout` names the joints of markers and pose arrays (and must match the joint names of
@@ -632,4 +626,11 @@ fn markers_to_people<'a>(
         });
     }
     Ok(people)
+}
+
+impl crate::loss::LostInput for PoseTopics {
+    /// Whether any input was lost.
+    fn lost_input(&self) -> bool {
+        !self.skipped.is_empty() || !self.issues.is_empty()
+    }
 }

@@ -233,5 +233,5 @@ pub fn run(args: Args) -> Result<Outcome> {
     };
     print_stdout(&text)?;
     losses.log_closing(&input);
-    Ok(Outcome::from_losses(&losses))
+    Ok(Outcome::from_run(&losses))
 }

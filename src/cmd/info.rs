@@ -25,9 +25,5 @@ pub fn run(args: Args) -> Result<Outcome> {
     let Args { input, format } = args;
     let report = inspect::inspect(&input)?;
     print_stdout(&format.pick(|| report.table(), || report.json()))?;
-    Ok(if report.lost_data() {
-        Outcome::DataLost
-    } else {
-        Outcome::Success
-    })
+    Ok(Outcome::from_run(&report))
 }

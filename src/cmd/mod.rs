@@ -18,7 +18,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use crate::bags::output::OutputOptions;
-use crate::loss::Losses;
+use crate::loss::LostInput;
 use crate::mcap_io::Compression;
 
 /// Exit code for a failure that produced no usable result.
@@ -40,11 +40,11 @@ pub enum Outcome {
 impl Outcome {
     /// The one rule for lost input: done, and exit code 3 when any input was lost.
     #[must_use]
-    pub fn from_losses(losses: &Losses) -> Outcome {
-        if losses.is_empty() {
-            Outcome::Success
-        } else {
+    pub fn from_run(run: &impl LostInput) -> Outcome {
+        if run.lost_input() {
             Outcome::DataLost
+        } else {
+            Outcome::Success
         }
     }
 

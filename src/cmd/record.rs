@@ -117,9 +117,5 @@ pub fn run(args: Args) -> Result<Outcome> {
     };
     let summary = record(&options, crate::interrupt::Interrupt::install()?.flag())?;
     print_stdout(&summary.report())?;
-    Ok(if summary.data_lost() {
-        Outcome::DataLost
-    } else {
-        Outcome::Success
-    })
+    Ok(Outcome::from_run(&summary))
 }

@@ -48,9 +48,5 @@ pub fn run(args: Args) -> Result<Outcome> {
     for warning in recovery.warnings() {
         tracing::warn!("{warning}");
     }
-    Ok(if recovery.data_lost() {
-        Outcome::DataLost
-    } else {
-        Outcome::Success
-    })
+    Ok(Outcome::from_run(&recovery))
 }

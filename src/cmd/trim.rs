@@ -118,9 +118,5 @@ pub fn run(args: Args) -> Result<Outcome> {
     let report = trim_job(&job, crate::interrupt::Interrupt::install()?.flag())?;
     super::warn_list("truncated segments", &report.summary.truncated, 20);
     super::print_stdout(&report.report()).context("writing to stdout")?;
-    Ok(if report.data_lost() {
-        Outcome::DataLost
-    } else {
-        Outcome::Success
-    })
+    Ok(Outcome::from_run(&report))
 }

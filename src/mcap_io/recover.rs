@@ -98,12 +98,6 @@ pub fn recover(
 }
 
 impl Recovery {
-    /// Whether anything was lost: exit code 3.
-    #[must_use]
-    pub fn data_lost(&self) -> bool {
-        !(self.issues.is_empty() && self.complete && self.without_schema == 0)
-    }
-
     /// What was kept: the total, then messages per topic.
     #[must_use]
     pub fn report(&self) -> String {
@@ -136,5 +130,12 @@ impl Recovery {
             ));
         }
         out
+    }
+}
+
+impl crate::loss::LostInput for Recovery {
+    /// Whether anything was lost: exit code 3.
+    fn lost_input(&self) -> bool {
+        !(self.issues.is_empty() && self.complete && self.without_schema == 0)
     }
 }

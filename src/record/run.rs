@@ -151,16 +151,6 @@ pub struct RecordSummary {
 }
 
 impl RecordSummary {
-    /// Whether anything was lost (dropped or rejected samples): exit code 3.
-    #[must_use]
-    pub fn data_lost(&self) -> bool {
-        self.rejected > 0
-            || self
-                .topics
-                .values()
-                .any(|t| t.dropped > 0 || t.rejected > 0)
-    }
-
     /// The summary printed at the end: totals, then one line per topic.
     #[must_use]
     pub fn report(&self) -> String {
@@ -410,9 +400,21 @@ impl Session {
     }
 }
 
+impl crate::loss::LostInput for RecordSummary {
+    /// Whether anything was lost (dropped or rejected samples): exit code 3.
+    fn lost_input(&self) -> bool {
+        self.rejected > 0
+            || self
+                .topics
+                .values()
+                .any(|t| t.dropped > 0 || t.rejected > 0)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::loss::LostInput;
 
     #[test]
     fn the_filter_takes_named_topics_all_or_matches_and_never_excluded_ones() {
@@ -441,12 +443,12 @@ mod tests {
             topics: BTreeMap::from([("/skeleton".to_owned(), stats)]),
             rejected: 0,
         };
-        assert!(!summary.data_lost());
+        assert!(!summary.lost_input());
         assert_eq!(
             summary.report(),
             "recorded 3 messages from 1 topics in 1.5 s into a.mcap, a_1.mcap\n  /skeleton (autoact_msgs/msg/Skeleton): 3 messages, 300 bytes, 0 dropped, 0 rejected\n"
         );
         summary.rejected = 1;
-        assert!(summary.data_lost());
+        assert!(summary.lost_input());
     }
 }

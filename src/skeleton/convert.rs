@@ -161,13 +161,7 @@ pub struct ConversionReport {
     pub coverage: Coverage,
 }
 
-impl ConversionReport {
-    /// Whether any input was lost (frames dropped).
-    #[must_use]
-    pub fn lost_data(&self) -> bool {
-        !self.dropped_non_monotonic.is_empty()
-    }
-}
+impl ConversionReport {}
 
 /// One animation frame.
 #[derive(Debug, Clone, PartialEq)]
@@ -797,7 +791,7 @@ pub fn fit_character(
 /// solves each frame on demand, so a caller can stream the result out without holding it.
 ///
 /// Frames whose stamp is not after the previous kept frame are dropped and listed in the report
-/// (`lost_data()` is then true). Joints absent from every frame are treated as not in the layout,
+/// (`lost_input()` is then true). Joints absent from every frame are treated as not in the layout,
 /// so the bones they would drive are reported at rest.
 #[derive(Debug)]
 pub struct SequenceConverter<'a> {
@@ -973,6 +967,13 @@ pub fn convert_sequence(
         frames: out_frames,
         report,
     })
+}
+
+impl crate::loss::LostInput for ConversionReport {
+    /// Whether any input was lost (frames dropped).
+    fn lost_input(&self) -> bool {
+        !self.dropped_non_monotonic.is_empty()
+    }
 }
 
 #[cfg(test)]

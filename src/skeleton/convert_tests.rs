@@ -1,6 +1,7 @@
 //! Tests of the conversion laws: the rig is posed at random, read back through FK as landmark
 //! positions, converted, and posed again.
 
+use crate::loss::LostInput;
 use nalgebra::{Point3, Translation3, UnitQuaternion, Vector3};
 use proptest::prelude::*;
 
@@ -337,7 +338,7 @@ fn sequences_drop_and_report_non_monotonic_stamps() {
     let anim = convert_sequence(&rig, &layout, &seq, ConvertOptions::default()).unwrap();
     assert_eq!(anim.frames.len(), 3);
     assert_eq!(anim.report.dropped_non_monotonic, vec![(2, 10), (3, 5)]);
-    assert!(anim.report.lost_data());
+    assert!(anim.report.lost_input());
 }
 
 #[test]

@@ -219,12 +219,6 @@ fn place_video(job: &TrimJob, capture: &Capture) -> Result<(i128, Rational), Tri
 }
 
 impl TrimReport {
-    /// Whether segments were left out (the video does not cover them): exit code 3.
-    #[must_use]
-    pub fn data_lost(&self) -> bool {
-        !self.summary.truncated.is_empty()
-    }
-
     /// The summary printed at the end: clips and speed, segments left out, clips per split.
     #[must_use]
     pub fn report(&self) -> String {
@@ -313,6 +307,13 @@ pub fn parse_hold_out(s: &str) -> Result<(Key, String), SplitArgError> {
         ))
     })?;
     Ok((key, v.to_owned()))
+}
+
+impl crate::loss::LostInput for TrimReport {
+    /// Whether segments were left out (the video does not cover them): exit code 3.
+    fn lost_input(&self) -> bool {
+        !self.summary.truncated.is_empty()
+    }
 }
 
 #[cfg(test)]
