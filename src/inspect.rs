@@ -42,7 +42,7 @@ pub struct Report {
 ///
 /// # Errors
 /// A file that cannot be opened or is not MCAP. Damage past the header is not an error: it is
-/// reported (see [`crate::loss::LostInput::lost_input`]).
+/// reported (see [`crate::outcome::LostInput::lost_input`]).
 pub fn inspect(path: &Path) -> Result<Report, McapIoError> {
     let readers = BagReader::open_all(path)?;
     let (profile, library) = readers
@@ -516,7 +516,7 @@ impl Hierarchy {
     }
 }
 
-impl crate::loss::LostInput for Report {
+impl crate::outcome::LostInput for Report {
     /// Whether parts of the file could not be read (damaged or cut-off chunks or records).
     fn lost_input(&self) -> bool {
         !self.unreadable.is_empty()
@@ -526,7 +526,7 @@ impl crate::loss::LostInput for Report {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::loss::LostInput;
+    use crate::outcome::LostInput;
 
     fn sample(name: &str) -> PathBuf {
         Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -25,6 +25,7 @@ pub mod inspect;
 pub mod interrupt;
 pub mod loss;
 pub mod mcap_io;
+pub mod outcome;
 pub mod pipeline;
 pub mod progress;
 pub mod record;

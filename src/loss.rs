@@ -1,29 +1,11 @@
-//! Lost input, and the one rule for it: input lost anywhere ⇒ a warning naming the file and the
-//! place, and exit code 3.
-//!
-//! Every command's result answers one question, [`LostInput::lost_input`], and
-//! `cmd::Outcome::from_run` turns the answer into the exit code, so no command decides on its
-//! own. The conversion paths (`convert` and `convert --spec`) collect what they lose as
-//! [`Losses`] and log it with [`Losses::warn`]; `trim`, `record`, `recover` and `info` answer
-//! from their own counts (segments a video does not cover, dropped or rejected samples,
-//! unreadable chunks).
+//! Lost input of a conversion: what of `convert`'s and `convert --spec`'s input could not be
+//! used, each naming its file and the place. Collected as [`Losses`], logged with
+//! [`Losses::warn`]; the exit code follows the one rule of [`crate::outcome`].
 
 use std::path::Path;
 
 use crate::bags::pose::{PoseTopics, SkippedMessage};
 use crate::mcap_io::ReadIssue;
-
-/// A finished run's account of its input.
-pub trait LostInput {
-    /// Whether any input was lost: unreadable, skipped, dropped, or left out.
-    fn lost_input(&self) -> bool;
-}
-
-impl LostInput for Losses {
-    fn lost_input(&self) -> bool {
-        !self.is_empty()
-    }
-}
 
 /// How many losses of each kind [`Losses::warn`] logs in full before it counts the rest.
 pub const WARN_LIMIT: usize = 5;
@@ -237,6 +219,12 @@ impl<'a> IntoIterator for &'a Losses {
 
     fn into_iter(self) -> Self::IntoIter {
         self.0.iter()
+    }
+}
+
+impl crate::outcome::LostInput for Losses {
+    fn lost_input(&self) -> bool {
+        !self.is_empty()
     }
 }
 

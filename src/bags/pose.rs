@@ -628,7 +628,7 @@ fn markers_to_people<'a>(
     Ok(people)
 }
 
-impl crate::loss::LostInput for PoseTopics {
+impl crate::outcome::LostInput for PoseTopics {
     /// Whether any input was lost.
     fn lost_input(&self) -> bool {
         !self.skipped.is_empty() || !self.issues.is_empty()

@@ -15,48 +15,11 @@ pub mod rig;
 pub mod trim;
 
 use std::path::PathBuf;
-use std::process::ExitCode;
 
 use crate::bags::output::OutputOptions;
-use crate::loss::LostInput;
 use crate::mcap_io::Compression;
 
-/// Exit code for a failure that produced no usable result.
-pub const EXIT_FAILURE: u8 = 1;
-/// Exit code clap uses for a usage error.
-pub const EXIT_USAGE: u8 = 2;
-/// Exit code for a run that finished but lost input data (skipped frames or records).
-pub const EXIT_DATA_LOST: u8 = 3;
-
-/// How a command ended, when it did not fail.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Outcome {
-    /// Everything done.
-    Success,
-    /// Done, but some input was lost (exit code 3).
-    DataLost,
-}
-
-impl Outcome {
-    /// The one rule for lost input: done, and exit code 3 when any input was lost.
-    #[must_use]
-    pub fn from_run(run: &impl LostInput) -> Outcome {
-        if run.lost_input() {
-            Outcome::DataLost
-        } else {
-            Outcome::Success
-        }
-    }
-
-    /// The process exit code for this outcome.
-    #[must_use]
-    pub fn exit_code(self) -> ExitCode {
-        match self {
-            Outcome::Success => ExitCode::SUCCESS,
-            Outcome::DataLost => ExitCode::from(EXIT_DATA_LOST),
-        }
-    }
-}
+pub use crate::outcome::{EXIT_DATA_LOST, EXIT_FAILURE, EXIT_USAGE, Outcome};
 
 /// Output format of listing commands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]

@@ -133,7 +133,7 @@ impl Recovery {
     }
 }
 
-impl crate::loss::LostInput for Recovery {
+impl crate::outcome::LostInput for Recovery {
     /// Whether anything was lost: exit code 3.
     fn lost_input(&self) -> bool {
         !(self.issues.is_empty() && self.complete && self.without_schema == 0)

@@ -400,7 +400,7 @@ impl Session {
     }
 }
 
-impl crate::loss::LostInput for RecordSummary {
+impl crate::outcome::LostInput for RecordSummary {
     /// Whether anything was lost (dropped or rejected samples): exit code 3.
     fn lost_input(&self) -> bool {
         self.rejected > 0
@@ -414,7 +414,7 @@ impl crate::loss::LostInput for RecordSummary {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::loss::LostInput;
+    use crate::outcome::LostInput;
 
     #[test]
     fn the_filter_takes_named_topics_all_or_matches_and_never_excluded_ones() {

@@ -969,7 +969,7 @@ pub fn convert_sequence(
     })
 }
 
-impl crate::loss::LostInput for ConversionReport {
+impl crate::outcome::LostInput for ConversionReport {
     /// Whether any input was lost (frames dropped).
     fn lost_input(&self) -> bool {
         !self.dropped_non_monotonic.is_empty()

@@ -1,7 +1,7 @@
 //! Tests of the conversion laws: the rig is posed at random, read back through FK as landmark
 //! positions, converted, and posed again.
 
-use crate::loss::LostInput;
+use crate::outcome::LostInput;
 use nalgebra::{Point3, Translation3, UnitQuaternion, Vector3};
 use proptest::prelude::*;
 

@@ -309,7 +309,7 @@ pub fn parse_hold_out(s: &str) -> Result<(Key, String), SplitArgError> {
     Ok((key, v.to_owned()))
 }
 
-impl crate::loss::LostInput for TrimReport {
+impl crate::outcome::LostInput for TrimReport {
     /// Whether segments were left out (the video does not cover them): exit code 3.
     fn lost_input(&self) -> bool {
         !self.summary.truncated.is_empty()

@@ -13,7 +13,7 @@
 use std::path::{Path, PathBuf};
 
 use autoact::formats::{bvh, bvh_map::BvhMapping, h36m_expmap, ntu, zed_mat};
-use autoact::loss::LostInput;
+use autoact::outcome::LostInput;
 use autoact::skeleton::convert::ConvertOptions;
 use autoact::skeleton::eval::{self, RoundTrip};
 use autoact::skeleton::layout::Layout;
