@@ -120,14 +120,15 @@ pub enum Command {
     /// and `export` measure it; a range where they differ): three people at 30 fps on
     /// `/skeleton` show 90 messages per second and 30 fps.
     Info(crate::cmd::info::Args),
-    /// Write the animations of an animation bag as BVH or GTA V `.onim` files, at the bag's frame
-    /// rate.
+    /// Write the animations of an animation or capture bag as BVH, GTA V `.onim` or glTF/GLB
+    /// files, at the bag's frame rate.
     ///
     /// An animation is one person (track id) and one variant of the bag's `/animation` frames;
     /// `--list` shows them, `--animation` and `--variant` pick, and by default all are written,
     /// one file each. BVH carries the rig's hierarchy and the body's offsets with ZXY Euler
     /// rotations, for Blender and other animation tools; `.onim` is GTA V's text animation, with
-    /// the rig's bones mapped onto the ped skeleton's frames (`--onim-template`).
+    /// the rig's bones mapped onto the ped skeleton's frames (`--onim-template`); glTF/GLB holds
+    /// the skinned body, the rig and the animation, and for a capture bag the animated camera.
     Export(crate::cmd::export::Args),
 }
 
