@@ -3,7 +3,7 @@
 //! that motion capture can stand in for a pose estimator's output with known ground truth.
 //!
 //! A mapping is a data table per BVH skeleton family (TOML; the built-in ones are in
-//! `src/layouts/bvh/`):
+//! `src/skeleton/layouts/bvh/`):
 //!
 //! ```toml
 //! skeleton = "bandai-namco"

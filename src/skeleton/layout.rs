@@ -1,6 +1,6 @@
 //! Keypoint layouts: which joints a pose estimator outputs, and how they map onto the rig's
 //! landmarks. A layout is a data table (TOML), never a code path: the built-in ones are TOML files
-//! compiled into the binary (`src/layouts/*.toml`), and a user layout file has the same form, so a
+//! compiled into the binary (`src/skeleton/layouts/*.toml`), and a user layout file has the same form, so a
 //! new pose estimator needs no code.
 //!
 //! ```toml

@@ -16,7 +16,7 @@ use super::tools::spawn_error;
 use super::{Ffmpeg, InvalidSetting, Rational, VideoError};
 
 /// The default libx264 preset. Measured on a synthetic moving render (2 shared cores, ffmpeg
-/// 5.1, CRF 23; `encode_speed_report` in `tests/video.rs`), ffmpeg CPU per frame and bytes per
+/// 5.1, CRF 23; `encode_speed_report` in `tests/it/video.rs`), ffmpeg CPU per frame and bytes per
 /// frame:
 ///
 /// | preset    | 320×240         | 640×360         |

@@ -20,7 +20,7 @@ Load and fault options (tools/dds/load.sh, tools/dds/check_record.sh):
                        (one participant cannot hold two layouts under one type name).
   --skeleton-topic T   the skeleton topic (default /skeleton)
   --wholebody          133-joint skeletons (layout coco-wholebody-133, names from
-                       src/layouts/coco-wholebody-133.toml). They are serialized once, 64 pose
+                       src/skeleton/layouts/coco-wholebody-133.toml). They are serialized once, 64 pose
                        variants, and each frame k is variant k % 64 with its stamp and track_id
                        patched in: a Python process cannot serialize 133 joints faster than
                        ~500/s, and the point is to load the recorder, not the publisher.
@@ -242,7 +242,7 @@ def malformed(k: int) -> MalformedSkeleton3D_:
     return MalformedSkeleton3D_(header=Header_(stamp=stamp(k), frame_id="world"), layout="h36m-17")
 
 
-WHOLEBODY = tomllib.loads((Path(__file__).resolve().parents[2] / "src" / "layouts" /
+WHOLEBODY = tomllib.loads((Path(__file__).resolve().parents[2] / "src" / "skeleton" / "layouts" /
                            "coco-wholebody-133.toml").read_text())["joints"]
 VARIANTS = 64
 
