@@ -8,6 +8,56 @@ use std::ffi::OsString;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+/// An output that is its input: writing it would destroy the data being read.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "the output `{}` is the input `{}` (the same file): writing it would destroy the input; choose another output",
+    output.display(),
+    input.display()
+)]
+pub struct OutputIsInput {
+    /// The input, as given.
+    pub input: PathBuf,
+    /// The output, as given.
+    pub output: PathBuf,
+}
+
+/// Refuses an `output` that is the `input` file or folder itself — by identity (device and
+/// inode), so `./a.mcap`, `dir/../a.mcap` and a symbolic link to it are caught, not only the
+/// same spelling. An output that does not exist yet is never the input.
+///
+/// # Errors
+/// [`OutputIsInput`] naming both.
+pub fn refuse_input_as_output(input: &Path, output: &Path) -> Result<(), OutputIsInput> {
+    if same_file(input, output) {
+        return Err(OutputIsInput {
+            input: input.to_path_buf(),
+            output: output.to_path_buf(),
+        });
+    }
+    Ok(())
+}
+
+/// Whether both paths exist and name the same file or folder (on Unix by device and inode,
+/// elsewhere by their canonical paths).
+fn same_file(a: &Path, b: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        match (std::fs::metadata(a), std::fs::metadata(b)) {
+            (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
+            _ => false,
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+            (Ok(a), Ok(b)) => a == b,
+            _ => false,
+        }
+    }
+}
+
 /// The temporary sibling `dir/.<name>.part` of `dir/<name>`; `None` when `path` has no file name.
 #[must_use]
 pub fn temporary_sibling(path: &Path) -> Option<PathBuf> {

@@ -88,6 +88,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         axes: axes.into(),
         metres_per_unit,
     };
+    crate::atomic_file::refuse_input_as_output(&input, &output.output)?;
     let imported = import::import(&input, &options)?;
     let metadata = imported.metadata(&input, category, action);
     let Imported {

@@ -37,11 +37,9 @@ pub fn run(args: Args) -> Result<Outcome> {
         force,
         compression,
     } = args;
+    crate::atomic_file::refuse_input_as_output(&input, &output)?;
     if output.exists() && !force {
         bail!("{} exists: give --force to replace it", output.display());
-    }
-    if output == input {
-        bail!("the output must not be the input ({})", input.display());
     }
     let recovery = recover(&input, &output, compression)?;
     print_stdout(&recovery.report())?;

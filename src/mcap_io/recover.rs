@@ -27,6 +27,9 @@ pub struct Recovery {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum RecoverError {
+    /// The output is the input.
+    #[error(transparent)]
+    OutputIsInput(#[from] crate::atomic_file::OutputIsInput),
     /// The input cannot be opened, or writing the output failed.
     #[error(transparent)]
     Bag(#[from] McapIoError),
@@ -50,6 +53,7 @@ pub fn recover(
     output: &Path,
     compression: Compression,
 ) -> Result<Recovery, RecoverError> {
+    crate::atomic_file::refuse_input_as_output(input, output)?;
     let reader = BagReader::open(input)?;
     let complete = reader.time_range().is_some();
     let config = WriteConfig {

@@ -216,6 +216,7 @@ pub(super) struct Person<'a> {
 /// be converted, DSI failing, or an output that cannot be written. A failing DSI leaves no file.
 pub fn convert_bag(rig: &Rig, job: &ConvertJob) -> Result<ConvertSummary, PipelineError> {
     job.check()?;
+    crate::atomic_file::refuse_input_as_output(&job.input, &job.output.path)?;
     let given_layout = job.layout.as_deref().map(Layout::load).transpose()?;
     let topics =
         bags::pose::read_pose_topics(&job.input, job.topic.as_deref(), given_layout.as_ref())?;

@@ -25,6 +25,9 @@ use crate::skeleton::layout::LayoutError;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum PipelineError {
+    /// The output is the input.
+    #[error(transparent)]
+    OutputIsInput(#[from] crate::atomic_file::OutputIsInput),
     /// An option out of its range, named as on the command line.
     #[error("{option} must be {expected}, not {value}")]
     OutOfRange {

@@ -3,7 +3,7 @@
 
 #![expect(clippy::unwrap_used, reason = "test helpers fail loudly")]
 
-use crate::common::{self, arg, autoact, stderr};
+use crate::common::{self, arg, autoact, repo, stderr};
 use std::path::{Path, PathBuf};
 
 use autoact::mcap_io::{BagReader, BagWriter, Compression, WriteConfig};
@@ -845,4 +845,43 @@ fn convert_spec_and_convert_agree_that_a_damaged_source_lost_data() {
 
 fn stdout_text(o: &std::process::Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// `convert`, `import` and `recover` refuse to write over their own input, however the output is
+/// spelled (the same path, `./`, `dir/..`, a symbolic link), and leave the input untouched.
+#[test]
+fn an_output_that_is_the_input_is_refused_and_the_input_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let bag = dir.path().join("walk.pose.mcap");
+    std::fs::copy(repo("bags/bandai_walk.pose.mcap"), &bag).unwrap();
+    let before = std::fs::read(&bag).unwrap();
+    let link = dir.path().join("link.mcap");
+    std::os::unix::fs::symlink(&bag, &link).unwrap();
+    let dotted = dir.path().join(".").join("walk.pose.mcap");
+    let via_parent = dir.path().join("sub").join("..").join("walk.pose.mcap");
+    std::fs::create_dir(dir.path().join("sub")).unwrap();
+    for output in [&bag, &dotted, &via_parent, &link] {
+        for command in [
+            vec!["convert", arg(&bag), "-o", arg(output)],
+            vec!["recover", arg(&bag), "-o", arg(output), "--force"],
+            vec!["import", arg(&bag), "-o", arg(output), "--format", "bvh"],
+        ] {
+            let o = autoact(&command);
+            let err = stderr(&o);
+            assert_eq!(o.status.code(), Some(1), "{command:?}: {err}");
+            assert!(
+                err.contains("is the input") && err.contains("walk.pose.mcap"),
+                "{command:?}: {err}"
+            );
+            assert_eq!(
+                std::fs::read(&bag).unwrap(),
+                before,
+                "{command:?} touched the input"
+            );
+        }
+    }
+    // A different output is still written.
+    let out = dir.path().join("walk.anim.mcap");
+    let o = autoact(&["convert", arg(&bag), "-o", arg(&out)]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }
