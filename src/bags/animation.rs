@@ -38,6 +38,8 @@ use crate::skeleton::frames::WORLD_FRAME;
 use crate::skeleton::layout::Coverage;
 use crate::skeleton::rig::{Dof, ROOT, Rig};
 
+/// Name of the metadata record that says how the bag was made (the conversion's parameters).
+pub const METADATA_NAME: &str = "autoact.convert";
 /// Topic of the bone frames.
 pub const ANIMATION_TOPIC: &str = "/animation";
 /// Topic of the per-frame transforms.

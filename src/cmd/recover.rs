@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Result, bail};
+use anyhow::Result;
 
 use super::{Outcome, print_stdout};
 use crate::mcap_io::Compression;
@@ -37,11 +37,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         force,
         compression,
     } = args;
-    crate::atomic_file::refuse_input_as_output(&input, &output)?;
-    if output.exists() && !force {
-        bail!("{} exists: give --force to replace it", output.display());
-    }
-    let recovery = recover(&input, &output, compression)?;
+    let recovery = recover(&input, &output, compression, force)?;
     print_stdout(&recovery.report())?;
     for warning in recovery.warnings() {
         tracing::warn!("{warning}");

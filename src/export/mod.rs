@@ -209,12 +209,12 @@ pub fn select(
 /// metadata record (what `autoact convert` resampled to), if any.
 #[must_use]
 pub fn stated_frame_rate(readers: &[BagReader]) -> Option<f64> {
-    let prefix = crate::bags::pose::METADATA_NAME;
     readers
         .iter()
         .flat_map(BagReader::metadata)
         .filter(|(name, _)| {
-            *name == format!("{prefix}.convert") || *name == format!("{prefix}.dataset")
+            name == crate::bags::animation::METADATA_NAME
+                || name == crate::bags::capture::METADATA_NAME
         })
         .find_map(|(_, record)| record.get("fps").and_then(|v| v.parse::<f64>().ok()))
         .filter(|f| f.is_finite() && *f > 0.0)

@@ -27,6 +27,9 @@ pub struct Recovery {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum RecoverError {
+    /// The output exists and replacing it was not asked for.
+    #[error("{} exists: give --force to replace it", .0.display())]
+    OutputExists(PathBuf),
     /// The output is the input.
     #[error(transparent)]
     OutputIsInput(#[from] crate::atomic_file::OutputIsInput),
@@ -44,16 +47,22 @@ pub enum RecoverError {
     },
 }
 
-/// Rewrites every readable message and metadata record of `input` into a new bag at `output`.
+/// Rewrites every readable message and metadata record of `input` into a new bag at `output`,
+/// which must not be the input and is replaced only with `force`.
 ///
 /// # Errors
-/// [`RecoverError`]: an input that cannot be opened at all, an output that cannot be written.
+/// [`RecoverError`]: an output that is the input or exists (without `force`), an input that
+/// cannot be opened at all, an output that cannot be written.
 pub fn recover(
     input: &Path,
     output: &Path,
     compression: Compression,
+    force: bool,
 ) -> Result<Recovery, RecoverError> {
     crate::atomic_file::refuse_input_as_output(input, output)?;
+    if output.exists() && !force {
+        return Err(RecoverError::OutputExists(output.to_path_buf()));
+    }
     let reader = BagReader::open(input)?;
     let complete = reader.time_range().is_some();
     let config = WriteConfig {

@@ -13,7 +13,7 @@ use super::whole_clip;
 use crate::bags;
 use crate::bags::animation::{TF_STATIC_TOPIC, TrackWriter, frame_prefix};
 use crate::bags::output::{BagOutput, OutputOptions};
-use crate::bags::pose::{METADATA_NAME, PoseTopics};
+use crate::bags::pose::PoseTopics;
 use crate::dsi::{DsiOptions, Pace};
 use crate::file_name;
 use crate::loss::{Losses, WARN_LIMIT};
@@ -365,7 +365,7 @@ fn write_header<'w>(
         out.writer.write_metadata(name, record.clone())?;
     }
     out.writer
-        .write_metadata(&format!("{METADATA_NAME}.convert"), meta)?;
+        .write_metadata(bags::animation::METADATA_NAME, meta)?;
     let statics = writers.flat_map(|w| w.static_transforms(first)).collect();
     out.writer.write(
         TF_STATIC_TOPIC,
