@@ -68,6 +68,79 @@ pub fn temporary_sibling(path: &Path) -> Option<PathBuf> {
     Some(path.with_file_name(part))
 }
 
+/// A temporary sibling being filled by a writer (a bag writer, an encoder): removed when dropped
+/// unless [`Part::commit`] put it in place, so a run that fails or is interrupted by an error
+/// leaves neither a truncated file under the final name nor a stray `.part`.
+#[derive(Debug)]
+pub struct Part {
+    /// The temporary sibling being written.
+    temporary: PathBuf,
+    /// Where it goes when complete.
+    target: PathBuf,
+    committed: bool,
+}
+
+impl Part {
+    /// The part for `path` (see [`temporary_sibling`]); a stale part from an earlier run is
+    /// removed. `None` when `path` has no file name.
+    #[must_use]
+    pub fn new(path: &Path) -> Option<Part> {
+        let temporary = temporary_sibling(path)?;
+        remove_any(&temporary);
+        Some(Part {
+            temporary,
+            target: path.to_path_buf(),
+            committed: false,
+        })
+    }
+
+    /// Where the writer writes.
+    #[must_use]
+    pub fn temporary(&self) -> &Path {
+        &self.temporary
+    }
+
+    /// Syncs the part (a file, or a folder and every file in it) and renames it over the final
+    /// path, replacing what is there.
+    ///
+    /// # Errors
+    /// The I/O error of the sync or the rename; the part is then removed.
+    pub fn commit(mut self) -> std::io::Result<()> {
+        if self.temporary.is_dir() {
+            sync_folder(&self.temporary)?;
+            commit_folder(&self.temporary, &self.target)?;
+        } else {
+            commit(&self.temporary, &self.target)?;
+        }
+        self.committed = true;
+        Ok(())
+    }
+}
+
+impl Drop for Part {
+    fn drop(&mut self) {
+        if !self.committed {
+            remove_any(&self.temporary);
+        }
+    }
+}
+
+/// Removes a file or a folder if it is there (best effort: it is only ever a `.part`).
+fn remove_any(path: &Path) {
+    if path.is_dir() {
+        let _ = std::fs::remove_dir_all(path);
+    } else {
+        let _ = std::fs::remove_file(path);
+    }
+}
+
+/// Whether `path` exists and is neither a regular file nor a folder (`/dev/null`, a FIFO, a
+/// terminal): such an output is written in place, never renamed over.
+#[must_use]
+pub fn is_special(path: &Path) -> bool {
+    std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir())
+}
+
 /// Puts a complete temporary sibling that something else wrote (ffmpeg, an encoder, a bag
 /// writer) in place: synced to disk, then renamed over `path`. Callers remove `part` if this
 /// fails.
@@ -106,11 +179,15 @@ pub fn commit_folder(part: &Path, path: &Path) -> std::io::Result<()> {
     std::fs::rename(part, path)
 }
 
-/// Writes `bytes` to `path` through its [`temporary_sibling`], synced, then renamed over `path`.
+/// Writes `bytes` to `path` through its [`temporary_sibling`], synced, then renamed over `path`
+/// (a device or a pipe, see [`is_special`], is written in place).
 ///
 /// # Errors
 /// The I/O error (the temporary file is removed and `path` left as it was); callers name `path`.
 pub fn write(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    if is_special(path) {
+        return write_in_place(path, bytes);
+    }
     write_through_sibling(path, bytes, |part| std::fs::rename(part, path))
 }
 
@@ -125,6 +202,13 @@ pub fn write_new(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
         std::fs::hard_link(part, path)?;
         std::fs::remove_file(part)
     })
+}
+
+/// Writes into a device or a pipe (`/dev/null`, `/dev/stdout`), which is never renamed over.
+fn write_in_place(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let mut file = std::fs::OpenOptions::new().write(true).open(path)?;
+    file.write_all(bytes)?;
+    file.flush()
 }
 
 fn write_through_sibling(

@@ -231,12 +231,21 @@ impl BagWriter<FileSink> {
     /// # Errors
     /// [`McapIoError`] naming the file.
     pub fn create(path: &Path, config: WriteConfig) -> Result<Self, McapIoError> {
+        BagWriter::create_as(path, path, config)
+    }
+
+    /// Creates (or truncates) `path`, a temporary file, naming `name` (the output it becomes)
+    /// in every error.
+    ///
+    /// # Errors
+    /// [`McapIoError`] naming `name`.
+    pub fn create_as(path: &Path, name: &Path, config: WriteConfig) -> Result<Self, McapIoError> {
         let file = File::create(path).map_err(|source| McapIoError::Io {
             action: "cannot create",
-            path: path.to_path_buf(),
+            path: name.to_path_buf(),
             source,
         })?;
-        BagWriter::new(FileSink::new(file), path, config)
+        BagWriter::new(FileSink::new(file), name, config)
     }
 }
 

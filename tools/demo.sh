@@ -9,7 +9,7 @@ cd "$(dirname "$0")/.."
 out="${1:-out}"
 cargo build --release --quiet
 autoact=target/release/autoact
-"$autoact" convert --spec examples/dataset.toml -o "$out/captures"
+"$autoact" convert --spec examples/dataset.toml -o "$out/captures" --force
 for bag in "$out"/captures/*.capture.mcap; do
     name=$(basename "$bag" .capture.mcap)
     "$autoact" render "$bag" -o "$out/videos/$name.mp4" --resolution 320x240 \

@@ -25,6 +25,7 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
 
+use crate::atomic_file::Part;
 use crate::bags;
 use crate::bags::animation::{BonePoseError, TF_STATIC_TOPIC, TF_TOPIC, TrackWriter};
 use crate::camera::Intrinsics;
@@ -68,6 +69,8 @@ pub fn session_path(dir: &Path, session: &str) -> PathBuf {
 pub struct CaptureWriter {
     bag: BagWriter<FileSink>,
     camera: CameraTrack,
+    /// The bag is written under its temporary sibling and renamed into place when finished.
+    part: Part,
 }
 
 impl CaptureWriter {
@@ -84,7 +87,12 @@ impl CaptureWriter {
         metadata: BTreeMap<String, String>,
         intrinsics: &Intrinsics,
     ) -> Result<CaptureWriter, McapIoError> {
-        let mut bag = BagWriter::create(path, config)?;
+        let part = Part::new(path).ok_or_else(|| McapIoError::Io {
+            action: "cannot create",
+            path: path.to_path_buf(),
+            source: std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file name"),
+        })?;
+        let mut bag = BagWriter::create_as(part.temporary(), path, config)?;
         if journal {
             bag.keep_journal();
         }
@@ -92,6 +100,7 @@ impl CaptureWriter {
         Ok(CaptureWriter {
             bag,
             camera: CameraTrack::new(intrinsics),
+            part,
         })
     }
 
@@ -149,7 +158,11 @@ impl CaptureWriter {
         } else {
             self.bag.finish()?;
         }
-        Ok(())
+        self.part.commit().map_err(|source| McapIoError::Io {
+            action: "cannot sync and rename into place",
+            path: path.to_path_buf(),
+            source,
+        })
     }
 }
 

@@ -1,7 +1,10 @@
 //! Where and how a command writes its bag: a bare `.mcap`, or a rosbag2 directory
 //! (`metadata.yaml` + one `.mcap`), and optionally the interop journal beside it.
 
-use std::path::PathBuf;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use crate::atomic_file::Part;
 
 use crate::mcap_io::{BagStats, BagWriter, Compression, FileSink, McapIoError, WriteConfig};
 
@@ -17,15 +20,64 @@ pub struct OutputOptions {
     /// Also write the journal: every message as autoact meant it, as `<output>.expected.json`
     /// (for the interoperability checks in `tools/interop`).
     pub journal: bool,
+    /// Replace an output that exists (else it is refused before anything is read).
+    pub force: bool,
+}
+
+impl OutputOptions {
+    /// Refuses an output that exists, unless `force` (a device or a pipe such as `/dev/null` is
+    /// always fine), and a rosbag2 directory onto a device. Commands call it before reading
+    /// anything, so a refused run costs nothing; [`BagOutput::create`] calls it again.
+    ///
+    /// # Errors
+    /// [`BagOutputError::Exists`] or [`BagOutputError::SpecialRosbag2`].
+    pub fn refuse_existing(&self) -> Result<(), BagOutputError> {
+        let path = &self.path;
+        if crate::atomic_file::is_special(path) {
+            if self.rosbag2 {
+                return Err(BagOutputError::SpecialRosbag2 { path: path.clone() });
+            }
+        } else if !self.force && std::fs::symlink_metadata(path).is_ok() {
+            return Err(BagOutputError::Exists { path: path.clone() });
+        }
+        Ok(())
+    }
 }
 
 /// Why an output bag could not be written.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum BagOutputError {
+    /// The output exists and `force` was not given.
+    #[error("{} exists; pass --force to replace it", path.display())]
+    Exists {
+        /// The output.
+        path: PathBuf,
+    },
+    /// The output has no file name (`..`, `/`).
+    #[error("{} cannot be an output: it names no file", path.display())]
+    NoFileName {
+        /// The output.
+        path: PathBuf,
+    },
+    /// A rosbag2 directory cannot be written onto a device or a pipe.
+    #[error("{} is not a regular file or folder: a rosbag2 directory cannot be written there", path.display())]
+    SpecialRosbag2 {
+        /// The output.
+        path: PathBuf,
+    },
     /// The rosbag2 directory could not be created.
     #[error("cannot create the rosbag2 directory {path}")]
     CreateDirectory {
         /// The directory.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The complete bag could not be put in place (synced and renamed, or copied to a device).
+    #[error("cannot put the finished bag in place as {}", path.display())]
+    Commit {
+        /// The output.
         path: PathBuf,
         /// Why.
         source: std::io::Error,
@@ -35,11 +87,19 @@ pub enum BagOutputError {
     Write(#[from] McapIoError),
 }
 
-/// An open output bag and how to finish it.
+/// An open output bag and how to finish it. The bag is written under a hidden temporary sibling
+/// (`.<name>.part`, see [`crate::atomic_file`]) and renamed into place by [`BagOutput::finish`],
+/// so a failure (a full disk, an error, a dropped output) never leaves a truncated file under
+/// the final name and never touches an existing output. An output that is a device or a pipe
+/// (`-o /dev/null`) is spooled to a temporary file and copied there when complete.
 pub struct BagOutput {
     /// The bag being written.
     pub writer: BagWriter<FileSink>,
+    /// The `.mcap` file being written (inside the part folder with `rosbag2`).
     mcap_path: PathBuf,
+    part: Part,
+    /// Where the spooled bag is copied to, for an output that is a device or a pipe.
+    special: Option<PathBuf>,
     options: OutputOptions,
 }
 
@@ -53,28 +113,38 @@ impl std::fmt::Debug for BagOutput {
 }
 
 impl BagOutput {
-    /// Creates the output (and the rosbag2 directory if asked).
+    /// Refuses an output that exists (without `force`), then creates the bag under its
+    /// temporary name (and the rosbag2 directory if asked).
     ///
     /// # Errors
-    /// [`BagOutputError`] when the directory or the file cannot be created.
+    /// [`BagOutputError`] when the output exists, or the directory or the file cannot be created.
     pub fn create(options: &OutputOptions) -> Result<BagOutput, BagOutputError> {
-        let mcap_path = if options.rosbag2 {
-            std::fs::create_dir_all(&options.path).map_err(|source| {
+        options.refuse_existing()?;
+        let path = &options.path;
+        let special = crate::atomic_file::is_special(path);
+        let no_name = || BagOutputError::NoFileName { path: path.clone() };
+        let part = if special {
+            Part::new(&spool_path()).ok_or_else(no_name)?
+        } else {
+            Part::new(path).ok_or_else(no_name)?
+        };
+        // The file being written, and the name errors give it: the output it becomes.
+        let (mcap_path, shown) = if options.rosbag2 {
+            std::fs::create_dir(part.temporary()).map_err(|source| {
                 BagOutputError::CreateDirectory {
-                    path: options.path.clone(),
+                    path: path.clone(),
                     source,
                 }
             })?;
-            let name = options
-                .path
-                .file_name()
-                .map_or_else(|| "bag".to_string(), |n| n.to_string_lossy().into_owned());
-            options.path.join(format!("{name}_0.mcap"))
+            let name = path.file_name().ok_or_else(no_name)?.to_string_lossy();
+            let file = format!("{name}_0.mcap");
+            (part.temporary().join(&file), path.join(file))
         } else {
-            options.path.clone()
+            (part.temporary().to_path_buf(), path.clone())
         };
-        let mut writer = BagWriter::create(
+        let mut writer = BagWriter::create_as(
             &mcap_path,
+            &shown,
             WriteConfig {
                 compression: options.compression,
                 ..WriteConfig::default()
@@ -86,18 +156,24 @@ impl BagOutput {
         Ok(BagOutput {
             writer,
             mcap_path,
+            part,
+            special: special.then(|| path.clone()),
             options: options.clone(),
         })
     }
 
-    /// Finishes the file (and `metadata.yaml`, and the journal); returns what was written.
+    /// Finishes the file (and `metadata.yaml`, and the journal), syncs it and puts it in place;
+    /// returns what was written.
     ///
     /// # Errors
-    /// [`BagOutputError::Write`] when the file, the journal or `metadata.yaml` cannot be written.
+    /// [`BagOutputError::Write`] when the file, the journal or `metadata.yaml` cannot be written,
+    /// [`BagOutputError::Commit`] when it cannot be put in place. Either way no output appears.
     pub fn finish(self) -> Result<BagStats, BagOutputError> {
         let BagOutput {
             writer,
             mcap_path,
+            part,
+            special,
             options,
         } = self;
         let stats = if options.journal {
@@ -109,10 +185,34 @@ impl BagOutput {
             let name = mcap_path
                 .file_name()
                 .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-            crate::mcap_io::write_rosbag2_metadata(&options.path, &[(name, stats.clone())])?;
+            crate::mcap_io::write_rosbag2_metadata(part.temporary(), &[(name, stats.clone())])?;
+        }
+        let commit_error = |source| BagOutputError::Commit {
+            path: options.path.clone(),
+            source,
+        };
+        match special {
+            // The spool is removed when `part` drops.
+            Some(device) => copy_into(part.temporary(), &device).map_err(commit_error)?,
+            None => part.commit().map_err(commit_error)?,
         }
         Ok(stats)
     }
+}
+
+/// A fresh name in the temporary folder for spooling a bag bound for a device or a pipe.
+fn spool_path() -> PathBuf {
+    static COUNT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = COUNT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    std::env::temp_dir().join(format!("autoact-{}-{n}.mcap", std::process::id()))
+}
+
+/// Copies the complete spooled bag into a device or a pipe.
+fn copy_into(spool: &Path, device: &Path) -> std::io::Result<()> {
+    let mut from = std::fs::File::open(spool)?;
+    let mut to = std::fs::OpenOptions::new().write(true).open(device)?;
+    std::io::copy(&mut from, &mut to)?;
+    to.flush()
 }
 
 /// The interop contract: `X.mcap` ↔ `X.expected.json`, directory `D` ↔ `D.expected.json`.

@@ -89,6 +89,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         metres_per_unit,
     };
     crate::atomic_file::refuse_input_as_output(&input, &output.output)?;
+    output.options().refuse_existing()?;
     let imported = import::import(&input, &options)?;
     let metadata = imported.metadata(&input, category, action);
     let Imported {

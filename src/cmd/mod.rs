@@ -71,6 +71,10 @@ pub struct OutputArgs {
     /// interoperability checks in `tools/interop`.
     #[arg(long, hide = true)]
     pub write_expected_json: bool,
+    /// Replace the output if it exists. Without it an existing output is refused before
+    /// anything is read; with it the old output stays untouched until the new one is complete.
+    #[arg(long)]
+    pub force: bool,
 }
 
 impl OutputArgs {
@@ -82,6 +86,7 @@ impl OutputArgs {
             compression: self.compression,
             rosbag2: self.rosbag2,
             journal: self.write_expected_json,
+            force: self.force,
         }
     }
 }

@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 
 use super::{Outcome, print_stdout};
 use crate::dataset::plan::Plan;
@@ -33,6 +33,9 @@ pub struct Args {
     /// Write to this file instead of stdout.
     #[arg(short, long, value_name = "PATH")]
     pub output: Option<PathBuf>,
+    /// Replace the `--output` file if it exists (it is written whole or not at all).
+    #[arg(long, requires = "output")]
+    pub force: bool,
 }
 
 /// Runs `autoact plan`.
@@ -40,6 +43,13 @@ pub struct Args {
 /// # Errors
 /// An invalid spec (naming the key), an unreadable source bag, or a write failure.
 pub fn run(args: Args) -> Result<Outcome> {
+    if let Some(path) = &args.output
+        && !args.force
+        && std::fs::symlink_metadata(path).is_ok()
+        && !crate::atomic_file::is_special(path)
+    {
+        bail!("{} exists; pass --force to replace it", path.display());
+    }
     let spec = Spec::load(&args.spec)?;
     let frames = estimated_frames(&spec)?;
     let plan = Plan::build(&spec, &|class, source| frames[class][source])
@@ -51,7 +61,8 @@ pub fn run(args: Args) -> Result<Outcome> {
     };
     match args.output {
         Some(path) => {
-            std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))?;
+            crate::atomic_file::write(&path, text.as_bytes())
+                .with_context(|| format!("writing {}", path.display()))?;
             print_stdout(&format!("wrote {}\n", path.display()))?;
         }
         None => print_stdout(&text)?,

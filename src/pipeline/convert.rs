@@ -217,6 +217,7 @@ pub(super) struct Person<'a> {
 pub fn convert_bag(rig: &Rig, job: &ConvertJob) -> Result<ConvertSummary, PipelineError> {
     job.check()?;
     crate::atomic_file::refuse_input_as_output(&job.input, &job.output.path)?;
+    job.output.refuse_existing()?;
     let given_layout = job.layout.as_deref().map(Layout::load).transpose()?;
     let topics =
         bags::pose::read_pose_topics(&job.input, job.topic.as_deref(), given_layout.as_ref())?;

@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use super::PipelineError;
-use crate::bags::output::OutputOptions;
+use crate::bags::output::{BagOutputError, OutputOptions};
 use crate::dataset::capture::{self, Converted, SessionWritten};
 use crate::dataset::plan::Plan;
 use crate::dataset::spec::Spec;
@@ -74,8 +74,11 @@ pub fn convert_spec(rig: &Rig, job: &SpecJob) -> Result<SpecSummary, PipelineErr
     let spec = Spec::load(&job.spec)?;
     let estimated = crate::dataset::estimated_frames(&spec)?;
     let mut plan = Plan::build(&spec, &|class, source| estimated[class][source])?;
-    let converted = convert_sources(rig, &spec, &mut plan)?;
     let dir = &job.output.path;
+    if !job.output.force {
+        refuse_existing(dir, &plan)?;
+    }
+    let converted = convert_sources(rig, &spec, &mut plan)?;
     std::fs::create_dir_all(dir).map_err(|source| PipelineError::Io {
         action: "creating",
         path: dir.clone(),
@@ -143,11 +146,27 @@ fn convert_sources(
     Ok(converted)
 }
 
-/// Writes the plan, with its exact lengths, as JSON.
+/// Refuses, before any work, an output folder that already holds this dataset's `plan.json` or
+/// one of its session bags (the caller passes `--force` to replace them).
+fn refuse_existing(dir: &Path, plan: &Plan) -> Result<(), PipelineError> {
+    let outputs = std::iter::once(dir.join("plan.json")).chain(
+        plan.sessions
+            .iter()
+            .map(|s| crate::bags::capture::session_path(dir, &s.name)),
+    );
+    for path in outputs {
+        if std::fs::symlink_metadata(&path).is_ok() {
+            return Err(BagOutputError::Exists { path }.into());
+        }
+    }
+    Ok(())
+}
+
+/// Writes the plan, with its exact lengths, as JSON (complete or not at all).
 fn write_plan(path: &Path, plan: &Plan) -> Result<(), PipelineError> {
     let text =
         serde_json::to_string_pretty(&serde_json::json!({"estimated": false, "plan": plan}))?;
-    std::fs::write(path, text).map_err(|source| PipelineError::Io {
+    crate::atomic_file::write(path, text.as_bytes()).map_err(|source| PipelineError::Io {
         action: "writing",
         path: path.to_path_buf(),
         source,

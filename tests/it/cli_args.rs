@@ -241,7 +241,7 @@ fn convert_defaults_and_bag_flags() {
     assert_eq!(args.min_confidence, 0.3);
     assert_eq!(args.output.output, Path::new("out.mcap"));
     assert_eq!(args.output.compression, Compression::Zstd);
-    assert!(!args.output.rosbag2 && !args.output.write_expected_json);
+    assert!(!args.output.rosbag2 && !args.output.write_expected_json && !args.output.force);
     let dsi = args.dsi;
     assert!(!dsi.dsi);
     assert_eq!(dsi.dsi_threshold, None);
@@ -274,8 +274,10 @@ fn convert_defaults_and_bag_flags() {
             "--compression",
             "none",
             "--write-expected-json",
+            "--force",
         ]
     );
+    assert!(args.output.force);
     assert_eq!(args.topic.as_deref(), Some("/markers"));
     assert_eq!(args.layout.as_deref(), Some("h36m-17"));
     assert_eq!(args.fps, 60.0);
@@ -533,6 +535,13 @@ fn plan_prints_a_summary_json_or_csv() {
     );
     assert_eq!(args.format, PlanFormat::Json);
     assert_eq!(args.output, Some(path("plan.json")));
+    assert!(!args.force);
+    let args = args_of!(Plan, &["plan", "d.toml", "-o", "p.json", "--force"]);
+    assert!(args.force);
+    assert_eq!(
+        refused_kind(&["plan", "d.toml", "--force"], "--output"),
+        ErrorKind::MissingRequiredArgument
+    );
     let args = args_of!(Plan, &["plan", "d.toml", "--format", "csv"]);
     assert_eq!(args.format, PlanFormat::Csv);
     assert_eq!(

@@ -328,7 +328,7 @@ fn bad_messages_are_named_and_skipped() {
             s.header.stamp = Time::from_nanos(stamp_nanos_at(3, 30.0));
         }
     });
-    let o = autoact(&["convert", arg(&input), "-o", arg(&out)]);
+    let o = autoact(&["convert", arg(&input), "-o", arg(&out), "--force"]);
     assert_eq!(o.status.code(), Some(3));
     assert!(
         stderr(&o).contains("/skeleton message 10") && stderr(&o).contains("non-monotonic"),
@@ -459,6 +459,7 @@ fn marker_and_pose_array_topics_need_and_use_a_layout() {
             "h36m-17",
             "-o",
             arg(&out),
+            "--force",
         ]);
         assert!(o.status.success(), "{topic}: {}", stderr(&o));
         assert_eq!(bone_frames(&out).len(), 40, "{topic}");
@@ -639,7 +640,7 @@ fn dsi_pace_sets_the_duration() {
     let input = pose_bag(dir.path(), "in.mcap", 91, |_, _| {});
     let count = |extra: &[&str]| {
         let out = dir.path().join("out.mcap");
-        let mut args = vec!["convert", arg(&input), "-o", arg(&out)];
+        let mut args = vec!["convert", arg(&input), "-o", arg(&out), "--force"];
         args.extend_from_slice(extra);
         let o = autoact(&args);
         assert!(o.status.success(), "{extra:?}: {}", stderr(&o));
@@ -686,7 +687,7 @@ fn bad_dsi_options_are_clear_errors() {
         (&["--variation-deg", "100"][..], 2, "[0, 90]"),
         (&["--smooth-bass", "12"][..], 1, "[0, 10]"),
     ] {
-        let mut args = vec!["convert", arg(&input), "-o", arg(&out)];
+        let mut args = vec!["convert", arg(&input), "-o", arg(&out), "--force"];
         args.extend_from_slice(extra);
         let o = autoact(&args);
         assert_eq!(o.status.code(), Some(code), "{extra:?}: {}", stderr(&o));
@@ -837,9 +838,9 @@ fn convert_spec_and_convert_agree_that_a_damaged_source_lost_data() {
     // An undamaged source loses nothing: exit 0 on both paths.
     let clean = pose_bag(dir.path(), "clean.pose.mcap", 60, |_, _| {});
     let spec = one_source_spec(dir.path(), &clean);
-    let o = autoact(&["convert", "--spec", arg(&spec), "-o", arg(&out)]);
+    let o = autoact(&["convert", "--spec", arg(&spec), "-o", arg(&out), "--force"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let o = autoact(&["convert", arg(&clean), "-o", arg(&anim)]);
+    let o = autoact(&["convert", arg(&clean), "-o", arg(&anim), "--force"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }
 

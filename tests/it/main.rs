@@ -15,6 +15,7 @@ mod cli_bags;
 mod dataset;
 mod export;
 mod h36m_real_data;
+mod outputs;
 mod readers_real_data;
 mod render;
 mod roundtrip_real_data;
