@@ -200,7 +200,7 @@ pub fn report_error(err: &anyhow::Error) {
 pub fn error_chain(err: &anyhow::Error) -> String {
     let mut out = String::new();
     for cause in err.chain() {
-        let text = cause.to_string();
+        let text = capped(cause.to_string());
         if out.is_empty() {
             out = text;
         } else if !out.ends_with(text.trim_end()) {
@@ -211,11 +211,42 @@ pub fn error_chain(err: &anyhow::Error) -> String {
     out
 }
 
+/// The most of one error message that is printed: a parser that quotes the offending input (a
+/// TOML error on an 8 MB line) must not flood the terminal.
+const MAX_MESSAGE_CHARS: usize = 2000;
+
+/// `text`, cut to [`MAX_MESSAGE_CHARS`] characters with a note of how much was left out.
+fn capped(text: String) -> String {
+    match text.char_indices().nth(MAX_MESSAGE_CHARS) {
+        None => text,
+        Some((cut, _)) => format!(
+            "{} … [{} more bytes not shown]",
+            &text[..cut],
+            text.len() - cut
+        ),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::cmd::Format;
     use clap::CommandFactory;
+
+    #[test]
+    fn a_huge_error_message_is_capped() {
+        let line = "x".repeat(8 * 1024 * 1024);
+        let err = anyhow::anyhow!("bad value {line}").context("spec.toml");
+        let text = error_chain(&err);
+        assert!(text.len() < 3 * MAX_MESSAGE_CHARS, "{} bytes", text.len());
+        assert!(
+            text.starts_with("spec.toml: bad value xxx"),
+            "{}",
+            &text[..40]
+        );
+        assert!(text.ends_with("more bytes not shown]"));
+        assert_eq!(capped("é".repeat(10)), "é".repeat(10));
+    }
 
     #[test]
     fn an_error_chain_prints_each_cause_once() {

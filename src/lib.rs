@@ -34,6 +34,7 @@ pub mod ros;
 pub mod scene;
 pub mod skeleton;
 pub mod table;
+pub mod text_file;
 pub mod trim;
 pub mod video;
 

@@ -340,7 +340,7 @@ impl Spec {
     /// # Errors
     /// [`SpecError`] naming the file and the offending key.
     pub fn load(path: &Path) -> Result<Spec, SpecError> {
-        let text = std::fs::read_to_string(path).map_err(|source| SpecError::Io {
+        let text = crate::text_file::read_to_string(path).map_err(|source| SpecError::Io {
             path: path.to_path_buf(),
             source,
         })?;

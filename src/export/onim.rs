@@ -187,7 +187,7 @@ impl OnimMapping {
     /// [`OnimError::Read`] for an unreadable file; as [`OnimMapping::from_toml`] for an invalid
     /// one.
     pub fn load(rig: &Rig, path: &Path) -> Result<OnimMapping, OnimError> {
-        let text = std::fs::read_to_string(path).map_err(|source| OnimError::Read {
+        let text = crate::text_file::read_to_string(path).map_err(|source| OnimError::Read {
             path: path.to_path_buf(),
             source,
         })?;

@@ -442,7 +442,7 @@ pub fn parse(text: &str, source: &str) -> Result<ExpmapClip, H36mError> {
 /// [`H36mError::Io`] if the file cannot be read as UTF-8 text, otherwise as [`parse`].
 pub fn read(path: impl AsRef<Path>) -> Result<ExpmapClip, H36mError> {
     let path = path.as_ref();
-    let text = std::fs::read_to_string(path).map_err(|source| H36mError::Io {
+    let text = crate::text_file::read_to_string(path).map_err(|source| H36mError::Io {
         path: path.to_owned(),
         source,
     })?;

@@ -315,10 +315,11 @@ impl Layout {
         let looks_like_file =
             path.extension().is_some_and(|e| e == "toml") || name_or_path.contains('/');
         if looks_like_file {
-            let text = std::fs::read_to_string(path).map_err(|source| LayoutError::Io {
-                path: path.to_path_buf(),
-                source,
-            })?;
+            let text =
+                crate::text_file::read_to_string(path).map_err(|source| LayoutError::Io {
+                    path: path.to_path_buf(),
+                    source,
+                })?;
             return Layout::from_toml(&text, name_or_path);
         }
         Layout::builtin(name_or_path)

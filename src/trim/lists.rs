@@ -64,7 +64,7 @@ pub fn ensure_classes(dir: &Path, labels: &[String]) -> Result<(), TrimError> {
     let ann = dir.join(ANNOTATIONS_DIR);
     std::fs::create_dir_all(&ann).map_err(TrimError::io("create", &ann))?;
     let path = ann.join("classes.txt");
-    match std::fs::read_to_string(&path) {
+    match crate::text_file::read_to_string(&path) {
         Ok(text) => {
             let existing: Vec<String> = text.lines().map(str::to_owned).collect();
             if existing != labels {
