@@ -349,6 +349,13 @@ impl UDPListener {
           self.receive_buffer.clear();
           return messages;
         }
+        // autoact patch: a receive interrupted by a signal did not read the datagram; read
+        // again (the listener is edge-triggered, so stopping here would leave the datagrams
+        // queued until the next one arrives).
+        Err(e) if e.kind() == io::ErrorKind::Interrupted => {
+          self.receive_buffer.clear();
+          continue;
+        }
         Err(e) => {
           self.receive_buffer.clear();
           warn!("socket recv() error: {e:?}");

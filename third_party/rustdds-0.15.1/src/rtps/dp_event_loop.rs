@@ -305,6 +305,10 @@ impl DPEventLoop {
       let poll_timeout = timeout_until(ev_wrapper.shared_timer.borrow().next_deadline(), idle_cap);
       match ev_wrapper.poll.poll(&mut events, Some(poll_timeout)) {
         Ok(_) => {}
+        // autoact patch: epoll_wait returns EINTR after the process is stopped and continued
+        // (SIGSTOP/SIGCONT, Ctrl-Z then fg) even without a signal handler (signal(7)); retry
+        // instead of ending the event loop.
+        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
         Err(e) => {
           error!("dp_event_loop poll failed: {e:?}");
           break;
