@@ -29,7 +29,7 @@ use ros2_client::dds::rustdds::{
     RepresentationIdentifier, Subscriber, Timestamp, TopicKind, mio1, no_key, policy,
 };
 
-use super::threads::{PROC_SELF_TASK, RUSTDDS_THREADS, ThreadWatch};
+use super::threads::{PROC_SELF_TASK, RUSTDDS_THREADS, TaskSnapshot, ThreadWatch};
 
 /// DDS reliability requested by the recorder's readers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -412,6 +412,8 @@ impl Recorder {
     pub fn new(config: &DdsConfig) -> Result<Recorder, DdsError> {
         let domain_id = config.domain_id;
         let err = |source| DdsError::Participant { domain_id, source };
+        // RustDDS's threads start while the participant is built: the watchdog takes those.
+        let before = TaskSnapshot::now(Path::new(PROC_SELF_TASK));
         let participant = DomainParticipantBuilder::new(domain_id)
             .build()
             .map_err(|e| err(e.into()))?;
@@ -425,8 +427,8 @@ impl Recorder {
             topic: "(none)".to_owned(),
             source,
         })?;
-        // The participant's threads run once it is built: count them now.
-        let threads = ThreadWatch::new(Path::new(PROC_SELF_TASK), &RUSTDDS_THREADS);
+        let threads =
+            ThreadWatch::started_since(Path::new(PROC_SELF_TASK), &before, &RUSTDDS_THREADS);
         for prefix in threads.unwatched() {
             tracing::warn!(
                 "cannot watch the RustDDS thread {prefix:?} in {PROC_SELF_TASK}: \
