@@ -21,12 +21,15 @@
 
 use std::collections::BTreeSet;
 use std::convert::Infallible;
+use std::path::Path;
 use std::time::Duration;
 
 use ros2_client::dds::rustdds::{
     self, DomainParticipant, DomainParticipantBuilder, QosPolicies, QosPolicyBuilder,
     RepresentationIdentifier, Subscriber, Timestamp, TopicKind, mio1, no_key, policy,
 };
+
+use super::threads::{PROC_SELF_TASK, RUSTDDS_THREADS, TaskSnapshot, ThreadWatch};
 
 /// DDS reliability requested by the recorder's readers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -202,6 +205,23 @@ pub enum DdsError {
         /// The OS error.
         #[source]
         source: std::io::Error,
+    },
+    /// A RustDDS thread ended: nothing more can be received (RustDDS's log above says why).
+    #[error(
+        "the RustDDS {role} of the participant in DDS domain {domain_id} has ended \
+         (thread {prefix:?}: {running} of {started} running); nothing more can be received"
+    )]
+    ThreadEnded {
+        /// What the thread did.
+        role: String,
+        /// Its name prefix in `/proc/self/task/*/comm`.
+        prefix: String,
+        /// Domain of the participant.
+        domain_id: u16,
+        /// Threads of that name when the recorder started.
+        started: usize,
+        /// Threads of that name now.
+        running: usize,
     },
 }
 
@@ -381,6 +401,7 @@ pub struct Recorder {
     config: DdsConfig,
     domain_id: u16,
     rejected: u64,
+    threads: ThreadWatch,
 }
 
 impl Recorder {
@@ -391,6 +412,8 @@ impl Recorder {
     pub fn new(config: &DdsConfig) -> Result<Recorder, DdsError> {
         let domain_id = config.domain_id;
         let err = |source| DdsError::Participant { domain_id, source };
+        // RustDDS's threads start while the participant is built: the watchdog takes those.
+        let before = TaskSnapshot::now(Path::new(PROC_SELF_TASK));
         let participant = DomainParticipantBuilder::new(domain_id)
             .build()
             .map_err(|e| err(e.into()))?;
@@ -404,7 +427,16 @@ impl Recorder {
             topic: "(none)".to_owned(),
             source,
         })?;
+        let threads =
+            ThreadWatch::started_since(Path::new(PROC_SELF_TASK), &before, &RUSTDDS_THREADS);
+        for prefix in threads.unwatched() {
+            tracing::warn!(
+                "cannot watch the RustDDS thread {prefix:?} in {PROC_SELF_TASK}: \
+                 if it ended, the recording would not notice"
+            );
+        }
         Ok(Recorder {
+            threads,
             _context: context,
             participant,
             subscriber,
@@ -591,6 +623,24 @@ impl Recorder {
     #[must_use]
     pub fn rejected(&self) -> u64 {
         self.rejected
+    }
+
+    /// Whether RustDDS can still receive: its event loop and discovery threads still run (see
+    /// [`super::threads`]; on Linux, where `/proc/self/task` lists them).
+    ///
+    /// # Errors
+    /// [`DdsError::ThreadEnded`] naming the first thread that has ended since [`Recorder::new`].
+    pub fn check_alive(&self) -> Result<(), DdsError> {
+        match self.threads.check() {
+            None => Ok(()),
+            Some(ended) => Err(DdsError::ThreadEnded {
+                role: ended.role,
+                prefix: ended.prefix,
+                domain_id: self.domain_id,
+                started: ended.started,
+                running: ended.running,
+            }),
+        }
     }
 
     /// Blocks up to `timeout` until a reader signals new data; returns whether anything may be

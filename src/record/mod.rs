@@ -6,7 +6,9 @@
 //! GUID and sequence number. [`session`] is the file side: MCAP writing, splits, timed flushes
 //! and the per-topic counts of what was lost. [`run`] is the session: discovery, subscriptions,
 //! the status line, stopping on a signal or a limit, and finishing the files.
+//! [`threads`] is the watchdog that notices when a RustDDS thread has ended.
 
 pub mod dds;
 pub mod run;
 pub mod session;
+pub mod threads;

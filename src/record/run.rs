@@ -19,6 +19,8 @@ const DISCOVERY_INTERVAL: Duration = Duration::from_millis(250);
 const WAIT: Duration = Duration::from_millis(50);
 /// How often the status line is redrawn.
 const STATUS_INTERVAL: Duration = Duration::from_secs(1);
+/// How often the recorder checks that RustDDS's threads still run.
+const LIVENESS_INTERVAL: Duration = Duration::from_millis(500);
 
 /// Reader reliability on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -205,6 +207,22 @@ pub enum RecordError {
     /// The files could not be finished.
     #[error(transparent)]
     Finish(McapIoError),
+    /// DDS stopped receiving mid-recording (a RustDDS thread ended); the files were finished
+    /// with what arrived before.
+    #[error(
+        "recording stopped after {messages} messages: DDS stopped receiving, so nothing after \
+         this was recorded; {} was finished with what arrived before",
+        output.display()
+    )]
+    Transport {
+        /// Messages written before it stopped.
+        messages: u64,
+        /// The output given (file or rosbag2 directory).
+        output: PathBuf,
+        /// What ended.
+        #[source]
+        source: DdsError,
+    },
 }
 
 /// Records as `options` say until `stop` is set (Ctrl-C), a limit is reached or writing fails,
@@ -315,6 +333,7 @@ impl Session {
     fn run(&mut self, options: &RecordOptions, stop: &AtomicBool) -> Result<(), RecordError> {
         let mut last_discovery: Option<Instant> = None;
         let mut last_status = Instant::now();
+        let mut last_liveness = Instant::now();
         while !stop.load(Ordering::Relaxed) {
             if last_discovery.is_none_or(|t| t.elapsed() >= DISCOVERY_INTERVAL) {
                 last_discovery = Some(Instant::now());
@@ -335,8 +354,25 @@ impl Session {
                 last_status = Instant::now();
                 self.status();
             }
+            if last_liveness.elapsed() >= LIVENESS_INTERVAL {
+                last_liveness = Instant::now();
+                self.check_alive(options)?;
+            }
         }
-        Ok(())
+        // Also when stopped by a signal or a limit: a recording that ended receiving earlier is
+        // not complete.
+        self.check_alive(options)
+    }
+
+    /// [`RecordError::Transport`] once a RustDDS thread has ended.
+    fn check_alive(&self, options: &RecordOptions) -> Result<(), RecordError> {
+        self.recorder
+            .check_alive()
+            .map_err(|source| RecordError::Transport {
+                messages: self.messages,
+                output: options.output.clone(),
+                source,
+            })
     }
 
     /// Subscribes to every newly discovered topic `filter` wants and autoact has a type for.
