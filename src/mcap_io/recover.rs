@@ -17,7 +17,8 @@ pub struct Recovery {
     pub issues: Vec<String>,
     /// Messages left out because their channel has no schema.
     pub without_schema: u64,
-    /// Whether the input was finished (had a summary).
+    /// Whether the input was finished (had a summary with statistics). An unfinished input's
+    /// loss is among `issues` (the file ends without a summary, or is cut short).
     pub complete: bool,
     /// The damaged bag.
     pub input: PathBuf,
@@ -136,12 +137,6 @@ impl Recovery {
                 self.without_schema
             ));
         }
-        if !self.complete {
-            out.push(format!(
-                "{} was not finished (no summary): whatever was after its last complete chunk is lost",
-                self.input.display()
-            ));
-        }
         out
     }
 }
@@ -149,6 +144,6 @@ impl Recovery {
 impl crate::outcome::LostInput for Recovery {
     /// Whether anything was lost: exit code 3.
     fn lost_input(&self) -> bool {
-        !(self.issues.is_empty() && self.complete && self.without_schema == 0)
+        !(self.issues.is_empty() && self.without_schema == 0)
     }
 }
