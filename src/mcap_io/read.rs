@@ -481,11 +481,11 @@ impl<'a> Walker<'a> {
                 "byte {at} holds opcode {:#04x}, which no MCAP record has",
                 framed.opcode
             ),
-            Err(u64::MAX) => format!(
+            Err(None) => format!(
                 "the file ends {} bytes into a record's opcode and length",
                 self.bytes.len() - at
             ),
-            Err(declared) => format!(
+            Err(Some(declared)) => format!(
                 "{} record at byte {at} declares {declared} bytes, {} are left in the file",
                 opcode_name(self.bytes[at]),
                 self.bytes.len() - at - records::FRAME_BYTES
@@ -715,9 +715,9 @@ impl Messages<'_> {
                     ok.map_err(|e| format!("record at byte {at} of the chunk's records: {e}"))?;
                     parsed.push(framed);
                 }
-                Err(declared) => {
+                Err(_) => {
                     return Err(format!(
-                        "a record at byte {at} of the chunk's records declares {declared} bytes, more than the chunk holds"
+                        "the record at byte {at} of the chunk's records runs past the chunk's end"
                     ));
                 }
             }

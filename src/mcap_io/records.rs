@@ -131,14 +131,14 @@ pub(super) struct Framed<'a> {
 }
 
 /// What is at `at` in `bytes`: `Ok(Some(record))`, `Ok(None)` at the very end, or the length
-/// the record claims when it runs past the end (`Err(declared body bytes)`, `u64::MAX` when not
-/// even the frame is complete).
-pub(super) fn frame_at(bytes: &[u8], at: usize) -> Result<Option<Framed<'_>>, u64> {
+/// the record claims when it runs past the end (`Err(Some(declared body bytes))`, `Err(None)`
+/// when not even its opcode and length are there).
+pub(super) fn frame_at(bytes: &[u8], at: usize) -> Result<Option<Framed<'_>>, Option<u64>> {
     if at >= bytes.len() {
         return Ok(None);
     }
     let Some(frame) = bytes.get(at..at + FRAME_BYTES) else {
-        return Err(u64::MAX);
+        return Err(None);
     };
     let opcode = frame[0];
     let mut len = [0u8; 8];
@@ -147,10 +147,10 @@ pub(super) fn frame_at(bytes: &[u8], at: usize) -> Result<Option<Framed<'_>>, u6
     let start = at + FRAME_BYTES;
     let available = (bytes.len() - start) as u64;
     if len > available {
-        return Err(len);
+        return Err(Some(len));
     }
     // `len <= available`, which fits in usize.
-    let end = start + usize::try_from(len).map_err(|_| len)?;
+    let end = start + usize::try_from(len).map_err(|_| Some(len))?;
     Ok(Some(Framed {
         opcode,
         body: &bytes[start..end],
