@@ -321,6 +321,20 @@ impl BagReader {
         (count > 0).then_some((start, end))
     }
 
+    /// First and last message log times, nanoseconds: from the summary's statistics where the
+    /// file has them, else from the messages themselves (a pass over every readable one, for an
+    /// unfinished file); `None` when no message is readable.
+    #[must_use]
+    pub fn time_range_or_scan(&self) -> Option<(u64, u64)> {
+        if let Some(range) = self.time_range() {
+            return Some(range);
+        }
+        self.messages()
+            .filter_map(Result::ok)
+            .map(|m| (m.log_time, m.log_time))
+            .reduce(|(a, b), (x, y)| (a.min(x), b.max(y)))
+    }
+
     /// Whether the file ends with a summary holding chunk indexes (what indexed readers, e.g.
     /// Foxglove's, need).
     #[must_use]
@@ -698,36 +712,32 @@ impl Messages<'_> {
 
     /// The records of one chunk, all parsed before any is used, so that a damaged record inside
     /// a CRC-less chunk drops the whole chunk rather than half of it silently.
-    fn take_chunk_records(&mut self, records_bytes: &[u8]) -> Result<(), String> {
+    fn take_chunk_records(&mut self, records_bytes: &[u8]) -> Result<(), ChunkError> {
         let mut parsed = Vec::new();
         let mut at = 0;
         loop {
             match records::frame_at(records_bytes, at) {
                 Ok(None) => break,
                 Ok(Some(framed)) => {
-                    at += records::FRAME_BYTES + framed.body.len();
                     let ok = match framed.opcode {
                         op::SCHEMA => records::schema(framed.body).map(|_| ()),
                         op::CHANNEL => records::channel(framed.body).map(|_| ()),
                         op::MESSAGE => records::message(framed.body).map(|_| ()),
                         _ => Ok(()),
                     };
-                    ok.map_err(|e| format!("record at byte {at} of the chunk's records: {e}"))?;
+                    ok.map_err(|source| ChunkError::Record { at, source })?;
+                    at += records::FRAME_BYTES + framed.body.len();
                     parsed.push(framed);
                 }
-                Err(_) => {
-                    return Err(format!(
-                        "the record at byte {at} of the chunk's records runs past the chunk's end"
-                    ));
-                }
+                Err(_) => return Err(ChunkError::PastEnd { at }),
             }
         }
         for framed in parsed {
             match framed.opcode {
-                op::SCHEMA => self.take_schema(framed.body).map_err(|e| e.to_string())?,
-                op::CHANNEL => self.take_channel(framed.body).map_err(|e| e.to_string())?,
+                op::SCHEMA => self.take_schema(framed.body)?,
+                op::CHANNEL => self.take_channel(framed.body)?,
                 op::MESSAGE => {
-                    let m = records::message(framed.body).map_err(|e| e.to_string())?;
+                    let m = records::message(framed.body)?;
                     let item = self.message(&m);
                     self.pending.push_back(item);
                 }
@@ -790,9 +800,10 @@ impl Messages<'_> {
                 chunk.message_end_time,
                 chunk_records(&chunk).and_then(|r| self.take_chunk_records(&r)),
             ),
-            Err(e) => (0, 0, Err(e.to_string())),
+            Err(e) => (0, 0, Err(ChunkError::Header(e))),
         };
-        if let Err(reason) = result {
+        if let Err(e) = result {
+            let reason = e.to_string();
             let messages = self.count_lost(bytes, at);
             self.count_indexes = messages.is_none();
             self.held = Some(ReadIssue::CorruptChunk {
@@ -923,23 +934,59 @@ impl Messages<'_> {
     }
 }
 
+/// Why a chunk's messages cannot be used (its text becomes the chunk's [`ReadIssue`] reason).
+#[derive(Debug, thiserror::Error)]
+enum ChunkError {
+    /// The chunk's header does not parse.
+    #[error("its header: {0}")]
+    Header(#[source] records::ParseError),
+    /// An uncompressed size beyond [`MAX_CHUNK_BYTES`].
+    #[error("declared size {0} bytes is implausible")]
+    Implausible(u64),
+    /// The records do not decompress.
+    #[error(transparent)]
+    Decompress(#[from] DecompressError),
+    /// The records are not what was written.
+    #[error("CRC mismatch (stored {stored:08x}, computed {computed:08x})")]
+    Crc {
+        /// The chunk's CRC.
+        stored: u32,
+        /// The records' CRC.
+        computed: u32,
+    },
+    /// A record inside does not parse.
+    #[error("record at byte {at} of the chunk's records: {source}")]
+    Record {
+        /// Where it starts in the records.
+        at: usize,
+        /// Why.
+        #[source]
+        source: records::ParseError,
+    },
+    /// A record inside runs past the records' end.
+    #[error("the record at byte {at} of the chunk's records runs past their end")]
+    PastEnd {
+        /// Where it starts in the records.
+        at: usize,
+    },
+    /// A record inside does not parse (found when it is used).
+    #[error(transparent)]
+    Parse(#[from] records::ParseError),
+}
+
 /// The records of a chunk, decompressed and CRC-checked.
-fn chunk_records<'c>(chunk: &records::Chunk<'c>) -> Result<Cow<'c, [u8]>, String> {
+fn chunk_records<'c>(chunk: &records::Chunk<'c>) -> Result<Cow<'c, [u8]>, ChunkError> {
     if chunk.uncompressed_size > MAX_CHUNK_BYTES {
-        return Err(format!(
-            "declared size {} bytes is implausible",
-            chunk.uncompressed_size
-        ));
+        return Err(ChunkError::Implausible(chunk.uncompressed_size));
     }
-    let records = decompress(chunk.compression, chunk.records, chunk.uncompressed_size)
-        .map_err(|e| e.to_string())?;
+    let records = decompress(chunk.compression, chunk.records, chunk.uncompressed_size)?;
     if chunk.uncompressed_crc != 0 {
-        let crc = crc32fast::hash(&records);
-        if crc != chunk.uncompressed_crc {
-            return Err(format!(
-                "CRC mismatch (stored {:08x}, computed {crc:08x})",
-                chunk.uncompressed_crc
-            ));
+        let computed = crc32fast::hash(&records);
+        if computed != chunk.uncompressed_crc {
+            return Err(ChunkError::Crc {
+                stored: chunk.uncompressed_crc,
+                computed,
+            });
         }
     }
     Ok(records)

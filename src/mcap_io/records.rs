@@ -45,6 +45,9 @@ pub(super) enum ParseError {
     },
 }
 
+/// A `map<string, string>` field.
+pub(super) type StringMap = std::collections::BTreeMap<String, String>;
+
 /// A bounds-checked reader over one record's body.
 #[derive(Debug, Clone)]
 pub(super) struct Fields<'a> {
@@ -103,10 +106,7 @@ impl<'a> Fields<'a> {
     }
 
     /// A `map<string, string>`: a `u32` byte length, then key and value strings.
-    fn string_map(
-        &mut self,
-        field: &'static str,
-    ) -> Result<std::collections::BTreeMap<String, String>, ParseError> {
+    fn string_map(&mut self, field: &'static str) -> Result<StringMap, ParseError> {
         let mut inner = Fields::new(self.bytes32(field)?);
         let mut map = std::collections::BTreeMap::new();
         while !inner.bytes.is_empty() {
@@ -306,9 +306,7 @@ pub(super) fn statistics(body: &[u8]) -> Result<(u64, u64, u64), ParseError> {
 }
 
 /// A metadata record: name and key-value pairs.
-pub(super) fn metadata(
-    body: &[u8],
-) -> Result<(String, std::collections::BTreeMap<String, String>), ParseError> {
+pub(super) fn metadata(body: &[u8]) -> Result<(String, StringMap), ParseError> {
     let mut f = Fields::new(body);
     let name = f.string("metadata name")?.to_string();
     let map = f.string_map("metadata")?;
