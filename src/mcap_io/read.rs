@@ -526,6 +526,11 @@ impl<'a> Walker<'a> {
             .copied()
             .filter(|&c| c > at)
             .find(|&c| plausible_at(self.bytes, c, true));
+        // A damaged chunk the index knows is skipped whole (scanning it could take the records
+        // of an uncompressed chunk for top-level ones, and count its messages twice).
+        if indexed.is_some() && self.chunk_starts.contains(&at) {
+            return indexed;
+        }
         let scan_end = indexed.unwrap_or(self.bytes.len());
         (at + 1..scan_end)
             .find(|&p| plausible_at(self.bytes, p, false))
