@@ -55,12 +55,7 @@ pub fn inspect(path: &Path) -> Result<Report, McapIoError> {
         unreadable,
     } = scan(&readers);
     let metadata: Vec<_> = readers.iter().flat_map(BagReader::metadata).collect();
-    let indexed = readers.iter().all(|r| {
-        mcap::Summary::read(r.bytes())
-            .ok()
-            .flatten()
-            .is_some_and(|s| !s.chunk_indexes.is_empty())
-    });
+    let indexed = readers.iter().all(BagReader::has_chunk_index);
     let mut problems = file_problems(&profile, indexed);
     problems.extend(channel_problems(&channels));
     if hierarchy.duplicate_ids > 0 {

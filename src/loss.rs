@@ -1,9 +1,10 @@
-//! Lost input of a conversion: what of `convert`'s and `convert --spec`'s input could not be
-//! used, each naming its file and the place. Collected as [`Losses`], logged with
+//! Lost input of a conversion or an export: what of `convert`'s, `convert --spec`'s and
+//! `export`'s input could not be used, each naming its file and the place. Collected as [`Losses`], logged with
 //! [`Losses::warn`]; the exit code follows the one rule of [`crate::outcome`].
 
 use std::path::Path;
 
+use crate::bags::animation::AnimationLosses;
 use crate::bags::pose::{PoseTopics, SkippedMessage};
 use crate::mcap_io::ReadIssue;
 
@@ -105,6 +106,24 @@ impl Losses {
         let unreadable = topics.issues.iter().cloned().map(Loss::Unreadable);
         let skipped = topics.skipped.iter().cloned().map(Loss::Skipped);
         Losses(unreadable.chain(skipped).collect())
+    }
+
+    /// What reading an animation bag lost: the unreadable parts, then the skipped messages.
+    #[must_use]
+    pub fn from_animation(lost: &AnimationLosses) -> Losses {
+        let unreadable = lost.unreadable.iter().cloned().map(Loss::Unreadable);
+        let skipped = lost.skipped.iter().cloned().map(Loss::Skipped);
+        Losses(unreadable.chain(skipped).collect())
+    }
+
+    /// Adds the losses of `other` that are not among these already (the same file read again
+    /// for another animation loses the same parts again).
+    pub fn merge(&mut self, other: Losses) {
+        for loss in other.0 {
+            if !self.0.contains(&loss) {
+                self.0.push(loss);
+            }
+        }
     }
 
     /// Parts of a file that could not be read.

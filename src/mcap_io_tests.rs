@@ -272,3 +272,224 @@ fn file_sink_tracks_its_position_through_writes_and_seeks() {
     drop(sink);
     assert_eq!(std::fs::read(&path).unwrap(), cursor.into_inner());
 }
+
+/// Per chunk of a finished file: (chunk start, chunk end, messages its message indexes list).
+fn indexed_chunks(bytes: &[u8]) -> Vec<(usize, usize, u64)> {
+    let mut out: Vec<(usize, usize, u64)> = Vec::new();
+    let mut at = mcap::MAGIC.len();
+    while at + 9 <= bytes.len() {
+        let op = bytes[at];
+        let len = usize::try_from(u64::from_le_bytes(
+            bytes[at + 1..at + 9].try_into().unwrap(),
+        ))
+        .unwrap();
+        match op {
+            0x06 => out.push((at, at + 9 + len, 0)),
+            0x07 => {
+                let entries = u32::from_le_bytes(bytes[at + 11..at + 15].try_into().unwrap());
+                out.last_mut().unwrap().2 += u64::from(entries) / 16;
+            }
+            0x0F => break, // data end
+            _ => {}
+        }
+        at += 9 + len;
+    }
+    out
+}
+
+/// Where the data-end record starts: the file without its summary ends here.
+fn data_end(bytes: &[u8]) -> usize {
+    let (_, end, _) = *indexed_chunks(bytes).last().unwrap();
+    let mut at = end;
+    while bytes[at] != 0x0F {
+        let len = u64::from_le_bytes(bytes[at + 1..at + 9].try_into().unwrap());
+        at += 9 + usize::try_from(len).unwrap();
+    }
+    at
+}
+
+/// Index on its channel of every message read, keyed by (topic, log time, nth at that time).
+fn indices(msgs: &[BagMessage]) -> BTreeMap<(String, u64, u64), u64> {
+    let mut seen: BTreeMap<(String, u64), u64> = BTreeMap::new();
+    msgs.iter()
+        .map(|m| {
+            let n = seen
+                .entry((m.channel.topic.clone(), m.log_time))
+                .or_insert(0);
+            *n += 1;
+            (
+                (m.channel.topic.clone(), m.log_time, *n),
+                m.index_on_channel,
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn a_file_cut_at_any_chunk_boundary_keeps_every_complete_chunk_and_says_it_was_not_finished() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("x.mcap");
+    write_bag(&path, 3000, Compression::Zstd, 8192);
+    let bytes = std::fs::read(&path).unwrap();
+    let chunks = indexed_chunks(&bytes);
+    assert!(chunks.len() > 10);
+    let mut cuts: Vec<(usize, u64)> = chunks
+        .iter()
+        .scan(0, |before, &(start, _, n)| {
+            let cut = (start, *before);
+            *before += n;
+            Some(cut)
+        })
+        .collect();
+    cuts.push((data_end(&bytes), chunks.iter().map(|c| c.2).sum()));
+    for (cut, expected) in cuts {
+        std::fs::write(&path, &bytes[..cut]).unwrap();
+        let (msgs, issues) = read_all(&path);
+        assert_eq!(msgs.len() as u64, expected, "cut at byte {cut}");
+        assert_eq!(
+            issues,
+            vec![ReadIssue::NoSummary {
+                path: path.clone(),
+                messages_read: expected
+            }],
+            "cut at byte {cut}"
+        );
+        assert!(
+            issues[0].to_string().contains(&format!(
+                "x.mcap: file ends without a summary: {expected} messages recovered"
+            )),
+            "{}",
+            issues[0]
+        );
+    }
+}
+
+/// `bytes` with the length field of the record at `at` replaced by `len`.
+fn with_length(bytes: &[u8], at: usize, len: u64) -> Vec<u8> {
+    let mut out = bytes.to_vec();
+    out[at + 1..at + 9].copy_from_slice(&len.to_le_bytes());
+    out
+}
+
+#[test]
+fn a_damaged_chunk_length_costs_only_that_chunk_with_or_without_the_summary() {
+    for compression in [Compression::Zstd, Compression::Lz4, Compression::None] {
+        damaged_chunk_length(compression);
+    }
+}
+
+fn damaged_chunk_length(compression: Compression) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("x.mcap");
+    write_bag(&path, 3000, compression, 8192);
+    let bytes = std::fs::read(&path).unwrap();
+    let (good, _) = read_all(&path);
+    let good_indices = indices(&good);
+    let chunks = indexed_chunks(&bytes);
+    let (start, _, lost) = chunks[3];
+    let without_summary = &bytes[..data_end(&bytes)];
+    for (case, damaged) in [
+        ("all ones", with_length(&bytes, start, u64::MAX)),
+        (
+            "past the end",
+            with_length(&bytes, start, bytes.len() as u64),
+        ),
+        (
+            "all ones, no summary",
+            with_length(without_summary, start, u64::MAX),
+        ),
+        ("zero, no summary", with_length(without_summary, start, 0)),
+    ] {
+        std::fs::write(&path, &damaged).unwrap();
+        let (msgs, issues) = read_all(&path);
+        let first = issues[0].to_string();
+        assert!(
+            first.contains(&format!("bytes {start}..")) || first.contains("chunk 4"),
+            "{case}: {first}"
+        );
+        if compression == Compression::None && case.contains("no summary") {
+            // The scan finds the uncompressed chunk's own records: its messages are kept.
+            assert_eq!(msgs.len(), good.len(), "{compression:?} {case}: {issues:?}");
+        } else {
+            assert_eq!(
+                msgs.len() as u64,
+                good.len() as u64 - lost,
+                "{compression:?} {case}: {issues:?}"
+            );
+            assert!(
+                first.contains(&format!("its message index lists {lost} messages")),
+                "{compression:?} {case}: {first}"
+            );
+        }
+        assert_eq!(
+            issues.len(),
+            if case.contains("no summary") { 2 } else { 1 },
+            "{case}: {issues:?}"
+        );
+        // Every message keeps the index on its channel a whole read gives it.
+        for (key, index) in indices(&msgs) {
+            assert_eq!(good_indices[&key], index, "{case}: {key:?}");
+        }
+    }
+}
+
+#[test]
+fn garbage_between_chunks_is_skipped_and_reported_with_its_place() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("x.mcap");
+    write_bag(&path, 3000, Compression::Zstd, 8192);
+    let bytes = std::fs::read(&path).unwrap();
+    let (good, _) = read_all(&path);
+    let (start, _, _) = indexed_chunks(&bytes)[5];
+    let mut state = 0x2545_f491_4f6c_dd1d_u64;
+    let garbage: Vec<u8> = (0..1000)
+        .map(|_| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state.to_le_bytes()[3]
+        })
+        .collect();
+    let damaged = [&bytes[..start], &garbage, &bytes[start..]].concat();
+    std::fs::write(&path, &damaged).unwrap();
+    let (msgs, issues) = read_all(&path);
+    assert_eq!(msgs.len(), good.len(), "{issues:?}");
+    assert_eq!(issues.len(), 1, "{issues:?}");
+    assert!(
+        issues[0]
+            .to_string()
+            .contains(&format!("bytes {start}..{} are damaged", start + 1000)),
+        "{}",
+        issues[0]
+    );
+}
+
+#[test]
+fn corrupt_string_and_size_fields_cost_an_issue_not_an_allocation() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("x.mcap");
+    write_bag(&path, 500, Compression::Zstd, 4096);
+    let bytes = std::fs::read(&path).unwrap();
+    let (good, _) = read_all(&path);
+    // The header's profile length (a u32 right after the header's frame) says 4 GiB.
+    let mut damaged = bytes.clone();
+    damaged[17..21].copy_from_slice(&u32::MAX.to_le_bytes());
+    std::fs::write(&path, &damaged).unwrap();
+    let reader = BagReader::open(&path).unwrap();
+    assert_eq!(reader.header(), None);
+    let (msgs, _) = read_all(&path);
+    assert_eq!(msgs.len(), good.len());
+    // A chunk's uncompressed size says 900 MB: its zstd frame disagrees.
+    let (start, _, lost) = indexed_chunks(&bytes)[1];
+    let mut damaged = bytes.clone();
+    damaged[start + 25..start + 33].copy_from_slice(&900_000_000u64.to_le_bytes());
+    std::fs::write(&path, &damaged).unwrap();
+    let (msgs, issues) = read_all(&path);
+    assert_eq!(msgs.len() as u64, good.len() as u64 - lost);
+    assert_eq!(issues.len(), 1, "{issues:?}");
+    let issue = issues[0].to_string();
+    assert!(
+        issue.contains("chunk 2") && issue.contains("the chunk says 900000000"),
+        "{issue}"
+    );
+}

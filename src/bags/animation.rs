@@ -219,21 +219,86 @@ pub struct AnimationListing {
 }
 
 /// Every animation (person × variant) of an animation bag's `/animation` frames, ordered by
-/// track id, then variant. Unreadable messages are skipped; an empty list means the bag holds no
-/// readable `BoneFrame`.
+/// track id, then variant; an empty list means the bag holds no readable `BoneFrame`. What could
+/// not be read is dropped: [`list_animations_with_losses`] says what it was.
 #[must_use]
 pub fn list_animations(readers: &[crate::mcap_io::BagReader]) -> Vec<AnimationListing> {
+    list_animations_with_losses(readers).0
+}
+
+/// What reading an animation bag could not use: unreadable parts of its files, and messages
+/// skipped (undecodable frames and transforms, frames whose stamp does not advance), each with
+/// its file, topic and index.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct AnimationLosses {
+    /// Parts of the files that could not be read (chunks, damaged bytes, a missing summary).
+    pub unreadable: Vec<crate::mcap_io::ReadIssue>,
+    /// Messages read but not used, and why.
+    pub skipped: Vec<super::pose::SkippedMessage>,
+}
+
+impl AnimationLosses {
+    /// Whether nothing was lost.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.unreadable.is_empty() && self.skipped.is_empty()
+    }
+}
+
+/// A message of the bag at `path` skipped for `reason`.
+fn skipped(
+    path: &std::path::Path,
+    m: &crate::mcap_io::BagMessage,
+    reason: String,
+) -> super::pose::SkippedMessage {
+    super::pose::SkippedMessage {
+        path: path.display().to_string(),
+        topic: m.channel.topic.clone(),
+        index: m.index_on_channel,
+        log_time: m.log_time,
+        reason,
+    }
+}
+
+/// Every message of `readers` in file order, with the file each comes from; what cannot be read
+/// goes to `losses`.
+fn messages_of<'r>(
+    readers: &'r [crate::mcap_io::BagReader],
+    losses: &'r mut AnimationLosses,
+) -> impl Iterator<Item = (&'r std::path::Path, crate::mcap_io::BagMessage)> + 'r {
+    readers
+        .iter()
+        .flat_map(|r| r.messages().map(move |m| (r.path(), m)))
+        .filter_map(move |(path, m)| match m {
+            Ok(m) => Some((path, m)),
+            Err(issue) => {
+                losses.unreadable.push(issue);
+                None
+            }
+        })
+}
+
+/// As [`list_animations`], with what could not be read or decoded.
+#[must_use]
+pub fn list_animations_with_losses(
+    readers: &[crate::mcap_io::BagReader],
+) -> (Vec<AnimationListing>, AnimationLosses) {
     use crate::ros::{RosMessage, cdr};
     // Per animation: its rig, and its stamps as the reader keeps them (increasing only).
     let mut found: std::collections::BTreeMap<AnimationKey, (String, Vec<u64>)> =
         std::collections::BTreeMap::new();
     let mut f = BoneFrame::default();
-    for m in readers
-        .iter()
-        .flat_map(|r| r.messages().filter_map(Result::ok))
-        .filter(|m| m.channel.schema_name() == BoneFrame::TYPE_NAME)
+    let mut losses = AnimationLosses::default();
+    let mut undecodable = Vec::new();
+    for (path, m) in messages_of(readers, &mut losses)
+        .filter(|(_, m)| m.channel.schema_name() == BoneFrame::TYPE_NAME)
     {
-        if cdr::decode_in_place(&m.data, &mut f).is_err() {
+        if let Err(e) = cdr::decode_in_place(&m.data, &mut f) {
+            undecodable.push(skipped(
+                path,
+                &m,
+                format!("does not decode as a BoneFrame: {e}"),
+            ));
             continue;
         }
         let key = AnimationKey {
@@ -248,7 +313,8 @@ pub fn list_animations(readers: &[crate::mcap_io::BagReader]) -> Vec<AnimationLi
             stamps.push(stamp);
         }
     }
-    found
+    losses.skipped.extend(undecodable);
+    let listing = found
         .into_iter()
         .filter_map(|(key, (rig, stamps))| {
             Some(AnimationListing {
@@ -260,13 +326,15 @@ pub fn list_animations(readers: &[crate::mcap_io::BagReader]) -> Vec<AnimationLi
                 frame_rate_hz: crate::skeleton::pose::frame_rate(None, &stamps),
             })
         })
-        .collect()
+        .collect();
+    (listing, losses)
 }
 
 /// Reads one animation back from an animation bag: the `/animation` frames of `track` (`None`:
 /// the first track seen) and `variant`, the body from the rest offsets its `/tf_static` and `/tf`
 /// carry (the variant's own frames, `v<k>/…`, where the bag has them, else variant 0's), and as
-/// coverage the bones that move. Frames whose stamp does not increase are skipped.
+/// coverage the bones that move. What could not be used is dropped:
+/// [`read_animation_variant_with_losses`] says what it was.
 ///
 /// # Errors
 /// [`ReadAnimationError`]: the bag has no such frames, or their bones are not the rig's.
@@ -276,29 +344,51 @@ pub fn read_animation_variant(
     track: Option<u64>,
     variant: u32,
 ) -> Result<ReadBack, ReadAnimationError> {
+    read_animation_variant_with_losses(rig, readers, track, variant).map(|(back, _)| back)
+}
+
+/// As [`read_animation_variant`], with what was lost: unreadable parts of the files, and every
+/// message skipped with its file, topic and index — `BoneFrame`s and transforms that do not
+/// decode, and the animation's frames whose stamp does not advance past the frame before.
+///
+/// # Errors
+/// [`ReadAnimationError`]: the bag has no such frames, or their bones are not the rig's.
+pub fn read_animation_variant_with_losses(
+    rig: &Rig,
+    readers: &[crate::mcap_io::BagReader],
+    track: Option<u64>,
+    variant: u32,
+) -> Result<(ReadBack, AnimationLosses), ReadAnimationError> {
     use crate::ros::{RosMessage, cdr};
-    // Rest offsets seen per (track prefix, variant, bone), for variant 0 and `variant`; the first
-    // one wins.
-    type OffsetKey = (Option<u64>, u32, usize);
     let mut keys: Vec<crate::skeleton::convert::AnimationFrame> = Vec::new();
     let mut chosen = track;
-    let mut offsets: std::collections::BTreeMap<OffsetKey, nalgebra::Vector3<f64>> =
-        std::collections::BTreeMap::new();
+    let mut offsets = RestOffsets::new();
     let mut f = BoneFrame::default();
-    for m in readers
-        .iter()
-        .flat_map(|r| r.messages().filter_map(Result::ok))
-    {
+    let mut losses = AnimationLosses::default();
+    let mut skips = Vec::new();
+    for (path, m) in messages_of(readers, &mut losses) {
         match m.channel.schema_name() {
             s if s == BoneFrame::TYPE_NAME => {
-                if cdr::decode_in_place(&m.data, &mut f).is_err() {
+                if let Err(e) = cdr::decode_in_place(&m.data, &mut f) {
+                    skips.push(skipped(
+                        path,
+                        &m,
+                        format!("does not decode as a BoneFrame: {e}"),
+                    ));
                     continue;
                 }
                 if f.variant != variant || *chosen.get_or_insert(f.track_id) != f.track_id {
                     continue;
                 }
                 let stamp = frame_stamp(&f, m.log_time);
-                if keys.last().is_some_and(|k| k.stamp_nanos >= stamp) {
+                if let Some(last) = keys.last().map(|k| k.stamp_nanos)
+                    && last >= stamp
+                {
+                    let reason = format!(
+                        "track {} variant {variant}: stamp {stamp} ns does not advance past the frame before ({last} ns)",
+                        f.track_id
+                    );
+                    skips.push(skipped(path, &m, reason));
                     continue;
                 }
                 let pose = bone_pose(rig, &f).map_err(|source| ReadAnimationError::Frame {
@@ -314,35 +404,23 @@ pub fn read_animation_variant(
             s if s == TFMessage::TYPE_NAME
                 && (m.channel.topic == TF_STATIC_TOPIC || m.channel.topic == TF_TOPIC) =>
             {
-                let Ok(tf) = cdr::decode::<TFMessage>(&m.data) else {
-                    continue;
-                };
-                for t in tf.transforms {
-                    let (frame_track, frame_variant, bone) = parse_frame_name(&t.child_frame_id);
-                    if let Some(b) = rig.bone_index(bone)
-                        && b != ROOT
-                        && (frame_variant == 0 || frame_variant == variant)
-                    {
-                        offsets
-                            .entry((frame_track, frame_variant, b))
-                            .or_insert_with(|| nalgebra::Vector3::from(t.transform.translation));
-                    }
+                match cdr::decode::<TFMessage>(&m.data) {
+                    Ok(tf) => offsets.add(rig, &tf, variant),
+                    Err(e) => skips.push(skipped(
+                        path,
+                        &m,
+                        format!("does not decode as a TFMessage: {e}"),
+                    )),
                 }
             }
             _ => {}
         }
     }
+    losses.skipped.extend(skips);
     if keys.is_empty() {
         return Err(ReadAnimationError::NoFrames { track, variant });
     }
-    let mut character = Character::standard(rig);
-    // Variant 0's offsets first, then the variant's own (the map's order puts them after).
-    for ((frame_track, _, b), offset) in offsets {
-        // Prefixed frames belong to their track; unprefixed ones to the bag's only person.
-        if frame_track.is_none() || frame_track == chosen {
-            character.head_offset_m[b] = offset;
-        }
-    }
+    let character = offsets.character(rig, chosen);
     let poses: Vec<BonePose> = keys.iter().map(|k| k.pose.clone()).collect();
     let moving = fk::moving_bones(&poses);
     let names = |wanted: bool| -> Vec<String> {
@@ -358,7 +436,45 @@ pub fn read_animation_variant(
         twist_unobserved: Vec::new(),
         at_rest: names(false),
     };
-    Ok((keys, character, coverage))
+    Ok(((keys, character, coverage), losses))
+}
+
+/// Rest offsets seen on `/tf_static` and `/tf`, per (track prefix, variant, bone), for variant 0
+/// and the variant read; the first one wins.
+struct RestOffsets(std::collections::BTreeMap<(Option<u64>, u32, usize), nalgebra::Vector3<f64>>);
+
+impl RestOffsets {
+    fn new() -> RestOffsets {
+        RestOffsets(std::collections::BTreeMap::new())
+    }
+
+    /// Notes the offsets `tf` carries for variant 0 and `variant`.
+    fn add(&mut self, rig: &Rig, tf: &TFMessage, variant: u32) {
+        for t in &tf.transforms {
+            let (frame_track, frame_variant, bone) = parse_frame_name(&t.child_frame_id);
+            if let Some(b) = rig.bone_index(bone)
+                && b != ROOT
+                && (frame_variant == 0 || frame_variant == variant)
+            {
+                self.0
+                    .entry((frame_track, frame_variant, b))
+                    .or_insert_with(|| nalgebra::Vector3::from(t.transform.translation));
+            }
+        }
+    }
+
+    /// The body of track `chosen`: variant 0's offsets first, then the variant's own (the map's
+    /// order puts them after); prefixed frames belong to their track, unprefixed ones to the
+    /// bag's only person.
+    fn character(self, rig: &Rig, chosen: Option<u64>) -> Character {
+        let mut character = Character::standard(rig);
+        for ((frame_track, _, b), offset) in self.0 {
+            if frame_track.is_none() || frame_track == chosen {
+                character.head_offset_m[b] = offset;
+            }
+        }
+        character
+    }
 }
 
 /// A bone frame's time: its header stamp, or `log_time_nanos` where the header has none.

@@ -7,6 +7,7 @@ use anyhow::Result;
 use super::{Outcome, print_stdout};
 use crate::export::job::{ExportRequest, export};
 use crate::export::{ExportFormat, onim};
+use crate::loss::WARN_LIMIT;
 
 const AFTER_HELP: &str = "\
 Output naming:
@@ -87,7 +88,7 @@ pub struct Args {
     pub write_expected_json: bool,
 }
 
-/// Runs `autoact export`.
+/// Runs `autoact export`: exit code 3 when part of the bag could not be read or used.
 ///
 /// # Errors
 /// See [`crate::export::job::ExportJobError`].
@@ -108,6 +109,11 @@ pub fn run(args: Args) -> Result<Outcome> {
         onim_template: args.onim_template,
         write_expected_json: args.write_expected_json,
     };
-    print_stdout(&export(&request)?)?;
-    Ok(Outcome::Success)
+    let report = export(&request)?;
+    print_stdout(&report.text)?;
+    report.losses.warn(WARN_LIMIT);
+    if let Some(input) = &request.input {
+        report.losses.log_closing(input);
+    }
+    Ok(Outcome::from_run(&report))
 }

@@ -13,9 +13,11 @@ use crate::mcap_io::recover::recover;
 /// Arguments of `autoact recover`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The damaged or unfinished `.mcap`.
+    /// The damaged or unfinished `.mcap`, or a rosbag2 folder of them.
     pub input: PathBuf,
-    /// Where to write the recovered bag.
+    /// Where to write the recovered bag: a file for a `.mcap`; for a rosbag2 folder, a folder
+    /// that gets each of its `.mcap` files recovered under its own name and a fresh
+    /// `metadata.yaml`.
     #[arg(short, long, value_name = "PATH")]
     pub output: PathBuf,
     /// Replace the output if it exists.

@@ -23,8 +23,8 @@ pub enum EstimateError {
         #[source]
         source: McapIoError,
     },
-    /// A bag without summary statistics (an unfinished recording).
-    #[error("{key}: {path} has no summary statistics to plan with (was it finished?)")]
+    /// A bag without a readable message (nor summary statistics).
+    #[error("{key}: {path} has no readable message to plan with")]
     NoSummary {
         /// The spec key of the source.
         key: String,
@@ -34,7 +34,8 @@ pub enum EstimateError {
 }
 
 /// Each source's estimated length at the output rate, `[class][source]`: its bag's time range
-/// (from the summary, no message read) at the spec's speed, both ends included.
+/// (from the summary, no message read; for an unfinished bag, from its readable messages) at the
+/// spec's speed, both ends included.
 ///
 /// # Errors
 /// [`EstimateError`]: a bag that cannot be opened or has no summary statistics, named.
@@ -57,10 +58,12 @@ pub fn estimated_frames(spec: &Spec) -> Result<Vec<Vec<u64>>, EstimateError> {
                         })?;
                     let mut range: Option<(u64, u64)> = None;
                     for r in &readers {
-                        let (a, b) = r.time_range().ok_or_else(|| EstimateError::NoSummary {
-                            key: key.clone(),
-                            path: r.path().to_path_buf(),
-                        })?;
+                        let (a, b) =
+                            r.time_range_or_scan()
+                                .ok_or_else(|| EstimateError::NoSummary {
+                                    key: key.clone(),
+                                    path: r.path().to_path_buf(),
+                                })?;
                         range = Some(range.map_or((a, b), |(x, y)| (x.min(a), y.max(b))));
                     }
                     let (a, b) = range.unwrap_or((0, 0));

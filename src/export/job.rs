@@ -6,6 +6,8 @@ use std::path::{Path, PathBuf};
 use super::{
     AnimationKey, AnimationListing, EncodeOptions, ExportError, ExportFormat, bvh, gltf, onim,
 };
+use crate::bags::animation::AnimationLosses;
+use crate::loss::Losses;
 use crate::mcap_io::{BagReader, McapIoError};
 use crate::skeleton::rig::Rig;
 
@@ -86,14 +88,30 @@ pub enum ExportJobError {
     ExpectedJson(#[source] serde_json::Error),
 }
 
-/// Does what `request` asks and returns the text to print: the `--list` table, or one line per
-/// file written.
+/// What an export did: the text to print, and what of the bag could not be used.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct ExportReport {
+    /// The `--list` table, or one line per file written.
+    pub text: String,
+    /// What of the bag could not be read or used (each once, however many animations were
+    /// read): the run exits 3 when there is any.
+    pub losses: Losses,
+}
+
+impl crate::outcome::LostInput for ExportReport {
+    fn lost_input(&self) -> bool {
+        !self.losses.is_empty()
+    }
+}
+
+/// Does what `request` asks: the `--list` table, or the files written, and what of the bag was
+/// lost (unreadable chunks, a missing summary, frames that do not decode or do not advance).
 ///
 /// # Errors
 /// [`ExportJobError`]: an unreadable bag or one without animation frames, an unknown animation
 /// or variant, an output that exists (without `force`) or cannot be written, a `.onim` mapping
 /// that is invalid or does not cover the rig. A refused export writes nothing.
-pub fn export(request: &ExportRequest) -> Result<String, ExportJobError> {
+pub fn export(request: &ExportRequest) -> Result<ExportReport, ExportJobError> {
     let Some(input) = request.input.as_deref() else {
         return Err(ExportJobError::NoInput);
     };
@@ -103,10 +121,13 @@ pub fn export(request: &ExportRequest) -> Result<String, ExportJobError> {
         return Err(ExportJobError::Fps(f));
     }
     let readers = BagReader::open_all(input)?;
-    let available = super::list(input, &readers)?;
+    let (available, listed_losses) = super::list(input, &readers)?;
     if request.list {
         let fps = request.fps.or_else(|| super::stated_frame_rate(&readers));
-        return Ok(listing(&available, fps));
+        return Ok(ExportReport {
+            text: listing(&available, fps),
+            losses: Losses::from_animation(&listed_losses),
+        });
     }
     let (Some(format), Some(output)) = (request.format, request.output.as_deref()) else {
         return Err(ExportJobError::NoFormatOrOutput);
@@ -145,11 +166,13 @@ pub fn export(request: &ExportRequest) -> Result<String, ExportJobError> {
         request,
     };
     let mut folder = folder;
-    let mut text = String::new();
+    let mut report = ExportReport::default();
     for (key, path) in keys.iter().zip(&targets) {
-        text.push_str(&job.write(*key, path, folder.take())?);
+        let (line, losses) = job.write(*key, path, folder.take())?;
+        report.text.push_str(&line);
+        report.losses.merge(Losses::from_animation(&losses));
     }
-    Ok(text)
+    Ok(report)
 }
 
 /// What every animation of one export shares.
@@ -164,15 +187,15 @@ struct Job<'a> {
 
 impl Job<'_> {
     /// Reads, encodes and writes one animation to `path` (making `folder` first, if given);
-    /// returns the line saying so.
+    /// returns the line saying so, and what of the bag reading it lost.
     fn write(
         &self,
         key: AnimationKey,
         path: &Path,
         folder: Option<&Path>,
-    ) -> Result<String, ExportJobError> {
+    ) -> Result<(String, AnimationLosses), ExportJobError> {
         let (rig, input, force) = (self.rig, self.input, self.request.force);
-        let clip = super::read_clip(rig, input, self.readers, key, self.request.fps)?;
+        let (clip, losses) = super::read_clip(rig, input, self.readers, key, self.request.fps)?;
         let bytes = if matches!(self.format, ExportFormat::Gltf | ExportFormat::Glb) {
             let scene = gltf::SceneContext::read(rig, input, self.readers, &clip)?;
             let options = EncodeOptions {
@@ -195,12 +218,13 @@ impl Job<'_> {
                 .map_err(ExportJobError::ExpectedJson)?;
             super::write_atomically(&expected_path(path), &json, force)?;
         }
-        Ok(format!(
+        let line = format!(
             "wrote {}: {key}, {} frames at {} fps\n",
             path.display(),
             clip.poses.len(),
             clip.fps_hz
-        ))
+        );
+        Ok((line, losses))
     }
 }
 

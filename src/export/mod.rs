@@ -26,6 +26,7 @@ pub mod onim;
 
 use std::path::{Path, PathBuf};
 
+use crate::bags::animation::AnimationLosses;
 pub use crate::bags::animation::{AnimationKey, AnimationListing};
 use crate::mcap_io::BagReader;
 use crate::skeleton::character::Character;
@@ -155,18 +156,21 @@ pub struct Clip {
     pub stamps_nanos: Vec<u64>,
 }
 
-/// Every animation of the bag, ordered by track id, then variant.
+/// Every animation of the bag, ordered by track id, then variant, and what could not be read.
 ///
 /// # Errors
 /// [`ExportError::NotAnimationBag`] when there is none.
-pub fn list(path: &Path, readers: &[BagReader]) -> Result<Vec<AnimationListing>, ExportError> {
-    let all = crate::bags::animation::list_animations(readers);
+pub fn list(
+    path: &Path,
+    readers: &[BagReader],
+) -> Result<(Vec<AnimationListing>, AnimationLosses), ExportError> {
+    let (all, losses) = crate::bags::animation::list_animations_with_losses(readers);
     if all.is_empty() {
         return Err(ExportError::NotAnimationBag {
             path: path.to_path_buf(),
         });
     }
-    Ok(all)
+    Ok((all, losses))
 }
 
 /// The animations `track` and `variant` select from `available` (`None`: every one), in
@@ -235,7 +239,8 @@ pub fn first_uneven_frame(stamps_nanos: &[u64], fps_hz: f64) -> Option<(usize, f
 }
 
 /// Reads animation `key` of the bag as a [`Clip`] at `fps_hz` (`None`: [`stated_frame_rate`],
-/// else measured from the stamps), warning when its frames are not evenly spaced at that rate.
+/// else measured from the stamps), warning when its frames are not evenly spaced at that rate;
+/// with what of the bag could not be used.
 ///
 /// # Errors
 /// [`ExportError::BadAnimation`] for frames that do not fit the rig, [`ExportError::NoFrameRate`].
@@ -245,18 +250,19 @@ pub fn read_clip(
     readers: &[BagReader],
     key: AnimationKey,
     fps_hz: Option<f64>,
-) -> Result<Clip, ExportError> {
-    let (frames, character, _) = crate::bags::animation::read_animation_variant(
-        rig,
-        readers,
-        Some(key.track_id),
-        key.variant,
-    )
-    .map_err(|source| ExportError::BadAnimation {
-        path: path.to_path_buf(),
-        key,
-        source: Box::new(source),
-    })?;
+) -> Result<(Clip, AnimationLosses), ExportError> {
+    let ((frames, character, _), losses) =
+        crate::bags::animation::read_animation_variant_with_losses(
+            rig,
+            readers,
+            Some(key.track_id),
+            key.variant,
+        )
+        .map_err(|source| ExportError::BadAnimation {
+            path: path.to_path_buf(),
+            key,
+            source: Box::new(source),
+        })?;
     let stamps: Vec<u64> = frames.iter().map(|f| f.stamp_nanos).collect();
     let fps_hz =
         frame_rate(fps_hz.or_else(|| stated_frame_rate(readers)), &stamps).ok_or_else(|| {
@@ -271,13 +277,14 @@ pub fn read_clip(
             path.display()
         );
     }
-    Ok(Clip {
+    let clip = Clip {
         key,
         fps_hz,
         character,
         poses: frames.into_iter().map(|f| f.pose).collect(),
         stamps_nanos: stamps,
-    })
+    };
+    Ok((clip, losses))
 }
 
 /// The file name of animation `key` of bag `bag` when several are exported into one folder:

@@ -886,3 +886,177 @@ fn an_output_that_is_the_input_is_refused_and_the_input_kept() {
     let o = autoact(&["convert", arg(&bag), "-o", arg(&out)]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }
+
+/// Per chunk of a finished file: its start and the messages its message indexes list.
+fn chunk_counts(bytes: &[u8]) -> Vec<(usize, u64)> {
+    let mut out: Vec<(usize, u64)> = Vec::new();
+    let mut at = 8;
+    while at + 9 <= bytes.len() && bytes[at] != 0x0F {
+        let len = usize::try_from(u64::from_le_bytes(
+            bytes[at + 1..at + 9].try_into().unwrap(),
+        ))
+        .unwrap();
+        match bytes[at] {
+            0x06 => out.push((at, 0)),
+            0x07 => {
+                let entries = u32::from_le_bytes(bytes[at + 11..at + 15].try_into().unwrap());
+                out.last_mut().unwrap().1 += u64::from(entries) / 16;
+            }
+            _ => {}
+        }
+        at += 9 + len;
+    }
+    out
+}
+
+#[test]
+fn a_bag_cut_at_a_chunk_boundary_is_lost_input_for_convert_spec_and_info() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = pose_bag(dir.path(), "killed.pose.mcap", 300, |_, _| {});
+    let bytes = std::fs::read(&input).unwrap();
+    let chunks = chunk_counts(&bytes);
+    assert!(chunks.len() > 4);
+    // What `record` leaves after kill -9: whole chunks, no summary.
+    let (cut, _) = chunks[3];
+    let kept: u64 = chunks[..3].iter().map(|c| c.1).sum();
+    std::fs::write(&input, &bytes[..cut]).unwrap();
+    let said = format!("killed.pose.mcap: file ends without a summary: {kept} messages recovered");
+
+    let anim = dir.path().join("killed.anim.mcap");
+    let o = autoact(&["convert", arg(&input), "-o", arg(&anim)]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(stderr(&o).contains(&said), "{}", stderr(&o));
+    assert!(
+        common::stdout(&o).contains(&format!("track 0: {kept} ")),
+        "every whole chunk is converted: {}",
+        common::stdout(&o)
+    );
+
+    let spec = one_source_spec(dir.path(), &input);
+    let out = dir.path().join("capture");
+    let o = autoact(&["convert", "--spec", arg(&spec), "-o", arg(&out)]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(stderr(&o).contains(&said), "{}", stderr(&o));
+
+    let o = autoact(&["info", arg(&input)]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(common::stdout(&o).contains("verdict: problems found"));
+    assert!(common::stdout(&o).contains(&said), "{}", common::stdout(&o));
+}
+
+/// `bytes` with the 8-byte length of the record at `at` set to `len`.
+fn with_length(bytes: &[u8], at: usize, len: u64) -> Vec<u8> {
+    let mut out = bytes.to_vec();
+    out[at + 1..at + 9].copy_from_slice(&len.to_le_bytes());
+    out
+}
+
+/// Runs `autoact ARGS` with at most 2 GB of address space (the `mcap` crate's parser reserved up
+/// to 4 GiB for a corrupt string length before checking it).
+fn autoact_in_2gb(args: &[&str]) -> std::process::Output {
+    let quoted: Vec<String> = args.iter().map(|a| format!("'{a}'")).collect();
+    std::process::Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "ulimit -v 2000000; exec '{}' {}",
+            env!("CARGO_BIN_EXE_autoact"),
+            quoted.join(" ")
+        ))
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn damaged_lengths_cost_only_their_chunk_and_never_abort_under_a_memory_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = pose_bag(dir.path(), "whole.pose.mcap", 300, |_, _| {});
+    let bytes = std::fs::read(&input).unwrap();
+    let chunks = chunk_counts(&bytes);
+    let all: u64 = chunks.iter().map(|c| c.1).sum();
+    let (start, lost) = chunks[2];
+    let mut header_string = bytes.clone();
+    // The header's profile length: 4 GiB.
+    header_string[17..21].copy_from_slice(&u32::MAX.to_le_bytes());
+    let cases: Vec<(&str, Vec<u8>, u64)> = vec![
+        ("all_ones", with_length(&bytes, start, u64::MAX), all - lost),
+        (
+            "past_eof",
+            with_length(&bytes, start, bytes.len() as u64),
+            all - lost,
+        ),
+        (
+            "garbage",
+            [&bytes[..start], &[0x5a_u8; 777][..], &bytes[start..]].concat(),
+            all,
+        ),
+        ("header_string", header_string, all),
+    ];
+    for (name, damaged, kept) in cases {
+        let path = dir.path().join(format!("{name}.pose.mcap"));
+        std::fs::write(&path, &damaged).unwrap();
+        let o = autoact_in_2gb(&["info", "--format", "json", arg(&path)]);
+        let report: serde_json::Value = serde_json::from_slice(&o.stdout)
+            .unwrap_or_else(|e| panic!("{name}: {e}: {}", stderr(&o)));
+        assert_eq!(
+            report["channels"][0]["messages"].as_u64(),
+            Some(kept),
+            "{name}: {}",
+            stderr(&o)
+        );
+        let expected = if name == "header_string" { 0 } else { 3 };
+        assert_eq!(o.status.code(), Some(expected), "{name}: {report}");
+        let anim = dir.path().join(format!("{name}.anim.mcap"));
+        let o = autoact_in_2gb(&["convert", arg(&path), "-o", arg(&anim)]);
+        assert_eq!(o.status.code(), Some(expected), "{name}: {}", stderr(&o));
+        if name != "header_string" {
+            assert!(
+                stderr(&o).contains(&format!("{name}.pose.mcap: bytes {start}..")),
+                "{name}: the damage is named with its place: {}",
+                stderr(&o)
+            );
+        }
+    }
+}
+
+#[test]
+fn recover_takes_a_rosbag2_folder_into_a_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let folder = dir.path().join("rosbag2_run");
+    std::fs::create_dir(&folder).unwrap();
+    let first = pose_bag(&folder, "run_0.mcap", 90, |_, _| {});
+    let second = pose_bag(&folder, "run_1.mcap", 90, |_, _| {});
+    // The second split was being written when the recorder was killed.
+    let bytes = std::fs::read(&second).unwrap();
+    let chunks = chunk_counts(&bytes);
+    let kept: u64 = chunks[..2].iter().map(|c| c.1).sum();
+    std::fs::write(&second, &bytes[..chunks[2].0]).unwrap();
+    let out = dir.path().join("recovered");
+    let o = autoact(&["recover", arg(&folder), "-o", arg(&out)]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("run_1.mcap: file ends without a summary"),
+        "{}",
+        stderr(&o)
+    );
+    let count = |p: &Path| BagReader::open(p).unwrap().messages().count() as u64;
+    assert_eq!(count(&out.join("run_0.mcap")), count(&first));
+    assert_eq!(count(&out.join("run_1.mcap")), kept);
+    let yaml = std::fs::read_to_string(out.join("metadata.yaml")).unwrap();
+    assert!(
+        yaml.contains(&format!("message_count: {}", 90 + kept)),
+        "{yaml}"
+    );
+    // The recovered folder reads whole.
+    let o = autoact(&["info", arg(&out)]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // A folder is never written over a file, nor over itself, nor over an existing folder
+    // without --force.
+    let o = autoact(&["recover", arg(&folder), "-o", arg(&first)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("is a rosbag2 folder"), "{}", stderr(&o));
+    let o = autoact(&["recover", arg(&folder), "-o", arg(&folder), "--force"]);
+    assert_eq!(o.status.code(), Some(1));
+    let o = autoact(&["recover", arg(&folder), "-o", arg(&out)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("--force"), "{}", stderr(&o));
+}

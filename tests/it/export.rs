@@ -846,3 +846,124 @@ fn capture_bag_exports_its_camera_path_and_its_labels_seed_and_scenes() {
     assert_eq!(segments[0]["start_frame"], 0);
     assert_eq!(segments[0]["action"], "wave");
 }
+
+/// Start offsets of the top-level chunk records of an MCAP file.
+fn chunk_starts(bytes: &[u8]) -> Vec<usize> {
+    let mut out = Vec::new();
+    let mut at = 8;
+    while at + 9 <= bytes.len() && bytes[at] != 0x0F {
+        let len = usize::try_from(u64::from_le_bytes(
+            bytes[at + 1..at + 9].try_into().unwrap(),
+        ))
+        .unwrap();
+        if bytes[at] == 0x06 {
+            out.push(at);
+        }
+        at += 9 + len;
+    }
+    out
+}
+
+#[test]
+fn a_cut_or_damaged_animation_bag_exports_what_it_has_and_exits_3() {
+    let dir = tempfile::tempdir().unwrap();
+    let bag = synthetic_bag(dir.path(), 1, 1, 300);
+    let bytes = std::fs::read(&bag).unwrap();
+    let chunks = chunk_starts(&bytes);
+    assert!(chunks.len() >= 3, "{chunks:?}");
+    let cut = dir.path().join("cut.anim.mcap");
+    std::fs::write(&cut, &bytes[..chunks[2]]).unwrap();
+    let mut flipped = bytes.clone();
+    flipped[chunks[1] + 200] ^= 0xff;
+    let damaged = dir.path().join("damaged.anim.mcap");
+    std::fs::write(&damaged, &flipped).unwrap();
+    for (bag, said) in [
+        (&cut, "cut.anim.mcap: file ends without a summary"),
+        (&damaged, "damaged.anim.mcap: chunk 2 "),
+    ] {
+        let out = dir.path().join("out.bvh");
+        let o = autoact(&[
+            "export",
+            arg(bag),
+            "--format",
+            "bvh",
+            "-o",
+            arg(&out),
+            "--force",
+        ]);
+        assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+        assert!(stderr(&o).contains(said), "{}", stderr(&o));
+        assert!(stderr(&o).contains("1 unreadable parts"), "{}", stderr(&o));
+        assert!(out.exists(), "what was read is exported");
+        let o = autoact(&["export", arg(bag), "--list"]);
+        assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    }
+    // The whole bag exports with exit 0.
+    let out = dir.path().join("whole.bvh");
+    let o = autoact(&["export", arg(&bag), "--format", "bvh", "-o", arg(&out)]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+#[test]
+fn frames_that_do_not_decode_or_do_not_advance_are_lost_with_their_topic_and_index() {
+    let rig = Rig::standard();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("odd.anim.mcap");
+    let mut w = BagWriter::create(&path, WriteConfig::default()).unwrap();
+    let coverage = Coverage {
+        driven: rig.bones.iter().map(|b| b.name.clone()).collect(),
+        twist_unobserved: Vec::new(),
+        at_rest: Vec::new(),
+    };
+    let character = Character::standard(&rig);
+    let mut tw = TrackWriter::new(&rig, &character, &coverage, 0, 0, "");
+    for k in 0..60 {
+        // Frame 20 is written twice at the same stamp.
+        let stamp = autoact::skeleton::pose::stamp_nanos_at(if k == 21 { 20 } else { k }, 30.0);
+        tw.write_frame(&mut w, stamp, &pose(&rig, 0, 0, k)).unwrap();
+        if k == 40 {
+            w.write_raw(
+                "/animation",
+                "autoact_msgs/msg/BoneFrame",
+                String::new,
+                stamp + 1,
+                stamp + 1,
+                &[0, 1, 0, 0, 9],
+            )
+            .unwrap();
+        }
+    }
+    w.finish().unwrap();
+    let (_, lost) = autoact::bags::animation::read_animation_variant_with_losses(
+        &rig,
+        &[BagReader::open(&path).unwrap()],
+        None,
+        0,
+    )
+    .unwrap();
+    assert!(lost.unreadable.is_empty(), "{lost:?}");
+    let skipped: Vec<(String, u64)> = lost
+        .skipped
+        .iter()
+        .map(|s| (s.topic.clone(), s.index))
+        .collect();
+    assert_eq!(
+        skipped,
+        [
+            ("/animation".to_string(), 21),
+            ("/animation".to_string(), 41)
+        ],
+        "{lost:?}"
+    );
+    let out = dir.path().join("odd.bvh");
+    let o = autoact(&["export", arg(&path), "--format", "bvh", "-o", arg(&out)]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("odd.anim.mcap: /animation message 21")
+            && err.contains("does not advance past the frame before")
+            && err.contains("odd.anim.mcap: /animation message 41")
+            && err.contains("does not decode as a BoneFrame"),
+        "{err}"
+    );
+}
