@@ -473,3 +473,70 @@ fn default_bvh_layout_drives_the_spine_neck_and_head_and_keeps_the_arms_in_place
         );
     }
 }
+
+#[test]
+#[ignore = "needs ../shared/data"]
+fn mocapbank_is_refused_with_its_joints_and_imports_with_the_documented_mapping() {
+    use autoact::formats::bvh_map::{BvhMapping, DEFAULT_LAYOUT};
+    use autoact::skeleton::layout::Layout;
+    use autoact::skeleton::rig::Rig;
+
+    let clip = load("bvh/misc/test_mocapbank.bvh");
+    let e = BvhMapping::detect(&clip)
+        .expect_err("no built-in mapping")
+        .to_string();
+    assert!(
+        e.contains("Its joints are: Hips, Chest, Chest2, LeftCollar, LeftShoulder,")
+            && e.contains("--bvh-map"),
+        "{e}"
+    );
+    // The mapping file docs/convert.md shows for MocapBank.
+    let docs = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/convert.md"))
+        .expect("docs/convert.md");
+    let after = docs
+        .split_once("<!-- mocapbank-mapping:")
+        .expect("the marked example")
+        .1;
+    let toml = after
+        .split_once("```toml\n")
+        .and_then(|(_, rest)| rest.split_once("```"))
+        .expect("a toml block")
+        .0;
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("mocapbank.toml");
+    std::fs::write(&path, toml).expect("write");
+    let mapping = BvhMapping::from_file(&path)
+        .and_then(|m| m.check_fits(&clip))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let layout = Layout::load(DEFAULT_LAYOUT).expect("layout");
+    let seq = mapping
+        .keypoints(&clip, &layout)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .without_unobserved_joints();
+    assert_eq!(seq.frames.len(), 455);
+    let rig = Rig::standard();
+    let mut sc = autoact::skeleton::convert::SequenceConverter::new(
+        &rig,
+        &layout,
+        &seq,
+        autoact::skeleton::convert::ConvertOptions::default(),
+    )
+    .expect("converter");
+    let driven = sc.coverage().driven.clone();
+    for bone in [
+        "spine0",
+        "spine3",
+        "neck",
+        "l_upper_arm",
+        "r_forearm",
+        "l_foot",
+    ] {
+        assert!(driven.iter().any(|b| b == bone), "{bone}: {driven:?}");
+    }
+    let mut frames = 0;
+    while let Some(step) = sc.next_frame() {
+        step.expect("frame");
+        frames += 1;
+    }
+    assert_eq!(frames, 455);
+}
