@@ -394,7 +394,7 @@ impl Bvh {
         for (frame, values) in self.frames.iter().enumerate() {
             for (column, (&v, &(joint, channel))) in values.iter().zip(&columns).enumerate() {
                 let metres = (v * metres_per_unit).abs();
-                if channel.is_position() && !(metres <= max_m) {
+                if channel.is_position() && (metres > max_m || metres.is_nan()) {
                     return Err(BvhError::NotPhysical {
                         file: self.source.clone(),
                         line: self.frame_lines.get(frame).copied().unwrap_or(0),

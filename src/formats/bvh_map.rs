@@ -384,6 +384,47 @@ impl BvhMapping {
     }
 }
 
+/// The built-in mappings as a table for `autoact layouts`: name, the joints that identify it,
+/// its layouts and description.
+#[must_use]
+pub fn mappings_table() -> String {
+    let rows: Vec<Vec<String>> = BvhMapping::builtins()
+        .unwrap_or_default()
+        .iter()
+        .map(|m| {
+            vec![
+                m.skeleton.clone(),
+                m.required.join(", "),
+                m.layouts.keys().cloned().collect::<Vec<_>>().join(", "),
+                m.description.clone(),
+            ]
+        })
+        .collect();
+    format!(
+        "Built-in BVH skeleton mappings (`autoact import` picks the one whose joints a clip has and\n\
+         maps it onto {DEFAULT_LAYOUT} unless --layout says otherwise; --bvh-map FILE.toml for\n\
+         other skeletons, see docs/convert.md):\n\n{}",
+        crate::table::table(
+            &["mapping", "identified by", "layouts", "description"],
+            &rows
+        )
+    )
+}
+
+/// The built-in mappings as JSON (see [`mappings_table`]).
+#[must_use]
+pub fn mappings_json() -> serde_json::Value {
+    let v: Vec<_> = BvhMapping::builtins()
+        .unwrap_or_default()
+        .iter()
+        .map(|m| {
+            serde_json::json!({"name": m.skeleton, "description": m.description,
+                "required": m.required, "layouts": m.layouts.keys().collect::<Vec<_>>()})
+        })
+        .collect();
+    serde_json::Value::Array(v)
+}
+
 /// The clip's joints, End Sites left out, comma-separated (for error messages).
 fn joint_list(bvh: &Bvh) -> String {
     bvh.joints

@@ -277,10 +277,7 @@ pub fn layouts_table(layouts: &[(Layout, Coverage)]) -> String {
         .collect();
     format!(
         "Built-in keypoint layouts (a .toml file of the same form works anywhere a name does;\n\
-         `autoact layouts NAME` shows one). Bone counts are of the 48 bones that can move.\n\n{}\n\
-         Built-in BVH skeleton mappings (`autoact import` picks the one whose joints a clip has and\n\
-         maps it onto autoact-landmarks unless --layout says otherwise; --bvh-map FILE.toml for\n\
-         other skeletons, see docs/convert.md):\n\n{}",
+         `autoact layouts NAME` shows one). Bone counts are of the 48 bones that can move.\n\n{}",
         table(
             &[
                 "layout",
@@ -291,27 +288,8 @@ pub fn layouts_table(layouts: &[(Layout, Coverage)]) -> String {
                 "description"
             ],
             &t
-        ),
-        table(
-            &["mapping", "identified by", "layouts", "description"],
-            &bvh_mappings()
-                .iter()
-                .map(|m| {
-                    vec![
-                        m.skeleton.clone(),
-                        m.required.join(", "),
-                        m.layouts.keys().cloned().collect::<Vec<_>>().join(", "),
-                        m.description.clone(),
-                    ]
-                })
-                .collect::<Vec<_>>()
         )
     )
-}
-
-/// The built-in BVH mappings (none if one is broken: a unit test guards them).
-fn bvh_mappings() -> Vec<crate::formats::bvh_map::BvhMapping> {
-    crate::formats::bvh_map::BvhMapping::builtins().unwrap_or_default()
 }
 
 /// The layouts as JSON, with the names of the bones each drives.
@@ -324,14 +302,7 @@ pub fn layouts_json(layouts: &[(Layout, Coverage)]) -> serde_json::Value {
                    "driven": c.driven, "twist_unobserved": c.twist_unobserved, "at_rest": c.at_rest})
         })
         .collect();
-    let bvh: Vec<_> = bvh_mappings()
-        .iter()
-        .map(|m| {
-            json!({"name": m.skeleton, "description": m.description, "required": m.required,
-                   "layouts": m.layouts.keys().collect::<Vec<_>>()})
-        })
-        .collect();
-    json!({ "layouts": v, "bvh_mappings": bvh })
+    json!({ "layouts": v })
 }
 
 /// A landmark's joint expression as text: `joint`, `mean(a, b)` or `a + t·(b − a)`.

@@ -186,6 +186,13 @@ fn an_unknown_bvh_skeleton_is_refused_with_how_to_map_it_and_imports_with_bvh_ma
         assert!(err.contains(needle), "`{needle}` not in: {err}");
     }
     assert!(!out.exists());
+    // `autoact layouts` names the built-in mappings.
+    let listing = stdout(&autoact(&["layouts"]));
+    assert!(
+        listing.contains("Built-in BVH skeleton mappings")
+            && listing.contains("bandai-namco  Hips, Chest, UpperArm_L"),
+        "{listing}"
+    );
 
     let map = dir.path().join("mine.toml");
     std::fs::write(
