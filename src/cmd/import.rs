@@ -40,10 +40,15 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = InputFormat::Auto)]
     pub format: InputFormat,
     /// Keypoint layout of the output: for BVH the layout to map the mocap joints onto (default
-    /// coco-wholebody-133), for JSON the layout of its keypoints (default coco-wholebody-133).
-    /// NTU, Human3.6M and ZED files have a layout of their own.
+    /// autoact-landmarks, the rig's own points, so every rig bone the mocap has a joint for is
+    /// driven), for JSON the layout of its keypoints (default coco-wholebody-133). NTU,
+    /// Human3.6M and ZED files have a layout of their own.
     #[arg(long, value_name = "LAYOUT")]
     pub layout: Option<String>,
+    /// For BVH: a mapping file (TOML) from the file's joints onto layouts, for a skeleton with no
+    /// built-in mapping (see docs/convert.md, "BVH mapping files").
+    #[arg(long, value_name = "FILE.toml")]
+    pub bvh_map: Option<PathBuf>,
     /// Frame rate, for formats that have none (JSON: required); overrides NTU's 30.
     #[arg(long)]
     pub fps: Option<f64>,
@@ -74,6 +79,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         input,
         format,
         layout,
+        bvh_map,
         fps,
         axes,
         metres_per_unit,
@@ -84,6 +90,7 @@ pub fn run(args: Args) -> Result<Outcome> {
     let options = ImportOptions {
         format,
         layout,
+        bvh_map,
         fps,
         axes: axes.into(),
         metres_per_unit,

@@ -29,8 +29,15 @@ pub fn run(args: Args) -> Result<Outcome> {
         None => {
             let layouts = describe::builtin_layouts(&rig)?;
             format.pick(
-                || describe::layouts_table(&layouts),
-                || describe::layouts_json(&layouts),
+                || {
+                    let bvh = crate::formats::bvh_map::mappings_table();
+                    format!("{}\n{bvh}", describe::layouts_table(&layouts))
+                },
+                || {
+                    let mut v = describe::layouts_json(&layouts);
+                    v["bvh_mappings"] = crate::formats::bvh_map::mappings_json();
+                    v
+                },
             )
         }
         Some(name) => {

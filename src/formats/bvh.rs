@@ -33,6 +33,12 @@
 //! unexpected or missing tokens, missing braces, bad numbers, NaN/infinite values, a motion line
 //! with the wrong number of values, fewer (or more) frame lines than `Frames:` declares, an empty
 //! file, zero frames, or a frame time that is not a finite positive number.
+//!
+//! **Physical values.** A finite value can still be absurd (`-1e308` makes a root translation of
+//! 5e305 m). The parser refuses an offset or a position value beyond [`MAX_ABS_UNITS`] file
+//! units and a rotation beyond [`MAX_ABS_DEG`] degrees, naming the line and the channel; once the
+//! units are known, [`Bvh::check_translations`] refuses a position channel beyond a distance in
+//! metres (the import uses [`MAX_TRANSLATION_M`]).
 
 use std::collections::HashSet;
 use std::fmt;
@@ -42,6 +48,17 @@ use nalgebra::{Point3, UnitQuaternion, Vector3};
 
 use crate::skeleton::frames::SourceAxes;
 use crate::skeleton::pose::{PoseFrame, PoseSequence, stamp_nanos_at};
+
+/// The largest magnitude of an `OFFSET` or position value, in file units: 1e4 m in
+/// millimetres, far beyond any capture volume in any unit; larger values are refused.
+pub const MAX_ABS_UNITS: f64 = 1e7;
+
+/// The largest magnitude of a rotation value, degrees; larger values have lost all precision
+/// (at 1e16° one step of an `f64` exceeds a full turn) and are refused.
+pub const MAX_ABS_DEG: f64 = 1e6;
+
+/// The largest translation, metres, that [`Bvh::check_translations`] accepts by default use.
+pub const MAX_TRANSLATION_M: f64 = 1e4;
 
 /// One BVH channel: a translation or a rotation (degrees) along/about one axis of the parent frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -153,6 +170,9 @@ pub struct Bvh {
     /// every frame has [`Bvh::channel_count`] values, all finite. Positions in file units,
     /// rotations in degrees.
     pub frames: Vec<Vec<f64>>,
+    /// 1-based line of each frame in the file (blank lines are skipped, so not always
+    /// consecutive), for errors found after parsing.
+    pub frame_lines: Vec<usize>,
 }
 
 /// Why a BVH file could not be read. Every variant names the file; all but [`BvhError::Io`]
@@ -281,6 +301,22 @@ pub enum BvhError {
         /// The token.
         token: String,
     },
+    /// An offset or motion value that is finite but not physical: beyond [`MAX_ABS_UNITS`]
+    /// (positions, offsets), [`MAX_ABS_DEG`] (rotations), or, after unit scaling, the largest
+    /// translation allowed.
+    #[error("{file}:{line}: {place}: value {value:e} is not physical ({why})")]
+    NotPhysical {
+        /// The file.
+        file: String,
+        /// 1-based line.
+        line: usize,
+        /// Where on the line: `frame F, column C (Joint Xposition)` or `OFFSET of Joint`.
+        place: String,
+        /// The value as read.
+        value: f64,
+        /// The bound it breaks.
+        why: String,
+    },
     /// A motion line whose number of values is not the number of channels.
     #[error(
         "{file}:{line}: frame {frame} has {found} values, expected {expected} (one per channel)"
@@ -343,6 +379,37 @@ pub fn parse(text: &str, source: &str) -> Result<Bvh, BvhError> {
 }
 
 impl Bvh {
+    /// Refuses a position channel whose value, at `metres_per_unit`, is farther than `max_m`
+    /// metres from the origin, naming the line, frame, column and channel: a clip whose values
+    /// are finite but absurd must not come out as a body kilometres away.
+    ///
+    /// # Errors
+    /// [`BvhError::NotPhysical`] for the first such value.
+    pub fn check_translations(&self, metres_per_unit: f64, max_m: f64) -> Result<(), BvhError> {
+        let columns: Vec<(&str, Channel)> = self
+            .joints
+            .iter()
+            .flat_map(|j| j.channels.iter().map(|c| (j.name.as_str(), *c)))
+            .collect();
+        for (frame, values) in self.frames.iter().enumerate() {
+            for (column, (&v, &(joint, channel))) in values.iter().zip(&columns).enumerate() {
+                let metres = (v * metres_per_unit).abs();
+                if channel.is_position() && (metres > max_m || metres.is_nan()) {
+                    return Err(BvhError::NotPhysical {
+                        file: self.source.clone(),
+                        line: self.frame_lines.get(frame).copied().unwrap_or(0),
+                        place: format!("frame {frame}, column {column} ({joint} {channel})"),
+                        value: v,
+                        why: format!(
+                            "{metres:.3e} m at {metres_per_unit} m per unit; translations are at most {max_m:e} m"
+                        ),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// Total number of channels (values per frame).
     #[must_use]
     pub fn channel_count(&self) -> usize {
@@ -592,6 +659,9 @@ struct Open {
     has_channels: bool,
 }
 
+/// What the motion section holds: the frame time, the frames, and each frame's line.
+type Motion = (f64, Vec<Vec<f64>>, Vec<usize>);
+
 struct Parser<'a> {
     lex: Lexer<'a>,
     file: &'a str,
@@ -696,12 +766,17 @@ impl<'a> Parser<'a> {
                 line: motion_line,
             });
         }
-        let (frame_time_secs, frames) = self.motion(channel_count)?;
+        let columns: Vec<(&str, Channel)> = joints
+            .iter()
+            .flat_map(|j| j.channels.iter().map(|c| (j.name.as_str(), *c)))
+            .collect();
+        let (frame_time_secs, frames, frame_lines) = self.motion(&columns)?;
         Ok(Bvh {
             source: self.file.to_owned(),
             joints,
             frame_time_secs,
             frames,
+            frame_lines,
         })
     }
 
@@ -755,7 +830,8 @@ impl<'a> Parser<'a> {
                 "OFFSET" if !top.has_offset => {
                     top.has_offset = true;
                     let joint = top.joint;
-                    let offset = self.offset()?;
+                    let name = joints.get(joint).map_or("", |j| j.name.as_str());
+                    let offset = self.offset(&format!("OFFSET of {name}"))?;
                     if let Some(j) = joints.get_mut(joint) {
                         j.offset = offset;
                     }
@@ -870,7 +946,10 @@ impl<'a> Parser<'a> {
         let mut offset = None;
         loop {
             match self.lex.next() {
-                Some((_, "OFFSET")) if offset.is_none() => offset = Some(self.offset()?),
+                Some((_, "OFFSET")) if offset.is_none() => {
+                    let name = joints.get(parent).map_or("", |j| j.name.as_str());
+                    offset = Some(self.offset(&format!("OFFSET of the End Site of {name}"))?);
+                }
                 Some((_, "}")) => break,
                 Some((l, t)) => {
                     let expected = if offset.is_none() {
@@ -901,11 +980,23 @@ impl<'a> Parser<'a> {
         Ok(())
     }
 
-    fn offset(&mut self) -> Result<Vector3<f64>, BvhError> {
-        let (_, x) = self.finite("OFFSET value")?;
-        let (_, y) = self.finite("OFFSET value")?;
-        let (_, z) = self.finite("OFFSET value")?;
-        Ok(Vector3::new(x, y, z))
+    /// `x y z` of an `OFFSET`; `place` names it in errors.
+    fn offset(&mut self, place: &str) -> Result<Vector3<f64>, BvhError> {
+        let mut xyz = [0.0; 3];
+        for v in &mut xyz {
+            let (line, value) = self.finite("OFFSET value")?;
+            if value.abs() > MAX_ABS_UNITS {
+                return Err(BvhError::NotPhysical {
+                    file: self.file.to_owned(),
+                    line,
+                    place: place.to_owned(),
+                    value,
+                    why: format!("offsets are at most {MAX_ABS_UNITS:e} file units"),
+                });
+            }
+            *v = value;
+        }
+        Ok(Vector3::from(xyz))
     }
 
     fn channels(&mut self) -> Result<Vec<Channel>, BvhError> {
@@ -932,11 +1023,13 @@ impl<'a> Parser<'a> {
     }
 
     /// Parses from after `MOTION`: the header and every frame line.
-    fn motion(&mut self, channel_count: usize) -> Result<(f64, Vec<Vec<f64>>), BvhError> {
+    /// `columns` are the channels in file order, with their joint's name. Returns the frame
+    /// time, the frames and the line of each frame.
+    fn motion(&mut self, columns: &[(&str, Channel)]) -> Result<Motion, BvhError> {
         let declared = self.frame_count()?;
         let frame_time = self.frame_time()?;
-        let frames = self.frame_lines(declared, channel_count)?;
-        Ok((frame_time, frames))
+        let (frames, lines) = self.frame_lines(declared, columns)?;
+        Ok((frame_time, frames, lines))
     }
 
     /// `Frames: N` (also `Frames:N` and `Frames : N`), N at least 1.
@@ -1023,10 +1116,11 @@ impl<'a> Parser<'a> {
     fn frame_lines(
         &mut self,
         declared: usize,
-        channel_count: usize,
-    ) -> Result<Vec<Vec<f64>>, BvhError> {
+        columns: &[(&str, Channel)],
+    ) -> Result<(Vec<Vec<f64>>, Vec<usize>), BvhError> {
         // `declared` comes from the file: cap the reservation.
         let mut frames: Vec<Vec<f64>> = Vec::with_capacity(declared.min(1 << 16));
+        let mut lines: Vec<usize> = Vec::with_capacity(declared.min(1 << 16));
         while let Some((line, text)) = self.lex.next_line() {
             if text.split_ascii_whitespace().next().is_none() {
                 continue;
@@ -1039,7 +1133,8 @@ impl<'a> Parser<'a> {
                     declared,
                 });
             }
-            frames.push(self.frame_values(line, frame, text, channel_count)?);
+            frames.push(self.frame_values(line, frame, text, columns)?);
+            lines.push(line);
         }
         if frames.len() < declared {
             return Err(BvhError::FewerFramesThanDeclared {
@@ -1049,17 +1144,19 @@ impl<'a> Parser<'a> {
                 found: frames.len(),
             });
         }
-        Ok(frames)
+        Ok((frames, lines))
     }
 
-    /// The `channel_count` finite values of frame `frame`, the text of line `line`.
+    /// The finite, physical values of frame `frame` (one per entry of `columns`), the text of
+    /// line `line`.
     fn frame_values(
         &self,
         line: usize,
         frame: usize,
         text: &str,
-        channel_count: usize,
+        columns: &[(&str, Channel)],
     ) -> Result<Vec<f64>, BvhError> {
+        let channel_count = columns.len();
         let mut tokens = text.split_ascii_whitespace();
         let mut values = Vec::with_capacity(channel_count);
         for (column, tok) in tokens.by_ref().enumerate() {
@@ -1073,7 +1170,27 @@ impl<'a> Parser<'a> {
                 });
             }
             match tok.parse::<f64>() {
-                Ok(v) if v.is_finite() => values.push(v),
+                Ok(v) if v.is_finite() => {
+                    if let Some(&(joint, channel)) = columns.get(column) {
+                        let (bound, unit) = if channel.is_position() {
+                            (MAX_ABS_UNITS, "file units")
+                        } else {
+                            (MAX_ABS_DEG, "degrees")
+                        };
+                        if v.abs() > bound {
+                            return Err(BvhError::NotPhysical {
+                                file: self.file.to_owned(),
+                                line,
+                                place: format!(
+                                    "frame {frame}, column {column} ({joint} {channel})"
+                                ),
+                                value: v,
+                                why: format!("{channel} values are at most {bound:e} {unit}"),
+                            });
+                        }
+                    }
+                    values.push(v);
+                }
                 Ok(_) => {
                     return Err(BvhError::NonFinite {
                         file: self.file.to_owned(),
@@ -1732,5 +1849,46 @@ Frame Time: 0.5
             bytes.truncate(cut);
             exercise(&String::from_utf8_lossy(&bytes));
         }
+    }
+
+    #[test]
+    fn finite_but_absurd_values_are_refused_with_line_and_channel() {
+        let motion = |values: &str| CHAIN.replace("10 20 30 0 0 0 0 0 90", values);
+        let e = err(&motion("10 20 -1e308 0 0 0 0 0 90")).to_string();
+        assert_eq!(
+            e,
+            "test.bvh:20: frame 1, column 2 (Root Zposition): value -1e308 is not physical (Zposition values are at most 1e7 file units)"
+        );
+        let e = err(&motion("10 20 30 0 0 0 0 0 1e300")).to_string();
+        assert_eq!(
+            e,
+            "test.bvh:20: frame 1, column 8 (Mid Yrotation): value 1e300 is not physical (Yrotation values are at most 1e6 degrees)"
+        );
+        let e = err(&CHAIN.replace(
+            "OFFSET 1 0 0\n    CHANNELS",
+            "OFFSET 1 -1e308 0\n    CHANNELS",
+        ))
+        .to_string();
+        assert_eq!(
+            e,
+            "test.bvh:8: OFFSET of Mid: value -1e308 is not physical (offsets are at most 1e7 file units)"
+        );
+        let e = err(&CHAIN.replace("OFFSET 1 0 0\n    }", "OFFSET 1e9 0 0\n    }")).to_string();
+        assert!(
+            e.starts_with("test.bvh:12: OFFSET of the End Site of Mid: value 1e9"),
+            "{e}"
+        );
+        // Large but plausible values pass: 9,000 km in file units, a thousand turns.
+        let b = ok(&motion("9e6 20 30 0 0 360000 0 0 90"));
+        assert_eq!(b.frame_lines, [19, 20, 21]);
+        assert!(b.check_translations(0.001, MAX_TRANSLATION_M).is_ok());
+        let e = b
+            .check_translations(0.01, MAX_TRANSLATION_M)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "test.bvh:20: frame 1, column 0 (Root Xposition): value 9e6 is not physical (9.000e4 m at 0.01 m per unit; translations are at most 1e4 m)"
+        );
     }
 }

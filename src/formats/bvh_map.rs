@@ -17,8 +17,15 @@
 //! ```
 //!
 //! Layout joints a mapping does not give are missing (NaN, confidence 0) in every frame.
+//!
+//! Every built-in mapping has a table for `autoact-landmarks` (the rig's own landmarks, see
+//! `autoact rig --landmarks`), the layout a BVH import uses unless told otherwise
+//! ([`DEFAULT_LAYOUT`]): it drives every rig bone the source skeleton has a joint for. A BVH
+//! skeleton without a built-in mapping needs a mapping file of the same form
+//! ([`BvhMapping::from_file`], `autoact import --bvh-map`).
 
 use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 
 use nalgebra::{Point3, Vector3};
 use serde::Deserialize;
@@ -28,29 +35,77 @@ use crate::skeleton::frames::SourceAxes;
 use crate::skeleton::layout::{JointExpr, Layout};
 use crate::skeleton::pose::{PoseFrame, PoseSequence, stamp_nanos_at};
 
+/// The layout a BVH clip is mapped onto unless another is asked for: the rig's own landmarks,
+/// so that the spine, neck, head, clavicles, hands and feet follow the source's joints.
+pub const DEFAULT_LAYOUT: &str = "autoact-landmarks";
+
+/// Where to read about mapping files, for error messages.
+pub const MAPPING_DOCS: &str = "docs/convert.md, section \"BVH mapping files\"";
+
 /// Errors building keypoints from a BVH clip.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum BvhMapError {
+    /// A mapping file could not be read.
+    #[error("cannot read BVH mapping file {}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
     /// The mapping table did not parse.
     #[error("invalid BVH mapping {name}: {message}")]
     Parse {
-        /// Mapping name.
+        /// Mapping name or file.
         name: String,
-        /// What the TOML parser said.
+        /// Where (line and column) and what the TOML parser said.
         message: String,
     },
     /// No built-in mapping fits the clip's joints.
     #[error(
-        "{source_name}: no built-in BVH mapping fits this skeleton (known: {known}); its joints are: {joints}"
+        "{source_name}: no built-in BVH mapping fits this skeleton (built in: {known}).\n\
+         Its joints are: {joints}.\n\
+         Write a mapping file that names them (see {MAPPING_DOCS}; copy a built-in one such as \
+         src/skeleton/layouts/bvh/cmu.toml from the autoact sources) and pass it with \
+         --bvh-map FILE.toml"
     )]
     NoMapping {
         /// The BVH file.
         source_name: String,
-        /// Built-in mapping names.
+        /// Built-in mapping names, each with the joints it requires.
         known: String,
-        /// The clip's first joints.
+        /// The clip's joints (End Sites left out).
         joints: String,
+    },
+    /// A mapping file's `required` joints are not all in the clip.
+    #[error(
+        "{source_name}: BVH mapping `{mapping}` requires joints the clip does not have: {missing} (the clip's joints: {joints})"
+    )]
+    MissingJoints {
+        /// The BVH file.
+        source_name: String,
+        /// Mapping name.
+        mapping: String,
+        /// The required joints not found.
+        missing: String,
+        /// The clip's joints (End Sites left out).
+        joints: String,
+    },
+    /// A mapping's layout table names a joint the layout does not have.
+    #[error(
+        "BVH mapping `{mapping}`: [layouts.{layout}] sets `{joint}`, which is not a joint of layout `{layout}`{hint}"
+    )]
+    UnknownLayoutJoint {
+        /// Mapping name.
+        mapping: String,
+        /// Layout name.
+        layout: String,
+        /// The key.
+        joint: String,
+        /// Where to find the layout's joints.
+        hint: &'static str,
     },
     /// The mapping has no table for the layout.
     #[error("BVH mapping `{mapping}` has no table for layout `{layout}` (it has: {available})")]
@@ -64,7 +119,7 @@ pub enum BvhMapError {
     },
     /// An expression names something that is neither a BVH joint nor a virtual point.
     #[error(
-        "{source_name}: BVH mapping `{mapping}` uses `{name}`, which is neither a joint of the clip nor a virtual point"
+        "{source_name}: BVH mapping `{mapping}` uses `{name}`, which is neither a joint of the clip nor a virtual point (the clip's joints: {joints})"
     )]
     UnknownName {
         /// The BVH file.
@@ -73,7 +128,12 @@ pub enum BvhMapError {
         mapping: String,
         /// The name.
         name: String,
+        /// The clip's joints (End Sites included, as `<parent>_End`).
+        joints: String,
     },
+    /// A channel value that is not physical once the units are known.
+    #[error(transparent)]
+    Values(#[from] super::bvh::BvhError),
     /// The clip's units cannot be guessed and the mapping does not state them.
     #[error(
         "{source_name}: cannot tell the units of this BVH (rest skeleton {extent:.1} units tall); give metres per unit"
@@ -129,14 +189,60 @@ const BUILTIN: [(&str, &str); 3] = [
 ];
 
 impl BvhMapping {
-    /// Parses a mapping table.
+    /// Parses a mapping table; `name` names it in errors.
     ///
     /// # Errors
-    /// [`BvhMapError::Parse`].
+    /// [`BvhMapError::Parse`] with the line and column of the fault.
     pub fn from_toml(text: &str, name: &str) -> Result<BvhMapping, BvhMapError> {
         toml::from_str(text).map_err(|e| BvhMapError::Parse {
             name: name.to_string(),
-            message: e.to_string(),
+            message: toml_error_text(text, &e),
+        })
+    }
+
+    /// Reads a mapping file (the form of the built-in ones, for a BVH skeleton autoact does
+    /// not know).
+    ///
+    /// # Errors
+    /// [`BvhMapError::Io`], or [`BvhMapError::Parse`] naming the file, line and column.
+    pub fn from_file(path: &Path) -> Result<BvhMapping, BvhMapError> {
+        let bytes = std::fs::read(path).map_err(|source| BvhMapError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let name = path.display().to_string();
+        let text = String::from_utf8(bytes).map_err(|e| {
+            let at = e.utf8_error().valid_up_to();
+            let bytes = e.as_bytes();
+            let line = 1 + bytes[..at].iter().filter(|&&b| b == b'\n').count();
+            BvhMapError::Parse {
+                name: name.clone(),
+                message: format!("line {line}: invalid UTF-8 (byte {at})"),
+            }
+        })?;
+        BvhMapping::from_toml(&text, &name)
+    }
+
+    /// This mapping if the clip has every joint it requires.
+    ///
+    /// # Errors
+    /// [`BvhMapError::MissingJoints`] naming the joints not found.
+    pub fn check_fits(self, bvh: &Bvh) -> Result<BvhMapping, BvhMapError> {
+        let names = bvh.joint_names();
+        let missing: Vec<&str> = self
+            .required
+            .iter()
+            .filter(|r| !names.contains(r))
+            .map(String::as_str)
+            .collect();
+        if missing.is_empty() {
+            return Ok(self);
+        }
+        Err(BvhMapError::MissingJoints {
+            source_name: bvh.source.clone(),
+            mapping: self.skeleton.clone(),
+            missing: missing.join(", "),
+            joints: joint_list(bvh),
         })
     }
 
@@ -160,20 +266,15 @@ impl BvhMapping {
         let names = bvh.joint_names();
         let known = all
             .iter()
-            .map(|m| m.skeleton.clone())
+            .map(|m| format!("{} (needs {})", m.skeleton, m.required.join(", ")))
             .collect::<Vec<_>>()
-            .join(", ");
+            .join("; ");
         all.into_iter()
             .find(|m| m.required.iter().all(|r| names.contains(r)))
             .ok_or_else(|| BvhMapError::NoMapping {
                 source_name: bvh.source.clone(),
                 known,
-                joints: names
-                    .iter()
-                    .take(12)
-                    .cloned()
-                    .collect::<Vec<_>>()
-                    .join(", "),
+                joints: joint_list(bvh),
             })
     }
 
@@ -194,6 +295,18 @@ impl BvhMapping {
                 layout: layout.name.clone(),
                 available: self.layouts.keys().cloned().collect::<Vec<_>>().join(", "),
             })?;
+        if let Some(joint) = table.keys().find(|k| !layout.joints.contains(k)) {
+            return Err(BvhMapError::UnknownLayoutJoint {
+                mapping: self.skeleton.clone(),
+                layout: layout.name.clone(),
+                joint: joint.clone(),
+                hint: if layout.name == DEFAULT_LAYOUT {
+                    " (`autoact rig --landmarks` lists them)"
+                } else {
+                    " (`autoact layouts NAME` lists them)"
+                },
+            });
+        }
         let Some(metres_per_unit) = self.metres_per_unit.or_else(|| bvh.guess_metres_per_unit())
         else {
             return Err(BvhMapError::UnknownUnits {
@@ -201,6 +314,7 @@ impl BvhMapping {
                 extent: bvh.rest_extent().max(),
             });
         };
+        bvh.check_translations(metres_per_unit, super::bvh::MAX_TRANSLATION_M)?;
         // Resolve every name to (joint index, offset in the joint's frame).
         let resolve = |name: &String| -> Result<(usize, Vector3<f64>), BvhMapError> {
             if let Some(j) = bvh.joint_index(name) {
@@ -213,6 +327,7 @@ impl BvhMapping {
                     source_name: bvh.source.clone(),
                     mapping: self.skeleton.clone(),
                     name: name.clone(),
+                    joints: bvh.joint_names().join(", "),
                 })
         };
         let mut terms: Vec<Option<Terms>> = Vec::with_capacity(layout.joints.len());
@@ -269,6 +384,82 @@ impl BvhMapping {
     }
 }
 
+/// The built-in mappings as a table for `autoact layouts`: name, the joints that identify it,
+/// its layouts and description.
+#[must_use]
+pub fn mappings_table() -> String {
+    let rows: Vec<Vec<String>> = BvhMapping::builtins()
+        .unwrap_or_default()
+        .iter()
+        .map(|m| {
+            vec![
+                m.skeleton.clone(),
+                m.required.join(", "),
+                m.layouts.keys().cloned().collect::<Vec<_>>().join(", "),
+                m.description.clone(),
+            ]
+        })
+        .collect();
+    format!(
+        "Built-in BVH skeleton mappings (`autoact import` picks the one whose joints a clip has and\n\
+         maps it onto {DEFAULT_LAYOUT} unless --layout says otherwise; --bvh-map FILE.toml for\n\
+         other skeletons, see docs/convert.md):\n\n{}",
+        crate::table::table(
+            &["mapping", "identified by", "layouts", "description"],
+            &rows
+        )
+    )
+}
+
+/// The built-in mappings as JSON (see [`mappings_table`]).
+#[must_use]
+pub fn mappings_json() -> serde_json::Value {
+    let v: Vec<_> = BvhMapping::builtins()
+        .unwrap_or_default()
+        .iter()
+        .map(|m| {
+            serde_json::json!({"name": m.skeleton, "description": m.description,
+                "required": m.required, "layouts": m.layouts.keys().collect::<Vec<_>>()})
+        })
+        .collect();
+    serde_json::Value::Array(v)
+}
+
+/// The clip's joints, End Sites left out, comma-separated (for error messages).
+fn joint_list(bvh: &Bvh) -> String {
+    bvh.joints
+        .iter()
+        .filter(|j| !j.is_end_site)
+        .map(|j| j.name.as_str())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// A TOML error as `line L, column C: message`, quoting at most 80 characters of the line (a
+/// huge line must not flood the terminal).
+fn toml_error_text(text: &str, e: &toml::de::Error) -> String {
+    let Some(span) = e.span() else {
+        return e.message().to_string();
+    };
+    let start = span.start.min(text.len());
+    let before = text.get(..start).unwrap_or("");
+    let line = 1 + before.matches('\n').count();
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    let column = 1 + before[line_start..].chars().count();
+    let line_text: String = text[line_start..]
+        .lines()
+        .next()
+        .unwrap_or("")
+        .chars()
+        .take(80)
+        .collect();
+    format!(
+        "line {line}, column {column}: {} (at `{}`)",
+        e.message().trim_end(),
+        line_text.trim()
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -312,5 +503,205 @@ mod tests {
         );
         assert_eq!(f.confidence[1], 0.0, "right_hip is not mapped: missing");
         assert!(f.positions_m[1].x.is_nan());
+    }
+
+    /// A two-joint clip (`Hips` → `Head`, cm) with one frame.
+    fn two_joint_clip() -> Bvh {
+        let text = "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n  JOINT Head\n  {\n    OFFSET 0 100 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n    End Site\n    {\n      OFFSET 0 10 0\n    }\n  }\n}\nMOTION\nFrames: 1\nFrame Time: 0.04\n0 90 0 0 0 0 0 0 0\n";
+        super::super::bvh::parse(text, "t.bvh").unwrap()
+    }
+
+    const GOOD_MAP: &str = "skeleton = \"two\"\nrequired = [\"Hips\", \"Head\"]\nmetres_per_unit = 0.01\n[points]\ntop = { joint = \"Head\", offset = [0.0, 20.0, 0.0] }\n[layouts.autoact-landmarks]\npelvis = \"Hips\"\nneck = \"Head\"\nhead_top = \"top\"\n";
+
+    #[test]
+    fn a_mapping_file_reads_and_maps_the_clip() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("two.toml");
+        std::fs::write(&path, GOOD_MAP).unwrap();
+        let bvh = two_joint_clip();
+        let mapping = BvhMapping::from_file(&path)
+            .unwrap()
+            .check_fits(&bvh)
+            .unwrap();
+        let layout = Layout::load(DEFAULT_LAYOUT).unwrap();
+        let seq = mapping
+            .keypoints(&bvh, &layout)
+            .unwrap()
+            .without_unobserved_joints();
+        assert_eq!(seq.joint_names, ["pelvis", "neck", "head_top"]);
+        // Hips at 0.9 m up (file Y), the head 1 m above it, its top 0.2 m further.
+        let z: Vec<f64> = seq.frames[0].positions_m.iter().map(|p| p.z).collect();
+        for (got, want) in z.iter().zip([0.9, 1.9, 2.1]) {
+            assert!((got - want).abs() < 1e-9, "{z:?}");
+        }
+    }
+
+    #[test]
+    fn a_broken_mapping_file_is_refused_with_its_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bad.toml");
+        let bad = GOOD_MAP.replace("metres_per_unit = 0.01", "metres_per_unit = \"cm\"");
+        std::fs::write(&path, bad).unwrap();
+        let e = BvhMapping::from_file(&path).unwrap_err().to_string();
+        assert!(
+            e.starts_with(&format!(
+                "invalid BVH mapping {}: line 3, column 19:",
+                path.display()
+            )),
+            "{e}"
+        );
+        assert!(e.contains("metres_per_unit = \"cm\""), "{e}");
+        // An unknown key names itself and its line too.
+        std::fs::write(&path, format!("{GOOD_MAP}colour = 1\n")).unwrap();
+        let e = BvhMapping::from_file(&path).unwrap_err().to_string();
+        assert!(e.contains("line 10") && e.contains("colour"), "{e}");
+        // A huge line is not quoted whole.
+        std::fs::write(&path, format!("skeleton = [{}", "1,".repeat(100_000))).unwrap();
+        let e = BvhMapping::from_file(&path).unwrap_err().to_string();
+        assert!(e.len() < 1_000, "{} bytes", e.len());
+        std::fs::write(&path, b"skeleton = \"\xff\"\n").unwrap();
+        let e = BvhMapping::from_file(&path).unwrap_err().to_string();
+        assert!(e.ends_with("line 1: invalid UTF-8 (byte 12)"), "{e}");
+        let e = BvhMapping::from_file(&dir.path().join("none.toml")).unwrap_err();
+        assert!(
+            e.to_string().starts_with("cannot read BVH mapping file "),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn unknown_names_in_a_mapping_are_named() {
+        let bvh = two_joint_clip();
+        let layout = Layout::load(DEFAULT_LAYOUT).unwrap();
+        let map = |text: &str| BvhMapping::from_toml(text, "m").unwrap();
+        let e = map(&GOOD_MAP.replace("neck = \"Head\"", "neck = \"Neck1\""))
+            .keypoints(&bvh, &layout)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "t.bvh: BVH mapping `two` uses `Neck1`, which is neither a joint of the clip nor a virtual point (the clip's joints: Hips, Head, Head_End)"
+        );
+        let e = map(&GOOD_MAP.replace(
+            "required = [\"Hips\", \"Head\"]",
+            "required = [\"Hips\", \"Chest\", \"Neck\"]",
+        ))
+        .check_fits(&bvh)
+        .unwrap_err()
+        .to_string();
+        assert_eq!(
+            e,
+            "t.bvh: BVH mapping `two` requires joints the clip does not have: Chest, Neck (the clip's joints: Hips, Head)"
+        );
+        let e = map(&GOOD_MAP.replace("neck = ", "neck_top = "))
+            .keypoints(&bvh, &layout)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "BVH mapping `two`: [layouts.autoact-landmarks] sets `neck_top`, which is not a joint of layout `autoact-landmarks` (`autoact rig --landmarks` lists them)"
+        );
+        let e = map(GOOD_MAP)
+            .keypoints(&bvh, &Layout::load("h36m-17").unwrap())
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "BVH mapping `two` has no table for layout `h36m-17` (it has: autoact-landmarks)"
+        );
+    }
+
+    #[test]
+    fn a_skeleton_without_a_mapping_is_refused_with_how_to_write_one() {
+        let e = BvhMapping::detect(&two_joint_clip())
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("t.bvh: no built-in BVH mapping fits this skeleton (built in: bandai-namco (needs Hips, Chest, "), "{e}");
+        assert!(e.contains("Its joints are: Hips, Head.\n"), "{e}");
+        assert!(
+            e.contains("docs/convert.md")
+                && e.contains("bvh/cmu.toml")
+                && e.contains("--bvh-map FILE.toml"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn absurd_translations_are_refused_once_the_units_are_known() {
+        // 2e6 cm is within the parser's bound but 20 km from the origin.
+        let text = "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Xposition Yposition Zposition\n  End Site\n  {\n    OFFSET 0 10 0\n  }\n}\nMOTION\nFrames: 2\nFrame Time: 0.04\n0 90 0\n\n0 90 -2e6\n";
+        let bvh = super::super::bvh::parse(text, "far.bvh").unwrap();
+        let mapping = BvhMapping::from_toml(
+            "skeleton = \"one\"\nrequired = [\"Hips\"]\nmetres_per_unit = 0.01\n[layouts.autoact-landmarks]\npelvis = \"Hips\"\n",
+            "one",
+        )
+        .unwrap();
+        let e = mapping
+            .keypoints(&bvh, &Layout::load(DEFAULT_LAYOUT).unwrap())
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "far.bvh:16: frame 1, column 2 (Hips Zposition): value -2e6 is not physical (2.000e4 m at 0.01 m per unit; translations are at most 1e4 m)"
+        );
+    }
+
+    #[test]
+    fn autoacts_own_bvh_maps_onto_every_rig_landmark_where_the_rig_puts_it() {
+        use crate::export::{AnimationKey, Clip};
+        use crate::skeleton::character::Character;
+        use crate::skeleton::fk::{self, BonePose};
+        use crate::skeleton::rig::Rig;
+        use nalgebra::UnitQuaternion;
+        let rig = Rig::standard();
+        let bone = |n: &str| rig.bone_index(n).unwrap();
+        let poses: Vec<BonePose> = (0..3)
+            .map(|k| {
+                let t = f64::from(k);
+                let mut pose = BonePose::rest(&rig);
+                pose.root_translation_m = Vector3::new(0.3 * t, -1.0, 0.0);
+                for (b, angles) in [
+                    ("spine2", (0.1, -0.2, 0.3)),
+                    ("head", (0.3, 0.1, -0.2)),
+                    ("l_foot", (0.2, 0.0, 0.1)),
+                    ("r_hand", (0.4, 0.2, -0.3)),
+                    ("l_upper_arm", (1.0, 0.5, -0.7)),
+                ] {
+                    pose.local_rotations[bone(b)] =
+                        UnitQuaternion::from_euler_angles(angles.0 * t, angles.1 * t, angles.2);
+                }
+                pose
+            })
+            .collect();
+        let clip = Clip {
+            key: AnimationKey {
+                track_id: 0,
+                variant: 0,
+            },
+            fps_hz: 30.0,
+            character: Character::standard(&rig),
+            stamps_nanos: vec![0, 1, 2],
+            poses,
+        };
+        let bvh =
+            super::super::bvh::parse(&crate::export::bvh::write(&rig, &clip), "own.bvh").unwrap();
+        let mapping = BvhMapping::detect(&bvh).unwrap();
+        assert_eq!(mapping.skeleton, "autoact53");
+        let layout = Layout::load(DEFAULT_LAYOUT).unwrap();
+        let seq = mapping.keypoints(&bvh, &layout).unwrap();
+        for (k, pose) in clip.poses.iter().enumerate() {
+            let world = fk::forward(&rig, &clip.character, pose, 1.0);
+            for (l, landmark) in rig.landmarks.iter().enumerate() {
+                let want = fk::landmark_position(&rig, &clip.character, &world, l);
+                let got = seq.frames[k].positions_m[l];
+                // Points written with 6 decimals of a centimetre; face and foot points from the
+                // default adult's landmarks, rounded to a millimetre.
+                assert!(
+                    (got - want).norm() < 1.5e-3,
+                    "frame {k} {}: {got} vs {want}",
+                    landmark.name
+                );
+            }
+        }
     }
 }

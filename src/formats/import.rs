@@ -8,7 +8,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use crate::formats::bvh_map::{BvhMapError, BvhMapping};
+use crate::formats::bvh_map::{self, BvhMapError, BvhMapping};
 use crate::formats::{bvh, h36m_expmap, mmpose_json, ntu, zed_mat};
 use crate::skeleton::frames::SourceAxes;
 use crate::skeleton::layout::{Layout, LayoutError};
@@ -37,9 +37,13 @@ pub enum InputFormat {
 pub struct ImportOptions {
     /// Its format, or [`InputFormat::Auto`] for the one its extension names.
     pub format: InputFormat,
-    /// The keypoint layout: for BVH the one to map the mocap joints onto, for JSON the one its
-    /// keypoints are in (both default to `coco-wholebody-133`); other formats have their own.
+    /// The keypoint layout: for BVH the one to map the mocap joints onto (default
+    /// `autoact-landmarks`, the rig's own landmarks, [`bvh_map::DEFAULT_LAYOUT`]), for JSON the
+    /// one its keypoints are in (default `coco-wholebody-133`); other formats have their own.
     pub layout: Option<String>,
+    /// For BVH: a mapping file to use instead of the built-in mapping of the skeleton family
+    /// ([`BvhMapping::from_file`]); needed for a skeleton autoact does not know.
+    pub bvh_map: Option<PathBuf>,
     /// Frame rate, for formats that have none (JSON: required); overrides NTU's 30.
     pub fps: Option<f64>,
     /// Axes of a JSON file's coordinates.
@@ -89,6 +93,9 @@ pub enum ImportError {
         /// The layout asked for.
         asked: String,
     },
+    /// A BVH mapping file given for another format.
+    #[error("--bvh-map is for BVH input only; drop it")]
+    BvhMapNotBvh,
     /// A frame rate given for a format that states its own.
     #[error("{why}; drop --fps")]
     FixedRate {
@@ -241,14 +248,24 @@ fn read_input(
     options: &ImportOptions,
 ) -> Result<(Vec<PoseSequence>, String, String), ImportError> {
     let (layout, fps) = (options.layout.as_deref(), options.fps);
+    if format != InputFormat::Bvh && options.bvh_map.is_some() {
+        return Err(ImportError::BvhMapNotBvh);
+    }
     Ok(match format {
         // `resolve_format` never returns `Auto`; read it as the extension says all the same.
         InputFormat::Auto => read_input(input, resolve_format(format, input)?, options)?,
         InputFormat::Bvh => {
-            let clip = bvh::read(input)?;
-            let mapping = BvhMapping::detect(&clip)?;
-            let layout = Layout::load(layout.unwrap_or("coco-wholebody-133"))?;
             no_fps(fps, "BVH files state their own frame time")?;
+            let layout = Layout::load(layout.unwrap_or(bvh_map::DEFAULT_LAYOUT))?;
+            let user_mapping = match &options.bvh_map {
+                Some(path) => Some(BvhMapping::from_file(path)?),
+                None => None,
+            };
+            let clip = bvh::read(input)?;
+            let mapping = match user_mapping {
+                Some(m) => m.check_fits(&clip)?,
+                None => BvhMapping::detect(&clip)?,
+            };
             let seq = mapping
                 .keypoints(&clip, &layout)?
                 .without_unobserved_joints();
@@ -340,6 +357,7 @@ mod tests {
         ImportOptions {
             format,
             layout: layout.map(str::to_string),
+            bvh_map: None,
             fps,
             axes: SourceAxes::YDown,
             metres_per_unit: 1.0,

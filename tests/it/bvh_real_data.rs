@@ -327,3 +327,216 @@ fn unit_guess_and_autoact_frame() {
         );
     }
 }
+
+/// Landmark groups whose root-relative position error the default BVH layout is judged on.
+const FIDELITY_GROUPS: [(&str, &[&str]); 4] = [
+    ("spine", &["spine_mid", "chest"]),
+    ("neck", &["neck", "head_center"]),
+    ("shoulders", &["l_shoulder", "r_shoulder"]),
+    ("arms", &["l_elbow", "r_elbow", "l_wrist", "r_wrist"]),
+];
+
+/// Per group of [`FIDELITY_GROUPS`]: (mean, p95) root-relative position error in mm over every
+/// frame of `path` imported with `layout` (`None`: the import's default) and converted with the
+/// default options. The truth is the source's own joints, read through the built-in mapping's
+/// `autoact-landmarks` table (the rig's landmarks at the BVH joints); root-relative means both
+/// the truth and the rig's landmarks are taken relative to their pelvis landmark. Also returns
+/// the layout's coverage.
+fn bvh_fidelity_mm(
+    path: &Path,
+    layout: Option<&str>,
+) -> (Vec<(f64, f64)>, autoact::skeleton::layout::Coverage, String) {
+    use autoact::formats::bvh_map::{BvhMapping, DEFAULT_LAYOUT};
+    use autoact::formats::import::{ImportOptions, InputFormat, import};
+    use autoact::skeleton::convert::{ConvertOptions, SequenceConverter};
+    use autoact::skeleton::layout::Layout;
+    use autoact::skeleton::{fk, rig::Rig};
+
+    let rig = Rig::standard();
+    let options = ImportOptions {
+        format: InputFormat::Auto,
+        layout: layout.map(str::to_owned),
+        bvh_map: None,
+        fps: None,
+        axes: SourceAxes::YUp,
+        metres_per_unit: 1.0,
+    };
+    let imported = import(path, &options).unwrap_or_else(|e| panic!("{e}"));
+    let seq = &imported.sequences[0];
+    let used = Layout::load(&imported.layout).expect("layout");
+    let clip = bvh::read(path).expect("parse");
+    let landmarks = Layout::load(DEFAULT_LAYOUT).expect("landmark layout");
+    let truth = BvhMapping::detect(&clip)
+        .and_then(|m| m.keypoints(&clip, &landmarks))
+        .expect("truth");
+    let mut sc =
+        SequenceConverter::new(&rig, &used, seq, ConvertOptions::default()).expect("converter");
+    let coverage = sc.coverage().clone();
+    let mut poses = Vec::new();
+    while let Some(step) = sc.next_frame() {
+        let (stamp, pose) = step.expect("frame");
+        poses.push((stamp, pose.clone()));
+    }
+    let (character, _) = sc.finish();
+    let lm = |n: &str| rig.landmark_index(n).unwrap_or_else(|| panic!("{n}"));
+    let tj = |n: &str| truth.joint_index(n).unwrap_or_else(|| panic!("truth {n}"));
+    let mut errors: Vec<Vec<f64>> = vec![Vec::new(); FIDELITY_GROUPS.len()];
+    for (stamp, pose) in &poses {
+        let t = truth
+            .frames
+            .iter()
+            .find(|f| f.stamp_nanos == *stamp)
+            .expect("source frame");
+        let world = fk::forward(&rig, &character, pose, 1.0);
+        let at = |n: &str| fk::landmark_position(&rig, &character, &world, lm(n));
+        let (out_root, src_root) = (at("pelvis"), t.positions_m[tj("pelvis")]);
+        for (g, (_, names)) in FIDELITY_GROUPS.iter().enumerate() {
+            for n in *names {
+                let out = at(n) - out_root;
+                let src = t.positions_m[tj(n)] - src_root;
+                errors[g].push((out - src).norm() * 1000.0);
+            }
+        }
+    }
+    let stats = errors
+        .into_iter()
+        .map(|mut e| {
+            e.sort_by(f64::total_cmp);
+            let mean = e.iter().sum::<f64>() / e.len().max(1) as f64;
+            let p95 = e.get(e.len() * 95 / 100).copied().unwrap_or(0.0);
+            (mean, p95)
+        })
+        .collect();
+    (stats, coverage, imported.layout)
+}
+
+#[test]
+#[ignore = "needs ../shared/data"]
+#[allow(
+    clippy::print_stderr,
+    reason = "the test reports the measured position errors"
+)]
+fn default_bvh_layout_drives_the_spine_neck_and_head_and_keeps_the_arms_in_place() {
+    let mut files = bandai_files();
+    files.extend(bvh_files(&data("bvh/xia_style")));
+    let groups: Vec<&str> = FIDELITY_GROUPS.iter().map(|(g, _)| *g).collect();
+    eprintln!("root-relative position error, mean / p95 mm: {groups:?}");
+    let mut worst_default = vec![0.0_f64; FIDELITY_GROUPS.len()];
+    for path in &files {
+        let name = path.file_name().expect("name").to_string_lossy();
+        let (default, coverage, layout) = bvh_fidelity_mm(path, None);
+        assert_eq!(
+            layout, "autoact-landmarks",
+            "{name}: the default BVH layout"
+        );
+        for bone in [
+            "spine0", "spine1", "spine2", "spine3", "neck", "head", "l_hand", "r_hand",
+        ] {
+            assert!(
+                coverage.driven.iter().any(|b| b == bone),
+                "{name}: {bone} not driven with its twist: {coverage:?}"
+            );
+        }
+        let (coco, _, _) = bvh_fidelity_mm(path, Some("coco-wholebody-133"));
+        let show = |s: &[(f64, f64)]| {
+            s.iter()
+                .map(|(m, p)| format!("{m:5.1}/{p:5.1}"))
+                .collect::<Vec<_>>()
+                .join("  ")
+        };
+        eprintln!("{name:45} default {}", show(&default));
+        eprintln!("{:45} coco133 {}", "", show(&coco));
+        for (g, (mean, _)) in default.iter().enumerate() {
+            worst_default[g] = worst_default[g].max(*mean);
+        }
+        // The source's spine and neck drive the rig's: better than a layout without them.
+        for g in 0..2 {
+            assert!(
+                default[g].0 < coco[g].0,
+                "{name}: {} {:.1} mm, coco-wholebody-133 {:.1} mm",
+                groups[g],
+                default[g].0,
+                coco[g].0
+            );
+        }
+    }
+    eprintln!("worst clip mean per group (default): {worst_default:.1?}");
+    // Spine and neck follow the source's own joints. The shoulders (and the arms hanging from
+    // them) are bounded by the clavicles: while they are static, a shrug (CMU's LeftShoulder
+    // joint) is lost, which costs up to ~27 mm on the CMU clips.
+    let limits_mm = [5.0, 5.0, 30.0, 30.0];
+    for (g, worst) in worst_default.iter().enumerate() {
+        assert!(
+            *worst < limits_mm[g],
+            "{}: mean root-relative error {worst:.1} mm on some clip",
+            FIDELITY_GROUPS[g].0
+        );
+    }
+}
+
+#[test]
+#[ignore = "needs ../shared/data"]
+fn mocapbank_is_refused_with_its_joints_and_imports_with_the_documented_mapping() {
+    use autoact::formats::bvh_map::{BvhMapping, DEFAULT_LAYOUT};
+    use autoact::skeleton::layout::Layout;
+    use autoact::skeleton::rig::Rig;
+
+    let clip = load("bvh/misc/test_mocapbank.bvh");
+    let e = BvhMapping::detect(&clip)
+        .expect_err("no built-in mapping")
+        .to_string();
+    assert!(
+        e.contains("Its joints are: Hips, Chest, Chest2, LeftCollar, LeftShoulder,")
+            && e.contains("--bvh-map"),
+        "{e}"
+    );
+    // The mapping file docs/convert.md shows for MocapBank.
+    let docs = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/convert.md"))
+        .expect("docs/convert.md");
+    let after = docs
+        .split_once("<!-- mocapbank-mapping:")
+        .expect("the marked example")
+        .1;
+    let toml = after
+        .split_once("```toml\n")
+        .and_then(|(_, rest)| rest.split_once("```"))
+        .expect("a toml block")
+        .0;
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("mocapbank.toml");
+    std::fs::write(&path, toml).expect("write");
+    let mapping = BvhMapping::from_file(&path)
+        .and_then(|m| m.check_fits(&clip))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let layout = Layout::load(DEFAULT_LAYOUT).expect("layout");
+    let seq = mapping
+        .keypoints(&clip, &layout)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .without_unobserved_joints();
+    assert_eq!(seq.frames.len(), 455);
+    let rig = Rig::standard();
+    let mut sc = autoact::skeleton::convert::SequenceConverter::new(
+        &rig,
+        &layout,
+        &seq,
+        autoact::skeleton::convert::ConvertOptions::default(),
+    )
+    .expect("converter");
+    let driven = sc.coverage().driven.clone();
+    for bone in [
+        "spine0",
+        "spine3",
+        "neck",
+        "l_upper_arm",
+        "r_forearm",
+        "l_foot",
+    ] {
+        assert!(driven.iter().any(|b| b == bone), "{bone}: {driven:?}");
+    }
+    let mut frames = 0;
+    while let Some(step) = sc.next_frame() {
+        step.expect("frame");
+        frames += 1;
+    }
+    assert_eq!(frames, 455);
+}

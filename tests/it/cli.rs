@@ -122,3 +122,157 @@ fn layouts_list_shows_every_builtin() {
         assert!(out.contains(name), "{name} missing from:\n{out}");
     }
 }
+
+/// A BVH skeleton no built-in mapping knows (joint names of its own), cm, Y up.
+const UNKNOWN_SKELETON_BVH: &str = "HIERARCHY
+ROOT pelvis_jnt
+{
+  OFFSET 0 95 0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT chest_jnt
+  {
+    OFFSET 0 50 0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    JOINT head_jnt
+    {
+      OFFSET 0 10 0
+      CHANNELS 3 Zrotation Xrotation Yrotation
+      End Site
+      {
+        OFFSET 0 20 0
+      }
+    }
+    JOINT larm_jnt
+    {
+      OFFSET 18 0 0
+      CHANNELS 3 Zrotation Xrotation Yrotation
+      JOINT lelbow_jnt
+      {
+        OFFSET 28 0 0
+        CHANNELS 3 Zrotation Xrotation Yrotation
+        End Site
+        {
+          OFFSET 25 0 0
+        }
+      }
+    }
+  }
+}
+MOTION
+Frames: 3
+Frame Time: 0.04
+0 95 0 0 0 0 0 0 0 0 0 0 0 0 0 10 0 0
+1 95 0 0 5 0 0 0 0 0 0 0 0 0 0 20 0 0
+2 95 0 0 10 0 0 0 0 0 0 0 0 0 0 30 0 0
+";
+
+#[test]
+fn an_unknown_bvh_skeleton_is_refused_with_how_to_map_it_and_imports_with_bvh_map() {
+    use crate::common::arg;
+    let dir = tempfile::tempdir().unwrap();
+    let bvh = dir.path().join("mine.bvh");
+    std::fs::write(&bvh, UNKNOWN_SKELETON_BVH).unwrap();
+    let out = dir.path().join("mine.pose.mcap");
+    let o = autoact(&["import", arg(&bvh), "-o", arg(&out)]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let err = stderr(&o);
+    for needle in [
+        "no built-in BVH mapping fits this skeleton",
+        "Its joints are: pelvis_jnt, chest_jnt, head_jnt, larm_jnt, lelbow_jnt.",
+        "docs/convert.md",
+        "src/skeleton/layouts/bvh/cmu.toml",
+        "--bvh-map FILE.toml",
+    ] {
+        assert!(err.contains(needle), "`{needle}` not in: {err}");
+    }
+    assert!(!out.exists());
+    // `autoact layouts` names the built-in mappings.
+    let listing = stdout(&autoact(&["layouts"]));
+    assert!(
+        listing.contains("Built-in BVH skeleton mappings")
+            && listing.contains("bandai-namco  Hips, Chest, UpperArm_L"),
+        "{listing}"
+    );
+
+    let map = dir.path().join("mine.toml");
+    std::fs::write(
+        &map,
+        "skeleton = \"mine\"\nrequired = [\"pelvis_jnt\", \"head_jnt\"]\nmetres_per_unit = 0.01\n\
+         [layouts.autoact-landmarks]\npelvis = \"pelvis_jnt\"\nchest = \"chest_jnt\"\n\
+         neck = \"head_jnt\"\nhead_top = \"head_jnt_End\"\nl_shoulder = \"larm_jnt\"\n\
+         l_elbow = \"lelbow_jnt\"\nl_wrist = \"lelbow_jnt_End\"\n",
+    )
+    .unwrap();
+    let o = autoact(&["import", arg(&bvh), "--bvh-map", arg(&map), "-o", arg(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("3 skeletons (1 track), layout autoact-landmarks"),
+        "{}",
+        stdout(&o)
+    );
+    let anim = dir.path().join("mine.anim.mcap");
+    let o = autoact(&["convert", arg(&out), "-o", arg(&anim)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+
+    // A mapping naming a joint the file does not have says which, and lists the file's joints.
+    std::fs::write(
+        &map,
+        "skeleton = \"mine\"\nrequired = [\"pelvis_jnt\"]\n[layouts.autoact-landmarks]\npelvis = \"hips\"\n",
+    )
+    .unwrap();
+    let out2 = dir.path().join("mine2.pose.mcap");
+    let o = autoact(&[
+        "import",
+        arg(&bvh),
+        "--bvh-map",
+        arg(&map),
+        "-o",
+        arg(&out2),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("uses `hips`, which is neither a joint of the clip nor a virtual point (the clip's joints: pelvis_jnt, "),
+        "{}",
+        stderr(&o)
+    );
+    let o = autoact(&[
+        "import",
+        arg(&bvh),
+        "--bvh-map",
+        arg(&map),
+        "--format",
+        "ntu",
+        "-o",
+        arg(&out2),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("--bvh-map is for BVH input only"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn a_bvh_value_of_minus_1e308_is_refused_with_its_line() {
+    use crate::common::arg;
+    let dir = tempfile::tempdir().unwrap();
+    let bvh = dir.path().join("far.bvh");
+    std::fs::write(
+        &bvh,
+        UNKNOWN_SKELETON_BVH.replace("1 95 0 0 5", "1 95 -1e308 0 5"),
+    )
+    .unwrap();
+    let out = dir.path().join("far.pose.mcap");
+    let o = autoact(&["import", arg(&bvh), "-o", arg(&out)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains(&format!(
+            "{}:39: frame 1, column 2 (pelvis_jnt Zposition): value -1e308 is not physical",
+            bvh.display()
+        )),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists());
+}

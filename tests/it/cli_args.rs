@@ -156,6 +156,7 @@ fn import_defaults_formats_labels_and_output() {
     assert_eq!(args.input, Path::new("walk.bvh"));
     assert_eq!(args.format, InputFormat::Auto);
     assert_eq!(args.layout, None);
+    assert_eq!(args.bvh_map, None);
     assert_eq!(args.fps, None);
     assert_eq!(args.axes, Axes::YDown);
     assert_eq!(args.metres_per_unit, 1.0);
@@ -200,6 +201,19 @@ fn import_defaults_formats_labels_and_output() {
     assert_eq!(args.output.output, Path::new("out"));
     assert_eq!(args.output.compression, Compression::Lz4);
     assert!(args.output.rosbag2);
+
+    let args = args_of!(
+        Import,
+        &[
+            "import",
+            "mine.bvh",
+            "--bvh-map",
+            "maps/mine.toml",
+            "-o",
+            "o"
+        ]
+    );
+    assert_eq!(args.bvh_map.as_deref(), Some(Path::new("maps/mine.toml")));
 
     for (name, format) in [
         ("bvh", InputFormat::Bvh),
