@@ -571,7 +571,6 @@ pub fn write_rosbag2_metadata(dir: &Path, files: &[(String, BagStats)]) -> Resul
 
 mod read;
 mod records;
-pub mod recover;
 
 pub use read::{
     BagMessage, BagReader, ChannelInfo, Messages, ReadIssue, SchemaInfo, mcap_files_in,

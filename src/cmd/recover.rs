@@ -8,7 +8,7 @@ use anyhow::Result;
 
 use super::{Outcome, print_stdout};
 use crate::mcap_io::Compression;
-use crate::mcap_io::recover::recover;
+use crate::recover::recover;
 
 /// Arguments of `autoact recover`.
 #[derive(Debug, clap::Args)]

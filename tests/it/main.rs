@@ -14,6 +14,7 @@ mod cli_args;
 mod cli_bags;
 mod dataset;
 mod export;
+mod fuzzing;
 mod h36m_real_data;
 mod outputs;
 mod readers_real_data;

@@ -5,7 +5,11 @@
 
 use std::path::{Path, PathBuf};
 
-use super::{BagReader, BagStats, BagWriter, Compression, McapIoError, WriteConfig};
+use crate::atomic_file::Part;
+use crate::bags::output::{BagOutput, BagOutputError, OutputOptions};
+use crate::mcap_io::{
+    BagReader, BagStats, BagWriter, Compression, FileSink, McapIoError, WriteConfig,
+};
 
 /// What a recovery kept and what it could not.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -61,6 +65,9 @@ pub enum RecoverError {
         #[source]
         source: std::io::Error,
     },
+    /// The output bag could not be created or put in place.
+    #[error(transparent)]
+    Output(Box<BagOutputError>),
     /// The output could not be finished.
     #[error("finishing {}", path.display())]
     Finish {
@@ -73,8 +80,9 @@ pub enum RecoverError {
 }
 
 /// Rewrites every readable message and metadata record of `input` into a new bag at `output`,
-/// which must not be the input and is replaced only with `force`. A rosbag2 folder `input` is
-/// recovered into the folder `output` ([`recover_folder`]).
+/// which must not be the input and is replaced only with `force`. The output appears only when
+/// complete ([`crate::bags::output::BagOutput`]): a failure leaves an existing output as it was.
+/// A rosbag2 folder `input` is recovered into the folder `output` ([`recover_folder`]).
 ///
 /// # Errors
 /// [`RecoverError`]: an output that is the input or exists (without `force`), an input that
@@ -89,15 +97,25 @@ pub fn recover(
     if input.is_dir() {
         return recover_folder(input, output, compression, force);
     }
-    if output.exists() && !force {
-        return Err(RecoverError::OutputExists(output.to_path_buf()));
-    }
-    recover_file(input, output, compression)
+    let options = OutputOptions {
+        path: output.to_path_buf(),
+        compression,
+        rosbag2: false,
+        journal: false,
+        force,
+    };
+    options.refuse_existing().map_err(output_error)?;
+    let reader = BagReader::open(input)?;
+    let mut out = BagOutput::create(&options).map_err(output_error)?;
+    let copied = copy_all(&reader, &mut out.writer)?;
+    let stats = out.finish().map_err(output_error)?;
+    Ok(copied.into_recovery(input, output, stats, vec![output.to_path_buf()]))
 }
 
-/// Recovers every `.mcap` file of the rosbag2 folder `input` into the folder `output` (made if
-/// missing; an existing one only with `force`), each under its own name, and writes the folder's
-/// `metadata.yaml` from what was recovered.
+/// Recovers every `.mcap` file of the rosbag2 folder `input` into the folder `output` (an
+/// existing one replaced only with `force`), each under its own name, and writes the folder's
+/// `metadata.yaml` from what was recovered. The folder is written under a temporary name and
+/// put in place when complete.
 ///
 /// # Errors
 /// As [`recover`]; [`RecoverError::FolderIntoFile`] when `output` is a file.
@@ -117,71 +135,111 @@ pub fn recover_folder(
     if output.exists() && !force {
         return Err(RecoverError::OutputExists(output.to_path_buf()));
     }
-    let files = super::mcap_files_in(input)?;
-    std::fs::create_dir_all(output).map_err(|source| RecoverError::CreateDir {
+    let files = crate::mcap_io::mcap_files_in(input)?;
+    let create_error = |source| RecoverError::CreateDir {
         path: output.to_path_buf(),
         source,
-    })?;
-    let mut all = Recovery {
-        output: output.to_path_buf(),
-        stats: BagStats::default(),
-        issues: Vec::new(),
-        without_schema: 0,
-        complete: true,
-        input: input.to_path_buf(),
-        files: Vec::new(),
     };
-    let mut written = Vec::new();
-    for file in &files {
-        let name = crate::file_name(file);
-        let one = recover_file(file, &output.join(&name), compression)?;
-        for (topic, (type_name, n)) in &one.stats.topics {
-            let entry = all.stats.topics.entry(topic.clone());
-            entry.or_insert_with(|| (type_name.clone(), 0)).1 += n;
-        }
-        if let Some((a, b)) = one.stats.time_range {
-            let range = all
-                .stats
-                .time_range
-                .map_or((a, b), |(x, y)| (x.min(a), y.max(b)));
-            all.stats.time_range = Some(range);
-        }
-        all.issues.extend(one.issues);
-        all.without_schema += one.without_schema;
-        all.complete &= one.complete;
-        all.files.extend(one.files);
-        written.push((name, one.stats));
-    }
-    super::write_rosbag2_metadata(output, &written)?;
-    Ok(all)
-}
-
-/// Recovers one file (the checks on `output` done).
-fn recover_file(
-    input: &Path,
-    output: &Path,
-    compression: Compression,
-) -> Result<Recovery, RecoverError> {
-    crate::atomic_file::refuse_input_as_output(input, output)?;
-    let reader = BagReader::open(input)?;
-    let complete = reader.time_range().is_some();
+    let part = Part::new(output).ok_or_else(|| {
+        create_error(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a folder name",
+        ))
+    })?;
+    std::fs::create_dir(part.temporary()).map_err(create_error)?;
     let config = WriteConfig {
         compression,
         ..WriteConfig::default()
     };
-    let mut writer = BagWriter::create(output, config)?;
-    let mut issues = Vec::new();
-    let mut without_schema = 0u64;
+    let mut all = Copied::default();
+    let mut stats_all = BagStats::default();
+    let mut written = Vec::new();
+    let mut recovered = Vec::new();
+    for file in &files {
+        let name = crate::file_name(file);
+        let reader = BagReader::open(file)?;
+        let shown = output.join(&name);
+        let mut writer = BagWriter::create_as(&part.temporary().join(&name), &shown, config)?;
+        let one = copy_all(&reader, &mut writer)?;
+        let stats = writer.finish().map_err(|source| RecoverError::Finish {
+            path: shown.clone(),
+            source,
+        })?;
+        for (topic, (type_name, n)) in &stats.topics {
+            let entry = stats_all.topics.entry(topic.clone());
+            entry.or_insert_with(|| (type_name.clone(), 0)).1 += n;
+        }
+        if let Some((a, b)) = stats.time_range {
+            let range = stats_all
+                .time_range
+                .map_or((a, b), |(x, y)| (x.min(a), y.max(b)));
+            stats_all.time_range = Some(range);
+        }
+        all.issues.extend(one.issues);
+        all.without_schema += one.without_schema;
+        all.complete &= one.complete;
+        recovered.push(shown);
+        written.push((name, stats));
+    }
+    crate::mcap_io::write_rosbag2_metadata(part.temporary(), &written)?;
+    part.commit().map_err(create_error)?;
+    Ok(all.into_recovery(input, output, stats_all, recovered))
+}
+
+/// What copying one file kept and lost.
+#[derive(Debug)]
+struct Copied {
+    issues: Vec<String>,
+    without_schema: u64,
+    complete: bool,
+}
+
+impl Default for Copied {
+    fn default() -> Self {
+        Copied {
+            issues: Vec::new(),
+            without_schema: 0,
+            complete: true,
+        }
+    }
+}
+
+impl Copied {
+    fn into_recovery(
+        self,
+        input: &Path,
+        output: &Path,
+        stats: BagStats,
+        files: Vec<PathBuf>,
+    ) -> Recovery {
+        Recovery {
+            output: output.to_path_buf(),
+            stats,
+            issues: self.issues,
+            without_schema: self.without_schema,
+            complete: self.complete,
+            input: input.to_path_buf(),
+            files,
+        }
+    }
+}
+
+/// Copies every readable message and metadata record of `reader` into `writer`.
+fn copy_all(reader: &BagReader, writer: &mut BagWriter<FileSink>) -> Result<Copied, McapIoError> {
+    let mut copied = Copied {
+        complete: reader.time_range().is_some(),
+        ..Copied::default()
+    };
     for item in reader.messages() {
         let m = match item {
             Ok(m) => m,
             Err(issue) => {
-                issues.push(issue.to_string());
+                copied.issues.push(issue.to_string());
                 continue;
             }
         };
         let Some(schema) = &m.channel.schema else {
-            without_schema += 1;
+            copied.without_schema += 1;
             continue;
         };
         writer.write_raw(
@@ -196,19 +254,16 @@ fn recover_file(
     for (name, record) in reader.metadata() {
         writer.write_metadata(&name, record)?;
     }
-    let stats = writer.finish().map_err(|source| RecoverError::Finish {
-        path: output.to_path_buf(),
-        source,
-    })?;
-    Ok(Recovery {
-        output: output.to_path_buf(),
-        stats,
-        issues,
-        without_schema,
-        complete,
-        input: input.to_path_buf(),
-        files: vec![output.to_path_buf()],
-    })
+    Ok(copied)
+}
+
+/// A bag output's refusal or failure, as a recovery error.
+fn output_error(e: BagOutputError) -> RecoverError {
+    match e {
+        BagOutputError::Exists { path } => RecoverError::OutputExists(path),
+        BagOutputError::Write(e) => RecoverError::Bag(e),
+        other => RecoverError::Output(Box::new(other)),
+    }
 }
 
 impl Recovery {

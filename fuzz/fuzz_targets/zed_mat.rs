@@ -1,0 +1,6 @@
+//! Fuzz target `zed_mat`: see `autoact::fuzz`.
+#![no_main]
+
+libfuzzer_sys::fuzz_target!(|data: &[u8]| {
+    assert!(autoact::fuzz::run("zed_mat", data));
+});
