@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use super::plan::{Leaf, Plan, SceneNode, Session};
 use super::spec::Spec;
 use crate::bags;
-use crate::bags::animation::{TrackWriter, read_animation};
+use crate::bags::animation::{TrackWriter, read_animation_variant_with_losses};
 use crate::bags::capture::CaptureWriter;
 use crate::bags::pose::PoseBagError;
 use crate::camera::{CameraError, Intrinsics, Subject, Viewpoint, camera_at, framing_band};
@@ -151,7 +151,7 @@ pub fn convert_source(
 }
 
 /// The key frames, body and coverage of one person of a bag: a pose bag is converted (its own
-/// layout); an animation bag is read back ([`crate::bags::animation::read_animation`]). Either
+/// layout); an animation bag is read back ([`crate::bags::animation::read_animation_variant_with_losses`]). Either
 /// way, what of the bag could not be used is listed (of an animation bag: its unreadable parts).
 fn read_source(rig: &Rig, path: &Path, track: Option<u64>) -> Result<Source, SourceError> {
     let readers = BagReader::open_all(path).map_err(SourceError::Open)?;
@@ -162,17 +162,14 @@ fn read_source(rig: &Rig, path: &Path, track: Option<u64>) -> Result<Source, Sou
             .any(|m| m.channel.schema_name() == BoneFrame::TYPE_NAME)
     });
     if is_animation {
-        let (keys, character, coverage) =
-            read_animation(rig, &readers, track).map_err(SourceError::Animation)?;
-        // The animation reader passes over what it cannot read; those parts are lost all the same.
-        let issues = readers
-            .iter()
-            .flat_map(|r| r.messages().filter_map(Result::err));
+        let ((keys, character, coverage), lost) =
+            read_animation_variant_with_losses(rig, &readers, track, 0)
+                .map_err(SourceError::Animation)?;
         return Ok(Source {
             keys,
             character,
             coverage,
-            losses: Losses::from_read_issues(issues),
+            losses: Losses::from_animation(&lost),
         });
     }
     let topics = bags::pose::read_pose_topics(path, None, None)?;

@@ -1060,3 +1060,44 @@ fn recover_takes_a_rosbag2_folder_into_a_folder() {
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("--force"), "{}", stderr(&o));
 }
+
+/// An animation bag cut off at a chunk boundary (what `record` or a crash leaves): as a
+/// `convert --spec` source and to `export` and `info`, that is lost input, exit 3.
+#[test]
+fn an_animation_bag_cut_at_a_chunk_boundary_is_lost_input_everywhere() {
+    let dir = tempfile::tempdir().unwrap();
+    let bytes = std::fs::read(repo("bags/bandai_walk.anim.mcap")).unwrap();
+    let chunks = chunk_ranges(&bytes);
+    assert!(chunks.len() >= 2, "{} chunks", chunks.len());
+    let cut = dir.path().join("cut.anim.mcap");
+    std::fs::write(&cut, &bytes[..chunks[chunks.len() - 1].0]).unwrap();
+    let spec = one_source_spec(dir.path(), &cut);
+    let runs = [
+        vec![
+            "convert".to_string(),
+            "--spec".to_string(),
+            arg(&spec).to_string(),
+            "-o".to_string(),
+            arg(&dir.path().join("capture")).to_string(),
+        ],
+        vec![
+            "export".to_string(),
+            arg(&cut).to_string(),
+            "-o".to_string(),
+            arg(&dir.path().join("walk.bvh")).to_string(),
+            "--format".to_string(),
+            "bvh".to_string(),
+        ],
+        vec!["info".to_string(), arg(&cut).to_string()],
+    ];
+    for run in runs {
+        let args: Vec<&str> = run.iter().map(String::as_str).collect();
+        let o = autoact(&args);
+        let said = format!("{}{}", stdout_text(&o), stderr(&o));
+        assert_eq!(o.status.code(), Some(3), "{args:?}: {said}");
+        assert!(
+            said.contains("cut.anim.mcap: file ends without a summary"),
+            "{args:?}: {said}"
+        );
+    }
+}
