@@ -27,6 +27,27 @@ pub const SAMPLE_CAP: usize = 512;
 /// Frame steps kept per track in pass 1 to measure its frame period (median step).
 const STEP_SAMPLE_CAP: usize = 1024;
 
+/// Bytes read between two releases of the input's pages ([`BagReader::release_pages`]).
+const RELEASE_EVERY_BYTES: usize = 16 << 20;
+
+/// Releases the pages of a memory-mapped input every [`RELEASE_EVERY_BYTES`] read: the pages
+/// read would otherwise stay resident up to the size of the file.
+#[derive(Debug, Default)]
+struct Releaser {
+    since: usize,
+}
+
+impl Releaser {
+    /// Counts `bytes` more read from `reader` (and 256 for the record around them).
+    fn read(&mut self, reader: &BagReader, bytes: usize) {
+        self.since += bytes + 256;
+        if self.since >= RELEASE_EVERY_BYTES {
+            reader.release_pages();
+            self.since = 0;
+        }
+    }
+}
+
 /// What pass 1 learned of one track without keeping its frames.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TrackScan {
@@ -204,6 +225,7 @@ pub fn scan_pose_topics(
     let mut seen_topics = BTreeMap::new();
     let mut skeleton = Skeleton3D::default();
     for (reader_index, reader) in readers.iter().enumerate() {
+        let mut releaser = Releaser::default();
         for item in reader.messages() {
             let msg = match item {
                 Ok(msg) => msg,
@@ -212,6 +234,7 @@ pub fn scan_pose_topics(
                     continue;
                 }
             };
+            releaser.read(reader, msg.data.len());
             let people = match take_message(
                 &msg,
                 reader,
@@ -288,8 +311,32 @@ pub fn scan_pose_topics(
         skipped,
         issues,
         nan_messages: (nan_first, nan_total),
-        metadata: readers.iter().flat_map(BagReader::metadata).collect(),
+        metadata: readers.iter().flat_map(metadata_records).collect(),
     })
+}
+
+/// The metadata records of a file, as [`BagReader::metadata`] gives them (in file order, up to
+/// the end of the data or the first damaged record), with the pages read released now and then:
+/// the pass runs over every chunk, which would otherwise make the whole file resident at once.
+fn metadata_records(reader: &BagReader) -> Vec<(String, BTreeMap<String, String>)> {
+    let Ok(records) = mcap::read::LinearReader::new_with_options(
+        reader.bytes(),
+        mcap::read::Options::IgnoreEndMagic.into(),
+    ) else {
+        return Vec::new();
+    };
+    let mut out = Vec::new();
+    let mut releaser = Releaser::default();
+    for record in records {
+        match record {
+            Ok(mcap::records::Record::Chunk { data, .. }) => releaser.read(reader, data.len()),
+            Ok(mcap::records::Record::Metadata(m)) => out.push((m.name, m.metadata)),
+            Ok(mcap::records::Record::DataEnd(_)) | Err(_) => break,
+            Ok(_) => {}
+        }
+    }
+    reader.release_pages();
+    out
 }
 
 /// Why a person's message is skipped when its joints are not its track's.
@@ -512,7 +559,12 @@ pub fn stream_pose_frames<E: From<PoseBagError>>(
         .collect();
     let mut skeleton = Skeleton3D::default();
     for (reader_index, reader) in readers.iter().enumerate() {
-        for msg in reader.messages().filter_map(Result::ok) {
+        let mut releaser = Releaser::default();
+        for item in reader.messages() {
+            let Ok(msg) = item else {
+                continue;
+            };
+            releaser.read(reader, msg.data.len());
             let Ok(Taken::People(people)) =
                 take_message(&msg, reader, topic, layout, &mut skeleton, None)
             else {
