@@ -114,7 +114,7 @@ impl<T> StrideSample<T> {
 
     /// Whether the next item offered will be kept.
     fn wants_next(&self) -> bool {
-        self.seen % self.stride == 0
+        self.seen.is_multiple_of(self.stride)
     }
 
     fn push(&mut self, item: T) {
