@@ -966,3 +966,42 @@ fn max_gap_must_be_positive() {
     assert!(stderr(&o).contains("--max-gap"), "{}", stderr(&o));
     assert!(!out.exists());
 }
+
+#[test]
+fn an_mmpose_frame_id_jump_is_a_gap_not_hours_of_invented_frames() {
+    // A legal JSON whose frame ids jump by a million (9 hours at 30 fps): both stretches are
+    // kept, and the output holds their frames only.
+    let dir = tempfile::tempdir().unwrap();
+    let frames: Vec<serde_json::Value> = (0..40usize)
+        .map(|k| {
+            let id = if k < 20 { k } else { 1_000_000 + k };
+            let keypoints: Vec<[f64; 3]> = h36m_frame(k)
+                .positions_m
+                .iter()
+                .map(|p| [p.x, p.y, p.z])
+                .collect();
+            serde_json::json!({"frame_id": id, "instances": [{"keypoints": keypoints}]})
+        })
+        .collect();
+    let json = dir.path().join("jump.json");
+    std::fs::write(&json, serde_json::to_string(&frames).unwrap()).unwrap();
+    let bag = dir.path().join("jump.pose.mcap");
+    let o = autoact(&[
+        "import",
+        arg(&json),
+        "-o",
+        arg(&bag),
+        "--layout",
+        "h36m-17",
+        "--fps",
+        "30",
+        "--axes",
+        "z-up",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = dir.path().join("jump.anim.mcap");
+    let o = autoact(&["convert", arg(&bag), "-o", arg(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("maximum gap"), "{}", stderr(&o));
+    assert_eq!(bone_frames(&out).len(), 40);
+}
