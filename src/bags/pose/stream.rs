@@ -28,7 +28,7 @@ pub const SAMPLE_CAP: usize = 512;
 const STEP_SAMPLE_CAP: usize = 1024;
 
 /// Bytes read between two releases of the input's pages ([`BagReader::release_pages`]).
-const RELEASE_EVERY_BYTES: usize = 16 << 20;
+const RELEASE_EVERY_BYTES: usize = 4 << 20;
 
 /// Releases the pages of a memory-mapped input every [`RELEASE_EVERY_BYTES`] read: the pages
 /// read would otherwise stay resident up to the size of the file.
