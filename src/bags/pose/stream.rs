@@ -627,6 +627,96 @@ pub fn stream_pose_frames<E: From<PoseBagError>>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mcap_io::{BagWriter, WriteConfig};
+    use crate::skeleton::pose::PoseSequence;
+
+    /// A one-person pose bag of `stamps`, three joints, the last never seen.
+    fn bag(dir: &Path, stamps: &[u64]) -> std::path::PathBuf {
+        let path = dir.join("in.mcap");
+        let seq = PoseSequence {
+            source: "test".into(),
+            track_id: 0,
+            joint_names: vec!["a".into(), "b".into(), "c".into()],
+            frames: Vec::new(),
+        };
+        let mut w = BagWriter::create(&path, WriteConfig::default()).unwrap();
+        for &t in stamps {
+            let mut f = PoseFrame::missing(t, 3);
+            for j in 0..2 {
+                f.positions_m[j] = nalgebra::Point3::new(0.0, 0.0, 1.0);
+                f.confidence[j] = 1.0;
+            }
+            w.write(
+                "/skeleton",
+                t,
+                &super::super::skeleton_message(&seq, &f, "x"),
+            )
+            .unwrap();
+        }
+        w.finish().unwrap();
+        path
+    }
+
+    /// Frames handed out by pass 2 (their stamps, and whether a gap came before), and the report.
+    fn pass_two(path: &Path, scan: &PoseScan, max_gap: u64) -> (Vec<(u64, bool)>, StampReport) {
+        let mut seen = Vec::new();
+        let report = stream_pose_frames::<PoseBagError>(path, None, None, scan, &[max_gap], |f| {
+            seen.push((f.frame.stamp_nanos, f.gap.is_some()));
+            Ok(())
+        })
+        .unwrap();
+        (seen, report)
+    }
+
+    #[test]
+    fn pass_one_keeps_a_bounded_evenly_spread_sample_and_the_frame_period() {
+        let dir = tempfile::tempdir().unwrap();
+        let stamps: Vec<u64> = (1..=3000).map(|k| k * 20_000_000).collect();
+        let path = bag(dir.path(), &stamps);
+        let scan = scan_pose_topics(&path, None, None).unwrap();
+        let [track] = scan.tracks.as_slice() else {
+            panic!("one track")
+        };
+        assert_eq!(track.frames, 3000);
+        assert!(track.sample.len() >= SAMPLE_CAP / 2 && track.sample.len() < SAMPLE_CAP);
+        assert_eq!(track.sample[0].stamp_nanos, 20_000_000);
+        assert_eq!(track.median_step_nanos, Some(20_000_000));
+        assert_eq!(track.first_stamp_nanos, 20_000_000);
+        assert_eq!(track.observed, vec![true, true, false]);
+        assert!(track.stamped);
+        let (seen, report) = pass_two(&path, &scan, 100_000_000);
+        assert_eq!(seen.len(), 3000);
+        assert!(report.skipped.is_empty() && report.gaps.is_empty());
+    }
+
+    #[test]
+    fn pass_two_drops_backward_stamps_and_lone_stamps_far_ahead_and_announces_gaps() {
+        let dir = tempfile::tempdir().unwrap();
+        let ms = 1_000_000;
+        // 10, 20, [5: backwards], 30, [10^12: alone far ahead], 40, 50, [gap] 5000, 5010.
+        let stamps = [10, 20, 5, 30, 1_000_000_000, 40, 50, 5000, 5010].map(|t| t * ms);
+        let path = bag(dir.path(), &stamps);
+        let scan = scan_pose_topics(&path, None, None).unwrap();
+        let (seen, report) = pass_two(&path, &scan, 100 * ms);
+        let expected = [10, 20, 30, 40, 50, 5000, 5010].map(|t| t * ms);
+        assert_eq!(seen.iter().map(|s| s.0).collect::<Vec<_>>(), expected);
+        assert_eq!(seen.iter().filter(|s| s.1).count(), 1);
+        assert!(seen[5].1, "the gap comes before 5000 ms");
+        let dropped: Vec<u64> = report.skipped.iter().map(|s| s.index).collect();
+        assert_eq!(dropped, vec![2, 4]);
+        assert!(report.skipped[1].reason.contains("damaged stamp"));
+        assert_eq!(report.gaps.len(), 1);
+        assert_eq!(report.gaps[0].index, 7);
+        // A frame far ahead at the very end is a gap too: nothing comes back.
+        let path = bag(dir.path(), &[10 * ms, 20 * ms, 9_000 * ms]);
+        let scan = scan_pose_topics(&path, None, None).unwrap();
+        let (seen, report) = pass_two(&path, &scan, 100 * ms);
+        assert_eq!(
+            seen,
+            vec![(10 * ms, false), (20 * ms, false), (9_000 * ms, true)]
+        );
+        assert!(report.skipped.is_empty());
+    }
 
     #[test]
     fn a_stride_sample_is_every_frame_below_its_cap_and_evenly_spread_above() {
