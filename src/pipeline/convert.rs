@@ -263,8 +263,11 @@ pub fn convert_bag(rig: &Rig, job: &ConvertJob) -> Result<ConvertSummary, Pipeli
     };
     let tracks = if let Some(dsi) = &job.dsi {
         whole_clip::record_options(&mut meta, dsi);
-        let mut clips: Vec<whole_clip::Clip> =
-            people.iter().map(|_| whole_clip::Clip::default()).collect();
+        let mut clips: Vec<whole_clip::Clip> = scan
+            .tracks
+            .iter()
+            .map(|t| whole_clip::Clip::with_capacity(t.frames))
+            .collect();
         let stamps = read_again(&mut |f| {
             let person = &mut people[f.track];
             clips[f.track].take(&mut person.converter, f.frame, f.gap.is_some())

@@ -28,6 +28,15 @@ pub(super) struct Clip {
 }
 
 impl Clip {
+    /// An empty clip with room for `frames` keys (the count pass 1 read), so that collecting
+    /// them never holds twice their memory while growing.
+    pub(super) fn with_capacity(frames: u64) -> Clip {
+        Clip {
+            keys: Vec::with_capacity(usize::try_from(frames).unwrap_or(0)),
+            breaks: Vec::new(),
+        }
+    }
+
     /// Solves the next frame and keeps its pose (`after_gap`: it starts a new stretch).
     ///
     /// # Errors
