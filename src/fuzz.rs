@@ -140,6 +140,7 @@ fn pose_mcap(data: &[u8]) {
             fps: 30.0,
             solve: crate::skeleton::convert::ConvertOptions::default(),
             dsi: None,
+            max_gap_s: None,
             output: crate::bags::output::OutputOptions {
                 path: path.with_file_name("out.mcap"),
                 compression: crate::mcap_io::Compression::Zstd,

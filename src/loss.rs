@@ -126,6 +126,12 @@ impl Losses {
         }
     }
 
+    /// Parts of a file that could not be read.
+    #[must_use]
+    pub fn from_read_issues(issues: impl IntoIterator<Item = ReadIssue>) -> Losses {
+        Losses(issues.into_iter().map(Loss::Unreadable).collect())
+    }
+
     /// Frames of one person dropped for non-monotonic stamps (nothing when `frames` is empty).
     #[must_use]
     pub fn non_monotonic(

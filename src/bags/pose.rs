@@ -27,6 +27,13 @@ use crate::ros::{self, RosMessage};
 use crate::skeleton::frames::WORLD_FRAME;
 use crate::skeleton::pose::{PoseFrame, PoseSequence};
 
+mod stream;
+
+pub use stream::{
+    Gap, PoseScan, SAMPLE_CAP, StampReport, StreamedFrame, TrackScan, scan_pose_topics,
+    stream_pose_frames,
+};
+
 /// Topic autoact writes skeletons on.
 pub const SKELETON_TOPIC: &str = "/skeleton";
 /// Name of the metadata record that carries the dataset label and provenance.
@@ -259,6 +266,72 @@ fn skipped_message(reader: &BagReader, msg: &BagMessage, reason: String) -> Skip
     }
 }
 
+/// What one message gives.
+enum Taken<'a> {
+    /// Not on a wanted topic.
+    NotWanted,
+    /// Wanted but unusable.
+    Skip(SkippedMessage),
+    /// The people in it.
+    People(Vec<Person<'a>>),
+}
+
+/// Decodes one message of `reader`: a pose message on a wanted topic (`topic`, else any pose
+/// type) gives its people, one that cannot be used is skipped. `seen_topics` (topic → type)
+/// learns every topic met.
+///
+/// # Errors
+/// A wanted topic that needs a layout or carries no pose type: nothing can be read.
+fn take_message<'a>(
+    msg: &BagMessage,
+    reader: &BagReader,
+    topic: Option<&str>,
+    layout: Option<&'a crate::skeleton::layout::Layout>,
+    skeleton: &'a mut Skeleton3D,
+    seen_topics: Option<&mut BTreeMap<String, String>>,
+) -> Result<Taken<'a>, PoseBagError> {
+    let type_name = msg.channel.schema_name();
+    if let Some(seen) = seen_topics
+        && !seen.contains_key(&msg.channel.topic)
+    {
+        seen.insert(msg.channel.topic.clone(), type_name.to_string());
+    }
+    let wanted = match topic {
+        Some(t) => msg.channel.topic == t,
+        None => POSE_TYPES.contains(&type_name),
+    };
+    if !wanted {
+        return Ok(Taken::NotWanted);
+    }
+    if msg.channel.message_encoding != "cdr" {
+        return Ok(Taken::Skip(skipped_message(
+            reader,
+            msg,
+            format!(
+                "message encoding `{}` is not cdr",
+                msg.channel.message_encoding
+            ),
+        )));
+    }
+    match decode_people(msg, type_name, layout, skeleton) {
+        Ok(p) => Ok(Taken::People(p)),
+        Err(DecodeProblem::Skip(reason)) => Ok(Taken::Skip(skipped_message(reader, msg, reason))),
+        Err(DecodeProblem::NeedsLayout) => Err(PoseBagError::LayoutNeeded {
+            path: reader.path().display().to_string(),
+            topic: msg.channel.topic.clone(),
+            type_name: type_name.to_string(),
+        }),
+        Err(DecodeProblem::NotPose) => Err(PoseBagError::NoPoseTopic {
+            path: reader.path().display().to_string(),
+            why: format!(
+                "{} carries {type_name}, not a pose type ({})",
+                msg.channel.topic,
+                POSE_TYPES.join(", ")
+            ),
+        }),
+    }
+}
+
 impl Gathered {
     /// Takes in one message of reader `reader_index`: a pose message on a wanted topic (`topic`,
     /// else any pose type) adds its people to their tracks, one that cannot be used is skipped.
@@ -274,54 +347,18 @@ impl Gathered {
         layout: Option<&crate::skeleton::layout::Layout>,
         skeleton: &mut Skeleton3D,
     ) -> Result<(), PoseBagError> {
-        let type_name = msg.channel.schema_name();
-        if !self.seen_topics.contains_key(&msg.channel.topic) {
-            self.seen_topics
-                .insert(msg.channel.topic.clone(), type_name.to_string());
+        match take_message(
+            msg,
+            reader,
+            topic,
+            layout,
+            skeleton,
+            Some(&mut self.seen_topics),
+        )? {
+            Taken::NotWanted => {}
+            Taken::Skip(s) => self.skipped.push(s),
+            Taken::People(people) => self.add_people(msg, reader_index, reader, people),
         }
-        let wanted = match topic {
-            Some(t) => msg.channel.topic == t,
-            None => POSE_TYPES.contains(&type_name),
-        };
-        if !wanted {
-            return Ok(());
-        }
-        if msg.channel.message_encoding != "cdr" {
-            self.skipped.push(skipped_message(
-                reader,
-                msg,
-                format!(
-                    "message encoding `{}` is not cdr",
-                    msg.channel.message_encoding
-                ),
-            ));
-            return Ok(());
-        }
-        let people = match decode_people(msg, type_name, layout, skeleton) {
-            Ok(p) => p,
-            Err(DecodeProblem::Skip(reason)) => {
-                self.skipped.push(skipped_message(reader, msg, reason));
-                return Ok(());
-            }
-            Err(DecodeProblem::NeedsLayout) => {
-                return Err(PoseBagError::LayoutNeeded {
-                    path: reader.path().display().to_string(),
-                    topic: msg.channel.topic.clone(),
-                    type_name: type_name.to_string(),
-                });
-            }
-            Err(DecodeProblem::NotPose) => {
-                return Err(PoseBagError::NoPoseTopic {
-                    path: reader.path().display().to_string(),
-                    why: format!(
-                        "{} carries {type_name}, not a pose type ({})",
-                        msg.channel.topic,
-                        POSE_TYPES.join(", ")
-                    ),
-                });
-            }
-        };
-        self.add_people(msg, reader_index, reader, people);
         Ok(())
     }
 
@@ -368,10 +405,7 @@ impl Gathered {
                 self.skipped.push(skipped_message(
                     reader,
                     msg,
-                    format!(
-                        "track {}: joint names differ from the track's earlier messages",
-                        person.track_id
-                    ),
+                    stream::joint_names_differ(person.track_id),
                 ));
                 continue;
             }

@@ -46,6 +46,11 @@ pub struct Args {
     /// Joints below this confidence count as missing.
     #[arg(long, default_value_t = 0.3)]
     pub min_confidence: f32,
+    /// The longest gap in a person's stamps that is interpolated across, seconds: after a longer
+    /// one the animation resumes at the next frame, with nothing invented in between (the gap
+    /// is warned about) [default: 5 of the person's own frame periods].
+    #[arg(long, value_name = "SECONDS", conflicts_with = "spec")]
+    pub max_gap: Option<f64>,
     /// Output options.
     #[command(flatten)]
     pub output: OutputArgs,
@@ -207,6 +212,7 @@ impl Args {
                 ..ConvertOptions::default()
             },
             dsi: self.dsi.options(rig, self.fps)?,
+            max_gap_s: self.max_gap,
             output: self.output.options(),
         })
     }

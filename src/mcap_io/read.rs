@@ -412,6 +412,26 @@ pub fn mcap_files_in(dir: &Path) -> Result<Vec<PathBuf>, McapIoError> {
     Ok(files)
 }
 
+impl BagReader {
+    /// Drops the file's pages from this process's resident memory: a page touched again is read
+    /// again (from the page cache, or the file). A long streaming read (`convert`) calls it now
+    /// and then, so that its resident memory is what it holds, not the size of the file.
+    #[cfg(unix)]
+    pub fn release_pages(&self) {
+        #[expect(
+            unsafe_code,
+            reason = "MADV_DONTNEED is `unsafe` in memmap2 because it zeroes private anonymous maps"
+        )]
+        // SAFETY: the map is a read-only, shared file mapping (`map_file`): MADV_DONTNEED only
+        // unmaps its pages from this process, and the next access reads the same bytes back from
+        // the file. Failing is harmless (the pages stay resident).
+        let _ = unsafe {
+            self.map
+                .unchecked_advise(memmap2::UncheckedAdvice::DontNeed)
+        };
+    }
+}
+
 #[expect(
     unsafe_code,
     reason = "memory-mapping is the documented way to read MCAP without loading it; see BagReader::open"

@@ -13,16 +13,20 @@ use super::whole_clip;
 use crate::bags;
 use crate::bags::animation::{TF_STATIC_TOPIC, TrackWriter, frame_prefix};
 use crate::bags::output::{BagOutput, OutputOptions};
-use crate::bags::pose::PoseTopics;
+use crate::bags::pose::{PoseScan, StampReport, StreamedFrame};
 use crate::dsi::{DsiOptions, Pace};
 use crate::file_name;
-use crate::loss::{Losses, WARN_LIMIT};
+use crate::loss::{Loss, Losses, WARN_LIMIT};
 use crate::mcap_io::McapIoError;
 use crate::ros::tf2_msgs::TFMessage;
 use crate::skeleton::convert::{ConvertOptions, SequenceConverter};
 use crate::skeleton::layout::Layout;
 use crate::skeleton::resample::Resampler;
 use crate::skeleton::rig::Rig;
+
+/// The default longest gap interpolated across, in source frame periods: a few dropped frames
+/// are bridged, a pause in the stream or a stamp far ahead is not.
+pub const DEFAULT_MAX_GAP_FRAMES: u64 = 5;
 
 /// What to convert and how.
 #[derive(Debug, Clone, PartialEq)]
@@ -40,6 +44,10 @@ pub struct ConvertJob {
     pub solve: ConvertOptions,
     /// DSI, smoothing and variants on whole clips; `None` streams.
     pub dsi: Option<DsiOptions>,
+    /// The longest gap in a person's stamps that is interpolated across, seconds (`--max-gap`);
+    /// a longer one ends the stretch before it and the animation resumes after it. `None`:
+    /// [`DEFAULT_MAX_GAP_FRAMES`] of the person's own frame periods (median step).
+    pub max_gap_s: Option<f64>,
     /// Where the animation bag goes.
     pub output: OutputOptions,
 }
@@ -61,6 +69,11 @@ impl ConvertJob {
         let positive = |v: f64| v.is_finite() && v > 0.0;
         if !positive(self.fps) {
             return out_of_range("--fps", "a positive number of frames per second", &self.fps);
+        }
+        if let Some(g) = self.max_gap_s
+            && !positive(g)
+        {
+            return out_of_range("--max-gap", "a positive number of seconds", &g);
         }
         let min_confidence = self.solve.min_confidence;
         if !(0.0..=1.0).contains(&min_confidence) {
@@ -207,9 +220,12 @@ pub(super) struct Person<'a> {
     pub(super) frames_out: u64,
 }
 
-/// Converts a pose bag into an animation bag. Losses (unreadable parts, skipped messages,
-/// dropped frames) are logged as warnings when met and returned in the summary; the output holds
-/// everything else.
+/// Converts a pose bag into an animation bag, in two passes over the input: the first learns
+/// each person's body from a bounded sample of their frames, the second solves, resamples and
+/// writes every frame as it is read (or, with DSI, collects each person's clip). Losses
+/// (unreadable parts, skipped messages, dropped frames) are logged as warnings when met and
+/// returned in the summary; the output holds everything else. A gap in a person's stamps longer
+/// than the maximum ([`ConvertJob::max_gap_s`]) is warned about and never interpolated across.
 ///
 /// # Errors
 /// [`PipelineError`]: options out of range ([`ConvertJob::check`]), an unreadable input, no pose topic, an unknown layout, no frame that can
@@ -219,40 +235,61 @@ pub fn convert_bag(rig: &Rig, job: &ConvertJob) -> Result<ConvertSummary, Pipeli
     crate::atomic_file::refuse_input_as_output(&job.input, &job.output.path)?;
     job.output.refuse_existing()?;
     let given_layout = job.layout.as_deref().map(Layout::load).transpose()?;
-    let topics =
-        bags::pose::read_pose_topics(&job.input, job.topic.as_deref(), given_layout.as_ref())?;
-    let mut losses = Losses::from_pose_topics(&topics);
+    let scan =
+        bags::pose::scan_pose_topics(&job.input, job.topic.as_deref(), given_layout.as_ref())?;
+    let mut losses = Losses::from_read_issues(scan.issues.iter().cloned());
+    for s in &scan.skipped {
+        losses.push(Loss::Skipped(s.clone()));
+    }
     losses.warn(WARN_LIMIT);
-    warn_nan_messages(job, &topics);
-    let prefixed = topics
-        .sequences
-        .iter()
-        .filter(|(_, s)| !s.frames.is_empty())
-        .count()
-        > 1;
-    let mut people = prepare_people(rig, job, &topics, given_layout.as_ref(), prefixed)?;
-    let Some(first) = people.iter().filter_map(|p| p.converter.peek_stamp()).min() else {
+    warn_nan_messages(job, &scan.nan_messages);
+    let prefixed = scan.tracks.len() > 1;
+    let mut people = prepare_people(rig, job, &scan, given_layout.as_ref(), prefixed)?;
+    let Some(first) = scan.tracks.iter().map(|t| t.first_stamp_nanos).min() else {
         return Err(PipelineError::NoFrames {
             input: job.input.clone(),
         });
     };
+    let max_gaps: Vec<u64> = scan.tracks.iter().map(|t| max_gap_nanos(job, t)).collect();
     let mut meta = convert_metadata(rig, job, &people);
+    let read_again = |on_frame: &mut dyn FnMut(StreamedFrame<'_>) -> Result<(), PipelineError>| {
+        bags::pose::stream_pose_frames(
+            &job.input,
+            job.topic.as_deref(),
+            given_layout.as_ref(),
+            &scan,
+            &max_gaps,
+            on_frame,
+        )
+    };
     let tracks = if let Some(dsi) = &job.dsi {
         whole_clip::record_options(&mut meta, dsi);
+        let mut clips: Vec<whole_clip::Clip> = scan
+            .tracks
+            .iter()
+            .map(|t| whole_clip::Clip::with_capacity(t.frames))
+            .collect();
+        let stamps = read_again(&mut |f| {
+            let person = &mut people[f.track];
+            clips[f.track].take(&mut person.converter, f.frame, f.gap.is_some())
+        })?;
+        take_stamp_report(&stamps, &mut losses);
         // Whole clips are solved before the output exists, so a failing one leaves no file.
         let (tracks, mut animations) =
-            whole_clip::solve_all(rig, people, dsi, prefixed, &mut losses)?;
+            whole_clip::solve_all(rig, people, clips, dsi, prefixed, &mut losses)?;
         let mut out = BagOutput::create(&job.output)?;
         let writers = animations.iter().map(|(w, _)| w);
-        write_header(&mut out, &topics.metadata, meta, first, writers)?;
+        write_header(&mut out, &scan.metadata, meta, first, writers)?;
         whole_clip::write_in_stamp_order(&mut out, &mut animations)?;
         out.finish()?;
         tracks
     } else {
         let mut out = BagOutput::create(&job.output)?;
         let writers = people.iter().map(|p| &p.writer);
-        write_header(&mut out, &topics.metadata, meta, first, writers)?;
-        stream(&mut out, &mut people)?;
+        write_header(&mut out, &scan.metadata, meta, first, writers)?;
+        let stamps =
+            read_again(&mut |f| stream_frame(&mut out, &mut people[f.track], &f, job.fps))?;
+        take_stamp_report(&stamps, &mut losses);
         let tracks = finish_people(&mut out, people, job.fps, &mut losses)?;
         out.finish()?;
         tracks
@@ -264,9 +301,46 @@ pub fn convert_bag(rig: &Rig, job: &ConvertJob) -> Result<ConvertSummary, Pipeli
     })
 }
 
+/// The longest gap in a track's stamps that is interpolated across: `--max-gap` when given,
+/// else [`DEFAULT_MAX_GAP_FRAMES`] of the track's own frame periods (no limit for a track with
+/// fewer than two stamps).
+fn max_gap_nanos(job: &ConvertJob, track: &bags::pose::TrackScan) -> u64 {
+    match job.max_gap_s {
+        #[expect(
+            clippy::cast_possible_truncation,
+            clippy::cast_sign_loss,
+            reason = "checked positive and finite; saturates at u64::MAX ns (584 years)"
+        )]
+        Some(s) => (s * 1e9).round() as u64,
+        None => track
+            .median_step_nanos
+            .map_or(u64::MAX, |step| step.saturating_mul(DEFAULT_MAX_GAP_FRAMES)),
+    }
+}
+
+/// Adds what the second pass found in the stamps: dropped frames become losses (warned), gaps
+/// are warned (they lose nothing).
+fn take_stamp_report(report: &StampReport, losses: &mut Losses) {
+    let mut dropped = Losses::new();
+    for s in &report.skipped {
+        dropped.push(Loss::Skipped(s.clone()));
+    }
+    dropped.warn(WARN_LIMIT);
+    losses.append(dropped);
+    for gap in report.gaps.iter().take(WARN_LIMIT) {
+        tracing::warn!("{gap}");
+    }
+    if report.gaps.len() > WARN_LIMIT {
+        tracing::warn!(
+            "... and {} more gaps longer than the maximum",
+            report.gaps.len() - WARN_LIMIT
+        );
+    }
+}
+
 /// Warns about messages whose positions hold NaN: not lost, but those joints count as missing.
-fn warn_nan_messages(job: &ConvertJob, topics: &PoseTopics) {
-    let (first, total) = &topics.nan_messages;
+fn warn_nan_messages(job: &ConvertJob, nan_messages: &(Vec<(String, u64)>, u64)) {
+    let (first, total) = nan_messages;
     if *total > 0 {
         let first: Vec<String> = first
             .iter()
@@ -280,47 +354,51 @@ fn warn_nan_messages(job: &ConvertJob, topics: &PoseTopics) {
     }
 }
 
-/// Prepares every person with frames: their layout loaded (the given one, else the one their
-/// messages name), their body fitted, their writer made.
+/// Prepares every person: their layout loaded (the given one, else the one their messages
+/// name), their body fitted on the first pass's sample, their writer made.
 fn prepare_people<'a>(
     rig: &'a Rig,
     job: &ConvertJob,
-    topics: &'a PoseTopics,
+    scan: &'a PoseScan,
     given_layout: Option<&Layout>,
     prefixed: bool,
 ) -> Result<Vec<Person<'a>>, PipelineError> {
     let mut people = Vec::new();
-    for ((topic, seq), layout_name) in topics.sequences.iter().zip(&topics.layouts) {
-        if seq.frames.is_empty() {
-            continue;
-        }
+    for track in &scan.tracks {
         let layout = match given_layout {
             Some(l) => l.clone(),
-            None => Layout::load(layout_name).map_err(|source| PipelineError::TopicLayout {
-                topic: topic.clone(),
-                layout: layout_name.clone(),
+            None => Layout::load(&track.layout).map_err(|source| PipelineError::TopicLayout {
+                topic: track.topic.clone(),
+                layout: track.layout.clone(),
                 source: Box::new(source),
             })?,
         };
-        let converter = SequenceConverter::new(rig, &layout, seq, job.solve).map_err(|source| {
-            PipelineError::Prepare {
-                topic: topic.clone(),
-                track_id: seq.track_id,
-                source: Box::new(source),
-            }
+        let converter = SequenceConverter::from_sample(
+            rig,
+            &layout,
+            &track.source,
+            &track.joint_names,
+            &track.sample,
+            &track.observed,
+            job.solve,
+        )
+        .map_err(|source| PipelineError::Prepare {
+            topic: track.topic.clone(),
+            track_id: track.track_id,
+            source: Box::new(source),
         })?;
         let writer = TrackWriter::new(
             rig,
             converter.character(),
             converter.coverage(),
-            seq.track_id,
+            track.track_id,
             0,
-            &frame_prefix(seq.track_id, 0, prefixed),
+            &frame_prefix(track.track_id, 0, prefixed),
         );
         people.push(Person {
-            track_id: seq.track_id,
-            topic,
-            source: &seq.source,
+            track_id: track.track_id,
+            topic: &track.topic,
+            source: &track.source,
             converter,
             resampler: Resampler::new(job.fps),
             writer,
@@ -351,6 +429,9 @@ fn convert_metadata(
         "layouts".to_string(),
         joined(&|p| p.converter.layout_name().to_string()),
     );
+    if let Some(g) = job.max_gap_s {
+        meta.insert("max_gap_s".to_string(), g.to_string());
+    }
     meta
 }
 
@@ -377,33 +458,36 @@ fn write_header<'w>(
     )
 }
 
-/// Streams every person out in time order: each input frame is solved, resampled and written at
-/// once, always advancing the person whose next input frame is earliest.
-fn stream(out: &mut BagOutput, people: &mut [Person<'_>]) -> Result<(), PipelineError> {
-    while let Some(k) = (0..people.len())
-        .filter(|&k| people[k].converter.peek_stamp().is_some())
-        .min_by_key(|&k| people[k].converter.peek_stamp())
-    {
-        let Person {
-            converter,
-            resampler,
-            writer,
-            frames_out,
-            ..
-        } = &mut people[k];
-        let Some(step) = converter.next_frame() else {
-            continue;
-        };
-        let (stamp, pose) = step?;
-        let mut result = Ok(());
-        resampler.push(stamp, pose, &mut |t, p| {
-            if result.is_ok() {
-                result = writer.write_frame(&mut out.writer, t, p);
-                *frames_out += 1;
-            }
-        });
-        result?;
+/// Solves one frame of a person, resamples and writes it at once. A frame after a gap first
+/// ends the person's resampled stretch (its last frames written), so nothing is interpolated
+/// across the gap.
+fn stream_frame(
+    out: &mut BagOutput,
+    person: &mut Person<'_>,
+    f: &StreamedFrame<'_>,
+    fps: f64,
+) -> Result<(), PipelineError> {
+    let Person {
+        converter,
+        resampler,
+        writer,
+        frames_out,
+        ..
+    } = person;
+    let mut result = Ok(());
+    let mut emit = |t, p: &_| {
+        if result.is_ok() {
+            result = writer.write_frame(&mut out.writer, t, p);
+            *frames_out += 1;
+        }
+    };
+    if f.gap.is_some() {
+        std::mem::replace(resampler, Resampler::new(fps)).finish(&mut emit);
     }
+    if let Some((stamp, pose)) = converter.push(f.frame)? {
+        resampler.push(stamp, pose, &mut emit);
+    }
+    result?;
     Ok(())
 }
 

@@ -11,41 +11,117 @@ use crate::bags::output::BagOutput;
 use crate::dsi::{self, DsiOptions, Pace};
 use crate::loss::{Losses, WARN_LIMIT};
 use crate::mcap_io::McapIoError;
-use crate::skeleton::convert::AnimationFrame;
+use crate::skeleton::convert::{AnimationFrame, SequenceConverter};
+use crate::skeleton::pose::{PoseFrame, stamp_nanos_at};
 use crate::skeleton::rig::Rig;
 
 /// Each animation's writer and frames.
 pub type Animations = Vec<(TrackWriter, Vec<AnimationFrame>)>;
 
-/// Solves every person's whole clip and runs DSI on it: one summary per person, and every
-/// animation (per person, variant 0 first). Frames dropped for non-monotonic stamps are logged
-/// and added to `losses`.
+/// One person's clip, solved frame by frame as the input is read: its key frames and where a
+/// gap in its stamps splits it.
+#[derive(Debug, Default)]
+pub(super) struct Clip {
+    keys: Vec<AnimationFrame>,
+    /// Indices of the keys that start a stretch after a gap.
+    breaks: Vec<usize>,
+}
+
+impl Clip {
+    /// An empty clip with room for `frames` keys (the count pass 1 read), so that collecting
+    /// them never holds twice their memory while growing.
+    pub(super) fn with_capacity(frames: u64) -> Clip {
+        Clip {
+            keys: Vec::with_capacity(usize::try_from(frames).unwrap_or(0)),
+            breaks: Vec::new(),
+        }
+    }
+
+    /// Solves the next frame and keeps its pose (`after_gap`: it starts a new stretch).
+    ///
+    /// # Errors
+    /// [`PipelineError::Solve`] for a frame that cannot be solved.
+    pub(super) fn take(
+        &mut self,
+        converter: &mut SequenceConverter<'_>,
+        frame: &PoseFrame,
+        after_gap: bool,
+    ) -> Result<(), PipelineError> {
+        if let Some((stamp_nanos, pose)) = converter.push(frame)? {
+            if after_gap && !self.keys.is_empty() {
+                self.breaks.push(self.keys.len());
+            }
+            self.keys.push(AnimationFrame {
+                stamp_nanos,
+                pose: pose.clone(),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Runs DSI on every person's clip: one summary per person, and every animation (per person,
+/// variant 0 first). Frames dropped for non-monotonic stamps are logged and added to `losses`.
 ///
 /// # Errors
-/// [`PipelineError::Solve`] for a frame that cannot be solved, [`PipelineError::Dsi`] naming the
-/// track.
+/// [`PipelineError::Dsi`] naming the track.
 pub(super) fn solve_all(
     rig: &Rig,
     people: Vec<Person<'_>>,
+    clips: Vec<Clip>,
     options: &DsiOptions,
     several_people: bool,
     losses: &mut Losses,
 ) -> Result<(Vec<TrackSummary>, Animations), PipelineError> {
     let mut tracks = Vec::with_capacity(people.len());
     let mut all = Vec::new();
-    for person in people {
-        let (summary, animations) = whole_clip(rig, person, options, several_people, losses)?;
+    for (person, clip) in people.into_iter().zip(clips) {
+        let (summary, animations) = whole_clip(rig, person, clip, options, several_people, losses)?;
         tracks.push(summary);
         all.extend(animations);
     }
     Ok((tracks, all))
 }
 
-/// Solves one person's whole clip and runs DSI on it: the person's summary and a writer with its
-/// frames per animation (variant 0 first).
+/// DSI on a clip stretch by stretch (a gap splits it): the plans, and per variant the stretches'
+/// frames end to end. A stretch whose output would start before the previous one's ends (DSI
+/// can lengthen a stretch) is moved to start one output frame after it.
+fn run_stretches(
+    rig: &Rig,
+    track_id: u64,
+    clip: &Clip,
+    options: &DsiOptions,
+) -> Result<(Vec<dsi::plan::Plan>, Vec<Vec<AnimationFrame>>), PipelineError> {
+    let mut bounds = vec![0];
+    bounds.extend(&clip.breaks);
+    bounds.push(clip.keys.len());
+    let mut plans = Vec::new();
+    let mut animations: Vec<Vec<AnimationFrame>> = Vec::new();
+    for w in bounds.windows(2) {
+        let result = dsi::run(rig, &clip.keys[w[0]..w[1]], options)
+            .map_err(|source| PipelineError::Dsi { track_id, source })?;
+        let start = result.animations[0].first().map_or(0, |f| f.stamp_nanos);
+        let shift = animations.first().and_then(|a| a.last()).map_or(0, |last| {
+            (last.stamp_nanos + stamp_nanos_at(1, options.out_fps)).saturating_sub(start)
+        });
+        animations.resize_with(result.animations.len(), Vec::new);
+        for (all, frames) in animations.iter_mut().zip(result.animations) {
+            all.extend(frames.into_iter().map(|mut f| {
+                f.stamp_nanos += shift;
+                f
+            }));
+        }
+        plans.push(result.plan);
+    }
+    Ok((plans, animations))
+}
+
+/// Runs DSI on one person's clip: the person's summary and a writer with its frames per
+/// animation (variant 0 first).
 fn whole_clip(
     rig: &Rig,
     person: Person<'_>,
+    clip: Clip,
     options: &DsiOptions,
     several_people: bool,
     losses: &mut Losses,
@@ -54,40 +130,37 @@ fn whole_clip(
         track_id,
         topic,
         source,
-        mut converter,
+        converter,
         writer,
         ..
     } = person;
-    let mut keys = Vec::new();
-    while let Some(step) = converter.next_frame() {
-        let (stamp_nanos, pose) = step?;
-        keys.push(AnimationFrame {
-            stamp_nanos,
-            pose: pose.clone(),
-        });
-    }
     let layout_name = converter.layout_name().to_string();
     let coverage = converter.coverage().clone();
     let (character, report) = converter.finish();
     let dropped = Losses::non_monotonic(source, topic, track_id, &report.dropped_non_monotonic);
     dropped.warn(WARN_LIMIT);
     losses.append(dropped);
-    let result =
-        dsi::run(rig, &keys, options).map_err(|source| PipelineError::Dsi { track_id, source })?;
-    let plan = &result.plan;
+    let (plans, result_animations) = run_stretches(rig, track_id, &clip, options)?;
+    drop(clip);
+    let Some(plan) = plans.first() else {
+        return Err(PipelineError::Dsi {
+            track_id,
+            source: dsi::DsiError::NoFrames,
+        });
+    };
     let summary = TrackSummary {
         track_id,
         frames_in: report.frames,
-        frames_out: result.animations[0].len() as u64,
+        frames_out: result_animations.first().map_or(0, |a| a.len() as u64),
         fps: options.out_fps,
         degenerate_frames: report.degenerate_frames,
         bones_at_rest: report.coverage.at_rest.len(),
         layout_name,
         dsi: Some(DsiSummary {
             threshold_rad: plan.threshold_rad,
-            segments: plan.segments,
-            transitions: plan.transition_count(),
-            frames_added: plan.frames_added(),
+            segments: plans.iter().map(|p| p.segments).sum(),
+            transitions: plans.iter().map(dsi::plan::Plan::transition_count).sum(),
+            frames_added: plans.iter().map(dsi::plan::Plan::frames_added).sum(),
             eta: plan.eta,
             delta: plan.delta,
             smoothed: options.smoothing.is_some(),
@@ -96,8 +169,7 @@ fn whole_clip(
         }),
     };
     let mut writer = Some(writer);
-    let animations = result
-        .animations
+    let animations = result_animations
         .into_iter()
         .zip(0u32..)
         .map(|(frames, v)| {

@@ -787,8 +787,10 @@ pub fn fit_character(
     character
 }
 
-/// Converts a sequence one frame at a time: fits the subject's proportions on construction, then
-/// solves each frame on demand, so a caller can stream the result out without holding it.
+/// Converts a person's frames one at a time, as they come: the subject's proportions are fitted
+/// on construction from a sample of the frames (the whole sequence, or a bounded sample read
+/// ahead), then each frame pushed is solved at once, so a caller can stream a bag of any length
+/// through it without holding it.
 ///
 /// Frames whose stamp is not after the previous kept frame are dropped and listed in the report
 /// (`lost_input()` is then true). Joints absent from every frame are treated as not in the layout,
@@ -796,8 +798,10 @@ pub fn fit_character(
 #[derive(Debug)]
 pub struct SequenceConverter<'a> {
     converter: Converter<'a>,
-    frames: std::borrow::Cow<'a, [PoseFrame]>,
-    next: usize,
+    /// Data joint of each layout joint (`None`: the data is in the layout's order already).
+    order: Option<Vec<Option<usize>>>,
+    /// Frames pushed so far.
+    pushed: usize,
     last_stamp: Option<u64>,
     dropped: Vec<(usize, u64)>,
     pose: BonePose,
@@ -807,37 +811,63 @@ pub struct SequenceConverter<'a> {
 }
 
 impl<'a> SequenceConverter<'a> {
-    /// Prepares the conversion of `seq` (joints named as in `layout`).
+    /// Prepares the conversion of `seq` (joints named as in `layout`), fitted on all its frames.
     ///
     /// # Errors
     /// [`ConvertError::Layout`] when the data's joints are not the layout's.
     pub fn new(
         rig: &'a Rig,
         layout: &Layout,
-        seq: &'a PoseSequence,
+        seq: &PoseSequence,
         options: ConvertOptions,
     ) -> Result<Self, ConvertError> {
-        let layout_err = |source| ConvertError::Layout {
-            source_name: seq.source.clone(),
-            source,
+        let observed = crate::skeleton::pose::observed_joints(&seq.frames, seq.joint_names.len());
+        Self::from_sample(
+            rig,
+            layout,
+            &seq.source,
+            &seq.joint_names,
+            &seq.frames,
+            &observed,
+            options,
+        )
+    }
+
+    /// Prepares the conversion of a person whose frames will be pushed later: `joint_names` name
+    /// their joints (as in `layout`), `sample` is a sample of them to fit the body on (any
+    /// number, evenly spread; [`fit_character`] uses at most a few hundred), `observed` says per
+    /// data joint whether any frame observes it.
+    ///
+    /// # Errors
+    /// [`ConvertError::Layout`] when the data's joints are not the layout's.
+    pub fn from_sample(
+        rig: &'a Rig,
+        layout: &Layout,
+        source: &str,
+        joint_names: &[String],
+        sample: &[PoseFrame],
+        observed: &[bool],
+        options: ConvertOptions,
+    ) -> Result<Self, ConvertError> {
+        let layout_err = |e| ConvertError::Layout {
+            source_name: source.to_string(),
+            source: e,
         };
-        let order = layout.joint_order(&seq.joint_names).map_err(layout_err)?;
-        let identity_order = seq.joint_names.len() == layout.joints.len()
+        let order = layout.joint_order(joint_names).map_err(layout_err)?;
+        let identity_order = joint_names.len() == layout.joints.len()
             && order.iter().enumerate().all(|(k, i)| *i == Some(k));
-        let frames: std::borrow::Cow<'a, [PoseFrame]> = if identity_order {
-            std::borrow::Cow::Borrowed(&seq.frames)
+        let sample: std::borrow::Cow<'_, [PoseFrame]> = if identity_order {
+            std::borrow::Cow::Borrowed(sample)
         } else {
-            std::borrow::Cow::Owned(
-                seq.frames
-                    .iter()
-                    .map(|f| Layout::reorder(&order, f))
-                    .collect(),
-            )
+            std::borrow::Cow::Owned(sample.iter().map(|f| Layout::reorder(&order, f)).collect())
         };
         // Joints the source never provides (face points from mocap, hands from a body-only
         // tracker) are not in this data: their bones are reported at rest, not missing in every
         // frame.
-        let present = crate::skeleton::pose::observed_joints(&frames, layout.joints.len());
+        let present: Vec<bool> = order
+            .iter()
+            .map(|i| i.is_some_and(|i| observed.get(i).copied().unwrap_or(false)))
+            .collect();
         let restricted;
         let layout = if present.iter().all(|&p| p) {
             layout
@@ -846,18 +876,18 @@ impl<'a> SequenceConverter<'a> {
             &restricted
         };
         let binding = layout.bind(rig).map_err(layout_err)?;
-        let character = fit_character(rig, &binding, &frames, options);
+        let character = fit_character(rig, &binding, &sample, options);
         let converter = Converter::with_binding(rig, binding, &character, options);
         Ok(SequenceConverter {
             converter,
-            frames,
-            next: 0,
+            order: (!identity_order).then_some(order),
+            pushed: 0,
             last_stamp: None,
             dropped: Vec::new(),
             pose: BonePose::rest(rig),
             character,
             layout_name: layout.name.clone(),
-            source: seq.source.clone(),
+            source: source.to_string(),
         })
     }
 
@@ -879,49 +909,46 @@ impl<'a> SequenceConverter<'a> {
         &self.converter.report().coverage
     }
 
-    /// Stamp of the next input frame, if any.
-    #[must_use]
-    pub fn peek_stamp(&self) -> Option<u64> {
-        self.frames.get(self.next).map(|f| f.stamp_nanos)
-    }
-
-    /// Solves the next frame: its stamp and pose (valid until the next call).
+    /// Solves the next frame (joints in the data's order): its stamp and pose (valid until the
+    /// next call), or `None` when it is dropped for a stamp not after the previous frame's.
     ///
     /// # Errors
     /// [`ConvertError::WrongJointCount`] for a frame whose arrays do not match the layout.
-    pub fn next_frame(&mut self) -> Option<Result<(u64, &BonePose), ConvertError>> {
-        loop {
-            let i = self.next;
-            let f = self.frames.get(i)?;
-            self.next += 1;
-            if self.last_stamp.is_some_and(|s| f.stamp_nanos <= s) {
-                self.dropped.push((i, f.stamp_nanos));
-                continue;
-            }
-            let stamp = f.stamp_nanos;
-            if let Err(e) = self.converter.convert_frame(f, &mut self.pose) {
-                let e = match e {
-                    ConvertError::WrongJointCount {
-                        found,
-                        confidences,
-                        expected,
-                        layout,
-                        ..
-                    } => ConvertError::WrongJointCount {
-                        source_name: self.source.clone(),
-                        frame: i,
-                        found,
-                        confidences,
-                        expected,
-                        layout,
-                    },
-                    other => other,
-                };
-                return Some(Err(e));
-            }
-            self.last_stamp = Some(stamp);
-            return Some(Ok((stamp, &self.pose)));
+    pub fn push(&mut self, frame: &PoseFrame) -> Result<Option<(u64, &BonePose)>, ConvertError> {
+        let i = self.pushed;
+        self.pushed += 1;
+        let stamp = frame.stamp_nanos;
+        if self.last_stamp.is_some_and(|s| stamp <= s) {
+            self.dropped.push((i, stamp));
+            return Ok(None);
         }
+        let solved = match &self.order {
+            None => self.converter.convert_frame(frame, &mut self.pose),
+            Some(order) => self
+                .converter
+                .convert_frame(&Layout::reorder(order, frame), &mut self.pose),
+        };
+        if let Err(e) = solved {
+            return Err(match e {
+                ConvertError::WrongJointCount {
+                    found,
+                    confidences,
+                    expected,
+                    layout,
+                    ..
+                } => ConvertError::WrongJointCount {
+                    source_name: self.source.clone(),
+                    frame: i,
+                    found,
+                    confidences,
+                    expected,
+                    layout,
+                },
+                other => other,
+            });
+        }
+        self.last_stamp = Some(stamp);
+        Ok(Some((stamp, &self.pose)))
     }
 
     /// Ends the conversion: the fitted body and the report.
@@ -946,12 +973,13 @@ pub fn convert_sequence(
     let mut sc = SequenceConverter::new(rig, layout, seq, options)?;
     let layout_name = sc.layout_name().to_string();
     let mut out_frames = Vec::with_capacity(seq.frames.len());
-    while let Some(step) = sc.next_frame() {
-        let (stamp_nanos, pose) = step?;
-        out_frames.push(AnimationFrame {
-            stamp_nanos,
-            pose: pose.clone(),
-        });
+    for frame in &seq.frames {
+        if let Some((stamp_nanos, pose)) = sc.push(frame)? {
+            out_frames.push(AnimationFrame {
+                stamp_nanos,
+                pose: pose.clone(),
+            });
+        }
     }
     if out_frames.is_empty() {
         return Err(ConvertError::Empty {

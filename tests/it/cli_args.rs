@@ -253,6 +253,7 @@ fn convert_defaults_and_bag_flags() {
     assert_eq!(args.fps, 30.0);
     assert_eq!(args.root_motion, RootMotion::Full);
     assert_eq!(args.min_confidence, 0.3);
+    assert_eq!(args.max_gap, None);
     assert_eq!(args.output.output, Path::new("out.mcap"));
     assert_eq!(args.output.compression, Compression::Zstd);
     assert!(!args.output.rosbag2 && !args.output.write_expected_json && !args.output.force);
@@ -284,6 +285,8 @@ fn convert_defaults_and_bag_flags() {
             "in-place",
             "--min-confidence",
             "0.5",
+            "--max-gap",
+            "0.25",
             "--rosbag2",
             "--compression",
             "none",
@@ -297,6 +300,7 @@ fn convert_defaults_and_bag_flags() {
     assert_eq!(args.fps, 60.0);
     assert_eq!(args.root_motion, RootMotion::InPlace);
     assert_eq!(args.min_confidence, 0.5);
+    assert_eq!(args.max_gap, Some(0.25));
     assert!(args.output.rosbag2 && args.output.write_expected_json);
     assert_eq!(args.output.compression, Compression::None);
     let args = args_of!(

@@ -1101,3 +1101,123 @@ fn an_animation_bag_cut_at_a_chunk_boundary_is_lost_input_everywhere() {
         );
     }
 }
+
+#[test]
+fn a_stamp_far_ahead_is_dropped_and_named_not_interpolated_across() {
+    // Two damaged bytes: message 40's stamp lands 63 years ahead. It is dropped and named; the
+    // frames after it are kept and the output does not fill the 63 years.
+    let dir = tempfile::tempdir().unwrap();
+    let bag = pose_bag(dir.path(), "spike.mcap", 90, |k, s| {
+        if k == 40 {
+            s.header.stamp = Time::from_nanos(2_000_000_000_000_000_000);
+        }
+    });
+    let out = dir.path().join("spike.anim.mcap");
+    let o = autoact(&["convert", arg(&bag), "-o", arg(&out)]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("message 40") && err.contains("damaged stamp"),
+        "{err}"
+    );
+    let frames = bone_frames(&out);
+    assert_eq!(
+        frames.len(),
+        90,
+        "frame 40 is interpolated from its neighbours, nothing added"
+    );
+    assert!(frames.iter().all(|(t, _)| *t < 3_000_000_000));
+}
+
+#[test]
+fn a_gap_longer_than_max_gap_is_not_interpolated_and_the_animation_resumes_after_it() {
+    // 60 frames, 10 s of nothing, 60 frames: both stretches are kept, the gap is warned about
+    // (no input is lost: exit 0) and no output frame falls inside it.
+    let dir = tempfile::tempdir().unwrap();
+    let shift = 10_000_000_000u64;
+    let bag = pose_bag(dir.path(), "gap.mcap", 120, |k, s| {
+        if k >= 60 {
+            let t = s.header.stamp.to_nanos().unwrap();
+            s.header.stamp = Time::from_nanos(t + shift);
+        }
+    });
+    let out = dir.path().join("gap.anim.mcap");
+    let o = autoact(&["convert", arg(&bag), "-o", arg(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("message 60") && err.contains("maximum gap"),
+        "{err}"
+    );
+    let frames = bone_frames(&out);
+    assert_eq!(frames.len(), 120);
+    let last_before = stamp_nanos_at(59, 30.0);
+    let first_after = stamp_nanos_at(60, 30.0) + shift;
+    assert!(
+        frames
+            .iter()
+            .all(|(t, _)| *t <= last_before || *t >= first_after)
+    );
+    // A maximum above the gap bridges it, as before.
+    let bridged = dir.path().join("bridged.anim.mcap");
+    let o = autoact(&["convert", arg(&bag), "-o", arg(&bridged), "--max-gap", "11"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(bone_frames(&bridged).len() > 400);
+    // DSI runs stretch by stretch: nothing in the gap either.
+    let dsi = dir.path().join("dsi.anim.mcap");
+    let o = autoact(&["convert", arg(&bag), "-o", arg(&dsi), "--dsi"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let frames = bone_frames(&dsi);
+    assert!(frames.len() < 200, "{} frames", frames.len());
+    assert!(frames.windows(2).all(|w| w[0].0 < w[1].0));
+}
+
+#[test]
+fn max_gap_must_be_positive() {
+    let dir = tempfile::tempdir().unwrap();
+    let bag = pose_bag(dir.path(), "in.mcap", 10, |_, _| {});
+    let out = dir.path().join("out.mcap");
+    let o = autoact(&["convert", arg(&bag), "-o", arg(&out), "--max-gap", "0"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--max-gap"), "{}", stderr(&o));
+    assert!(!out.exists());
+}
+
+#[test]
+fn an_mmpose_frame_id_jump_is_a_gap_not_hours_of_invented_frames() {
+    // A legal JSON whose frame ids jump by a million (9 hours at 30 fps): both stretches are
+    // kept, and the output holds their frames only.
+    let dir = tempfile::tempdir().unwrap();
+    let frames: Vec<serde_json::Value> = (0..40usize)
+        .map(|k| {
+            let id = if k < 20 { k } else { 1_000_000 + k };
+            let keypoints: Vec<[f64; 3]> = h36m_frame(k)
+                .positions_m
+                .iter()
+                .map(|p| [p.x, p.y, p.z])
+                .collect();
+            serde_json::json!({"frame_id": id, "instances": [{"keypoints": keypoints}]})
+        })
+        .collect();
+    let json = dir.path().join("jump.json");
+    std::fs::write(&json, serde_json::to_string(&frames).unwrap()).unwrap();
+    let bag = dir.path().join("jump.pose.mcap");
+    let o = autoact(&[
+        "import",
+        arg(&json),
+        "-o",
+        arg(&bag),
+        "--layout",
+        "h36m-17",
+        "--fps",
+        "30",
+        "--axes",
+        "z-up",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = dir.path().join("jump.anim.mcap");
+    let o = autoact(&["convert", arg(&bag), "-o", arg(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("maximum gap"), "{}", stderr(&o));
+    assert_eq!(bone_frames(&out).len(), 40);
+}
