@@ -315,26 +315,10 @@ pub fn scan_pose_topics(
     })
 }
 
-/// The metadata records of a file, as [`BagReader::metadata`] gives them (in file order, up to
-/// the end of the data or the first damaged record), with the pages read released now and then:
-/// the pass runs over every chunk, which would otherwise make the whole file resident at once.
+/// The metadata records of a file ([`BagReader::metadata`]: its own record walk, which checks
+/// every length and touches only record headers), with the pages read released after.
 fn metadata_records(reader: &BagReader) -> Vec<(String, BTreeMap<String, String>)> {
-    let Ok(records) = mcap::read::LinearReader::new_with_options(
-        reader.bytes(),
-        mcap::read::Options::IgnoreEndMagic.into(),
-    ) else {
-        return Vec::new();
-    };
-    let mut out = Vec::new();
-    let mut releaser = Releaser::default();
-    for record in records {
-        match record {
-            Ok(mcap::records::Record::Chunk { data, .. }) => releaser.read(reader, data.len()),
-            Ok(mcap::records::Record::Metadata(m)) => out.push((m.name, m.metadata)),
-            Ok(mcap::records::Record::DataEnd(_)) | Err(_) => break,
-            Ok(_) => {}
-        }
-    }
+    let out = reader.metadata();
     reader.release_pages();
     out
 }
