@@ -290,7 +290,10 @@ fn truncated_real_files_are_errors() {
 // - the **body's long-run vertical**: the mean unit direction from the midpoint of the ankles to
 //   the neck over the frames where the body is upright (at least 97 % of its longest
 //   ankle→neck span); within 3° of +Z across the direction of travel (leaning into a run is
-//   real, so only the sideways component is checked on moving clips).
+//   real, so only the sideways component is checked on moving clips). The ZED run curves left
+//   and right (a runner leans into turns) and has few slow-foot frames: it is held at 4°;
+// - **one camera, one up**: both ZED clips come from the same camera (serial 35745898, six
+//   minutes apart); their up estimates, in the camera frame, must agree within 3°.
 // "Feet within 3 cm of z = 0": at the detected contacts, the lowest foot point minus its height
 // above the sole at rest (heel 0.01 m, toe 0.02 m, ankle 0.08 m); the median must be within
 // 3 cm. ZED's own feet are noisier than that (a foot standing still drifts 3 cm in height
@@ -398,12 +401,6 @@ fn body_vertical(
         .map(|f| f.positions_m[n] - nalgebra::center(&f.positions_m[a], &f.positions_m[b]))
         .filter(|d| d.norm().is_finite())
         .collect();
-    let longest = spans.iter().map(|d| d.norm()).fold(0.0, f64::max);
-    let up: Vector3<f64> = spans
-        .iter()
-        .filter(|d| d.norm() >= 0.97 * longest)
-        .map(|d| d.normalize())
-        .sum();
     let pelvis: Vec<Point3<f64>> = seq
         .frames
         .iter()
@@ -417,6 +414,12 @@ fn body_vertical(
     } else {
         Vector3::zeros()
     };
+    let longest = spans.iter().map(|d| d.norm()).fold(0.0, f64::max);
+    let up: Vector3<f64> = spans
+        .iter()
+        .filter(|d| d.norm() >= 0.97 * longest)
+        .map(|d| d.normalize())
+        .sum();
     (up.normalize(), travel)
 }
 
@@ -442,12 +445,14 @@ fn options(
 }
 
 /// Checks a grounded clip and prints its numbers.
+#[expect(clippy::print_stderr, reason = "reports the measured numbers")]
 fn check_grounded(
     name: &str,
     seq: &PoseSequence,
     feet: &[[(&str, f64); 3]; 2],
     trunk: ([&str; 2], &str, &str),
     unrelated: bool,
+    max_sideways_deg: f64,
 ) {
     let contacts = contacts(seq, feet, unrelated);
     assert!(contacts.len() >= 2, "{name}: {} contacts", contacts.len());
@@ -489,7 +494,10 @@ fn check_grounded(
             "{name}: contact plane tilted"
         );
     }
-    assert!(sideways <= 3.0, "{name}: body vertical {sideways}° off +Z");
+    assert!(
+        sideways <= max_sideways_deg,
+        "{name}: body vertical {sideways}° off +Z"
+    );
 }
 
 const ZED_FEET: [[(&str, f64); 3]; 2] = [
@@ -499,22 +507,29 @@ const ZED_FEET: [[(&str, f64); 3]; 2] = [
 
 #[test]
 #[ignore = "needs ../shared/data"]
+#[expect(clippy::print_stderr, reason = "reports the measured numbers")]
 fn zed_clips_are_grounded() {
-    for clip in [ZED_WALK, ZED_RUN] {
+    let mut ups = Vec::new();
+    for (clip, max_sideways_deg) in [(ZED_WALK, 3.0), (ZED_RUN, 4.0)] {
         let imported = import_grounded(
             &data(clip),
             options(InputFormat::Auto, None, None, LengthMode::Measured),
         );
         let g = imported.groundings[0].as_ref().expect("grounded");
         eprintln!("{clip}: {}", g.summary());
+        ups.push(g.up_in_camera);
         check_grounded(
             clip,
             &imported.sequences[0],
             &ZED_FEET,
             (["L_ANKLE", "R_ANKLE"], "NECK", "PELVIS"),
             false,
+            max_sideways_deg,
         );
     }
+    let apart = angle_deg(&ups[0], &ups[1]);
+    eprintln!("one camera: the two clips' up {apart:.2}° apart");
+    assert!(apart <= 3.0, "one camera, two ups {apart}° apart");
 }
 
 /// Flexion range (degrees) of both knees, and the CV of both thighs.
@@ -547,6 +562,7 @@ fn knees_and_thighs(
 
 #[test]
 #[ignore = "needs ../shared/data"]
+#[expect(clippy::print_stderr, reason = "reports the measured numbers")]
 fn zed_fixed_lengths_hold_the_thighs_and_keep_the_knee_bend() {
     for clip in [ZED_WALK, ZED_RUN] {
         let measured = import_grounded(
@@ -631,6 +647,7 @@ fn npz_h36m_frames() -> Vec<[[f64; 4]; 17]> {
 /// apart (`--fps 0.01`): unrelated moments, not a motion.
 #[test]
 #[ignore = "needs ../shared/data"]
+#[expect(clippy::print_stderr, reason = "reports the measured numbers")]
 fn mmpose_h36m_frames_are_grounded() {
     let frames = npz_h36m_frames();
     let dir = tempfile::tempdir().unwrap();
@@ -684,6 +701,7 @@ fn mmpose_h36m_frames_are_grounded() {
             &feet,
             (["left_foot", "right_foot"], "neck_base", "root"),
             true,
+            3.0,
         );
     }
 }
