@@ -426,7 +426,7 @@ fn percentile(sorted: &[f64], q: f64) -> Option<f64> {
 /// speeds to the previous and the next sample seeing that foot; `None` with no neighbour.
 fn foot_speeds(samples: &[Sample]) -> Vec<[Option<f64>; 2]> {
     let mut out = vec![[None, None]; samples.len()];
-    for side in 0..2 {
+    for side in [0, 1] {
         let seen: Vec<(usize, Point3<f64>)> = samples
             .iter()
             .enumerate()
@@ -475,7 +475,7 @@ fn contact_points(
 ) -> Vec<Vec<Point3<f64>>> {
     let mut out = Vec::new();
     for (s, v) in samples.iter().zip(speeds) {
-        for side in 0..2 {
+        for side in [0, 1] {
             if v[side].is_some_and(|v| v > speed_limit) {
                 continue;
             }

@@ -335,8 +335,8 @@ fn contacts(seq: &PoseSequence, feet: &[[(&str, f64); 3]; 2], unrelated: bool) -
             .flatten()
             .map(|p| p.z)
             .fold(f64::INFINITY, f64::min);
-        for side in 0..2 {
-            let Some(p) = frame[side] else { continue };
+        for (side, sole) in frame.iter().enumerate() {
+            let Some(p) = *sole else { continue };
             if unrelated {
                 if p.z <= lower + 0.05 {
                     out.push(p);
@@ -390,10 +390,10 @@ fn body_vertical(
     pelvis: &str,
 ) -> (Vector3<f64>, Vector3<f64>) {
     let (a, b, n, p) = (
-        seq.joint_index(ankles[0]).unwrap(),
-        seq.joint_index(ankles[1]).unwrap(),
-        seq.joint_index(neck).unwrap(),
-        seq.joint_index(pelvis).unwrap(),
+        seq.joint_index(ankles[0]).expect("joint"),
+        seq.joint_index(ankles[1]).expect("joint"),
+        seq.joint_index(neck).expect("joint"),
+        seq.joint_index(pelvis).expect("joint"),
     );
     let spans: Vec<Vector3<f64>> = seq
         .frames
@@ -414,17 +414,17 @@ fn body_vertical(
     } else {
         Vector3::zeros()
     };
-    let longest = spans.iter().map(|d| d.norm()).fold(0.0, f64::max);
+    let longest = spans.iter().map(Vector3::norm).fold(0.0, f64::max);
     let up: Vector3<f64> = spans
         .iter()
         .filter(|d| d.norm() >= 0.97 * longest)
-        .map(|d| d.normalize())
+        .map(Vector3::normalize)
         .sum();
     (up.normalize(), travel)
 }
 
-fn import_grounded(path: &std::path::Path, options: ImportOptions) -> importer::Imported {
-    importer::import(path, &options).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+fn import_grounded(path: &std::path::Path, options: &ImportOptions) -> importer::Imported {
+    importer::import(path, options).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
 fn options(
@@ -513,7 +513,7 @@ fn zed_clips_are_grounded() {
     for (clip, max_sideways_deg) in [(ZED_WALK, 3.0), (ZED_RUN, 4.0)] {
         let imported = import_grounded(
             &data(clip),
-            options(InputFormat::Auto, None, None, LengthMode::Measured),
+            &options(InputFormat::Auto, None, None, LengthMode::Measured),
         );
         let g = imported.groundings[0].as_ref().expect("grounded");
         eprintln!("{clip}: {}", g.summary());
@@ -539,7 +539,7 @@ fn knees_and_thighs(
 ) -> ([(f64, f64); 2], [f64; 2]) {
     let mut ranges = [(f64::INFINITY, f64::NEG_INFINITY); 2];
     for (i, side) in ["L", "R"].iter().enumerate() {
-        let j = |n: &str| seq.joint_index(&format!("{side}_{n}")).unwrap();
+        let j = |n: &str| seq.joint_index(&format!("{side}_{n}")).expect("joint");
         for f in &seq.frames {
             let deg = flexion_deg(
                 &f.positions_m[j("HIP")],
@@ -567,11 +567,11 @@ fn zed_fixed_lengths_hold_the_thighs_and_keep_the_knee_bend() {
     for clip in [ZED_WALK, ZED_RUN] {
         let measured = import_grounded(
             &data(clip),
-            options(InputFormat::Auto, None, None, LengthMode::Measured),
+            &options(InputFormat::Auto, None, None, LengthMode::Measured),
         );
         let fixed = import_grounded(
             &data(clip),
-            options(InputFormat::Auto, None, None, LengthMode::Fixed),
+            &options(InputFormat::Auto, None, None, LengthMode::Fixed),
         );
         let layout = autoact::skeleton::layout::Layout::load("zed-body-34").unwrap();
         let after = autoact::skeleton::lengths::stability(&fixed.sequences[0], &layout).unwrap();
@@ -634,7 +634,7 @@ fn npz_h36m_frames() -> Vec<[[f64; 4]; 17]> {
     let values: Vec<f64> = npy[10 + header_len..]
         .chunks_exact(8)
         .take(4 * 17 * 4)
-        .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+        .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
         .collect();
     (0..4)
         .map(|f| std::array::from_fn(|j| std::array::from_fn(|k| values[(f * 17 + j) * 4 + k])))
@@ -676,7 +676,7 @@ fn mmpose_h36m_frames_are_grounded() {
         std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
         let imported = import_grounded(
             &path,
-            options(
+            &options(
                 InputFormat::MmposeJson,
                 Some("h36m-17"),
                 Some(0.01),
