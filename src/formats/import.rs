@@ -217,12 +217,13 @@ pub fn import(input: &Path, options: &ImportOptions) -> Result<Imported, ImportE
     Ok(imported)
 }
 
-/// Grounds one sequence, saying what was done; a sequence that cannot be grounded (no feet)
-/// stays in its source frame with a warning.
+/// Grounds one sequence, warning when its feet at contact sit more than [`ground::INLIER_M`]
+/// off the plane (median); a sequence that cannot be grounded (no feet) stays in its source
+/// frame with a warning.
 fn ground_one(seq: &mut PoseSequence, layout: &Layout) -> Option<Grounding> {
     match ground::ground(seq, layout) {
         Ok(g) => {
-            if g.residual_p95_m > ground::INLIER_M {
+            if g.residual_median_m > ground::INLIER_M {
                 tracing::warn!(
                     "{} track {}: the feet do not settle on one plane ({}); check the result or import with --ground off",
                     seq.source,

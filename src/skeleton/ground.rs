@@ -9,16 +9,18 @@
 //! 1. **Samples** the clip ([`GroundSampler`]): per pushed frame, the foot points of each side
 //!    (ankle, heel, toes — whatever the layout binds), the pelvis, the neck and the hips. Any
 //!    subset of frames will do (every k-th frame of a stream), in stamp order.
-//! 2. **Finds contacts**: per side and sample the lowest foot point (each landmark lowered by its
-//!    height above the sole in the rig's rest pose, so an ankle-only layout still reaches the
-//!    floor), kept when the foot is slow (≤ 20 % of the clip's 95th-percentile foot speed, at
-//!    least 0.3 m/s, at most 1 m/s) and near the current floor estimate.
+//! 2. **Finds contacts**: per side and sample the foot's points, each lowered by its height
+//!    above the sole in the rig's rest pose (so an ankle-only layout still reaches the floor),
+//!    kept when the foot is slow (≤ 20 % of the clip's 95th-percentile foot speed, at least
+//!    0.3 m/s, at most 1 m/s) and near the current floor estimate.
 //! 3. **Fits the plane** robustly: RANSAC over the contact points (3 cm inliers, normals within
-//!    35° of the trunk's mean direction), then a least-squares refit of the inliers
-//!    regularised towards the trunk direction. The prior counts like a foot spread of
-//!    [`PRIOR_SPREAD_M`]: a straight walk puts its contacts on a line, which fixes the tilt along
-//!    the line but not about it; there the body's long-run vertical (mean pelvis → neck) decides.
-//!    Up is the plane normal, oriented towards the head.
+//!    35° of the body's vertical), then a least-squares refit of the inliers regularised towards
+//!    the body's long-run vertical (the mean feet → neck direction over the frames where the body
+//!    is most extended). The prior weighs like a contact spread of [`PRIOR_SPREAD_M`]: a
+//!    straight walk puts its contacts on a line, which fixes the tilt along the line but hardly
+//!    about it (feet 20 cm apart, heights noisy by centimetres); there the body decides. Up is
+//!    the plane normal, towards the head; the floor's height is the median lowest foot point at
+//!    contact.
 //! 4. **Places the body**: tilt the normal onto +Z, turn about +Z so that the hip line of the
 //!    first sampled frames points along +X (the body faces +Y), and translate so that the plane
 //!    is `z = 0` and the first frame's pelvis is over the origin.
