@@ -99,6 +99,8 @@ fn import_bytes(
         axes: SourceAxes::YDown,
         metres_per_unit: 1.0,
         bvh_map: None,
+        ground: crate::skeleton::ground::GroundMode::default(),
+        lengths: crate::skeleton::lengths::LengthMode::default(),
     };
     with_file(data, name, |path| {
         let _ = import(path, &options);
@@ -141,6 +143,7 @@ fn pose_mcap(data: &[u8]) {
             solve: crate::skeleton::convert::ConvertOptions::default(),
             dsi: None,
             max_gap_s: None,
+            ground: crate::skeleton::ground::GroundMode::Auto,
             output: crate::bags::output::OutputOptions {
                 path: path.with_file_name("out.mcap"),
                 compression: crate::mcap_io::Compression::Zstd,

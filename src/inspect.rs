@@ -36,6 +36,8 @@ pub struct Report {
     unreadable: Vec<String>,
     /// Every failed check, the unreadable parts last.
     problems: Vec<String>,
+    /// Per pose track: bone-length spread and ground (see [`bodies`]).
+    bodies: Vec<BodyReport>,
 }
 
 /// Reads every message of the MCAP file or rosbag2 folder at `path` and checks it.
@@ -74,6 +76,7 @@ pub fn inspect(path: &Path) -> Result<Report, McapIoError> {
         hierarchy,
         unreadable,
         problems,
+        bodies: bodies(path),
     })
 }
 
@@ -259,6 +262,7 @@ impl Report {
         if !self.hierarchy.is_empty() {
             s.push_str(&format!("\n\n{}", self.hierarchy.tree()));
         }
+        s.push_str(&bodies_text(&self.bodies));
         s.push_str(&format!("\n\nverdict: {}\n", self.verdict()));
         for p in &self.problems {
             s.push_str(&format!("  - {p}\n"));
@@ -277,7 +281,7 @@ impl Report {
             .map(|(n, m)| json!({"name": n, "metadata": m}))
             .collect();
         json!({"file": self.path.display().to_string(), "profile": self.profile, "library": self.library, "channels": ch,
-               "metadata": md, "hierarchy": self.hierarchy.json(), "valid": self.is_valid(), "problems": self.problems})
+               "metadata": md, "hierarchy": self.hierarchy.json(), "bodies": bodies_json(&self.bodies), "valid": self.is_valid(), "problems": self.problems})
     }
 }
 
@@ -516,6 +520,77 @@ impl crate::outcome::LostInput for Report {
     fn lost_input(&self) -> bool {
         !self.unreadable.is_empty()
     }
+}
+
+/// One pose track's body: how much its bone lengths vary, and where its ground is.
+#[derive(Debug)]
+struct BodyReport {
+    topic: String,
+    track: u64,
+    layout: String,
+    stability: Vec<crate::skeleton::eval::LengthStability>,
+    ground: Option<crate::skeleton::ground::Grounding>,
+}
+
+/// The pose tracks of a pose bag, each with its bone-length spread and its ground estimated
+/// afresh ([`crate::skeleton::ground::estimate`]: a grounded track shows up ≈ 0° from +Z and its
+/// feet ≈ 0 at contact). Other bags, and tracks in layouts autoact does not know, give none.
+fn bodies(path: &Path) -> Vec<BodyReport> {
+    use crate::skeleton::{ground, layout::Layout, lengths};
+    let Ok(topics) = crate::bags::pose::read_pose_topics(path, None, None) else {
+        return Vec::new();
+    };
+    let mut out = Vec::new();
+    for ((topic, seq), layout) in topics.sequences.iter().zip(&topics.layouts) {
+        let Ok(loaded) = Layout::load(layout) else {
+            continue;
+        };
+        out.push(BodyReport {
+            topic: topic.clone(),
+            track: seq.track_id,
+            layout: layout.clone(),
+            stability: lengths::stability(seq, &loaded).unwrap_or_default(),
+            ground: ground::estimate(seq, &loaded, 1).ok(),
+        });
+    }
+    out
+}
+
+/// The bodies as text: per track its ground and its bone lengths, the most variable first.
+fn bodies_text(bodies: &[BodyReport]) -> String {
+    let mut s = String::new();
+    for b in bodies {
+        s.push_str(&format!(
+            "\n\nbody {} track {} ({}):",
+            b.topic, b.track, b.layout
+        ));
+        if let Some(g) = &b.ground {
+            s.push_str(&format!("\n  ground: {}", g.summary()));
+        }
+        for line in crate::skeleton::lengths::report_lines(&b.stability) {
+            s.push_str(&format!("\n  bone {line}"));
+        }
+    }
+    s
+}
+
+/// The bodies as JSON.
+fn bodies_json(bodies: &[BodyReport]) -> serde_json::Value {
+    bodies
+        .iter()
+        .map(|b| {
+            let bones: Vec<_> = b
+                .stability
+                .iter()
+                .map(|l| json!({"segment": l.segment, "median_m": l.median_m, "cv": l.cv, "frames": l.frames}))
+                .collect();
+            let ground = b.ground.as_ref().map(|g| {
+                json!({"up_tilt_deg": g.tilt_deg, "contacts": g.contacts,
+                       "residual_median_m": g.residual_median_m, "residual_p95_m": g.residual_p95_m})
+            });
+            json!({"topic": b.topic, "track": b.track, "layout": b.layout, "ground": ground, "bones": bones})
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -14,6 +14,7 @@ use crate::pipeline;
 use crate::pipeline::convert::ConvertJob;
 use crate::pipeline::spec::SpecJob;
 use crate::skeleton::convert::{ConvertOptions, RootMotion};
+use crate::skeleton::ground::GroundMode;
 use crate::skeleton::rig::Rig;
 
 /// Arguments of `autoact convert`.
@@ -51,6 +52,11 @@ pub struct Args {
     /// is warned about) [default: 5 of the person's own frame periods].
     #[arg(long, value_name = "SECONDS", conflicts_with = "spec")]
     pub max_gap: Option<f64>,
+    /// Stand camera-frame tracks (marker and pose arrays, read with --layout) on z = 0 facing
+    /// +Y, up and ground estimated from the feet: `auto` does so for those, never for skeleton
+    /// messages (`import` and `record` already wrote them in the world frame).
+    #[arg(long, value_enum, default_value_t = GroundMode::Auto, conflicts_with = "spec")]
+    pub ground: GroundMode,
     /// Output options.
     #[command(flatten)]
     pub output: OutputArgs,
@@ -213,6 +219,7 @@ impl Args {
             },
             dsi: self.dsi.options(rig, self.fps)?,
             max_gap_s: self.max_gap,
+            ground: self.ground,
             output: self.output.options(),
         })
     }

@@ -9,6 +9,8 @@ use crate::bags;
 use crate::bags::output::BagOutput;
 use crate::formats::import::{self, ImportOptions, Imported, InputFormat};
 use crate::skeleton::frames::SourceAxes;
+use crate::skeleton::ground::GroundMode;
+use crate::skeleton::lengths::LengthMode;
 
 /// Axis conventions a JSON file may use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -58,6 +60,14 @@ pub struct Args {
     /// Metres per unit of a JSON file's coordinates (0.001 for millimetres).
     #[arg(long, default_value_t = 1.0)]
     pub metres_per_unit: f64,
+    /// Stand the body on z = 0 facing +Y, up and ground estimated from the feet: `auto` for
+    /// camera-frame sources (ZED, MMPose JSON, NTU), never for mocap (BVH, Human3.6M).
+    #[arg(long, value_enum, default_value_t = GroundMode::Auto)]
+    pub ground: GroundMode,
+    /// Bone lengths: as `measured` per frame, or `fixed` at the clip's median with limbs
+    /// re-posed by two-bone IK (feet and hands kept, knees and elbows placed).
+    #[arg(long, value_enum, default_value_t = LengthMode::Measured)]
+    pub lengths: LengthMode,
     /// Label: the action category (e.g. `daily`).
     #[arg(long)]
     pub category: Option<String>,
@@ -83,6 +93,8 @@ pub fn run(args: Args) -> Result<Outcome> {
         fps,
         axes,
         metres_per_unit,
+        ground,
+        lengths,
         category,
         action,
         output,
@@ -94,11 +106,14 @@ pub fn run(args: Args) -> Result<Outcome> {
         fps,
         axes: axes.into(),
         metres_per_unit,
+        ground,
+        lengths,
     };
     crate::atomic_file::refuse_input_as_output(&input, &output.output)?;
     output.options().refuse_existing()?;
     let imported = import::import(&input, &options)?;
     let metadata = imported.metadata(&input, category, action);
+    let notes = imported.notes();
     let Imported {
         sequences,
         layout: layout_name,
@@ -115,5 +130,6 @@ pub fn run(args: Args) -> Result<Outcome> {
         sequences.len(),
         if sequences.len() == 1 { "" } else { "s" },
     ))?;
+    print_stdout(&notes)?;
     Ok(Outcome::Success)
 }

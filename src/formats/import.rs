@@ -4,14 +4,23 @@
 //! what the format states itself (NTU, Human3.6M and ZED files have their own layout; BVH,
 //! Human3.6M and ZED files their own rate; MMPose JSON has none), reads the file and warns when a
 //! JSON body's size suggests wrong units.
+//!
+//! Camera-frame sources — ZED, MMPose JSON and NTU (Kinect camera space) — are then grounded
+//! ([`crate::skeleton::ground`]: up from the feet, the body on `z = 0` facing +Y) unless
+//! `--ground off`; BVH and Human3.6M exp-map are motion capture in a world frame and are left as
+//! they are unless `--ground on`. Every sequence's bone-length spread is reported
+//! ([`crate::skeleton::lengths`]), and `--lengths fixed` re-poses the limbs with fixed lengths.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use crate::formats::bvh_map::{self, BvhMapError, BvhMapping};
 use crate::formats::{bvh, h36m_expmap, mmpose_json, ntu, zed_mat};
+use crate::skeleton::eval::LengthStability;
 use crate::skeleton::frames::SourceAxes;
+use crate::skeleton::ground::{self, GroundMode, Grounding};
 use crate::skeleton::layout::{Layout, LayoutError};
+use crate::skeleton::lengths::{self, LengthFix, LengthMode};
 use crate::skeleton::pose::PoseSequence;
 
 /// Input formats.
@@ -32,6 +41,18 @@ pub enum InputFormat {
     MmposeJson,
 }
 
+impl InputFormat {
+    /// Whether the format's points are in a camera's frame (estimators, Kinect): what
+    /// `--ground auto` grounds. BVH and Human3.6M exp-map are mocap in a world frame.
+    #[must_use]
+    pub fn is_camera_frame(self) -> bool {
+        matches!(
+            self,
+            InputFormat::Ntu | InputFormat::ZedMat | InputFormat::MmposeJson
+        )
+    }
+}
+
 /// How to read a dataset file (the `autoact import` options).
 #[derive(Debug, Clone)]
 pub struct ImportOptions {
@@ -50,6 +71,10 @@ pub struct ImportOptions {
     pub axes: SourceAxes,
     /// Metres per unit of a JSON file's coordinates.
     pub metres_per_unit: f64,
+    /// Whether to stand the body on the ground (`auto`: camera-frame formats only).
+    pub ground: GroundMode,
+    /// Bone lengths as measured, or fixed by two-bone IK.
+    pub lengths: LengthMode,
 }
 
 /// A dataset file read: its pose sequences (one per person) and how they were read.
@@ -63,6 +88,12 @@ pub struct Imported {
     pub layout: String,
     /// Where the frame rate came from, for the bag's metadata (e.g. `25 fps`).
     pub rate: String,
+    /// Per sequence, how it was grounded (`None`: not grounded).
+    pub groundings: Vec<Option<Grounding>>,
+    /// Per sequence, the bone-length spread as read (before `--lengths fixed`).
+    pub stability: Vec<Vec<LengthStability>>,
+    /// Per sequence, what `--lengths fixed` did (`None`: lengths as measured).
+    pub length_fixes: Vec<Option<LengthFix>>,
 }
 
 /// Why a dataset file could not be imported.
@@ -157,18 +188,77 @@ pub fn import(input: &Path, options: &ImportOptions) -> Result<Imported, ImportE
         return Err(ImportError::BadFps(f));
     }
     let format = resolve_format(options.format, input)?;
-    let (sequences, layout, rate) = read_input(input, format, options)?;
+    let (mut sequences, layout, rate) = read_input(input, format, options)?;
     if sequences.iter().all(|s| s.frames.is_empty()) {
         return Err(ImportError::NoFrames {
             path: input.to_path_buf(),
         });
     }
-    Ok(Imported {
-        sequences,
+    // A layout asked for by path loads from it again (fixed-layout formats checked it equal).
+    let loaded = Layout::load(options.layout.as_deref().unwrap_or(&layout))?;
+    let mut imported = Imported {
+        sequences: Vec::new(),
         format,
         layout,
         rate,
-    })
+        groundings: Vec::new(),
+        stability: Vec::new(),
+        length_fixes: Vec::new(),
+    };
+    let grounded = options.ground.applies(format.is_camera_frame());
+    for mut seq in sequences.drain(..) {
+        let grounding = if grounded {
+            ground_one(&mut seq, &loaded)
+        } else {
+            None
+        };
+        let stability = lengths::stability(&seq, &loaded).unwrap_or_default();
+        warn_unstable(&seq.source, seq.track_id, &stability);
+        let fix = (options.lengths == LengthMode::Fixed)
+            .then(|| lengths::fix_limb_lengths(&mut seq, &loaded));
+        imported.sequences.push(seq);
+        imported.groundings.push(grounding);
+        imported.stability.push(stability);
+        imported.length_fixes.push(fix);
+    }
+    Ok(imported)
+}
+
+/// Grounds one sequence, warning when its feet at contact sit more than [`ground::INLIER_M`]
+/// off the plane (median); a sequence that cannot be grounded (no feet) stays in its source
+/// frame with a warning.
+fn ground_one(seq: &mut PoseSequence, layout: &Layout) -> Option<Grounding> {
+    match ground::ground(seq, layout) {
+        Ok(g) => {
+            if g.residual_median_m > ground::INLIER_M {
+                tracing::warn!(
+                    "{} track {}: the feet do not settle on one plane ({}); check the result or import with --ground off",
+                    seq.source,
+                    seq.track_id,
+                    g.summary()
+                );
+            }
+            Some(g)
+        }
+        Err(e) => {
+            tracing::warn!("{e}: track {} left in the source frame", seq.track_id);
+            None
+        }
+    }
+}
+
+/// Warns once per segment whose length varies by [`lengths::UNSTABLE_CV`] or more.
+fn warn_unstable(source: &str, track: u64, stability: &[LengthStability]) {
+    let unstable: Vec<LengthStability> = stability
+        .iter()
+        .filter(|s| s.cv >= lengths::UNSTABLE_CV)
+        .cloned()
+        .collect();
+    for line in lengths::report_lines(&unstable) {
+        tracing::warn!(
+            "{source} track {track}: bone length varies: {line} (--lengths fixed holds limbs at their median)"
+        );
+    }
 }
 
 impl Imported {
@@ -189,6 +279,34 @@ impl Imported {
         metadata.insert("category".to_string(), category.unwrap_or_default());
         metadata.insert("action".to_string(), action.unwrap_or_default());
         metadata
+    }
+}
+
+impl Imported {
+    /// What was done to each track, one line each (grounding, fixed lengths), for people.
+    #[must_use]
+    pub fn notes(&self) -> String {
+        let mut out = String::new();
+        for (i, seq) in self.sequences.iter().enumerate() {
+            if let Some(Some(g)) = self.groundings.get(i) {
+                out += &format!("track {}: {}\n", seq.track_id, g.summary());
+            }
+            if let Some(Some(fix)) = self.length_fixes.get(i) {
+                for (limb, upper, lower) in &fix.limbs {
+                    out += &format!(
+                        "track {}: {limb} held at {upper:.3} m + {lower:.3} m\n",
+                        seq.track_id
+                    );
+                }
+                if fix.out_of_reach > 0 {
+                    out += &format!(
+                        "track {}: {} limb poses out of reach, end effector moved\n",
+                        seq.track_id, fix.out_of_reach
+                    );
+                }
+            }
+        }
+        out
     }
 }
 
@@ -361,6 +479,8 @@ mod tests {
             fps,
             axes: SourceAxes::YDown,
             metres_per_unit: 1.0,
+            ground: GroundMode::Off,
+            lengths: LengthMode::Measured,
         }
     }
 

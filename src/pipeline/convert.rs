@@ -5,8 +5,11 @@
 //! with DSI options, each person's clip is solved whole, interpolated, varied and smoothed
 //! ([`super::whole_clip`]) before the output is created.
 
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
+
+use nalgebra::Isometry3;
 
 use super::PipelineError;
 use super::whole_clip;
@@ -20,7 +23,9 @@ use crate::loss::{Loss, Losses, WARN_LIMIT};
 use crate::mcap_io::McapIoError;
 use crate::ros::tf2_msgs::TFMessage;
 use crate::skeleton::convert::{ConvertOptions, SequenceConverter};
+use crate::skeleton::ground::{GroundMode, GroundSampler};
 use crate::skeleton::layout::Layout;
+use crate::skeleton::pose::PoseFrame;
 use crate::skeleton::resample::Resampler;
 use crate::skeleton::rig::Rig;
 
@@ -50,6 +55,8 @@ pub struct ConvertJob {
     pub max_gap_s: Option<f64>,
     /// Where the animation bag goes.
     pub output: OutputOptions,
+    /// Whether camera-frame tracks (marker and pose arrays) are stood on the ground first.
+    pub ground: GroundMode,
 }
 
 impl ConvertJob {
@@ -218,6 +225,58 @@ pub(super) struct Person<'a> {
     pub(super) resampler: Resampler,
     pub(super) writer: TrackWriter,
     pub(super) frames_out: u64,
+    /// For a camera-frame track: the transform that stands it on the ground
+    /// ([`crate::skeleton::ground`]), applied to every frame before it is solved.
+    pub(super) world_from_camera: Option<Isometry3<f64>>,
+}
+
+/// `frame` in the world frame: moved by `world_from_camera` when the track is grounded.
+pub(super) fn grounded<'f>(
+    world_from_camera: Option<&Isometry3<f64>>,
+    frame: &'f PoseFrame,
+) -> Cow<'f, PoseFrame> {
+    match world_from_camera {
+        None => Cow::Borrowed(frame),
+        Some(t) => {
+            let mut moved = frame.clone();
+            for p in &mut moved.positions_m {
+                *p = t * *p;
+            }
+            Cow::Owned(moved)
+        }
+    }
+}
+
+/// Estimates the ground of a camera-frame track from its pass-1 sample (the frames must come in
+/// stamp order, which the sample's do). A track whose ground cannot be found is converted as it
+/// is, with a warning.
+fn ground_track(layout: &Layout, track: &bags::pose::TrackScan) -> Option<Isometry3<f64>> {
+    let estimate =
+        GroundSampler::new(layout, &track.joint_names, &track.source).and_then(|mut s| {
+            for frame in &track.sample {
+                s.push(frame);
+            }
+            s.estimate()
+        });
+    match estimate {
+        Ok(g) => {
+            tracing::info!(
+                "{} track {}: grounded (camera frame): {}",
+                track.topic,
+                track.track_id,
+                g.summary()
+            );
+            Some(g.world_from_camera)
+        }
+        Err(e) => {
+            tracing::warn!(
+                "{} track {}: not grounded, converted in its own frame: {e}",
+                track.topic,
+                track.track_id
+            );
+            None
+        }
+    }
 }
 
 /// Converts a pose bag into an animation bag, in two passes over the input: the first learns
@@ -271,7 +330,8 @@ pub fn convert_bag(rig: &Rig, job: &ConvertJob) -> Result<ConvertSummary, Pipeli
             .collect();
         let stamps = read_again(&mut |f| {
             let person = &mut people[f.track];
-            clips[f.track].take(&mut person.converter, f.frame, f.gap.is_some())
+            let frame = grounded(person.world_from_camera.as_ref(), f.frame);
+            clips[f.track].take(&mut person.converter, &frame, f.gap.is_some())
         })?;
         take_stamp_report(&stamps, &mut losses);
         // Whole clips are solved before the output exists, so a failing one leaves no file.
@@ -373,12 +433,25 @@ fn prepare_people<'a>(
                 source: Box::new(source),
             })?,
         };
+        let world_from_camera = job
+            .ground
+            .applies(track.camera_frame)
+            .then(|| ground_track(&layout, track))
+            .flatten();
+        let sample: Cow<'_, [PoseFrame]> = match &world_from_camera {
+            None => Cow::Borrowed(&track.sample),
+            Some(t) => track
+                .sample
+                .iter()
+                .map(|f| grounded(Some(t), f).into_owned())
+                .collect(),
+        };
         let converter = SequenceConverter::from_sample(
             rig,
             &layout,
             &track.source,
             &track.joint_names,
-            &track.sample,
+            &sample,
             &track.observed,
             job.solve,
         )
@@ -403,6 +476,7 @@ fn prepare_people<'a>(
             resampler: Resampler::new(job.fps),
             writer,
             frames_out: 0,
+            world_from_camera,
         });
     }
     Ok(people)
@@ -472,6 +546,7 @@ fn stream_frame(
         resampler,
         writer,
         frames_out,
+        world_from_camera,
         ..
     } = person;
     let mut result = Ok(());
@@ -484,7 +559,8 @@ fn stream_frame(
     if f.gap.is_some() {
         std::mem::replace(resampler, Resampler::new(fps)).finish(&mut emit);
     }
-    if let Some((stamp, pose)) = converter.push(f.frame)? {
+    let frame = grounded(world_from_camera.as_ref(), f.frame);
+    if let Some((stamp, pose)) = converter.push(&frame)? {
         resampler.push(stamp, pose, &mut emit);
     }
     result?;
@@ -509,6 +585,7 @@ fn finish_people(
             resampler,
             mut writer,
             mut frames_out,
+            world_from_camera: _,
         } = person;
         let mut result = Ok(());
         resampler.finish(&mut |t, p| {

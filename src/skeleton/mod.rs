@@ -9,7 +9,9 @@
 //! - [`resample`]: rotations at a new frame rate, on the rotation group; [`eval`]: how faithfully
 //!   a conversion reproduces its input.
 //! - [`frames`]: the coordinate conventions (Z up, faces +Y) and the one place each source's
-//!   axes are converted; [`geom`]: rotation helpers shared by all of the above.
+//!   axes are converted; [`ground`]: camera-frame estimates stood on the ground;
+//!   [`lengths`]: how much measured bone lengths vary, and fixing them by two-bone IK;
+//!   [`geom`]: rotation helpers shared by all of the above.
 //! - [`describe`]: the rig and the layouts as tables and JSON, for people (`autoact rig`,
 //!   `autoact layouts`).
 
@@ -20,7 +22,9 @@ pub mod eval;
 pub mod fk;
 pub mod frames;
 pub mod geom;
+pub mod ground;
 pub mod layout;
+pub mod lengths;
 pub mod pose;
 pub mod resample;
 pub mod rig;

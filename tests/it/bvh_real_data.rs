@@ -360,6 +360,8 @@ fn bvh_fidelity_mm(
         fps: None,
         axes: SourceAxes::YUp,
         metres_per_unit: 1.0,
+        ground: autoact::skeleton::ground::GroundMode::Auto,
+        lengths: autoact::skeleton::lengths::LengthMode::Measured,
     };
     let imported = import(path, &options).unwrap_or_else(|e| panic!("{e}"));
     let seq = &imported.sequences[0];

@@ -19,6 +19,8 @@ use autoact::formats::import::InputFormat;
 use autoact::mcap_io::Compression;
 use autoact::record::run::{DurabilityArg, ReliabilityArg};
 use autoact::skeleton::convert::RootMotion;
+use autoact::skeleton::ground::GroundMode;
+use autoact::skeleton::lengths::LengthMode;
 use autoact::skeleton::rig::Rig;
 use autoact::trim::split::Key;
 use clap::error::ErrorKind;
@@ -226,6 +228,33 @@ fn import_defaults_formats_labels_and_output() {
     }
     let args = args_of!(Import, &["import", "f", "-o", "o", "--axes", "y-up"]);
     assert_eq!(args.axes, Axes::YUp);
+    assert_eq!(
+        (args.ground, args.lengths),
+        (GroundMode::Auto, LengthMode::Measured)
+    );
+    let args = args_of!(
+        Import,
+        &[
+            "import",
+            "f",
+            "-o",
+            "o",
+            "--ground",
+            "off",
+            "--lengths",
+            "fixed"
+        ]
+    );
+    assert_eq!(
+        (args.ground, args.lengths),
+        (GroundMode::Off, LengthMode::Fixed)
+    );
+    let args = args_of!(Import, &["import", "f", "-o", "o", "--ground", "on"]);
+    assert_eq!(args.ground, GroundMode::On);
+    assert_eq!(
+        refused_kind(&["import", "f", "-o", "o", "--ground", "yes"], "yes"),
+        ErrorKind::InvalidValue
+    );
 
     assert_eq!(
         refused_kind(&["import", "-o", "o.mcap"], "<INPUT>"),

@@ -17,6 +17,7 @@ use std::path::Path;
 
 use super::{Clock, PoseBagError, SkippedMessage, Taken, no_pose_topic, take_message};
 use crate::mcap_io::{BagReader, ReadIssue};
+use crate::ros::RosMessage;
 use crate::ros::autoact_msgs::Skeleton3D;
 use crate::skeleton::pose::PoseFrame;
 
@@ -69,6 +70,9 @@ pub struct TrackScan {
     pub first_stamp_nanos: u64,
     /// Per joint (message order): whether some frame observes it (finite, confidence above 0).
     pub observed: Vec<bool>,
+    /// Whether its messages are marker or pose arrays: estimator output in a camera's frame
+    /// (skeleton messages are what `import` and `record` write, already in the world frame).
+    pub camera_frame: bool,
     /// At most [`SAMPLE_CAP`] of its frames, evenly spread, in order, with their stamps.
     pub sample: Vec<PoseFrame>,
     /// Its frame period: the median step between consecutive stamps, nanoseconds (`None` with
@@ -280,6 +284,7 @@ pub fn scan_pose_topics(
                         stamped: false,
                         first_stamp_nanos: 0,
                         observed: vec![false; person.joint_names.len()],
+                        camera_frame: msg.channel.schema_name() != Skeleton3D::TYPE_NAME,
                         sample: Vec::new(),
                         median_step_nanos: None,
                     },
