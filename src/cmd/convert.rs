@@ -14,7 +14,7 @@ use crate::pipeline;
 use crate::pipeline::convert::ConvertJob;
 use crate::pipeline::spec::SpecJob;
 use crate::skeleton::convert::{ConvertOptions, RootMotion};
-use crate::skeleton::rig::Rig;
+use crate::skeleton::rig::{DofSet, Rig};
 
 /// Arguments of `autoact convert`.
 #[derive(Debug, clap::Args)]
@@ -46,6 +46,11 @@ pub struct Args {
     /// Joints below this confidence count as missing.
     #[arg(long, default_value_t = 0.3)]
     pub min_confidence: f32,
+    /// Degrees of freedom solved: `full` turns the pelvis in 3-D (tilt and roll under the
+    /// yaw-only root) and swings the clavicles; `paper` keeps both at rest, as the paper's rig
+    /// did. Recorded in the bag's `autoact.convert` metadata (`dof`). A spec converts with `full`.
+    #[arg(long, value_enum, default_value_t = DofSet::Full, conflicts_with = "spec")]
+    pub dof: DofSet,
     /// Output options.
     #[command(flatten)]
     pub output: OutputArgs,
@@ -204,6 +209,7 @@ impl Args {
             solve: ConvertOptions {
                 min_confidence: self.min_confidence,
                 root_motion: self.root_motion,
+                dof: self.dof,
                 ..ConvertOptions::default()
             },
             dsi: self.dsi.options(rig, self.fps)?,

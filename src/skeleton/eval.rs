@@ -224,3 +224,122 @@ pub fn bone_length_stability(
     }
     Ok(out)
 }
+
+/// The landmarks of the root-relative position error: each side's hip, knee, ankle, shoulder,
+/// elbow and wrist.
+pub const ROOT_RELATIVE_LANDMARKS: [&str; 12] = [
+    "l_hip",
+    "r_hip",
+    "l_knee",
+    "r_knee",
+    "l_ankle",
+    "r_ankle",
+    "l_shoulder",
+    "r_shoulder",
+    "l_elbow",
+    "r_elbow",
+    "l_wrist",
+    "r_wrist",
+];
+
+/// Root-relative position error over [`ROOT_RELATIVE_LANDMARKS`]: per frame the pelvis point is
+/// subtracted from the input and from the reproduced points, then they are compared.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct RootRelativeError {
+    /// (frame, landmark) samples.
+    pub count: usize,
+    /// Mean error, millimetres.
+    pub mean_mm: f64,
+    /// 95th percentile, millimetres (nearest rank).
+    pub p95_mm: f64,
+    /// Largest error, millimetres.
+    pub max_mm: f64,
+    /// Per landmark name: its errors, millimetres.
+    pub per_landmark_mm: BTreeMap<String, Stats>,
+}
+
+/// The root-relative position error of `animation` (converted from `seq` in `layout`) against
+/// `seq` itself: forward kinematics on the animation's fitted body, the pelvis point subtracted
+/// per frame on both sides. Frames without a pelvis point and landmarks the layout does not bind
+/// are skipped (`count` is 0 when nothing could be compared).
+///
+/// # Errors
+/// [`ConvertError::Layout`] if the layout does not match the data.
+pub fn root_relative_error(
+    rig: &Rig,
+    layout: &Layout,
+    seq: &PoseSequence,
+    animation: &Animation,
+    min_confidence: f32,
+) -> Result<RootRelativeError, ConvertError> {
+    let err = |source| ConvertError::Layout {
+        source_name: seq.source.clone(),
+        source,
+    };
+    let binding = layout.bind(rig).map_err(err)?;
+    let order = layout.joint_order(&seq.joint_names).map_err(err)?;
+    let landmarks: Vec<usize> = ROOT_RELATIVE_LANDMARKS
+        .iter()
+        .filter_map(|n| rig.landmark_index(n))
+        .filter(|&l| binding.landmark_terms[l].is_some())
+        .collect();
+    let Some(pelvis) = rig.landmark_index("pelvis") else {
+        return Ok(RootRelativeError::default());
+    };
+    let mut out = RootRelativeError::default();
+    let mut samples = Vec::new();
+    let mut world = fk::WorldPose::new(rig);
+    let character = &animation.character;
+    let mut by_stamp = seq.frames.iter();
+    for frame in &animation.frames {
+        let Some(src) = by_stamp.find(|f| f.stamp_nanos == frame.stamp_nanos) else {
+            break;
+        };
+        let input_frame = Layout::reorder(&order, src);
+        let input = |l: usize| binding.landmark_point(l, &input_frame, min_confidence);
+        let Some(input_root) = input(pelvis) else {
+            continue;
+        };
+        fk::forward_into(rig, character, &frame.pose, 1.0, &mut world);
+        let solved_root = fk::landmark_position(rig, character, &world, pelvis);
+        for &l in &landmarks {
+            let Some(p) = input(l) else { continue };
+            let q = fk::landmark_position(rig, character, &world, l);
+            let err_mm = ((p - input_root) - (q - solved_root)).norm() * 1000.0;
+            if !err_mm.is_finite() {
+                continue;
+            }
+            samples.push(err_mm);
+            out.per_landmark_mm
+                .entry(rig.landmarks[l].name.clone())
+                .or_default()
+                .push(err_mm);
+        }
+    }
+    if samples.is_empty() {
+        return Ok(out);
+    }
+    samples.sort_by(f64::total_cmp);
+    out.count = samples.len();
+    #[expect(
+        clippy::cast_precision_loss,
+        reason = "sample counts are far below 2^52"
+    )]
+    let n = samples.len() as f64;
+    out.mean_mm = samples.iter().sum::<f64>() / n;
+    out.max_mm = samples[samples.len() - 1];
+    out.p95_mm = samples[percentile_rank(samples.len(), 0.95)];
+    Ok(out)
+}
+
+/// The nearest-rank index of quantile `q` in `n` sorted samples (`n` > 0).
+fn percentile_rank(n: usize, q: f64) -> usize {
+    #[expect(
+        clippy::cast_precision_loss,
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        reason = "a rank among a few million samples, clamped to the range"
+    )]
+    let rank = ((q * n as f64).ceil() as usize).clamp(1, n);
+    rank - 1
+}
