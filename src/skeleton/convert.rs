@@ -336,12 +336,14 @@ impl<'r> Converter<'r> {
             rig.bone_index(name)
                 .is_some_and(|b| options.dof.holds_at_rest(&rig.bones[b]))
         };
-        for list in [
-            &mut coverage.driven,
-            &mut coverage.twist_unobserved,
-            &mut coverage.at_rest,
-        ] {
-            list.retain(|name| !held(name));
+        // Bones the DoF set holds are at rest, as the bones a layout cannot see: writers put
+        // them in `/tf_static`.
+        coverage.driven.retain(|name| !held(name));
+        coverage.twist_unobserved.retain(|name| !held(name));
+        for b in rig.bones.iter().filter(|b| options.dof.holds_at_rest(b)) {
+            if !coverage.at_rest.contains(&b.name) {
+                coverage.at_rest.push(b.name.clone());
+            }
         }
         let mut solves = Vec::with_capacity(rig.recipes.len());
         let mut solve_of_bone = vec![usize::MAX; rig.bones.len()];

@@ -498,6 +498,7 @@ proptest! {
             let b = rig.bone_index(name).unwrap();
             prop_assert!(held.local_rotations[b].angle() < 1e-12, "{name} moved with --dof paper");
             prop_assert!(!c.report().coverage.driven.iter().any(|n| n == name));
+            prop_assert!(c.report().coverage.at_rest.iter().any(|n| n == name));
         }
     }
 }
