@@ -134,9 +134,18 @@ pub fn round_trip(
             // The solved bone's axis (its recipe's rest direction, carried by the bone's world
             // rotation) against the input direction: the solver's own error, independent of
             // where composite landmarks such as a head centre happen to ride.
-            let want = b - a;
-            let got = world.rotations[source.bone]
-                * (rig.rest_point(&dir.to) - rig.rest_point(&dir.from));
+            let (want, got) = match aimed_target(rig, source.bone, &dir.to) {
+                // An aimed bone (the clavicle) points from its solved head at its end point.
+                Some(l) => (
+                    b - world.heads_m[source.bone],
+                    world.rotations[source.bone] * character.landmark_offset_m[l],
+                ),
+                None => (
+                    b - a,
+                    world.rotations[source.bone]
+                        * (rig.rest_point(&dir.to) - rig.rest_point(&dir.from)),
+                ),
+            };
             let deg = want.cross(&got).norm().atan2(want.dot(&got)).to_degrees();
             if !deg.is_finite() {
                 continue;
@@ -157,6 +166,14 @@ pub fn round_trip(
         per_bone_deg,
         overall_mm,
     })
+}
+
+/// The end landmark of an aimed recipe of `bone` ([`crate::skeleton::rig::Recipe::aim`]) when it
+/// is one landmark riding on the bone, as the solver aims at it.
+fn aimed_target(rig: &Rig, bone: usize, to: &[usize]) -> Option<usize> {
+    let &[l] = to else { return None };
+    (rig.recipes.iter().any(|r| r.bone == bone && r.aim) && rig.landmarks[l].bone == bone)
+        .then_some(l)
 }
 
 /// Spread of one measured segment over time.
