@@ -15,7 +15,7 @@ use crate::pipeline::convert::ConvertJob;
 use crate::pipeline::spec::SpecJob;
 use crate::skeleton::convert::{ConvertOptions, RootMotion};
 use crate::skeleton::ground::GroundMode;
-use crate::skeleton::rig::Rig;
+use crate::skeleton::rig::{DofSet, Rig};
 
 /// Arguments of `autoact convert`.
 #[derive(Debug, clap::Args)]
@@ -57,6 +57,11 @@ pub struct Args {
     /// messages (`import` and `record` already wrote them in the world frame).
     #[arg(long, value_enum, default_value_t = GroundMode::Auto, conflicts_with = "spec")]
     pub ground: GroundMode,
+    /// Degrees of freedom solved: `full` turns the pelvis in 3-D (tilt and roll under the
+    /// yaw-only root) and swings the clavicles; `paper` keeps both at rest, as the paper's rig
+    /// did. Recorded in the bag's `autoact.convert` metadata (`dof`). A spec converts with `full`.
+    #[arg(long, value_enum, default_value_t = DofSet::Full, conflicts_with = "spec")]
+    pub dof: DofSet,
     /// Output options.
     #[command(flatten)]
     pub output: OutputArgs,
@@ -215,6 +220,7 @@ impl Args {
             solve: ConvertOptions {
                 min_confidence: self.min_confidence,
                 root_motion: self.root_motion,
+                dof: self.dof,
                 ..ConvertOptions::default()
             },
             dsi: self.dsi.options(rig, self.fps)?,

@@ -153,7 +153,8 @@ impl DsiOptions {
 
 /// The default bone weights of the angular distance: the bones that carry a movement count
 /// most — upper arms and thighs 3, forearms and calves 2, the root (whole-body turns) 2, spine
-/// 1.5, neck, head, hands and feet 1, finger and thumb bones 0.2, static bones 0.
+/// 1.5, neck, head, hands and feet 1, finger and thumb bones, the pelvis and the clavicles 0.2,
+/// static bones 0.
 #[must_use]
 pub fn default_weights(rig: &Rig) -> Vec<f64> {
     rig.bones
@@ -423,7 +424,10 @@ mod tests {
         let hand = rig.bone_index("l_hand").unwrap();
         assert_eq!(w[hand], 1.0);
         assert_eq!(w[rig.bone_index("l_index1").unwrap()], 0.2);
-        assert_eq!(w[rig.bone_index("pelvis").unwrap()], 0.0);
+        // The pelvis and clavicles move by default since issue 19 (small motions: the finger
+        // weight); the spine root is still static.
+        assert_eq!(w[rig.bone_index("pelvis").unwrap()], 0.2);
+        assert_eq!(w[rig.bone_index("spine_root").unwrap()], 0.0);
         apply_weight_overrides(&rig, &mut w, &["l_hand=2.5".to_string()]).unwrap();
         assert_eq!(w[hand], 2.5);
         for bad in ["l_hand", "knee=1", "l_hand=-1", "l_hand=x"] {

@@ -482,7 +482,8 @@ fn prepare_people<'a>(
     Ok(people)
 }
 
-/// The `autoact.convert` metadata record: rig, source, rate, root motion, tracks and layouts.
+/// The `autoact.convert` metadata record: rig, source, rate, root motion, DoF set, tracks and
+/// layouts.
 fn convert_metadata(
     rig: &Rig,
     job: &ConvertJob,
@@ -496,6 +497,7 @@ fn convert_metadata(
         "root_motion".to_string(),
         format!("{:?}", job.solve.root_motion),
     );
+    meta.insert("dof".to_string(), job.solve.dof.label().to_string());
     let joined =
         |f: &dyn Fn(&Person<'_>) -> String| people.iter().map(f).collect::<Vec<_>>().join(",");
     meta.insert("tracks".to_string(), joined(&|p| p.track_id.to_string()));

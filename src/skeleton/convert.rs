@@ -27,7 +27,7 @@ use crate::skeleton::fk::BonePose;
 use crate::skeleton::geom;
 use crate::skeleton::layout::{Binding, Coverage, Layout, LayoutError, rest_reference};
 use crate::skeleton::pose::{PoseFrame, PoseSequence};
-use crate::skeleton::rig::{Dof, ROOT, Reference, Rig};
+use crate::skeleton::rig::{Dof, DofSet, ROOT, Reference, Rig};
 
 /// How the root follows the pelvis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
@@ -51,6 +51,9 @@ pub struct ConvertOptions {
     pub min_reference_angle_rad: f64,
     /// How the root follows the pelvis.
     pub root_motion: RootMotion,
+    /// Which degrees of freedom are solved: all (pelvis tilt and roll, clavicle swing) or the
+    /// paper's (pelvis and clavicles at rest).
+    pub dof: DofSet,
 }
 
 impl Default for ConvertOptions {
@@ -59,6 +62,7 @@ impl Default for ConvertOptions {
             min_confidence: 0.3,
             min_reference_angle_rad: 1f64.to_radians(),
             root_motion: RootMotion::Full,
+            dof: DofSet::Full,
         }
     }
 }
@@ -206,6 +210,9 @@ struct BoneSolve {
     dir: Option<(Vec<usize>, Vec<usize>)>,
     rest_dir: Unit<Vector3<f64>>,
     reference: Option<RefSolve>,
+    /// For an aimed recipe ([`crate::skeleton::rig::Recipe::aim`]): the direction's end
+    /// landmark, aimed at from the bone's solved head (`rest_dir` is then its offset on the body).
+    aim: Option<usize>,
 }
 
 #[derive(Debug, Clone)]
@@ -256,6 +263,33 @@ pub struct Converter<'r> {
     hip_lms: Option<(usize, usize)>,
     shoulder_lms: Option<(usize, usize)>,
     pelvis_lm: Option<usize>,
+    /// Per bone: its head's rest offset from its parent's head on the body solved on.
+    head_offset_m: Vec<Vector3<f64>>,
+    /// Per bone: its head this frame (the root's from the full translation, whatever the root
+    /// motion), for aimed bones.
+    heads_m: Vec<Point3<f64>>,
+}
+
+/// For an aimed recipe of `bone` whose direction ends at one landmark riding on `bone`: that
+/// landmark and its rest direction from the bone's head on `character`.
+fn aim_target(
+    rig: &Rig,
+    character: &Character,
+    bone: usize,
+    dir: Option<&(Vec<usize>, Vec<usize>)>,
+) -> Option<(usize, Unit<Vector3<f64>>)> {
+    let aimed = rig.recipes.iter().any(|r| r.bone == bone && r.aim);
+    let (_, to) = dir?;
+    let &[target] = to.as_slice() else {
+        return None;
+    };
+    if !aimed || rig.landmarks[target].bone != bone {
+        return None;
+    }
+    Some((
+        target,
+        geom::direction(character.landmark_offset_m[target])?,
+    ))
 }
 
 fn perp_of(v: &Vector3<f64>, axis: &Unit<Vector3<f64>>) -> Unit<Vector3<f64>> {
@@ -297,7 +331,20 @@ impl<'r> Converter<'r> {
         character: &Character,
         options: ConvertOptions,
     ) -> Self {
-        let coverage = binding.coverage(rig);
+        let mut coverage = binding.coverage(rig);
+        let held = |name: &String| {
+            rig.bone_index(name)
+                .is_some_and(|b| options.dof.holds_at_rest(&rig.bones[b]))
+        };
+        // Bones the DoF set holds are at rest, as the bones a layout cannot see: writers put
+        // them in `/tf_static`.
+        coverage.driven.retain(|name| !held(name));
+        coverage.twist_unobserved.retain(|name| !held(name));
+        for b in rig.bones.iter().filter(|b| options.dof.holds_at_rest(b)) {
+            if !coverage.at_rest.contains(&b.name) {
+                coverage.at_rest.push(b.name.clone());
+            }
+        }
         let mut solves = Vec::with_capacity(rig.recipes.len());
         let mut solve_of_bone = vec![usize::MAX; rig.bones.len()];
         for src in &binding.bone_sources {
@@ -324,12 +371,15 @@ impl<'r> Converter<'r> {
                     },
                 }
             });
+            let (aim, rest_dir) = aim_target(rig, character, src.bone, dir.as_ref())
+                .map_or((None, rest_dir), |(l, d)| (Some(l), d));
             solve_of_bone[src.bone] = solves.len();
             solves.push(BoneSolve {
                 dof: bone.dof,
                 dir,
                 rest_dir,
                 reference,
+                aim,
             });
         }
         let lm = |n: &str| rig.landmark_index(n);
@@ -344,9 +394,10 @@ impl<'r> Converter<'r> {
             .collect();
         let solved_bones: Vec<bool> = (0..rig.bones.len())
             .map(|b| {
-                solves
-                    .get(solve_of_bone[b])
-                    .is_some_and(|s| s.dir.is_some())
+                !options.dof.holds_at_rest(&rig.bones[b])
+                    && solves
+                        .get(solve_of_bone[b])
+                        .is_some_and(|s| s.dir.is_some())
             })
             .collect();
         let pelvis_offset_m =
@@ -377,6 +428,8 @@ impl<'r> Converter<'r> {
             shoulder_lms: pair("l_shoulder", "r_shoulder"),
             pelvis_lm: pelvis_lm.filter(|p| binding.landmark_terms[*p].is_some()),
             binding,
+            head_offset_m: character.head_offset_m.clone(),
+            heads_m: vec![Point3::origin(); rig.bones.len()],
         }
     }
 
@@ -492,6 +545,7 @@ impl<'r> Converter<'r> {
                 continue;
             };
             let parent_world = self.world[parent];
+            self.heads_m[b] = self.heads_m[parent] + parent_world * self.head_offset_m[b];
             if !self.solved_bones[b] {
                 // Static, or not driven by this layout: at rest relative to its parent.
                 out.local_rotations[b] = UnitQuaternion::identity();
@@ -608,8 +662,33 @@ impl<'r> Converter<'r> {
             RootMotion::InPlace => Vector3::new(0.0, 0.0, translation.z),
             RootMotion::Pinned => Vector3::zeros(),
         };
+        self.heads_m[ROOT] = self.rig.bones[ROOT].head_rest_m + translation;
         out.local_rotations[ROOT] = root_rot;
         self.world[ROOT] = root_rot;
+    }
+
+    /// The vector a bone's solved direction must follow: its recipe's `from → to`, or for an
+    /// aimed bone, from its solved head to the `to` point.
+    #[inline]
+    fn direction_vector(
+        &self,
+        b: usize,
+        s: &BoneSolve,
+        from: &[usize],
+        to: &[usize],
+    ) -> Result<Vector3<f64>, Degeneracy> {
+        match s.aim {
+            Some(target) => {
+                let v = self.point(&[target])? - self.heads_m[b];
+                let n2 = v.norm_squared();
+                if n2.is_finite() && n2 > geom::EPS_NORM * geom::EPS_NORM {
+                    Ok(v)
+                } else {
+                    Err(Degeneracy::ZeroLengthBone)
+                }
+            }
+            None => self.vector_between(from, to),
+        }
     }
 
     #[inline]
@@ -642,7 +721,7 @@ impl<'r> Converter<'r> {
             return (UnitQuaternion::identity(), None); // the layout cannot drive it: rest
         };
         let hold = prev_local.unwrap_or_else(UnitQuaternion::identity);
-        let v = match self.vector_between(from, to) {
+        let v = match self.direction_vector(b, s, from, to) {
             Ok(v) => v,
             Err(kind) => return (hold, Some(kind)),
         };

@@ -58,6 +58,10 @@ fn arb_pose() -> impl Strategy<Value = BonePose> {
                     _ if bone.name == "spine1" || bone.name == "spine3" => {
                         UnitQuaternion::identity()
                     }
+                    // The spine's twist is seen on the shoulder line, which a clavicle swing also
+                    // moves: the law holds for clavicles at rest (`clavicle_swing_...` covers
+                    // them with the spine at rest).
+                    _ if bone.name.ends_with("_clavicle") => UnitQuaternion::identity(),
                     Dof::Root => crate::skeleton::geom::yaw_rotation(yaw),
                     Dof::Static => UnitQuaternion::identity(),
                     Dof::ThreeD => rots[b],
@@ -140,15 +144,15 @@ proptest! {
     }
 
     /// Law: rotating the whole body about the vertical changes only the root's rotation; any
-    /// rotation at all changes no local rotation below the bones that hang off the root's rigid
-    /// hip block (spine0 and the thighs absorb a tilt, since the root only yaws).
+    /// rotation at all changes no local rotation below the bones that hang off the root (spine0
+    /// and the pelvis absorb a tilt, since the root only yaws).
     #[test]
     fn rotation_invariance_below_the_root(pose in arb_pose(), tilt in arb_rotation(3.1), yaw in -3.1..3.1f64) {
         let rig = Rig::standard();
         let character = Character::standard(&rig);
         let input = landmark_frame(&rig, &character, &pose, 0);
         let (a, _) = convert_one(&rig, &input);
-        for (rotation, exempt) in [(crate::skeleton::geom::yaw_rotation(yaw), vec!["root"]), (tilt, vec!["root", "spine0", "l_thigh", "r_thigh"])] {
+        for (rotation, exempt) in [(crate::skeleton::geom::yaw_rotation(yaw), vec!["root"]), (tilt, vec!["root", "spine0", "pelvis"])] {
             let mut turned = input.clone();
             let about = Translation3::new(0.3, -0.2, 1.0);
             for p in &mut turned.positions_m { *p = about * (rotation * (about.inverse() * *p)); }
@@ -441,6 +445,92 @@ fn retargeting_keeps_directions_and_feet_on_the_ground() {
                 && (low - src_low * target.bone_scale[rig.bone_index("r_foot").unwrap()]).abs()
                     < 1e-9,
             "lowest foot point at {low} m"
+        );
+    }
+}
+
+/// A pose whose pelvis rolls, tilts and turns and whose clavicles swing as mirror images (a
+/// shrug, a protraction), with the spine at rest: the spine's twist is seen on the shoulder line,
+/// which mirrored swings keep parallel to the chest, while one-sided swings turn it too.
+fn arb_pelvis_and_clavicle_pose() -> impl Strategy<Value = BonePose> {
+    (arb_pose(), arb_rotation(0.8), arb_rotation(0.6)).prop_map(|(mut pose, pelvis, l_clav)| {
+        // Mirror x → −x of a rotation: (w, x, y, z) → (w, x, −y, −z).
+        let r_clav = UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(
+            l_clav.w, l_clav.i, -l_clav.j, -l_clav.k,
+        ));
+        let rig = Rig::standard();
+        let idx = |n: &str| rig.bone_index(n).unwrap();
+        for spine in ["spine0", "spine1", "spine2", "spine3"] {
+            pose.local_rotations[idx(spine)] = UnitQuaternion::identity();
+        }
+        pose.local_rotations[idx("pelvis")] = pelvis;
+        for (name, q) in [("l_clavicle", l_clav), ("r_clavicle", r_clav)] {
+            let b = idx(name);
+            let d = rig.bones[b].rest_direction();
+            pose.local_rotations[b] = crate::skeleton::geom::swing_twist(&q, &d).0;
+        }
+        pose
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    /// Law (issue 19): with the default DoF set a rolling pelvis and swinging clavicles put the
+    /// hips, the shoulders and everything below them back where they were, to a micrometre;
+    /// `DofSet::Paper` holds the pelvis and the clavicles at rest.
+    #[test]
+    fn pelvis_roll_and_clavicle_swing_are_reproduced(pose in arb_pelvis_and_clavicle_pose()) {
+        let rig = Rig::standard();
+        let character = Character::standard(&rig);
+        let input = landmark_frame(&rig, &character, &pose, 0);
+        let (solved, _) = convert_one(&rig, &input);
+        let output = landmark_frame(&rig, &character, &solved, 0);
+        for (l, (p, q)) in input.positions_m.iter().zip(&output.positions_m).enumerate() {
+            prop_assert!((p - q).norm() < 1e-6, "{} off by {} m", rig.landmarks[l].name, (p - q).norm());
+        }
+        let paper = ConvertOptions { dof: DofSet::Paper, ..ConvertOptions::default() };
+        let layout = Layout::rig_landmarks(&rig);
+        let mut c = Converter::new(&rig, &layout, &character, paper).unwrap();
+        let mut held = BonePose::rest(&rig);
+        c.convert_frame(&input, &mut held).unwrap();
+        for name in crate::skeleton::rig::PAPER_STATIC_BONES {
+            let b = rig.bone_index(name).unwrap();
+            prop_assert!(held.local_rotations[b].angle() < 1e-12, "{name} moved with --dof paper");
+            prop_assert!(!c.report().coverage.driven.iter().any(|n| n == name));
+            prop_assert!(c.report().coverage.at_rest.iter().any(|n| n == name));
+        }
+    }
+}
+
+#[test]
+fn a_shrug_lifts_the_shoulder_through_the_clavicle_only() {
+    let rig = Rig::standard();
+    let character = Character::standard(&rig);
+    let clavicle = rig.bone_index("l_clavicle").unwrap();
+    let mut pose = BonePose::rest(&rig);
+    // 20° about the forward axis: the left shoulder (at −X) rises.
+    pose.local_rotations[clavicle] =
+        UnitQuaternion::from_axis_angle(&Vector3::y_axis(), 20f64.to_radians());
+    let input = landmark_frame(&rig, &character, &pose, 0);
+    let shoulder = rig.landmark_index("l_shoulder").unwrap();
+    assert!(input.positions_m[shoulder].z > 1.44 + 0.05);
+    let (solved, _) = convert_one(&rig, &input);
+    assert!(
+        rotation_distance(
+            &solved.local_rotations[clavicle],
+            &pose.local_rotations[clavicle]
+        ) < 1e-9
+    );
+    let upper_arm = rig.bone_index("l_upper_arm").unwrap();
+    let spine3 = rig.bone_index("spine3").unwrap();
+    // A one-sided shrug leaves the shoulder line's projection across the spine as it was: the
+    // spine does not turn, and the upper arm rides on the clavicle.
+    for b in [upper_arm, spine3] {
+        assert!(
+            solved.local_rotations[b].angle() < 1e-9,
+            "{}",
+            rig.bones[b].name
         );
     }
 }

@@ -134,9 +134,18 @@ pub fn round_trip(
             // The solved bone's axis (its recipe's rest direction, carried by the bone's world
             // rotation) against the input direction: the solver's own error, independent of
             // where composite landmarks such as a head centre happen to ride.
-            let want = b - a;
-            let got = world.rotations[source.bone]
-                * (rig.rest_point(&dir.to) - rig.rest_point(&dir.from));
+            let (want, got) = match aimed_target(rig, source.bone, &dir.to) {
+                // An aimed bone (the clavicle) points from its solved head at its end point.
+                Some(l) => (
+                    b - world.heads_m[source.bone],
+                    world.rotations[source.bone] * character.landmark_offset_m[l],
+                ),
+                None => (
+                    b - a,
+                    world.rotations[source.bone]
+                        * (rig.rest_point(&dir.to) - rig.rest_point(&dir.from)),
+                ),
+            };
             let deg = want.cross(&got).norm().atan2(want.dot(&got)).to_degrees();
             if !deg.is_finite() {
                 continue;
@@ -157,6 +166,14 @@ pub fn round_trip(
         per_bone_deg,
         overall_mm,
     })
+}
+
+/// The end landmark of an aimed recipe of `bone` ([`crate::skeleton::rig::Recipe::aim`]) when it
+/// is one landmark riding on the bone, as the solver aims at it.
+fn aimed_target(rig: &Rig, bone: usize, to: &[usize]) -> Option<usize> {
+    let &[l] = to else { return None };
+    (rig.recipes.iter().any(|r| r.bone == bone && r.aim) && rig.landmarks[l].bone == bone)
+        .then_some(l)
 }
 
 /// Spread of one measured segment over time.
@@ -223,4 +240,123 @@ pub fn bone_length_stability(
         });
     }
     Ok(out)
+}
+
+/// The landmarks of the root-relative position error: each side's hip, knee, ankle, shoulder,
+/// elbow and wrist.
+pub const ROOT_RELATIVE_LANDMARKS: [&str; 12] = [
+    "l_hip",
+    "r_hip",
+    "l_knee",
+    "r_knee",
+    "l_ankle",
+    "r_ankle",
+    "l_shoulder",
+    "r_shoulder",
+    "l_elbow",
+    "r_elbow",
+    "l_wrist",
+    "r_wrist",
+];
+
+/// Root-relative position error over [`ROOT_RELATIVE_LANDMARKS`]: per frame the pelvis point is
+/// subtracted from the input and from the reproduced points, then they are compared.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct RootRelativeError {
+    /// (frame, landmark) samples.
+    pub count: usize,
+    /// Mean error, millimetres.
+    pub mean_mm: f64,
+    /// 95th percentile, millimetres (nearest rank).
+    pub p95_mm: f64,
+    /// Largest error, millimetres.
+    pub max_mm: f64,
+    /// Per landmark name: its errors, millimetres.
+    pub per_landmark_mm: BTreeMap<String, Stats>,
+}
+
+/// The root-relative position error of `animation` (converted from `seq` in `layout`) against
+/// `seq` itself: forward kinematics on the animation's fitted body, the pelvis point subtracted
+/// per frame on both sides. Frames without a pelvis point and landmarks the layout does not bind
+/// are skipped (`count` is 0 when nothing could be compared).
+///
+/// # Errors
+/// [`ConvertError::Layout`] if the layout does not match the data.
+pub fn root_relative_error(
+    rig: &Rig,
+    layout: &Layout,
+    seq: &PoseSequence,
+    animation: &Animation,
+    min_confidence: f32,
+) -> Result<RootRelativeError, ConvertError> {
+    let err = |source| ConvertError::Layout {
+        source_name: seq.source.clone(),
+        source,
+    };
+    let binding = layout.bind(rig).map_err(err)?;
+    let order = layout.joint_order(&seq.joint_names).map_err(err)?;
+    let landmarks: Vec<usize> = ROOT_RELATIVE_LANDMARKS
+        .iter()
+        .filter_map(|n| rig.landmark_index(n))
+        .filter(|&l| binding.landmark_terms[l].is_some())
+        .collect();
+    let Some(pelvis) = rig.landmark_index("pelvis") else {
+        return Ok(RootRelativeError::default());
+    };
+    let mut out = RootRelativeError::default();
+    let mut samples = Vec::new();
+    let mut world = fk::WorldPose::new(rig);
+    let character = &animation.character;
+    let mut by_stamp = seq.frames.iter();
+    for frame in &animation.frames {
+        let Some(src) = by_stamp.find(|f| f.stamp_nanos == frame.stamp_nanos) else {
+            break;
+        };
+        let input_frame = Layout::reorder(&order, src);
+        let input = |l: usize| binding.landmark_point(l, &input_frame, min_confidence);
+        let Some(input_root) = input(pelvis) else {
+            continue;
+        };
+        fk::forward_into(rig, character, &frame.pose, 1.0, &mut world);
+        let solved_root = fk::landmark_position(rig, character, &world, pelvis);
+        for &l in &landmarks {
+            let Some(p) = input(l) else { continue };
+            let q = fk::landmark_position(rig, character, &world, l);
+            let err_mm = ((p - input_root) - (q - solved_root)).norm() * 1000.0;
+            if !err_mm.is_finite() {
+                continue;
+            }
+            samples.push(err_mm);
+            out.per_landmark_mm
+                .entry(rig.landmarks[l].name.clone())
+                .or_default()
+                .push(err_mm);
+        }
+    }
+    if samples.is_empty() {
+        return Ok(out);
+    }
+    samples.sort_by(f64::total_cmp);
+    out.count = samples.len();
+    #[expect(
+        clippy::cast_precision_loss,
+        reason = "sample counts are far below 2^52"
+    )]
+    let n = samples.len() as f64;
+    out.mean_mm = samples.iter().sum::<f64>() / n;
+    out.max_mm = samples[samples.len() - 1];
+    out.p95_mm = samples[percentile_rank(samples.len(), 0.95)];
+    Ok(out)
+}
+
+/// The nearest-rank index of quantile `q` in `n` sorted samples (`n` > 0).
+fn percentile_rank(n: usize, q: f64) -> usize {
+    #[expect(
+        clippy::cast_precision_loss,
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        reason = "a rank among a few million samples, clamped to the range"
+    )]
+    let rank = ((q * n as f64).ceil() as usize).clamp(1, n);
+    rank - 1
 }

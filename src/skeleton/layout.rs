@@ -769,8 +769,8 @@ mod tests {
             .to_string()
         };
         assert!(
-            bad("[bones.pelvis]\ndirection = [\"l_ankle\", \"l_ankle\"]\n")
-                .contains("[bones.pelvis] is not a bone that can move")
+            bad("[bones.spine_root]\ndirection = [\"l_ankle\", \"l_ankle\"]\n")
+                .contains("[bones.spine_root] is not a bone that can move")
         );
         assert!(
             bad("[bones.l_foot]\ndirection = [\"l_ankle\", \"l_toe\"]\n").contains("does not bind")

@@ -51,6 +51,49 @@ impl Dof {
     }
 }
 
+/// Which degrees of freedom a conversion solves.
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    Default,
+    clap::ValueEnum,
+    serde::Serialize,
+    serde::Deserialize,
+)]
+#[serde(rename_all = "kebab-case")]
+pub enum DofSet {
+    /// Every class of the rig: the pelvis turns in 3-D (tilt, roll) under the yaw-only root, the
+    /// clavicles swing (shrug, protraction).
+    #[default]
+    Full,
+    /// The paper's rig: the pelvis and clavicles stay at rest ([`PAPER_STATIC_BONES`]), so the
+    /// hips and shoulders keep the subject's median place on the root and the chest.
+    Paper,
+}
+
+/// Bones the paper's rig keeps static and [`DofSet::Full`] moves.
+pub const PAPER_STATIC_BONES: [&str; 3] = ["pelvis", "l_clavicle", "r_clavicle"];
+
+impl DofSet {
+    /// Whether a conversion with this set holds `bone` at rest whatever its class.
+    #[must_use]
+    pub fn holds_at_rest(self, bone: &Bone) -> bool {
+        self == DofSet::Paper && PAPER_STATIC_BONES.contains(&bone.name.as_str())
+    }
+
+    /// Name as the command line and the bag metadata write it: `full` or `paper`.
+    #[must_use]
+    pub fn label(self) -> &'static str {
+        match self {
+            DofSet::Full => "full",
+            DofSet::Paper => "paper",
+        }
+    }
+}
+
 /// One bone of the rig.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Bone {
@@ -170,6 +213,10 @@ pub struct Recipe {
     pub directions: Vec<DirectionSource>,
     /// Twist-reference alternatives, in order of preference (empty for 2-D and 1-D bones).
     pub references: Vec<Reference>,
+    /// Aim the bone from its solved head at the direction's end point instead of along the
+    /// observed `from → to` line: for a bone whose `from` point is not its head (the clavicle,
+    /// seen from the chest), so the end point lands where it is seen.
+    pub aim: bool,
 }
 
 /// A pair of landmarks whose distance measures a body segment, used to fit a [`crate::skeleton::character::Character`].
@@ -194,8 +241,8 @@ pub struct Rig {
     pub landmarks: Vec<Landmark>,
     /// Driving recipes for every bone that is not static or root.
     pub recipes: Vec<Recipe>,
-    /// Widths of the static bones (shoulders on the chest, hips on the pelvis), measured to fit
-    /// body proportions along with the segments a layout drives.
+    /// Widths of the shoulders on the chest and the hips on the pelvis, measured to fit body
+    /// proportions along with the segments a layout drives.
     pub width_measures: Vec<Measure>,
 }
 
@@ -350,7 +397,7 @@ fn leg_defs() -> Vec<BoneDef> {
 #[rustfmt::skip]
 fn arm_defs() -> Vec<BoneDef> {
     let mut v = vec![
-        BoneDef { name: "l_clavicle", gta: ("SKEL_L_Clavicle", 64729), parent: "spine3", head: [-0.02, 0.0, 1.42], tail: [-0.18, 0.0, SHOULDER_Z], dof: DofDef::Static },
+        BoneDef { name: "l_clavicle", gta: ("SKEL_L_Clavicle", 64729), parent: "spine3", head: [-0.02, 0.0, 1.42], tail: [-0.18, 0.0, SHOULDER_Z], dof: DofDef::D2 },
         BoneDef { name: "l_upper_arm", gta: ("SKEL_L_UpperArm", 45509), parent: "l_clavicle", head: [-0.18, 0.0, SHOULDER_Z], tail: [-0.46, 0.0, SHOULDER_Z], dof: DofDef::D3 },
         BoneDef { name: "l_forearm", gta: ("SKEL_L_Forearm", 61163), parent: "l_upper_arm", head: [-0.46, 0.0, SHOULDER_Z], tail: [-0.71, 0.0, SHOULDER_Z], dof: DofDef::Hinge([0.0, 0.0, -1.0]) },
         BoneDef { name: "l_hand", gta: ("SKEL_L_Hand", 18905), parent: "l_forearm", head: [-0.71, 0.0, SHOULDER_Z], tail: LEFT_FINGERS[2].1[0], dof: DofDef::D3 },
@@ -391,7 +438,7 @@ const FINGER_BONE_NAMES: [[&str; 3]; 5] = [
 fn centre_defs_before_legs() -> Vec<BoneDef> {
     vec![
         BoneDef { name: "root", gta: ("SKEL_ROOT", 0), parent: "", head: [0.0, 0.0, 0.0], tail: [0.0, 0.15, 0.0], dof: DofDef::Root },
-        BoneDef { name: "pelvis", gta: ("SKEL_Pelvis", 11816), parent: "root", head: [0.0, 0.0, HIP_Z], tail: [0.0, 0.0, 0.80], dof: DofDef::Static },
+        BoneDef { name: "pelvis", gta: ("SKEL_Pelvis", 11816), parent: "root", head: [0.0, 0.0, HIP_Z], tail: [0.0, 0.0, 0.80], dof: DofDef::D3 },
     ]
 }
 
@@ -681,6 +728,7 @@ struct RecipeDef {
     /// `(from, to)` landmark names per direction alternative.
     directions: Vec<(Names, Names)>,
     references: Vec<ReferenceDef>,
+    aim: bool,
 }
 
 /// A [`Reference`] by landmark names.
@@ -704,15 +752,25 @@ fn recipe(bone: &str, directions: Vec<(Names, Names)>, references: Vec<Reference
         bone: bone.to_string(),
         directions,
         references,
+        aim: false,
     }
 }
 
-/// The spine, neck and head: directions along the trunk, twist from the hips, the shoulders,
-/// the ears or the eyes.
+/// The pelvis, spine, neck and head: directions along the trunk, twist from the hips, the
+/// shoulders, the ears or the eyes. The pelvis is aimed along the hip line (its roll and yaw) and
+/// turned about it by the lower trunk (its tilt: hips and pelvis point are collinear in most
+/// layouts, so the tilt follows the trunk, as it mostly does when the body bends at the hips).
 fn trunk_recipes() -> Vec<RecipeDef> {
     let hips = ReferenceDef::Direction(names(&["l_hip"]), names(&["r_hip"]));
     let shoulders = ReferenceDef::Direction(names(&["l_shoulder"]), names(&["r_shoulder"]));
-    let mut out = Vec::new();
+    let mut out = vec![recipe(
+        "pelvis",
+        vec![dir(&["l_hip"], &["r_hip"])],
+        vec![
+            ReferenceDef::Direction(names(&["pelvis"]), names(&["spine_mid"])),
+            ReferenceDef::Direction(names(&["pelvis"]), names(&["chest"])),
+        ],
+    )];
     for s in ["spine0", "spine1"] {
         out.push(recipe(
             s,
@@ -756,7 +814,7 @@ fn trunk_recipes() -> Vec<RecipeDef> {
     out
 }
 
-/// One side's (`l` or `r`) leg, arm and hand: twist of the thigh and upper arm from the plane of
+/// One side's (`l` or `r`) leg, clavicle, arm and hand: twist of the thigh and upper arm from the plane of
 /// the limb (at rest, the knee's and elbow's hinge axes), of the hand from its knuckles.
 fn limb_recipes(rig: &Rig, side: &str) -> Result<Vec<RecipeDef>, RigTableError> {
     let n = |s: &str| format!("{side}_{s}");
@@ -794,6 +852,19 @@ fn limb_recipes(rig: &Rig, side: &str) -> Result<Vec<RecipeDef>, RigTableError> 
             ],
             vec![],
         ),
+        // The clavicle swings (shrug, protraction) to put the shoulder where it is seen: from
+        // the sternoclavicular joint when the layout has it, else from the chest.
+        RecipeDef {
+            aim: true,
+            ..recipe(
+                &n("clavicle"),
+                vec![
+                    sdir("clavicle", "shoulder"),
+                    (names(&["chest"]), vec![n("shoulder")]),
+                ],
+                vec![],
+            )
+        },
         recipe(
             &n("upper_arm"),
             vec![sdir("shoulder", "elbow")],
@@ -898,6 +969,7 @@ fn resolve_recipe(rig: &Rig, def: &RecipeDef) -> Result<Recipe, RigTableError> {
         bone,
         directions,
         references,
+        aim: def.aim,
     })
 }
 
@@ -968,14 +1040,29 @@ mod tests {
         assert_eq!(rig.bones.len(), BONE_COUNT);
         let count = |label: &str| rig.bones.iter().filter(|b| b.dof.label() == label).count();
         assert_eq!(count("root"), 1);
-        assert_eq!(count("static"), 4, "pelvis, spine root, clavicles");
+        // The paper's rig had 4 static bones (pelvis, spine root, clavicles), 12 3-D and 12 2-D;
+        // the pelvis is now 3-D and the clavicles 2-D (issue 19), `DofSet::Paper` holds those
+        // three at rest again.
+        assert_eq!(count("static"), 1, "spine root");
         assert_eq!(
             count("3-D"),
-            12,
-            "spine0-3, neck, head, upper arms, thighs, hands"
+            13,
+            "pelvis, spine0-3, neck, head, upper arms, thighs, hands"
         );
-        assert_eq!(count("2-D"), 12, "ten finger bases and two feet");
+        assert_eq!(
+            count("2-D"),
+            14,
+            "ten finger bases, two feet, two clavicles"
+        );
         assert_eq!(count("1-D"), 24, "forearms, calves and twenty phalanges");
+        let held: Vec<&str> = rig
+            .bones
+            .iter()
+            .filter(|b| DofSet::Paper.holds_at_rest(b))
+            .map(|b| b.name.as_str())
+            .collect();
+        assert_eq!(held, ["pelvis", "l_clavicle", "r_clavicle"]);
+        assert!(!rig.bones.iter().any(|b| DofSet::Full.holds_at_rest(b)));
     }
 
     #[test]

@@ -544,3 +544,52 @@ fn mocapbank_is_refused_with_its_joints_and_imports_with_the_documented_mapping(
     }
     assert_eq!(frames, 455);
 }
+
+/// Issue 19: on every Bandai-Namco and CMU (Xia style set) clip, in every layout its BVH mapping
+/// defines, the default conversion puts the hips, knees, ankles, shoulders, elbows and wrists
+/// back where the source has them relative to its pelvis: mean ≤ 5 mm, p95 ≤ 15 mm.
+#[test]
+#[ignore = "needs ../shared/data"]
+fn root_relative_error_of_the_default_conversion_is_within_5_mm_mean_15_mm_p95() {
+    use autoact::formats::bvh_map::BvhMapping;
+    use autoact::skeleton::convert::{ConvertOptions, convert_sequence};
+    use autoact::skeleton::eval::root_relative_error;
+    use autoact::skeleton::layout::Layout;
+    use autoact::skeleton::rig::Rig;
+
+    let rig = Rig::standard();
+    let options = ConvertOptions::default();
+    let mut files = bvh_files(&data("bvh/bandai_namco"));
+    files.extend(bvh_files(&data("bvh/xia_style")));
+    assert!(files.len() >= 11, "Bandai-Namco and Xia clips: {files:?}");
+    let mut failures = Vec::new();
+    let mut checked = 0;
+    for path in &files {
+        let clip = bvh::read(path).unwrap_or_else(|e| panic!("{e}"));
+        let mapping = BvhMapping::detect(&clip).unwrap_or_else(|e| panic!("{e}"));
+        for layout_name in mapping.layouts.keys() {
+            let layout = Layout::builtin(layout_name).unwrap_or_else(|e| panic!("{e}"));
+            let seq = mapping
+                .keypoints(&clip, &layout)
+                .unwrap_or_else(|e| panic!("{e}"));
+            let animation =
+                convert_sequence(&rig, &layout, &seq, options).unwrap_or_else(|e| panic!("{e}"));
+            let e = root_relative_error(&rig, &layout, &seq, &animation, options.min_confidence)
+                .unwrap_or_else(|e| panic!("{e}"));
+            let name = format!(
+                "{} / {layout_name}",
+                path.file_name().unwrap_or_default().to_string_lossy()
+            );
+            assert!(e.count > 0, "{name}: nothing compared");
+            checked += 1;
+            if e.mean_mm > 5.0 || e.p95_mm > 15.0 {
+                failures.push(format!(
+                    "{name}: mean {:.2} mm, p95 {:.2} mm, max {:.2} mm over {} samples",
+                    e.mean_mm, e.p95_mm, e.max_mm, e.count
+                ));
+            }
+        }
+    }
+    assert!(checked >= 33, "only {checked} clip/layout pairs");
+    assert!(failures.is_empty(), "{failures:#?}");
+}

@@ -21,7 +21,7 @@ use autoact::record::run::{DurabilityArg, ReliabilityArg};
 use autoact::skeleton::convert::RootMotion;
 use autoact::skeleton::ground::GroundMode;
 use autoact::skeleton::lengths::LengthMode;
-use autoact::skeleton::rig::Rig;
+use autoact::skeleton::rig::{DofSet, Rig};
 use autoact::trim::split::Key;
 use clap::error::ErrorKind;
 use clap::{CommandFactory, Parser, ValueEnum};
@@ -281,6 +281,7 @@ fn convert_defaults_and_bag_flags() {
     assert_eq!((args.spec, args.topic, args.layout), (None, None, None));
     assert_eq!(args.fps, 30.0);
     assert_eq!(args.root_motion, RootMotion::Full);
+    assert_eq!(args.dof, DofSet::Full);
     assert_eq!(args.min_confidence, 0.3);
     assert_eq!(args.max_gap, None);
     assert_eq!(args.output.output, Path::new("out.mcap"));
@@ -337,6 +338,12 @@ fn convert_defaults_and_bag_flags() {
         &["convert", "in", "-o", "o", "--root-motion", "pinned"]
     );
     assert_eq!(args.root_motion, RootMotion::Pinned);
+    let args = args_of!(Convert, &["convert", "in", "-o", "o", "--dof", "paper"]);
+    assert_eq!(args.dof, DofSet::Paper);
+    assert_eq!(
+        refused_kind(&["convert", "i", "-o", "o", "--dof", "wide"], "wide"),
+        ErrorKind::InvalidValue
+    );
 }
 
 #[test]
@@ -543,6 +550,7 @@ fn convert_a_spec_instead_of_a_bag_and_what_is_refused() {
         &["--topic", "/skeleton"],
         &["--layout", "coco-17"],
         &["--rosbag2"],
+        &["--dof", "paper"],
     ] {
         let mut argv = vec!["convert", "--spec", "d.toml", "-o", "c"];
         argv.extend_from_slice(extra);

@@ -632,6 +632,7 @@ fn dsi_variants_are_labelled_animations_of_their_own_and_deterministic() {
     assert_eq!(convert["seed"], "5");
     assert_eq!(convert["variants"], "3");
     assert_eq!(convert["dsi_threshold"], "3x");
+    assert_eq!(convert["dof"], "full");
 }
 
 #[test]
