@@ -616,7 +616,7 @@ mod tests {
             "{text}"
         );
         assert!(
-            text.contains("\nmetadata autoact.convert: fps=30 "),
+            text.contains("\nmetadata autoact.convert: dof=full fps=30 "),
             "{text}"
         );
         assert!(text.ends_with(
