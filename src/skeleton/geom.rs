@@ -145,6 +145,19 @@ pub fn swing_twist(
     (swing, wrap_angle(angle))
 }
 
+/// How much a reference whose defining sine is `sin` (e.g. the sine of a limb's bend) is
+/// trusted, in [0, 1]: a C¹ smoothstep of `sin / full_sin`, 0 at 0 and exactly 1 from `full_sin`
+/// on. Non-finite input gives 0.
+#[inline]
+#[must_use]
+pub fn reference_weight(sin: f64, full_sin: f64) -> f64 {
+    if !(sin.is_finite() && full_sin.is_finite() && full_sin > 0.0) {
+        return 0.0;
+    }
+    let x = (sin.abs() / full_sin).min(1.0);
+    x * x * (3.0 - 2.0 * x)
+}
+
 /// Wraps an angle into (−π, π].
 #[must_use]
 pub fn wrap_angle(a: f64) -> f64 {
