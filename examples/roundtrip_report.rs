@@ -234,10 +234,14 @@ fn twist_section(data: &Path, rig: &Rig, options: ConvertOptions) -> Result<()> 
         eval::TWIST_SPIN_EXCESS_DEG
     );
     println!("|---|---|---|---|---|---|");
-    for dir in ["bvh/bandai_namco", "bvh/xia_style"] {
+    let mut skipped = Vec::new();
+    for dir in ["bvh/bandai_namco", "bvh/xia_style", "bvh/misc"] {
         for path in sorted_files(&data.join(dir), "bvh")? {
             let clip = bvh::read(&path).with_context(|| format!("reading {}", path.display()))?;
-            let mapping = BvhMapping::detect(&clip)?;
+            let Ok(mapping) = BvhMapping::detect(&clip) else {
+                skipped.push(file_name(&path));
+                continue;
+            };
             let scale = mapping
                 .metres_per_unit
                 .or_else(|| clip.guess_metres_per_unit())
@@ -307,6 +311,12 @@ fn twist_section(data: &Path, rig: &Rig, options: ConvertOptions) -> Result<()> 
                 None,
             )?;
         }
+    }
+    if !skipped.is_empty() {
+        println!(
+            "\nBVH files with no built-in skeleton mapping (not converted): {}.",
+            skipped.join(", ")
+        );
     }
     Ok(())
 }

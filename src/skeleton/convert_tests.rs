@@ -365,7 +365,7 @@ proptest! {
     ) {
         let rig = Rig::standard();
         let character = Character::standard(&rig);
-        let up: Vec<f64> = (0..).map(|k| f64::from(k) * step_deg - 3.0).take_while(|d| *d <= 15.0).collect();
+        let up: Vec<f64> = (0..1000).map(|k| f64::from(k) * step_deg - 3.0).take_while(|d| *d <= 15.0).collect();
         let bends: Vec<f64> = up.iter().chain(up.iter().rev()).chain([0.0; 3].iter()).map(|d| d.to_radians()).collect();
         let noise: Vec<Vector3<f64>> = noise.iter().map(|(x, y, z)| Vector3::new(*x, *y, *z)).collect();
         let noise_mm = noise.iter().map(|n| n.norm() * 1000.0).fold(0.0, f64::max);

@@ -391,12 +391,11 @@ pub fn twist_spin(
             let pts = binding
                 .set_point(&dir.from, &input_frame, min_confidence)
                 .zip(binding.set_point(&dir.to, &input_frame, min_confidence));
-            if k == 0 || (pairs[i].is_none() && out[i].baseline == SpinBaseline::SegmentSwing) {
-                if let (Some(s), Some((a, bp))) = (source, pts) {
-                    pairs[i] = source_segment(s, src_index[k], &a, &bp);
-                    if pairs[i].is_some() {
-                        out[i].baseline = SpinBaseline::SourceRotation;
-                    }
+            // The source joint is found on the first frame that has the segment.
+            if let (None, Some(s), Some((a, bp))) = (pairs[i], source, pts) {
+                pairs[i] = source_segment(s, src_index[k], &a, &bp);
+                if pairs[i].is_some() {
+                    out[i].baseline = SpinBaseline::SourceRotation;
                 }
             }
             let prev_pts = std::mem::replace(&mut prev_points[i], pts);
