@@ -297,7 +297,7 @@ fn straight_limb_takes_the_parents_twist_whatever_came_before() {
 const LIMBS: [(&str, &str); 2] = [("l_upper_arm", "l_forearm"), ("r_thigh", "r_calf")];
 
 /// A slowly turning limb whose hinge sweeps `bends_rad` frame by frame: the upper bone swings
-/// slowly about a random direction and twists at `twist_rate_rad` per frame from `twist0_rad`.
+/// slowly about a random axis perpendicular to it and twists at `twist_rate_rad` per frame from `twist0_rad`.
 /// Returns each frame's pose (the source) and its landmarks with `noise_m`-sized offsets.
 fn limb_sweep(
     rig: &Rig,
@@ -313,7 +313,19 @@ fn limb_sweep(
     let Dof::Hinge { axis } = rig.bones[h].dof else {
         unreachable!()
     };
-    let swing_axis = nalgebra::Unit::new_normalize(*swing_axis);
+    // A pure swing (its axis perpendicular to the bone), so the twist relative to the parent is
+    // exactly the one given.
+    let d = rig.bones[u].rest_direction().into_inner();
+    let perp = swing_axis - d * d.dot(swing_axis);
+    let swing_axis = nalgebra::Unit::new_normalize(if perp.norm() > 1e-3 {
+        perp
+    } else {
+        d.cross(&if d.z.abs() > 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::z()
+        })
+    });
     bends_rad
         .iter()
         .enumerate()
