@@ -332,6 +332,23 @@ mod tests {
     }
 
     #[test]
+    fn reference_weight_rises_smoothly_from_zero_to_exactly_one() {
+        let full = 20f64.to_radians().sin();
+        assert_eq!(reference_weight(0.0, full), 0.0);
+        assert_eq!(reference_weight(full, full), 1.0);
+        assert_eq!(reference_weight(0.9, full), 1.0);
+        assert_eq!(reference_weight(f64::NAN, full), 0.0);
+        assert_eq!(reference_weight(0.1, 0.0), 0.0);
+        let mut last = 0.0;
+        for k in 1..=1000 {
+            let w = reference_weight(f64::from(k) * full / 1000.0, full);
+            // Monotone, and no step larger than the smoothstep's slope (1.5 / 1000) allows.
+            assert!(w >= last && w - last <= 1.5e-3 + 1e-12, "{k}: {last} → {w}");
+            last = w;
+        }
+    }
+
+    #[test]
     fn hemisphere_alignment_keeps_rotation() {
         let p = yaw_rotation(179f64.to_radians());
         let q = yaw_rotation(-179f64.to_radians());
