@@ -14,12 +14,16 @@ mod common;
 
 use anyhow::{Context, Result};
 use autoact::formats::{bvh, bvh_map::BvhMapping, h36m_expmap, ntu, zed_mat};
+use std::path::Path;
+
 use autoact::skeleton::convert::{ConvertOptions, Degeneracy, convert_sequence};
 use autoact::skeleton::eval::{self, RoundTrip};
+use autoact::skeleton::frames::SourceAxes;
 use autoact::skeleton::layout::Layout;
 use autoact::skeleton::pose::PoseSequence;
 use autoact::skeleton::rig::{DofSet, Rig};
 use common::{file_name, sorted_files};
+use nalgebra::Point3;
 
 const CLASSES: [&str; 4] = ["3-D", "2-D", "1-D", "static"];
 
@@ -208,7 +212,179 @@ fn main() -> Result<()> {
             }
         );
     }
+    twist_section(&data, &rig, options)?;
     eprintln!("report written");
+    Ok(())
+}
+
+/// The twist-spin table: per clip, the largest one-frame turn of a bone about its own axis in the
+/// output and in the source, and the frames where the output turns more than 20° beyond it.
+fn twist_section(data: &Path, rig: &Rig, options: ConvertOptions) -> Result<()> {
+    println!("\n## Twist spin: one-frame rotation of a bone about its own axis\n");
+    println!(
+        "Per clip, over every driven 3-D and 2-D bone: the largest one-frame change of the output bone's"
+    );
+    println!(
+        "rotation about its own axis (the twist of `world(t−1)⁻¹ · world(t)`), the source's, and the frames"
+    );
+    println!(
+        "where the output turns more than {:.0}° beyond the source. Mocap sources (BVH, Human3.6M) give the",
+        eval::TWIST_SPIN_EXCESS_DEG
+    );
+    println!(
+        "source joint whose rotation moves the same segment; bones with no such joint (composite points),"
+    );
+    println!(
+        "and sensor recordings, which have no rotations, are compared with the segment's own one-frame turn"
+    );
+    println!(
+        "(its swing): a limb cannot spin about itself much faster than it swings without the source showing it.\n"
+    );
+    println!(
+        "| clip | layout | frames | output max ° (bone) | source max ° | frames > +{:.0}° (worst bone, excess °) |",
+        eval::TWIST_SPIN_EXCESS_DEG
+    );
+    println!("|---|---|---|---|---|---|");
+    let mut skipped = Vec::new();
+    for dir in ["bvh/bandai_namco", "bvh/xia_style", "bvh/misc"] {
+        for path in sorted_files(&data.join(dir), "bvh")? {
+            let clip = bvh::read(&path).with_context(|| format!("reading {}", path.display()))?;
+            let Ok(mapping) = BvhMapping::detect(&clip) else {
+                skipped.push(file_name(&path));
+                continue;
+            };
+            let scale = mapping
+                .metres_per_unit
+                .or_else(|| clip.guess_metres_per_unit())
+                .context("BVH units")?;
+            let source = bvh_source_motion(&clip, scale);
+            for layout_name in ["h36m-17", "coco-wholebody-133", "ntu-25"] {
+                let layout = Layout::builtin(layout_name)?;
+                let seq = mapping.keypoints(&clip, &layout)?;
+                twist_row(
+                    &file_name(&path),
+                    rig,
+                    &layout,
+                    &seq,
+                    options,
+                    Some(&source),
+                )?;
+            }
+        }
+    }
+    for path in sorted_files(&data.join("h36m_expmap"), "txt")?
+        .into_iter()
+        .filter(|p| file_name(p).starts_with('S'))
+    {
+        let clip = h36m_expmap::read(&path)?;
+        let root = h36m_expmap::RootMode::Trajectory;
+        let seq = clip.to_pose_sequence(root);
+        let source = eval::SourceMotion {
+            parents: h36m_expmap::PARENTS.to_vec(),
+            frames: (0..clip.frame_count())
+                .map(|f| {
+                    clip.positions_m(f, root)
+                        .into_iter()
+                        .zip(clip.world_rotations(f, root))
+                        .collect()
+                })
+                .collect(),
+        };
+        let layout = Layout::builtin("h36m-32")?;
+        twist_row(
+            &file_name(&path),
+            rig,
+            &layout,
+            &seq,
+            options,
+            Some(&source),
+        )?;
+    }
+    for path in sorted_files(&data.join("zed_body34"), "mat")? {
+        let seq = zed_mat::read(&path)?.to_pose_sequence();
+        twist_row(
+            &file_name(&path),
+            rig,
+            &Layout::builtin("zed-body-34")?,
+            &seq,
+            options,
+            None,
+        )?;
+    }
+    for path in sorted_files(&data.join("ntu"), "skeleton")? {
+        for seq in ntu::read(&path)?.to_pose_sequences(ntu::FPS) {
+            twist_row(
+                &file_name(&path),
+                rig,
+                &Layout::builtin("ntu-25")?,
+                &seq,
+                options,
+                None,
+            )?;
+        }
+    }
+    if !skipped.is_empty() {
+        println!(
+            "\nBVH files with no built-in skeleton mapping (not converted): {}.",
+            skipped.join(", ")
+        );
+    }
+    Ok(())
+}
+
+/// A BVH clip's joints per frame, in metres and the autoact frame, for the twist comparison.
+fn bvh_source_motion(clip: &bvh::Bvh, metres_per_unit: f64) -> eval::SourceMotion {
+    let axes = SourceAxes::YUp;
+    eval::SourceMotion {
+        parents: clip.joints.iter().map(|j| j.parent).collect(),
+        frames: (0..clip.frame_count())
+            .map(|f| {
+                clip.world_transforms(f)
+                    .into_iter()
+                    .map(|(p, q)| {
+                        (
+                            axes.point_to_autoact(Point3::from(p.coords * metres_per_unit)),
+                            axes.orientation_to_autoact(q),
+                        )
+                    })
+                    .collect()
+            })
+            .collect(),
+    }
+}
+
+fn twist_row(
+    name: &str,
+    rig: &Rig,
+    layout: &Layout,
+    seq: &PoseSequence,
+    options: ConvertOptions,
+    source: Option<&eval::SourceMotion>,
+) -> Result<()> {
+    let animation = convert_sequence(rig, layout, seq, options)?;
+    let spin = eval::twist_spin(rig, layout, seq, &animation, options.min_confidence, source)?;
+    let Some(worst) = spin.worst_bone() else {
+        return Ok(());
+    };
+    let source_max = spin
+        .bones
+        .iter()
+        .map(|b| b.source_max_deg)
+        .fold(0.0, f64::max);
+    let over = spin
+        .bones
+        .iter()
+        .filter_map(|b| Some((b, b.worst?.1)))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .map_or_else(String::new, |(b, e)| format!(" ({} {e:+.1})", b.bone));
+    println!(
+        "| {name} | {} | {} | {:.1} ({}) | {source_max:.1} | {}{over} |",
+        layout.name,
+        animation.frames.len(),
+        worst.output_max_deg,
+        worst.bone,
+        spin.frames_over
+    );
     Ok(())
 }
 

@@ -47,8 +47,11 @@ pub enum RootMotion {
 pub struct ConvertOptions {
     /// Joints with a lower confidence are treated as missing.
     pub min_confidence: f32,
-    /// A reference vector closer than this to its bone's axis cannot give a twist (radians).
-    pub min_reference_angle_rad: f64,
+    /// The angle between a 3-D bone and its twist reference (for a thigh or an upper arm, the
+    /// knee's or elbow's bend) at and above which the reference alone sets the twist (radians).
+    /// Below it the reference's weight falls smoothly to zero at a straight limb and the rest of
+    /// the twist is carried from the parent, so a nearly straight limb never spins.
+    pub full_twist_reference_angle_rad: f64,
     /// How the root follows the pelvis.
     pub root_motion: RootMotion,
     /// Which degrees of freedom are solved: all (pelvis tilt and roll, clavicle swing) or the
@@ -60,7 +63,7 @@ impl Default for ConvertOptions {
     fn default() -> Self {
         ConvertOptions {
             min_confidence: 0.3,
-            min_reference_angle_rad: 1f64.to_radians(),
+            full_twist_reference_angle_rad: 20f64.to_radians(),
             root_motion: RootMotion::Full,
             dof: DofSet::Full,
         }
@@ -488,33 +491,40 @@ impl<'r> Converter<'r> {
         }
     }
 
+    /// The current twist reference of `r`, perpendicular to the bone, and its weight in [0, 1]:
+    /// how well it is defined, from the sine of its angle to the bone (for a bend plane, the
+    /// sine of the bend), full at and above `full_twist_reference_angle_rad`.
     #[inline]
     fn current_reference(
         &self,
         r: &RefSolve,
         cur_dir: &Unit<Vector3<f64>>,
-    ) -> Result<Unit<Vector3<f64>>, Degeneracy> {
-        let v = match r {
-            RefSolve::Direction { from, to, .. } => self.point(to)? - self.point(from)?,
+    ) -> Result<(Unit<Vector3<f64>>, f64), Degeneracy> {
+        let (v, scale) = match r {
+            RefSolve::Direction { from, to, .. } => {
+                let v = self.point(to)? - self.point(from)?;
+                (v, v.norm())
+            }
             RefSolve::Normal {
                 points: [a, b, c], ..
             } => {
                 let (a, b, c) = (self.point(&[*a])?, self.point(&[*b])?, self.point(&[*c])?);
                 let (u, w) = (b - a, c - b);
-                let n = u.cross(&w);
-                // Scale-free: compare the normal with the product of the segment lengths.
-                let scale = u.norm() * w.norm();
-                if scale.is_nan()
-                    || scale <= 0.0
-                    || n.norm() < scale * self.options.min_reference_angle_rad
-                {
-                    return Err(Degeneracy::ParallelReference);
-                }
-                n
+                // Scale-free: the normal's length over the product of the segment lengths is
+                // the sine of the bend.
+                (u.cross(&w), u.norm() * w.norm())
             }
         };
-        geom::perpendicular_direction(&v, cur_dir, self.options.min_reference_angle_rad)
-            .ok_or(Degeneracy::ParallelReference)
+        if !(scale.is_finite() && scale > geom::EPS_NORM * geom::EPS_NORM) {
+            return Err(Degeneracy::ParallelReference);
+        }
+        let perp = v - cur_dir.into_inner() * cur_dir.dot(&v);
+        let sin = perp.norm() / scale;
+        let weight = geom::reference_weight(sin, self.options.full_twist_reference_angle_rad.sin());
+        match geom::direction(perp) {
+            Some(p) if weight > 0.0 => Ok((p, weight)),
+            _ => Err(Degeneracy::ParallelReference),
+        }
     }
 
     /// Converts one frame (positions in the layout's joint order) into `out`.
@@ -560,6 +570,11 @@ impl<'r> Converter<'r> {
             };
             out.local_rotations[b] = local;
             self.world[b] = parent_world * local;
+        }
+        // Renormalise once per frame: every written quaternion is unit to rounding (≤ 1e-15),
+        // whatever products and arcs made it.
+        for q in &mut out.local_rotations {
+            q.renormalize();
         }
         self.previous_world.copy_from_slice(&self.world);
         self.previous
@@ -741,35 +756,63 @@ impl<'r> Converter<'r> {
             },
             Dof::ThreeD => {
                 let cur_dir = Unit::new_normalize(v);
-                let observed = s
-                    .reference
-                    .as_ref()
-                    .map(|r| (r, self.current_reference(r, &cur_dir)));
-                let (target_world, degeneracy) = match observed {
-                    Some((
-                        RefSolve::Direction { rest_perp, .. } | RefSolve::Normal { rest_perp, .. },
-                        Ok(cur_perp),
-                    )) => (
-                        geom::frame_rotation(&rest_dir, rest_perp, &cur_dir, &cur_perp),
-                        None,
-                    ),
-                    other => {
-                        // Twist unobservable: keep the previous orientation's twist, i.e. the
-                        // smallest rotation from where the bone was (or from the parent frame).
-                        let base = if prev_local.is_some() {
-                            self.previous_world[b]
-                        } else {
-                            *parent_world
-                        };
-                        let was = Unit::new_unchecked(base * rest_dir.into_inner());
-                        let kind = match other {
-                            Some((_, Err(kind))) => Some(kind),
-                            _ => None,
-                        };
-                        (geom::shortest_arc(&was, &cur_dir) * base, kind)
-                    }
-                };
+                let (target_world, degeneracy) =
+                    self.three_d_world(b, s, parent_world, prev_local.is_some(), &cur_dir);
                 (parent_world.inverse() * target_world, degeneracy)
+            }
+        }
+    }
+
+    /// The world rotation of 3-D bone `b` (recipe `s`) pointing along `cur_dir`, and the
+    /// degenerate-input path it took. The direction is always exact; the twist is a blend, about
+    /// the bone, of its reference (weighted by how well the reference is defined: for a limb, by
+    /// the sine of the elbow's or knee's bend, full from
+    /// [`ConvertOptions::full_twist_reference_angle_rad`]) and of the twist carried from the
+    /// parent (the parent's frame moved onto the bone by the smallest arc). As the limb
+    /// straightens the reference's weight falls smoothly to zero, so the twist never jumps, and
+    /// it depends on the current frame only.
+    fn three_d_world(
+        &self,
+        b: usize,
+        s: &BoneSolve,
+        parent_world: &UnitQuaternion<f64>,
+        has_previous: bool,
+        cur_dir: &Unit<Vector3<f64>>,
+    ) -> (UnitQuaternion<f64>, Option<Degeneracy>) {
+        let rest_dir = s.rest_dir;
+        let carried = |base: &UnitQuaternion<f64>| {
+            let was = Unit::new_unchecked(base * rest_dir.into_inner());
+            geom::shortest_arc(&was, cur_dir) * base
+        };
+        let from_parent = carried(parent_world);
+        let Some(r) = s.reference.as_ref() else {
+            // Twist never observed: carried from the parent frame.
+            return (from_parent, None);
+        };
+        let (RefSolve::Direction { rest_perp, .. } | RefSolve::Normal { rest_perp, .. }) = r;
+        match self.current_reference(r, cur_dir) {
+            Ok((cur_perp, weight)) => {
+                let parent_perp = from_parent * rest_perp.into_inner();
+                let blended = cur_perp.into_inner() * weight + parent_perp * (1.0 - weight);
+                let perp = geom::perpendicular_direction(&blended, cur_dir, 1e-9)
+                    .unwrap_or_else(|| Unit::new_normalize(parent_perp));
+                (
+                    geom::frame_rotation(&rest_dir, rest_perp, cur_dir, &perp),
+                    None,
+                )
+            }
+            Err(Degeneracy::ParallelReference) => {
+                (from_parent, Some(Degeneracy::ParallelReference))
+            }
+            Err(kind) => {
+                // The reference's joints are missing: keep the previous orientation's twist,
+                // i.e. the smallest rotation from where the bone was (or from the parent frame).
+                let base = if has_previous {
+                    self.previous_world[b]
+                } else {
+                    *parent_world
+                };
+                (carried(&base), Some(kind))
             }
         }
     }

@@ -360,3 +360,230 @@ fn percentile_rank(n: usize, q: f64) -> usize {
     let rank = ((q * n as f64).ceil() as usize).clamp(1, n);
     rank - 1
 }
+
+/// A one-frame spin larger than the source's by more than this counts as a spin (degrees).
+pub const TWIST_SPIN_EXCESS_DEG: f64 = 20.0;
+
+/// A source's own joint motion, for [`twist_spin`]: the joints' parents and, per source frame
+/// (the [`PoseSequence`]'s frames, same order), every joint's world position (metres, autoact
+/// frame) and world rotation (`world_from_joint`, autoact axes).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SourceMotion {
+    /// Parent of each source joint.
+    pub parents: Vec<Option<usize>>,
+    /// Per frame, per joint: (position, `world_from_joint`).
+    pub frames: Vec<Vec<(nalgebra::Point3<f64>, nalgebra::UnitQuaternion<f64>)>>,
+}
+
+/// Where a bone's source spin comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SpinBaseline {
+    /// The source joint whose rotation moves the bone's segment: its twist about the segment.
+    SourceRotation,
+    /// No source rotation: the segment's own one-frame turn (its swing), measured on the input
+    /// keypoints.
+    SegmentSwing,
+}
+
+/// One bone's twist spin over a clip: the largest one-frame rotation about the bone's own axis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BoneTwistSpin {
+    /// Rig bone name.
+    pub bone: String,
+    /// What the source column measures.
+    pub baseline: SpinBaseline,
+    /// Largest one-frame twist of the output bone, degrees.
+    pub output_max_deg: f64,
+    /// Largest one-frame twist (or swing, see `baseline`) of the source, degrees.
+    pub source_max_deg: f64,
+    /// Frames where the output's twist exceeds the source's by more than
+    /// [`TWIST_SPIN_EXCESS_DEG`].
+    pub frames_over: usize,
+    /// The frame (animation index) of the largest excess, and that excess in degrees.
+    pub worst: Option<(usize, f64)>,
+}
+
+/// The twist spin of every driven 3-D and 2-D bone of a converted clip, against its source.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TwistSpin {
+    /// Per bone, in rig order.
+    pub bones: Vec<BoneTwistSpin>,
+    /// Frames in which at least one bone's twist exceeds its source's by more than
+    /// [`TWIST_SPIN_EXCESS_DEG`].
+    pub frames_over: usize,
+}
+
+impl TwistSpin {
+    /// The bone with the largest output spin.
+    #[must_use]
+    pub fn worst_bone(&self) -> Option<&BoneTwistSpin> {
+        self.bones
+            .iter()
+            .max_by(|a, b| a.output_max_deg.total_cmp(&b.output_max_deg))
+    }
+}
+
+/// The absolute twist, degrees, of the one-frame change `prev → cur` of a `world_from_x`
+/// rotation, about `axis_in_x` (the segment's axis in x's own frame at `prev`).
+fn frame_twist_deg(
+    prev: &nalgebra::UnitQuaternion<f64>,
+    cur: &nalgebra::UnitQuaternion<f64>,
+    axis_in_x: &nalgebra::Vector3<f64>,
+) -> Option<f64> {
+    let axis = crate::skeleton::geom::direction(*axis_in_x)?;
+    let (_, twist) = crate::skeleton::geom::swing_twist(&(prev.inverse() * cur), &axis);
+    Some(twist.abs().to_degrees())
+}
+
+/// The source joint whose rotation moves the segment `a → b`: the parent `j` of the joint `k`
+/// at `b` (one with a non-zero offset from its parent), with `j` at `a`. Returns `(j, k)`.
+fn source_segment(
+    source: &SourceMotion,
+    frame: usize,
+    a: &nalgebra::Point3<f64>,
+    b: &nalgebra::Point3<f64>,
+) -> Option<(usize, usize)> {
+    const TOLERANCE_M: f64 = 1e-4;
+    let joints = source.frames.get(frame)?;
+    (0..joints.len()).find_map(|k| {
+        let j = (*source.parents.get(k)?)?;
+        let (pk, pj) = (joints[k].0, joints.get(j)?.0);
+        ((pk - b).norm() < TOLERANCE_M
+            && (pj - a).norm() < TOLERANCE_M
+            && (pk - pj).norm() > TOLERANCE_M)
+            .then_some((j, k))
+    })
+}
+
+/// Twist spin of a converted clip: per driven 3-D and 2-D bone, the one-frame change of its
+/// world rotation about its own axis (the twist part of the swing–twist decomposition of
+/// `world_{t−1}⁻¹ · world_t`), against the source's. With `source` (mocap with rotations), a
+/// bone is compared with the source joint whose rotation moves the same segment; bones with no
+/// such joint, and every bone without `source`, are compared with the segment's own one-frame
+/// turn ([`SpinBaseline::SegmentSwing`]).
+///
+/// # Errors
+/// [`ConvertError::Layout`] if the layout does not match the data.
+pub fn twist_spin(
+    rig: &Rig,
+    layout: &Layout,
+    seq: &PoseSequence,
+    animation: &Animation,
+    min_confidence: f32,
+    source: Option<&SourceMotion>,
+) -> Result<TwistSpin, ConvertError> {
+    let err = |source| ConvertError::Layout {
+        source_name: seq.source.clone(),
+        source,
+    };
+    let binding = layout.bind(rig).map_err(err)?;
+    let order = layout.joint_order(&seq.joint_names).map_err(err)?;
+    // Animation frame k ↔ source frame index (frames dropped for their stamps are skipped).
+    let mut src_index = Vec::with_capacity(animation.frames.len());
+    let mut next = 0;
+    for f in &animation.frames {
+        while next < seq.frames.len() && seq.frames[next].stamp_nanos != f.stamp_nanos {
+            next += 1;
+        }
+        src_index.push(next);
+        next += 1;
+    }
+    let bones: Vec<(usize, &crate::skeleton::rig::DirectionSource)> = binding
+        .bone_sources
+        .iter()
+        .filter(|s| {
+            matches!(
+                rig.bones[s.bone].dof,
+                crate::skeleton::rig::Dof::ThreeD | crate::skeleton::rig::Dof::TwoD
+            )
+        })
+        .filter_map(|s| Some((s.bone, s.direction.as_ref()?)))
+        .collect();
+    let mut out: Vec<BoneTwistSpin> = bones
+        .iter()
+        .map(|(b, _)| BoneTwistSpin {
+            bone: rig.bones[*b].name.clone(),
+            baseline: SpinBaseline::SegmentSwing,
+            output_max_deg: 0.0,
+            source_max_deg: 0.0,
+            frames_over: 0,
+            worst: None,
+        })
+        .collect();
+    let mut pairs: Vec<Option<(usize, usize)>> = vec![None; bones.len()];
+    let mut world = fk::WorldPose::new(rig);
+    let mut prev_rotations: Option<Vec<nalgebra::UnitQuaternion<f64>>> = None;
+    let mut prev_points: Vec<Option<(nalgebra::Point3<f64>, nalgebra::Point3<f64>)>> =
+        vec![None; bones.len()];
+    let mut frames_over = 0;
+    for (k, frame) in animation.frames.iter().enumerate() {
+        let Some(src) = seq.frames.get(src_index[k]) else {
+            break;
+        };
+        let input_frame = Layout::reorder(&order, src);
+        fk::forward_into(rig, &animation.character, &frame.pose, 1.0, &mut world);
+        let mut over = false;
+        for (i, (b, dir)) in bones.iter().enumerate() {
+            let pts = binding
+                .set_point(&dir.from, &input_frame, min_confidence)
+                .zip(binding.set_point(&dir.to, &input_frame, min_confidence));
+            // The source joint is found on the first frame that has the segment.
+            if let (None, Some(s), Some((a, bp))) = (pairs[i], source, pts) {
+                pairs[i] = source_segment(s, src_index[k], &a, &bp);
+                if pairs[i].is_some() {
+                    out[i].baseline = SpinBaseline::SourceRotation;
+                }
+            }
+            let prev_pts = std::mem::replace(&mut prev_points[i], pts);
+            let Some(prev) = &prev_rotations else {
+                continue;
+            };
+            let axis = rig.rest_point(&dir.to) - rig.rest_point(&dir.from);
+            let Some(spin) = frame_twist_deg(&prev[*b], &world.rotations[*b], &axis) else {
+                continue;
+            };
+            let reference = match (pairs[i], source) {
+                (Some((j, kk)), Some(s)) => {
+                    source_twist_deg(s, src_index[k - 1], src_index[k], j, kk)
+                }
+                _ => prev_pts.zip(pts).and_then(|((a0, b0), (a1, b1))| {
+                    let (u, v) = (b0 - a0, b1 - a1);
+                    let deg = u.cross(&v).norm().atan2(u.dot(&v)).to_degrees();
+                    deg.is_finite().then_some(deg)
+                }),
+            };
+            let entry = &mut out[i];
+            entry.output_max_deg = entry.output_max_deg.max(spin);
+            let Some(reference) = reference else { continue };
+            entry.source_max_deg = entry.source_max_deg.max(reference);
+            let excess = spin - reference;
+            if excess > TWIST_SPIN_EXCESS_DEG {
+                entry.frames_over += 1;
+                over = true;
+            }
+            if entry.worst.is_none_or(|(_, e)| excess > e) {
+                entry.worst = Some((k, excess));
+            }
+        }
+        frames_over += usize::from(over);
+        prev_rotations = Some(world.rotations.clone());
+    }
+    Ok(TwistSpin {
+        bones: out,
+        frames_over,
+    })
+}
+
+/// The source's twist, degrees, of joint `j` about its segment to `k`, from frame `f0` to `f1`.
+fn source_twist_deg(
+    source: &SourceMotion,
+    f0: usize,
+    f1: usize,
+    j: usize,
+    k: usize,
+) -> Option<f64> {
+    let (pj, qj) = *source.frames.get(f0)?.get(j)?;
+    let pk = source.frames.get(f0)?.get(k)?.0;
+    let q1 = source.frames.get(f1)?.get(j)?.1;
+    frame_twist_deg(&qj, &q1, &(qj.inverse() * (pk - pj)))
+}

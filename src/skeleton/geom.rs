@@ -145,6 +145,19 @@ pub fn swing_twist(
     (swing, wrap_angle(angle))
 }
 
+/// How much a reference whose defining sine is `sin` (e.g. the sine of a limb's bend) is
+/// trusted, in [0, 1]: a C¹ smoothstep of `sin / full_sin`, 0 at 0 and exactly 1 from `full_sin`
+/// on. Non-finite input gives 0.
+#[inline]
+#[must_use]
+pub fn reference_weight(sin: f64, full_sin: f64) -> f64 {
+    if !(sin.is_finite() && full_sin.is_finite() && full_sin > 0.0) {
+        return 0.0;
+    }
+    let x = (sin.abs() / full_sin).min(1.0);
+    x * x * (3.0 - 2.0 * x)
+}
+
 /// Wraps an angle into (−π, π].
 #[must_use]
 pub fn wrap_angle(a: f64) -> f64 {
@@ -316,6 +329,23 @@ mod tests {
         let (swing, twist) = swing_twist(&q, &axis);
         assert_relative_eq!(swing.angle(), 0.0, epsilon = 1e-12);
         assert_relative_eq!(twist, 150f64.to_radians(), epsilon = 1e-12);
+    }
+
+    #[test]
+    fn reference_weight_rises_smoothly_from_zero_to_exactly_one() {
+        let full = 20f64.to_radians().sin();
+        assert_eq!(reference_weight(0.0, full), 0.0);
+        assert_eq!(reference_weight(full, full), 1.0);
+        assert_eq!(reference_weight(0.9, full), 1.0);
+        assert_eq!(reference_weight(f64::NAN, full), 0.0);
+        assert_eq!(reference_weight(0.1, 0.0), 0.0);
+        let mut last = 0.0;
+        for k in 1..=1000 {
+            let w = reference_weight(f64::from(k) * full / 1000.0, full);
+            // Monotone, and no step larger than the smoothstep's slope (1.5 / 1000) allows.
+            assert!(w >= last && w - last <= 1.5e-3 + 1e-12, "{k}: {last} → {w}");
+            last = w;
+        }
     }
 
     #[test]

@@ -31,7 +31,10 @@ pub fn interpolate(a: &BonePose, b: &BonePose, s: f64) -> BonePose {
 #[must_use]
 pub fn slerp(a: &UnitQuaternion<f64>, b: &UnitQuaternion<f64>, s: f64) -> UnitQuaternion<f64> {
     let b = crate::skeleton::geom::align_hemisphere(*b, a);
-    a.try_slerp(&b, s, 1e-12).unwrap_or_else(|| a.nlerp(&b, s))
+    let q = a.try_slerp(&b, s, 1e-12).unwrap_or_else(|| a.nlerp(&b, s));
+    // nalgebra's slerp is unit only to ~1e-9 between nearly equal rotations (its angle comes
+    // from an acos); every written quaternion is unit to rounding.
+    UnitQuaternion::new_normalize(q.into_inner())
 }
 
 /// Resamples a stream of frames at a fixed rate as they arrive: push each input frame (strictly
@@ -200,6 +203,20 @@ mod tests {
         let out = resample(&frames, 30.0);
         assert_eq!(out.len(), 60);
         assert_eq!(out.last().unwrap().stamp_nanos, 59 * 33_333_333);
+    }
+
+    #[test]
+    fn slerp_between_nearly_equal_rotations_is_unit() {
+        let a = UnitQuaternion::from_euler_angles(0.3, 0.2, 0.1);
+        for angle in [3.7e-4, 1e-5, 1e-7, 1e-9, 1e-11] {
+            let b = UnitQuaternion::from_euler_angles(0.3 + angle, 0.2, 0.1);
+            for s in [0.1, 0.37, 0.5, 0.83] {
+                assert!(
+                    (slerp(&a, &b, s).norm() - 1.0).abs() <= 1e-15,
+                    "{angle} {s}"
+                );
+            }
+        }
     }
 
     proptest! {
