@@ -27,9 +27,11 @@ use crate::skeleton::fk::BonePose;
 /// of the weighted mean bone), so an almost still clip is not cut at its noise.
 pub const RELATIVE_FLOOR_RAD_PER_S: f64 = 0.5;
 
-/// Output times within this fraction of a frame past the last key show the last key (stamp
-/// rounding, as in [`crate::skeleton::resample::Resampler`]).
-const END_TOLERANCE_FRAMES: f64 = 1e-3;
+/// The clip ends on the output frame nearest its real end, which shows the last key (as in
+/// [`crate::skeleton::resample::Resampler`]): a clip of `N` keys played at its own nominal rate has
+/// `N` frames even when its stamps drift from the nominal clock (a BVH frame time of `0.008333` s
+/// is 120.005 fps).
+const END_TOLERANCE_FRAMES: f64 = 0.5;
 
 /// Fraction of an interval within which an output time is its key's.
 const SNAP_TO_KEY: f64 = 1e-6;
@@ -264,9 +266,6 @@ pub fn plan(keys: &[BonePose], times_s: &[f64], options: &DsiOptions) -> Result<
     let mut k = 0u32;
     loop {
         let u = f64::from(k);
-        if u > total + END_TOLERANCE_FRAMES {
-            break;
-        }
         if u >= total - END_TOLERANCE_FRAMES || keys.len() < 2 {
             samples.push(Sample {
                 interval: keys.len().saturating_sub(1),
@@ -304,7 +303,7 @@ pub fn plan(keys: &[BonePose], times_s: &[f64], options: &DsiOptions) -> Result<
         clippy::cast_sign_loss,
         reason = "a frame count, non-negative and far below 2^52"
     )]
-    let frames_real_speed = (real_total + END_TOLERANCE_FRAMES).floor() as usize + 1;
+    let frames_real_speed = real_total.round() as usize + 1;
     Ok(Plan {
         samples,
         transitions,
@@ -357,6 +356,38 @@ mod tests {
         (0..n)
             .map(|k| f64::from(u32::try_from(k).unwrap()) / fps)
             .collect()
+    }
+
+    #[test]
+    fn a_clip_at_its_own_rate_keeps_every_key_and_ends_on_the_last() {
+        // BVH `Frame Time: 0.008333`: stamps a little faster than 120 fps.
+        let keys = keys_from(&[0.0; 140]);
+        let t: Vec<f64> = (0..140).map(|k| f64::from(k) * 0.008_333).collect();
+        let p = plan(
+            &keys,
+            &t,
+            &opts(&[1.0, 1.0], Threshold::Off, None, 120.0, 1.0),
+        )
+        .unwrap();
+        assert_eq!(p.samples.len(), 140);
+        assert_eq!(p.frames_added(), 0);
+        assert_eq!(
+            p.samples[139],
+            Sample {
+                interval: 139,
+                s: 0.0
+            }
+        );
+        // And a little slower than nominal.
+        let t: Vec<f64> = (0..1901).map(|k| f64::from(k) * 0.033_334).collect();
+        let p = plan(
+            &keys_from(&[0.0; 1901]),
+            &t,
+            &opts(&[1.0, 1.0], Threshold::Off, None, 30.0, 1.0),
+        )
+        .unwrap();
+        assert_eq!(p.samples.len(), 1901);
+        assert_eq!(p.samples[1900].interval, 1900);
     }
 
     #[test]
