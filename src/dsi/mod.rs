@@ -15,7 +15,9 @@
 
 pub mod eval;
 pub mod interp;
+pub mod outliers;
 pub mod plan;
+pub mod range;
 pub mod reference;
 pub mod smoothing;
 pub mod supersmoother;
@@ -129,11 +131,13 @@ pub struct DsiOptions {
     pub bounds: VariationBounds,
     /// Seed of the variants.
     pub seed: u64,
+    /// Replace single-frame outliers before planning ([`outliers`]).
+    pub reject_outliers: bool,
 }
 
 impl DsiOptions {
     /// The defaults for `rig`: 30 fps, real speed, cubic, threshold `3x`, η = 1/threshold,
-    /// [`default_weights`], default smoothing, no variants, seed 0.
+    /// [`default_weights`], default smoothing, no variants, seed 0, outliers rejected.
     #[must_use]
     pub fn new(rig: &Rig) -> DsiOptions {
         DsiOptions {
@@ -147,6 +151,7 @@ impl DsiOptions {
             variants: 0,
             bounds: VariationBounds::default(),
             seed: 0,
+            reject_outliers: true,
         }
     }
 }
@@ -245,8 +250,12 @@ pub fn run(
         .iter()
         .map(|k| crate::skeleton::pose::nanos_to_secs(k.stamp_nanos - first.stamp_nanos))
         .collect();
-    let poses: Vec<BonePose> = keys.iter().map(|k| k.pose.clone()).collect();
+    let mut poses: Vec<BonePose> = keys.iter().map(|k| k.pose.clone()).collect();
+    if options.reject_outliers {
+        outliers::reject(rig, &mut poses, &times_s);
+    }
     let plan = plan::plan(&poses, &times_s, options)?;
+    let key_ranges = ranges(rig, &poses);
     let base = interp::interpolate(
         &poses,
         &times_s,
@@ -265,9 +274,19 @@ pub fn run(
             Some(b) => b.clone(),
             None => Vec::new(),
         };
+        // Nothing leaves the source's range: the animation stays in its keys' range, a variant
+        // in its own (perturbed) range before smoothing.
+        let own_ranges;
+        let bounds = if v == 0 {
+            &key_ranges
+        } else {
+            own_ranges = ranges(rig, &out);
+            &own_ranges
+        };
         if let Some(s) = &options.smoothing {
             s.apply(rig, &mut out, options.out_fps);
         }
+        clamp(&mut out, bounds);
         finish(rig, &mut out);
         animations.push(
             out.into_iter()
@@ -280,6 +299,32 @@ pub fn run(
         );
     }
     Ok(DsiOutput { plan, animations })
+}
+
+/// Per bone, the range of a moving, non-static bone's track (`None` for the others).
+fn ranges(rig: &Rig, poses: &[BonePose]) -> Vec<Option<range::SourceRange>> {
+    let moving = crate::skeleton::fk::moving_bones(poses);
+    rig.bones
+        .iter()
+        .enumerate()
+        .map(|(b, bone)| {
+            if !moving.get(b).copied().unwrap_or(false) || matches!(bone.dof, Dof::Static) {
+                return None;
+            }
+            range::SourceRange::of(poses.iter().map(|p| &p.local_rotations[b]))
+        })
+        .collect()
+}
+
+/// Moves every rotation into its bone's range.
+fn clamp(poses: &mut [BonePose], ranges: &[Option<range::SourceRange>]) {
+    for pose in poses {
+        for (q, r) in pose.local_rotations.iter_mut().zip(ranges) {
+            if let Some(r) = r {
+                *q = r.clamp(q);
+            }
+        }
+    }
 }
 
 /// Puts every rotation in its bone's class, renormalises, and makes each track sign-continuous.
@@ -357,9 +402,9 @@ mod tests {
     use super::*;
     use crate::skeleton::geom::rotation_distance;
 
-    /// 4 s of whole-body motion with jitter and a fast swing in the middle.
+    /// 4 s of whole-body motion with jitter and a cut between takes in the middle.
     fn keys(rig: &Rig) -> Vec<AnimationFrame> {
-        let burst = |t: f64| (8.0 * (t - 55.0 / 30.0)).clamp(0.0, 8.0 / 3.0);
+        let burst = |t: f64| if t > 55.5 / 30.0 { 1.2 } else { 0.0 };
         fixture::whole_body(rig, 120, 0.01, burst)
             .into_iter()
             .enumerate()

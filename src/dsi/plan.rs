@@ -194,6 +194,44 @@ pub fn source_period_s(times_s: &[f64]) -> f64 {
     median(&mut dts).unwrap_or(1.0)
 }
 
+/// Intervals a relative threshold compares each interval with, on each side.
+const NEIGHBOURHOOD: usize = 5;
+
+/// Robust z-score of an interval's `d_f` against its neighbourhood above which it can be a cut.
+const Z_CUT: f64 = 5.0;
+
+/// The relative threshold of every interval: a cut is a jump in the motion, not fast motion. An
+/// interval is a transition when its `d_f` is above all of: `k` times both adjacent intervals'
+/// (the velocity is discontinuous: smooth motion, however fast, changes speed gradually), the
+/// median of the [`NEIGHBOURHOOD`] intervals on each side plus [`Z_CUT`] robust standard
+/// deviations (1.4826 · MAD) of them (it stands out of the clip's own local statistics), and
+/// `floor_rad`.
+#[must_use]
+pub fn local_thresholds(distances_rad: &[f64], k: f64, floor_rad: f64) -> Vec<f64> {
+    let n = distances_rad.len();
+    (0..n)
+        .map(|i| {
+            let adjacent = [i.checked_sub(1), Some(i + 1)]
+                .into_iter()
+                .flatten()
+                .filter_map(|j| distances_rad.get(j).copied())
+                .fold(0.0, f64::max);
+            let lo = i.saturating_sub(NEIGHBOURHOOD);
+            let hi = (i + NEIGHBOURHOOD + 1).min(n);
+            let mut around: Vec<f64> = (lo..hi)
+                .filter(|&j| j != i)
+                .map(|j| distances_rad[j])
+                .collect();
+            let centre = median(&mut around).unwrap_or(0.0);
+            let mut deviations: Vec<f64> = around.iter().map(|d| (d - centre).abs()).collect();
+            let mad = median(&mut deviations).unwrap_or(0.0);
+            (k * adjacent)
+                .max(centre + Z_CUT * 1.4826 * mad)
+                .max(floor_rad)
+        })
+        .collect()
+}
+
 /// Plans the output of one clip: keys at `times_s` (seconds, strictly increasing), played at
 /// `options.out_fps` and `options.pace`, cut at `options.threshold` with `options.weights`,
 /// transitions stretched by `options.eta` (default `1 / threshold`).
@@ -228,21 +266,28 @@ pub fn plan(keys: &[BonePose], times_s: &[f64], options: &DsiOptions) -> Result<
     }
     let delta = speed / (period_s * out_fps);
     let distances_rad = angular_distances(keys, times_s, weights);
-    let threshold_rad = match threshold {
+    let floor_rad = RELATIVE_FLOOR_RAD_PER_S * period_s;
+    let thresholds_rad: Option<Vec<f64>> = match threshold {
         Threshold::Off => None,
-        Threshold::RadPerFrame(r) => Some(r),
-        Threshold::RadPerSecond(r) => Some(r * period_s),
-        Threshold::TimesMedian(k) => {
-            let mut d = distances_rad.clone();
-            let m = median(&mut d).unwrap_or(0.0);
-            Some((k * m).max(RELATIVE_FLOOR_RAD_PER_S * period_s))
-        }
+        Threshold::RadPerFrame(r) => Some(vec![r; distances_rad.len()]),
+        Threshold::RadPerSecond(r) => Some(vec![r * period_s; distances_rad.len()]),
+        Threshold::TimesMedian(k) => Some(local_thresholds(&distances_rad, k, floor_rad)),
+    };
+    let threshold_rad = thresholds_rad.as_ref().map(|t| {
+        let mut t = t.clone();
+        median(&mut t).unwrap_or(floor_rad)
+    });
+    let transitions: Vec<bool> = match &thresholds_rad {
+        None => vec![false; distances_rad.len()],
+        Some(t) => distances_rad.iter().zip(t).map(|(d, t)| d > t).collect(),
+    };
+    // η per interval: given, or 1 / the interval's threshold.
+    let eta_at = |i: usize| match (eta, &thresholds_rad) {
+        (Some(e), _) => e,
+        (None, Some(t)) => 1.0 / t[i],
+        (None, None) => 1.0,
     };
     let eta = eta.or(threshold_rad.map(|t| 1.0 / t)).unwrap_or(1.0);
-    let transitions: Vec<bool> = distances_rad
-        .iter()
-        .map(|&d| threshold_rad.is_some_and(|t| d > t))
-        .collect();
 
     // Output frames per interval, and their running sum (the time map's knots).
     let mut real_total = 0.0;
@@ -254,7 +299,7 @@ pub fn plan(keys: &[BonePose], times_s: &[f64], options: &DsiOptions) -> Result<
         let frames = if transitions[i] {
             let n_source = ((t[1] - t[0]) / period_s).max(1.0);
             // A hair below a whole number is that number (rounding in d_f must not add a frame).
-            real.max((eta * distances_rad[i] * n_source / delta - 1e-9).ceil())
+            real.max((eta_at(i) * distances_rad[i] * n_source / delta - 1e-9).ceil())
         } else {
             real
         };
