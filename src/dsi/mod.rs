@@ -461,6 +461,82 @@ mod tests {
         }
     }
 
+    fn frames(poses: Vec<BonePose>, fps: f64) -> Vec<AnimationFrame> {
+        poses
+            .into_iter()
+            .enumerate()
+            .map(|(k, pose)| AnimationFrame {
+                stamp_nanos: stamp_nanos_at(k, fps),
+                pose,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn fast_smooth_motion_is_not_cut_and_keeps_its_timing() {
+        // Every bone swinging at up to 12 rad/s (a fast punch), no discontinuity, at 30 fps.
+        let rig = Rig::standard();
+        let fast = |t: f64| 1.5 * (6.0 * t).sin();
+        let keys = frames(fixture::whole_body(&rig, 120, 0.0, fast), 30.0);
+        let options = DsiOptions {
+            out_fps: 30.0,
+            ..DsiOptions::new(&rig)
+        };
+        let out = run(&rig, &keys, &options).unwrap();
+        assert_eq!(out.plan.transition_count(), 0);
+        assert_eq!(out.plan.frames_added(), 0);
+        assert_eq!(out.animations[0].len(), keys.len());
+        let f = eval::fidelity(&rig, &keys, &out.animations[0]);
+        assert!(f.duration_change_pct.abs() < 1e-9, "{f:?}");
+        assert!(f.peak_speed_kept_pct >= 90.0, "{f:?}");
+        assert!(f.max_overshoot_pct <= 5.0, "{f:?}");
+    }
+
+    #[test]
+    fn a_one_frame_glitch_affects_at_most_one_frame() {
+        let rig = Rig::standard();
+        let options = DsiOptions {
+            out_fps: 30.0,
+            ..DsiOptions::new(&rig)
+        };
+        for (noise, speed) in [(0.0, 2.0), (0.01, 2.0), (0.0, 4.0)] {
+            let keys = frames(
+                fixture::whole_body(&rig, 90, noise, |t| (speed * t).sin()),
+                30.0,
+            );
+            // Larger than the motion's own step over two frames (up to 20° here): a glitch
+            // smaller than that is indistinguishable from motion.
+            for angle_deg in [30.0_f64, 60.0, 90.0] {
+                let affected =
+                    eval::glitch_frames_affected(&rig, &keys, &options, angle_deg.to_radians())
+                        .unwrap()
+                        .unwrap();
+                assert!(
+                    affected <= 1,
+                    "noise {noise}, {angle_deg}°: {affected} frames"
+                );
+            }
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(6))]
+        /// Law: on noisy clips of any jitter, no bone of DSI's output goes past 105 % of its
+        /// source range, and the jerk drops.
+        #[test]
+        fn noisy_clips_never_overshoot(noise in 0.0..0.08f64, speed in 0.5..4.0f64, fps in proptest::sample::select(vec![30.0, 60.0])) {
+            let rig = Rig::standard();
+            let keys = frames(fixture::whole_body(&rig, 90, noise, |t| (speed * t).sin()), fps);
+            let options = DsiOptions { out_fps: fps, ..DsiOptions::new(&rig) };
+            let out = run(&rig, &keys, &options).unwrap();
+            let f = eval::fidelity(&rig, &keys, &out.animations[0]);
+            proptest::prop_assert!(f.max_overshoot_pct <= 5.0, "{:?}", f);
+            if noise > 0.02 {
+                proptest::prop_assert!(f.jerk_cut_pct > 50.0, "{:?}", f);
+            }
+        }
+    }
+
     #[test]
     fn weights_and_bad_input() {
         let rig = Rig::standard();

@@ -7,7 +7,7 @@
 //!
 //! - its residual is far outside the residuals around it: `r_f > median + 6 · 1.4826 · MAD` of
 //!   the residuals of keys `f − 7 … f + 7` (a robust z-score above 6, Hampel's test);
-//! - its neighbours agree with each other better than with it: `r_f > 2 · ∠(q_(f−1), q_(f+1))`
+//! - its neighbours agree with each other better than with it: `r_f > ∠(q_(f−1), q_(f+1))`
 //!   (so a cut between takes — a step, where the neighbours disagree — is left to DSI's
 //!   transitions, and a sudden stop is not mistaken for a spike);
 //! - it is off by more than [`MIN_OUTLIER_RAD`], so clean motion capture keeps its own keys.
@@ -32,7 +32,7 @@ pub const MIN_OUTLIER_RAD: f64 = 0.017_453_292_519_943_295;
 const Z_OUTLIER: f64 = 6.0;
 
 /// How many times further from its prediction than its neighbours are from each other.
-const NEIGHBOUR_AGREEMENT: f64 = 2.0;
+const NEIGHBOUR_AGREEMENT: f64 = 1.0;
 
 /// Half-width of the window of residuals a key is compared with, keys.
 const WINDOW: usize = 7;
@@ -282,8 +282,8 @@ mod tests {
         /// threshold at any key is the only key replaced.
         #[test]
         fn one_spike_one_key(f in 0usize..80, spike in 0.2..2.5f64, w in 0.5..8.0f64, phase in 0.0..6.3f64) {
-            // Larger than four steps of the motion: then the neighbours agree better than it.
-            let size = spike + 4.0 * 0.9 * w / 30.0;
+            // Larger than two steps of the motion: then the neighbours agree better than it.
+            let size = spike + 2.0 * 0.9 * w / 30.0;
             let t = times(80);
             let clean: Vec<UnitQuaternion<f64>> = t
                 .iter()
