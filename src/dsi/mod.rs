@@ -251,11 +251,13 @@ pub fn run(
         .map(|k| crate::skeleton::pose::nanos_to_secs(k.stamp_nanos - first.stamp_nanos))
         .collect();
     let mut poses: Vec<BonePose> = keys.iter().map(|k| k.pose.clone()).collect();
+    // The source's range, before anything is changed.
+    let key_ranges = ranges(rig, &poses);
     if options.reject_outliers {
         outliers::reject(rig, &mut poses, &times_s);
     }
+    let noise_rad = outliers::noise_levels(rig, &poses, &times_s);
     let plan = plan::plan(&poses, &times_s, options)?;
-    let key_ranges = ranges(rig, &poses);
     let base = interp::interpolate(
         &poses,
         &times_s,
@@ -284,9 +286,11 @@ pub fn run(
             &own_ranges
         };
         if let Some(s) = &options.smoothing {
+            let before = out.clone();
             s.apply(rig, &mut out, options.out_fps);
+            limit_corrections(&before, &mut out, &noise_rad);
         }
-        clamp(&mut out, bounds);
+        clamp(rig, &mut out, bounds);
         finish(rig, &mut out);
         animations.push(
             out.into_iter()
@@ -316,16 +320,49 @@ fn ranges(rig: &Rig, poses: &[BonePose]) -> Vec<Option<range::SourceRange>> {
         .collect()
 }
 
-/// Moves every rotation into its bone's range.
-fn clamp(poses: &mut [BonePose], ranges: &[Option<range::SourceRange>]) {
-    for pose in poses {
-        for (q, r) in pose.local_rotations.iter_mut().zip(ranges) {
-            if let Some(r) = r {
-                *q = r.clamp(q);
+/// Smoothing removes noise, not motion: each bone's correction is at most
+/// [`NOISE_BAND`] times its noise level (see [`outliers::noise_levels`]).
+pub const NOISE_BAND: f64 = 3.0;
+
+/// Shortens every smoothing correction (`before → after`, per bone) to [`NOISE_BAND`] times
+/// the bone's noise level.
+fn limit_corrections(before: &[BonePose], after: &mut [BonePose], noise_rad: &[f64]) {
+    for (b0, b1) in before.iter().zip(after.iter_mut()) {
+        for ((q0, q1), sigma) in b0
+            .local_rotations
+            .iter()
+            .zip(&mut b1.local_rotations)
+            .zip(noise_rad)
+        {
+            let limit = NOISE_BAND * sigma;
+            let c = crate::skeleton::geom::log_rotation(&(q0.inverse() * *q1));
+            let angle = c.norm();
+            if angle > limit {
+                let limited = q0 * crate::skeleton::geom::exp_rotation(&(c * (limit / angle)));
+                *q1 = crate::skeleton::geom::align_hemisphere(limited, q1);
             }
         }
     }
 }
+
+/// Moves every rotation into its bone's range and its DoF class: alternating projections onto
+/// the two (a rotation clamped in the range's chart can leave a 2-D bone's swing-only set, and
+/// its projection back the range), ending in the class.
+fn clamp(rig: &Rig, poses: &mut [BonePose], ranges: &[Option<range::SourceRange>]) {
+    for pose in poses {
+        for ((q, r), bone) in pose.local_rotations.iter_mut().zip(ranges).zip(&rig.bones) {
+            if let Some(r) = r {
+                for _ in 0..CLAMP_ROUNDS {
+                    *q = r.clamp(&bone.constrain(q));
+                }
+                *q = bone.constrain(q);
+            }
+        }
+    }
+}
+
+/// Rounds of alternating projections in [`clamp`].
+const CLAMP_ROUNDS: usize = 4;
 
 /// Puts every rotation in its bone's class, renormalises, and makes each track sign-continuous.
 fn finish(rig: &Rig, poses: &mut [BonePose]) {

@@ -139,6 +139,36 @@ pub fn reject_track(track: &mut [UnitQuaternion<f64>], times_s: &[f64]) -> usize
     replaced
 }
 
+/// How much of the tracks' frame-to-frame variation is noise: per bone, the median angle
+/// between each interior key and the Lagrange polynomial through its neighbours `f ± 1, f ± 2`
+/// ([`predict`], which follows smooth motion of any speed to fourth order), divided by
+/// `√1.944` (that polynomial's noise gain), radians; 0 for bones that do not move or tracks of
+/// fewer than five keys. Clean motion capture has almost none; estimator output degrees.
+#[must_use]
+pub fn noise_levels(rig: &Rig, keys: &[BonePose], times_s: &[f64]) -> Vec<f64> {
+    let n = keys.len();
+    let moving = crate::skeleton::fk::moving_bones(keys);
+    rig.bones
+        .iter()
+        .enumerate()
+        .map(|(b, bone)| {
+            if n < 5 || !moving.get(b).copied().unwrap_or(false) || matches!(bone.dof, Dof::Static)
+            {
+                return 0.0;
+            }
+            let mut track: Vec<UnitQuaternion<f64>> = Vec::with_capacity(n);
+            for p in keys {
+                let q = p.local_rotations[b];
+                track.push(track.last().map_or(q, |prev| align_hemisphere(q, prev)));
+            }
+            let mut residuals: Vec<f64> = (2..n - 2)
+                .map(|f| rotation_distance(&track[f], &predict(&track, times_s, f, Side::Both)))
+                .collect();
+            median_of(&mut residuals) / 1.944_f64.sqrt()
+        })
+        .collect()
+}
+
 /// Which neighbours predict a key.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Side {
@@ -252,7 +282,7 @@ mod tests {
             t.iter().map(|t| yaw(1.2 * (3.0 * t).sin())).collect();
         for f in [0, 1, 30, 58, 59] {
             let mut track = clean.clone();
-            track[f] = track[f] * UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 0.5);
+            track[f] *= UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 0.5);
             assert_eq!(reject_track(&mut track, &t), 1, "spike at {f}");
             for (k, (a, b)) in track.iter().zip(&clean).enumerate() {
                 let tolerance = if k == f { 0.01 } else { 1e-12 };
@@ -290,7 +320,7 @@ mod tests {
                 .map(|t| UnitQuaternion::from_euler_angles(0.8 * (w * t + phase).sin(), 0.3 * (0.7 * w * t).cos(), 0.2))
                 .collect();
             let mut track = clean.clone();
-            track[f] = track[f] * UnitQuaternion::from_axis_angle(&Vector3::y_axis(), size);
+            track[f] *= UnitQuaternion::from_axis_angle(&Vector3::y_axis(), size);
             prop_assert!(reject_track(&mut track, &t) >= 1);
             for (k, (a, b)) in track.iter().zip(&clean).enumerate() {
                 if k != f {

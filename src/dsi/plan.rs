@@ -155,6 +155,19 @@ impl Plan {
 /// docs). `weights` has one entry per bone; bones that never move in the clip do not count.
 #[must_use]
 pub fn angular_distances(keys: &[BonePose], times_s: &[f64], weights: &[f64]) -> Vec<f64> {
+    distances_with_and_without_largest(keys, times_s, weights).0
+}
+
+/// [`angular_distances`], and the same with the two bones that contribute most to each interval
+/// left out: a cut between takes or a dropped span moves the body, a jump carried by one bone
+/// and the child that compensates it (a limb's twist flipping by half a turn) is an artefact of
+/// the source, not a cut.
+#[must_use]
+pub fn distances_with_and_without_largest(
+    keys: &[BonePose],
+    times_s: &[f64],
+    weights: &[f64],
+) -> (Vec<f64>, Vec<f64>) {
     let period_s = source_period_s(times_s);
     let moving: Vec<usize> = crate::skeleton::fk::moving_bones(keys)
         .iter()
@@ -167,24 +180,39 @@ pub fn angular_distances(keys: &[BonePose], times_s: &[f64], weights: &[f64]) ->
         .zip(times_s.windows(2))
         .map(|(pair, t)| {
             if total <= 0.0 {
-                return 0.0;
+                return (0.0, 0.0);
             }
-            let sum: f64 = moving
-                .iter()
-                .map(|&b| {
-                    // The paper's 2·acos(|⟨q, q'⟩|): precise enough for a threshold, and cheap.
-                    let dot = pair[0].local_rotations[b]
-                        .as_ref()
-                        .dot(pair[1].local_rotations[b].as_ref())
-                        .abs()
-                        .min(1.0);
-                    weights[b] * 2.0 * dot.acos()
-                })
-                .sum();
+            // The two largest contributions and their weights.
+            let mut sum = 0.0;
+            let mut top = [(0.0, 0.0); 2];
+            for &b in &moving {
+                // The paper's 2·acos(|⟨q, q'⟩|): precise enough for a threshold, and cheap.
+                let dot = pair[0].local_rotations[b]
+                    .as_ref()
+                    .dot(pair[1].local_rotations[b].as_ref())
+                    .abs()
+                    .min(1.0);
+                let part = weights[b] * 2.0 * dot.acos();
+                sum += part;
+                if part > top[0].0 {
+                    top = [(part, weights[b]), top[0]];
+                } else if part > top[1].0 {
+                    top[1] = (part, weights[b]);
+                }
+            }
             let frames = ((t[1] - t[0]) / period_s).max(1.0);
-            sum / total / frames
+            let rest = total - top[0].1 - top[1].1;
+            let without = if moving.len() <= 2 {
+                // Nothing to compare with: the clip's distance itself.
+                sum / total / frames
+            } else if rest > 0.0 {
+                (sum - top[0].0 - top[1].0) / rest / frames
+            } else {
+                0.0
+            };
+            (sum / total / frames, without)
         })
-        .collect()
+        .unzip()
 }
 
 /// The source's frame period: the median interval between keys (robust to dropped frames).
@@ -232,6 +260,61 @@ pub fn local_thresholds(distances_rad: &[f64], k: f64, floor_rad: f64) -> Vec<f6
         .collect()
 }
 
+/// Where a clip is cut, and at which threshold per interval.
+struct Cuts {
+    thresholds_rad: Option<Vec<f64>>,
+    threshold_rad: Option<f64>,
+    transitions: Vec<bool>,
+}
+
+/// The transitions of a clip under `threshold` (see [`local_thresholds`]).
+fn cuts(
+    keys: &[BonePose],
+    times_s: &[f64],
+    weights: &[f64],
+    threshold: Threshold,
+    period_s: f64,
+) -> Cuts {
+    let (distances_rad, without_largest) =
+        distances_with_and_without_largest(keys, times_s, weights);
+    let floor_rad = RELATIVE_FLOOR_RAD_PER_S * period_s;
+    let thresholds_rad: Option<Vec<f64>> = match threshold {
+        Threshold::Off => None,
+        Threshold::RadPerFrame(r) => Some(vec![r; distances_rad.len()]),
+        Threshold::RadPerSecond(r) => Some(vec![r * period_s; distances_rad.len()]),
+        Threshold::TimesMedian(k) => Some(local_thresholds(&distances_rad, k, floor_rad)),
+    };
+    // A relative threshold cuts only where the body jumps: the interval must pass its threshold
+    // also without its two largest bones.
+    let without_thresholds = match threshold {
+        Threshold::TimesMedian(k) => Some(local_thresholds(&without_largest, k, floor_rad)),
+        _ => None,
+    };
+    let body_wide = |i: usize| {
+        without_thresholds
+            .as_ref()
+            .is_none_or(|t| without_largest[i] > t[i])
+    };
+    let threshold_rad = thresholds_rad.as_ref().map(|t| {
+        let mut t = t.clone();
+        median(&mut t).unwrap_or(floor_rad)
+    });
+    let transitions: Vec<bool> = match &thresholds_rad {
+        None => vec![false; distances_rad.len()],
+        Some(t) => distances_rad
+            .iter()
+            .zip(t)
+            .enumerate()
+            .map(|(i, (d, t))| d > t && body_wide(i))
+            .collect(),
+    };
+    Cuts {
+        thresholds_rad,
+        threshold_rad,
+        transitions,
+    }
+}
+
 /// Plans the output of one clip: keys at `times_s` (seconds, strictly increasing), played at
 /// `options.out_fps` and `options.pace`, cut at `options.threshold` with `options.weights`,
 /// transitions stretched by `options.eta` (default `1 / threshold`).
@@ -266,21 +349,11 @@ pub fn plan(keys: &[BonePose], times_s: &[f64], options: &DsiOptions) -> Result<
     }
     let delta = speed / (period_s * out_fps);
     let distances_rad = angular_distances(keys, times_s, weights);
-    let floor_rad = RELATIVE_FLOOR_RAD_PER_S * period_s;
-    let thresholds_rad: Option<Vec<f64>> = match threshold {
-        Threshold::Off => None,
-        Threshold::RadPerFrame(r) => Some(vec![r; distances_rad.len()]),
-        Threshold::RadPerSecond(r) => Some(vec![r * period_s; distances_rad.len()]),
-        Threshold::TimesMedian(k) => Some(local_thresholds(&distances_rad, k, floor_rad)),
-    };
-    let threshold_rad = thresholds_rad.as_ref().map(|t| {
-        let mut t = t.clone();
-        median(&mut t).unwrap_or(floor_rad)
-    });
-    let transitions: Vec<bool> = match &thresholds_rad {
-        None => vec![false; distances_rad.len()],
-        Some(t) => distances_rad.iter().zip(t).map(|(d, t)| d > t).collect(),
-    };
+    let Cuts {
+        thresholds_rad,
+        threshold_rad,
+        transitions,
+    } = cuts(keys, times_s, weights, threshold, period_s);
     // η per interval: given, or 1 / the interval's threshold.
     let eta_at = |i: usize| match (eta, &thresholds_rad) {
         (Some(e), _) => e,
