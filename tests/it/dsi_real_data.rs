@@ -6,6 +6,11 @@
 //! The raw-estimator targets (jerk cut ≥ 85 %, no overshoot on ZED/NTU) are measured in
 //! `docs/dsi-report.md` but not met yet, so not asserted here.
 
+#![expect(
+    clippy::unwrap_used,
+    reason = "test helpers: unreadable data is a failed test"
+)]
+
 use std::path::{Path, PathBuf};
 
 use autoact::dsi::eval::{fidelity, glitch_frames_affected};
@@ -76,7 +81,6 @@ fn default_dsi_keeps_clean_motion_capture() {
         options.out_fps = 1.0 / source_period_s(&times);
         let out = dsi::run(&rig, &anim.frames, &options).unwrap();
         let f = fidelity(&rig, &anim.frames, &out.animations[0]);
-        eprintln!("{name}: {f:?}");
         assert!(f.duration_change_pct.abs() <= 2.0, "{name}: {f:?}");
         assert!(f.peak_speed_kept_pct >= 90.0, "{name}: {f:?}");
         assert!(f.max_overshoot_pct <= 5.0, "{name}: {f:?}");
