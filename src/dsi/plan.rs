@@ -27,9 +27,11 @@ use crate::skeleton::fk::BonePose;
 /// of the weighted mean bone), so an almost still clip is not cut at its noise.
 pub const RELATIVE_FLOOR_RAD_PER_S: f64 = 0.5;
 
-/// Output times within this fraction of a frame past the last key show the last key (stamp
-/// rounding, as in [`crate::skeleton::resample::Resampler`]).
-const END_TOLERANCE_FRAMES: f64 = 1e-3;
+/// The clip ends on the output frame nearest its real end, which shows the last key (as in
+/// [`crate::skeleton::resample::Resampler`]): a clip of `N` keys played at its own nominal rate has
+/// `N` frames even when its stamps drift from the nominal clock (a BVH frame time of `0.008333` s
+/// is 120.005 fps).
+const END_TOLERANCE_FRAMES: f64 = 0.5;
 
 /// Fraction of an interval within which an output time is its key's.
 const SNAP_TO_KEY: f64 = 1e-6;
@@ -153,6 +155,19 @@ impl Plan {
 /// docs). `weights` has one entry per bone; bones that never move in the clip do not count.
 #[must_use]
 pub fn angular_distances(keys: &[BonePose], times_s: &[f64], weights: &[f64]) -> Vec<f64> {
+    distances_with_and_without_largest(keys, times_s, weights).0
+}
+
+/// [`angular_distances`], and the same with the two bones that contribute most to each interval
+/// left out: a cut between takes or a dropped span moves the body, a jump carried by one bone
+/// and the child that compensates it (a limb's twist flipping by half a turn) is an artefact of
+/// the source, not a cut.
+#[must_use]
+pub fn distances_with_and_without_largest(
+    keys: &[BonePose],
+    times_s: &[f64],
+    weights: &[f64],
+) -> (Vec<f64>, Vec<f64>) {
     let period_s = source_period_s(times_s);
     let moving: Vec<usize> = crate::skeleton::fk::moving_bones(keys)
         .iter()
@@ -165,24 +180,39 @@ pub fn angular_distances(keys: &[BonePose], times_s: &[f64], weights: &[f64]) ->
         .zip(times_s.windows(2))
         .map(|(pair, t)| {
             if total <= 0.0 {
-                return 0.0;
+                return (0.0, 0.0);
             }
-            let sum: f64 = moving
-                .iter()
-                .map(|&b| {
-                    // The paper's 2·acos(|⟨q, q'⟩|): precise enough for a threshold, and cheap.
-                    let dot = pair[0].local_rotations[b]
-                        .as_ref()
-                        .dot(pair[1].local_rotations[b].as_ref())
-                        .abs()
-                        .min(1.0);
-                    weights[b] * 2.0 * dot.acos()
-                })
-                .sum();
+            // The two largest contributions and their weights.
+            let mut sum = 0.0;
+            let mut top = [(0.0, 0.0); 2];
+            for &b in &moving {
+                // The paper's 2·acos(|⟨q, q'⟩|): precise enough for a threshold, and cheap.
+                let dot = pair[0].local_rotations[b]
+                    .as_ref()
+                    .dot(pair[1].local_rotations[b].as_ref())
+                    .abs()
+                    .min(1.0);
+                let part = weights[b] * 2.0 * dot.acos();
+                sum += part;
+                if part > top[0].0 {
+                    top = [(part, weights[b]), top[0]];
+                } else if part > top[1].0 {
+                    top[1] = (part, weights[b]);
+                }
+            }
             let frames = ((t[1] - t[0]) / period_s).max(1.0);
-            sum / total / frames
+            let rest = total - top[0].1 - top[1].1;
+            let without = if moving.len() <= 2 {
+                // Nothing to compare with: the clip's distance itself.
+                sum / total / frames
+            } else if rest > 0.0 {
+                (sum - top[0].0 - top[1].0) / rest / frames
+            } else {
+                0.0
+            };
+            (sum / total / frames, without)
         })
-        .collect()
+        .unzip()
 }
 
 /// The source's frame period: the median interval between keys (robust to dropped frames).
@@ -190,6 +220,99 @@ pub fn angular_distances(keys: &[BonePose], times_s: &[f64], weights: &[f64]) ->
 pub fn source_period_s(times_s: &[f64]) -> f64 {
     let mut dts: Vec<f64> = times_s.windows(2).map(|t| t[1] - t[0]).collect();
     median(&mut dts).unwrap_or(1.0)
+}
+
+/// Intervals a relative threshold compares each interval with, on each side.
+const NEIGHBOURHOOD: usize = 5;
+
+/// Robust z-score of an interval's `d_f` against its neighbourhood above which it can be a cut.
+const Z_CUT: f64 = 5.0;
+
+/// The relative threshold of every interval: a cut is a jump in the motion, not fast motion. An
+/// interval is a transition when its `d_f` is above all of: `k` times both adjacent intervals'
+/// (the velocity is discontinuous: smooth motion, however fast, changes speed gradually), the
+/// median of the [`NEIGHBOURHOOD`] intervals on each side plus [`Z_CUT`] robust standard
+/// deviations (1.4826 · MAD) of them (it stands out of the clip's own local statistics), and
+/// `floor_rad`.
+#[must_use]
+pub fn local_thresholds(distances_rad: &[f64], k: f64, floor_rad: f64) -> Vec<f64> {
+    let n = distances_rad.len();
+    (0..n)
+        .map(|i| {
+            let adjacent = [i.checked_sub(1), Some(i + 1)]
+                .into_iter()
+                .flatten()
+                .filter_map(|j| distances_rad.get(j).copied())
+                .fold(0.0, f64::max);
+            let lo = i.saturating_sub(NEIGHBOURHOOD);
+            let hi = (i + NEIGHBOURHOOD + 1).min(n);
+            let mut around: Vec<f64> = (lo..hi)
+                .filter(|&j| j != i)
+                .map(|j| distances_rad[j])
+                .collect();
+            let centre = median(&mut around).unwrap_or(0.0);
+            let mut deviations: Vec<f64> = around.iter().map(|d| (d - centre).abs()).collect();
+            let mad = median(&mut deviations).unwrap_or(0.0);
+            (k * adjacent)
+                .max(centre + Z_CUT * 1.4826 * mad)
+                .max(floor_rad)
+        })
+        .collect()
+}
+
+/// Where a clip is cut, and at which threshold per interval.
+struct Cuts {
+    thresholds_rad: Option<Vec<f64>>,
+    threshold_rad: Option<f64>,
+    transitions: Vec<bool>,
+}
+
+/// The transitions of a clip under `threshold` (see [`local_thresholds`]).
+fn cuts(
+    keys: &[BonePose],
+    times_s: &[f64],
+    weights: &[f64],
+    threshold: Threshold,
+    period_s: f64,
+) -> Cuts {
+    let (distances_rad, without_largest) =
+        distances_with_and_without_largest(keys, times_s, weights);
+    let floor_rad = RELATIVE_FLOOR_RAD_PER_S * period_s;
+    let thresholds_rad: Option<Vec<f64>> = match threshold {
+        Threshold::Off => None,
+        Threshold::RadPerFrame(r) => Some(vec![r; distances_rad.len()]),
+        Threshold::RadPerSecond(r) => Some(vec![r * period_s; distances_rad.len()]),
+        Threshold::TimesMedian(k) => Some(local_thresholds(&distances_rad, k, floor_rad)),
+    };
+    // A relative threshold cuts only where the body jumps: the interval must pass its threshold
+    // also without its two largest bones.
+    let without_thresholds = match threshold {
+        Threshold::TimesMedian(k) => Some(local_thresholds(&without_largest, k, floor_rad)),
+        _ => None,
+    };
+    let body_wide = |i: usize| {
+        without_thresholds
+            .as_ref()
+            .is_none_or(|t| without_largest[i] > t[i])
+    };
+    let threshold_rad = thresholds_rad.as_ref().map(|t| {
+        let mut t = t.clone();
+        median(&mut t).unwrap_or(floor_rad)
+    });
+    let transitions: Vec<bool> = match &thresholds_rad {
+        None => vec![false; distances_rad.len()],
+        Some(t) => distances_rad
+            .iter()
+            .zip(t)
+            .enumerate()
+            .map(|(i, (d, t))| d > t && body_wide(i))
+            .collect(),
+    };
+    Cuts {
+        thresholds_rad,
+        threshold_rad,
+        transitions,
+    }
 }
 
 /// Plans the output of one clip: keys at `times_s` (seconds, strictly increasing), played at
@@ -226,21 +349,18 @@ pub fn plan(keys: &[BonePose], times_s: &[f64], options: &DsiOptions) -> Result<
     }
     let delta = speed / (period_s * out_fps);
     let distances_rad = angular_distances(keys, times_s, weights);
-    let threshold_rad = match threshold {
-        Threshold::Off => None,
-        Threshold::RadPerFrame(r) => Some(r),
-        Threshold::RadPerSecond(r) => Some(r * period_s),
-        Threshold::TimesMedian(k) => {
-            let mut d = distances_rad.clone();
-            let m = median(&mut d).unwrap_or(0.0);
-            Some((k * m).max(RELATIVE_FLOOR_RAD_PER_S * period_s))
-        }
+    let Cuts {
+        thresholds_rad,
+        threshold_rad,
+        transitions,
+    } = cuts(keys, times_s, weights, threshold, period_s);
+    // η per interval: given, or 1 / the interval's threshold.
+    let eta_at = |i: usize| match (eta, &thresholds_rad) {
+        (Some(e), _) => e,
+        (None, Some(t)) => 1.0 / t[i],
+        (None, None) => 1.0,
     };
     let eta = eta.or(threshold_rad.map(|t| 1.0 / t)).unwrap_or(1.0);
-    let transitions: Vec<bool> = distances_rad
-        .iter()
-        .map(|&d| threshold_rad.is_some_and(|t| d > t))
-        .collect();
 
     // Output frames per interval, and their running sum (the time map's knots).
     let mut real_total = 0.0;
@@ -252,7 +372,7 @@ pub fn plan(keys: &[BonePose], times_s: &[f64], options: &DsiOptions) -> Result<
         let frames = if transitions[i] {
             let n_source = ((t[1] - t[0]) / period_s).max(1.0);
             // A hair below a whole number is that number (rounding in d_f must not add a frame).
-            real.max((eta * distances_rad[i] * n_source / delta - 1e-9).ceil())
+            real.max((eta_at(i) * distances_rad[i] * n_source / delta - 1e-9).ceil())
         } else {
             real
         };
@@ -264,9 +384,6 @@ pub fn plan(keys: &[BonePose], times_s: &[f64], options: &DsiOptions) -> Result<
     let mut k = 0u32;
     loop {
         let u = f64::from(k);
-        if u > total + END_TOLERANCE_FRAMES {
-            break;
-        }
         if u >= total - END_TOLERANCE_FRAMES || keys.len() < 2 {
             samples.push(Sample {
                 interval: keys.len().saturating_sub(1),
@@ -304,7 +421,7 @@ pub fn plan(keys: &[BonePose], times_s: &[f64], options: &DsiOptions) -> Result<
         clippy::cast_sign_loss,
         reason = "a frame count, non-negative and far below 2^52"
     )]
-    let frames_real_speed = (real_total + END_TOLERANCE_FRAMES).floor() as usize + 1;
+    let frames_real_speed = real_total.round() as usize + 1;
     Ok(Plan {
         samples,
         transitions,
@@ -357,6 +474,38 @@ mod tests {
         (0..n)
             .map(|k| f64::from(u32::try_from(k).unwrap()) / fps)
             .collect()
+    }
+
+    #[test]
+    fn a_clip_at_its_own_rate_keeps_every_key_and_ends_on_the_last() {
+        // BVH `Frame Time: 0.008333`: stamps a little faster than 120 fps.
+        let keys = keys_from(&[0.0; 140]);
+        let t: Vec<f64> = (0..140).map(|k| f64::from(k) * 0.008_333).collect();
+        let p = plan(
+            &keys,
+            &t,
+            &opts(&[1.0, 1.0], Threshold::Off, None, 120.0, 1.0),
+        )
+        .unwrap();
+        assert_eq!(p.samples.len(), 140);
+        assert_eq!(p.frames_added(), 0);
+        assert_eq!(
+            p.samples[139],
+            Sample {
+                interval: 139,
+                s: 0.0
+            }
+        );
+        // And a little slower than nominal.
+        let t: Vec<f64> = (0..1901).map(|k| f64::from(k) * 0.033_334).collect();
+        let p = plan(
+            &keys_from(&[0.0; 1901]),
+            &t,
+            &opts(&[1.0, 1.0], Threshold::Off, None, 30.0, 1.0),
+        )
+        .unwrap();
+        assert_eq!(p.samples.len(), 1901);
+        assert_eq!(p.samples[1900].interval, 1900);
     }
 
     #[test]

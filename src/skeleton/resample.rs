@@ -1,9 +1,13 @@
 //! Resampling an animation to an explicit frame rate from its own stamps, on the rotation group:
 //! slerp between the bracketing frames' local rotations (their hemispheres are already
 //! continuous), lerp between root translations. Output stamps are `first + k·(1 s / fps)` up to
-//! the last input stamp: never extrapolated (an output time within a thousandth of a frame past
-//! the last input — stamp rounding — is that input), and gaps in the input (dropped frames) are
-//! bridged by the same interpolation instead of being assumed away.
+//! the last input stamp, never extrapolated, and gaps in the input (dropped frames) are bridged by
+//! the same interpolation instead of being assumed away. The clip keeps its end: when the next
+//! output time falls less than half a frame past the last input, the last input is emitted at its
+//! own stamp, so a clip of `N` frames resampled at its own nominal rate has `N` frames even when
+//! its stamps drift from the nominal clock (a BVH frame time of `0.008333` s is 120.005 fps: the
+//! 140th frame is 46 µs before `139 / 120` s), and the output has `round(duration · fps) + 1`
+//! frames, the last one the last input.
 
 use std::cmp::Ordering;
 
@@ -48,7 +52,8 @@ pub struct Resampler {
     k: usize,
     previous: Option<(u64, BonePose)>,
     scratch: Option<BonePose>,
-    tolerance: u64,
+    /// Half an output frame, nanoseconds (see the module docs).
+    end_tolerance: u64,
 }
 
 impl Resampler {
@@ -56,14 +61,14 @@ impl Resampler {
     #[must_use]
     pub fn new(fps: f64) -> Resampler {
         // Stamps written at a nominal rate carry rounding (1/30 s is not a whole number of ns, a
-        // BVH frame time has 7 digits): an output time this close past the last input is it.
+        // BVH frame time has 7 digits): the clip's end is kept to the nearest output frame.
         Resampler {
             fps,
             first: None,
             k: 0,
             previous: None,
             scratch: None,
-            tolerance: stamp_nanos_at(1, fps * 1000.0),
+            end_tolerance: stamp_nanos_at(1, fps * 2.0),
         }
     }
 
@@ -106,11 +111,12 @@ impl Resampler {
         }
     }
 
-    /// Ends the stream: an output time within rounding of the last input is emitted as it.
+    /// Ends the stream: when the next output time is less than half a frame past the last
+    /// input, the last input is emitted at its own stamp (the clip keeps its last frame).
     pub fn finish(mut self, emit: &mut impl FnMut(u64, &BonePose)) {
         if let (Some(t), Some((last, pose))) = (self.next_time(), self.previous.take())
             && t > last
-            && t - last <= self.tolerance
+            && t - last < self.end_tolerance
         {
             emit(last, &pose);
         }
@@ -219,7 +225,49 @@ mod tests {
         }
     }
 
+    #[test]
+    fn a_bvh_frame_time_that_drifts_keeps_every_frame() {
+        // BVH `Frame Time: 0.008333` (120.005 fps): 140 frames in, 140 out at 120 fps, the last
+        // one the last input at its own stamp.
+        let frames: Vec<_> = (0..140u64)
+            .map(|k| frame(k * 8_333_000, f64::from(u32::try_from(k).unwrap()) * 0.01))
+            .collect();
+        let out = resample(&frames, 120.0);
+        assert_eq!(out.len(), 140);
+        assert_eq!(out.last().unwrap().stamp_nanos, 139 * 8_333_000);
+        assert_eq!(out.last().unwrap().pose, frames[139].pose);
+        // Slower than nominal (stamps run late): the grid reaches the last input first.
+        let frames: Vec<_> = (0..1901u64).map(|k| frame(k * 33_334_000, 0.0)).collect();
+        assert_eq!(resample(&frames, 30.0).len(), 1901);
+    }
+
     proptest! {
+        /// Law: N frames at a rate within 0.1 % of the output's come out as N frames, the last
+        /// one the last input; at any rate the output has round(duration · fps) + 1 frames.
+        #[test]
+        fn n_in_n_out_at_the_source_rate(n in 2u64..400, drift in -1e-3..1e-3f64, fps in 10.0..240.0f64) {
+            #[expect(clippy::cast_possible_truncation, clippy::cast_sign_loss, reason = "test")]
+            let period = (1e9 / fps * (1.0 + drift)).round() as u64;
+            let frames: Vec<_> = (0..n).map(|k| frame(k * period, 0.0)).collect();
+            let out = resample(&frames, fps);
+            #[expect(clippy::cast_precision_loss, reason = "test")]
+            let frames_at_rate = ((n - 1) as f64 * period as f64 * 1e-9 * fps).round() as u64 + 1;
+            prop_assert_eq!(out.len() as u64, frames_at_rate);
+            #[expect(clippy::cast_precision_loss, reason = "test")]
+            if drift.abs() * (n as f64) < 0.4 {
+                prop_assert_eq!(out.len() as u64, n);
+                // Stamps that run early end on the last input itself; stamps that run late end on
+                // the output clock, less than half a frame before it.
+                let end = out.last().unwrap().stamp_nanos;
+                if drift <= 0.0 {
+                    prop_assert_eq!(end, (n - 1) * period);
+                }
+                prop_assert!(end + stamp_nanos_at(1, 2.0 * fps) > (n - 1) * period);
+            }
+            let other = resample(&frames, fps * 0.73);
+            prop_assert!(other.last().unwrap().stamp_nanos <= (n - 1) * period);
+        }
+
         /// Law: slerp hits both ends, stays unit and finite, and takes the shorter way.
         #[test]
         fn slerp_laws(a in (-3.0..3.0f64, -3.0..3.0f64, -3.0..3.0f64), b in (-3.0..3.0f64, -3.0..3.0f64, -3.0..3.0f64), s in 0.0..1.0f64) {

@@ -13,6 +13,7 @@ mod cli;
 mod cli_args;
 mod cli_bags;
 mod dataset;
+mod dsi_real_data;
 mod export;
 mod fuzzing;
 mod h36m_real_data;
