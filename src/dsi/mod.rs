@@ -354,7 +354,12 @@ fn clamp(rig: &Rig, poses: &mut [BonePose], ranges: &[Option<range::SourceRange>
         for ((q, r), bone) in pose.local_rotations.iter_mut().zip(ranges).zip(&rig.bones) {
             if let Some(r) = r {
                 for _ in 0..CLAMP_ROUNDS {
-                    *q = r.clamp(&bone.constrain(q));
+                    let next = r.clamp(&bone.constrain(q));
+                    let converged = crate::skeleton::geom::rotation_distance(&next, q) < 1e-12;
+                    *q = next;
+                    if converged {
+                        break;
+                    }
                 }
                 *q = bone.constrain(q);
             }
@@ -362,8 +367,11 @@ fn clamp(rig: &Rig, poses: &mut [BonePose], ranges: &[Option<range::SourceRange>
     }
 }
 
-/// Rounds of alternating projections in [`clamp`].
-const CLAMP_ROUNDS: usize = 4;
+/// At most this many rounds of alternating projections in [`clamp`], which stops as soon as a
+/// round moves the rotation by less than 1e-12 rad. The range's box and a 2-D bone's swing-only
+/// set meet at an angle, so the projections can take many rounds (four left the 2-D clavicles of
+/// Human3.6M clips up to 15 % past their source range; 128 brings every clip under 1 %).
+const CLAMP_ROUNDS: usize = 128;
 
 /// Puts every rotation in its bone's class, renormalises, and makes each track sign-continuous.
 fn finish(rig: &Rig, poses: &mut [BonePose]) {
