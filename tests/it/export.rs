@@ -186,10 +186,12 @@ fn sample_bags_export_to_bvh_that_autoacts_reader_reads_back_within_0_01_degrees
 /// `autoact convert` — does not reach 0.01°: `convert` solves rotations from joint positions,
 /// so it re-fits the body, holds the twist of a straight limb (the "degenerate-input path"),
 /// splits the spine by its own rule and takes the head's twist from face points placed on the
-/// default adult. Measured on the sample bags, over the bones the source moves: walk (H3.6M-17)
-/// worst 1.19° (`r_upper_arm`), median 0.016°; wave (COCO-WholeBody) worst 1.64° (`head`),
-/// median 0.0001°. This test keeps that gap from growing (worst < 2°, median < 0.05°); the
-/// 0.01° round trip is the reader-level one above.
+/// default adult. Since issue 19, a limb bent less than 20° also takes part of its twist from its
+/// parent (so that a nearly straight limb never spins), and a second conversion blends again:
+/// a nearly straight arm's forearm can come back rolled (up to 33° on the wave's right forearm,
+/// where it was 1.6° at most before that rule), so this test holds every joint's position (worst
+/// < 15 mm) and the median rotation error over the bones the source moves (< 0.05°); the 0.01°
+/// round trip is the reader-level one above.
 #[test]
 fn bvh_through_import_and_convert_stays_within_the_measured_gap() {
     let rig = Rig::standard();
@@ -221,12 +223,28 @@ fn bvh_through_import_and_convert_stays_within_the_measured_gap() {
         ]);
         assert!(text.contains(layout), "{text}");
         ok(&["convert", arg(&pose_bag), "-o", arg(&anim_bag)]);
-        let (original, _) = bag_poses(&rig, &bag, 0, 0);
-        let (converted, _) = bag_poses(&rig, &anim_bag, 0, 0);
-        let (worst, bone, k) = worst_angle_deg(&rig, &converted, &original);
-        assert!(worst < 2.0, "{name}: {bone} frame {k} is {worst}° off");
-        // Over the bones the source moves: the median is far below the worst.
+        let (original, character_a) = bag_poses(&rig, &bag, 0, 0);
+        let (converted, character_b) = bag_poses(&rig, &anim_bag, 0, 0);
+        // Where every joint is: a nearly straight limb's twist is not observable from joint
+        // positions, and since issue 19 it is partly carried from the parent, so a second
+        // conversion may roll a straight forearm differently; the joints stay put.
+        // The joints of the bones the source moves (a bone the layout cannot drive, such as a
+        // finger under H3.6M-17, rides on whatever its parent does).
         let moving = autoact::skeleton::fk::moving_bones(&original);
+        let mut worst_mm = (0.0f64, String::new(), 0);
+        for (k, (x, y)) in converted.iter().zip(&original).enumerate() {
+            let a = autoact::skeleton::fk::forward(&rig, &character_b, x, 1.0);
+            let b = autoact::skeleton::fk::forward(&rig, &character_a, y, 1.0);
+            for (i, bone) in rig.bones.iter().enumerate().filter(|(i, _)| moving[*i]) {
+                let d = (a.heads_m[i] - b.heads_m[i]).norm() * 1000.0;
+                if d > worst_mm.0 {
+                    worst_mm = (d, bone.name.clone(), k);
+                }
+            }
+        }
+        let (worst, bone, k) = worst_mm;
+        assert!(worst < 15.0, "{name}: {bone} frame {k} is {worst} mm off");
+        // Over the bones the source moves: the median is far below the worst.
         let mut errors: Vec<f64> = converted
             .iter()
             .zip(&original)
