@@ -357,7 +357,15 @@ impl BagReader {
     pub fn metadata(&self) -> Vec<(String, BTreeMap<String, String>)> {
         let mut walker = Walker::new(&self.map, self.summary.as_ref());
         let mut out = Vec::new();
+        // The walk touches every record's header across the whole file: give its pages back as
+        // it goes, so that a long bag does not become resident at once (a 233 MB bag did).
+        let mut released_at = 0;
         while let Some(step) = walker.next() {
+            #[cfg(unix)]
+            if walker.at - released_at >= RELEASE_EVERY_BYTES {
+                self.release_pages();
+                released_at = walker.at;
+            }
             if let Step::Record {
                 framed: Framed { opcode, body },
                 ..
@@ -411,6 +419,9 @@ pub fn mcap_files_in(dir: &Path) -> Result<Vec<PathBuf>, McapIoError> {
     }
     Ok(files)
 }
+
+/// How far a whole-file walk goes between two [`BagReader::release_pages`].
+const RELEASE_EVERY_BYTES: usize = 4 << 20;
 
 impl BagReader {
     /// Drops the file's pages from this process's resident memory: a page touched again is read
