@@ -15,7 +15,7 @@ spec and a built-in layout; and, when ../shared/data exists, one real file of ea
 (read at run time, never copied into the repository).
 
 Every failing input is written to --failures DIR with the command and its stderr, ready to
-become a regression test (fuzz/regressions/<target>/, replayed by tests/it/fuzzing.rs).
+become a regression test (fuzz/regressions/<target>--<what>, replayed by tests/it/fuzzing.rs).
 
 Usage: tools/fuzz_cli.py [--autoact target/release/autoact] [--count 10000] [--seed 1]
                          [--jobs 2] [--timeout 30] [--max-seconds 600] [--failures DIR]

@@ -1,4 +1,4 @@
-//! The fuzzing harness's regressions: every input in `fuzz/regressions/<target>/` (crashers and
+//! The fuzzing harness's regressions: every input in `fuzz/regressions/` (named `<target>--<what>`) (crashers and
 //! hostile cases found by `cargo fuzz` or `tools/fuzz_cli.py`, or written from an issue) is run
 //! through the same entry point its fuzz target calls (`autoact::fuzz::run`) and must come back
 //! without a panic. And the harness is whole: one `cargo fuzz` target per entry point.
@@ -9,19 +9,20 @@ use std::path::Path;
 fn every_regression_input_is_read_without_a_panic() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/regressions");
     let mut replayed = 0;
-    for dir in std::fs::read_dir(&root).unwrap() {
-        let dir = dir.unwrap().path();
-        let target = dir.file_name().unwrap().to_string_lossy().into_owned();
+    // Flat, one file per input, named `<target>--<what it breaks>`.
+    for file in std::fs::read_dir(&root).unwrap() {
+        let path = file.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        let (target, _) = name
+            .split_once("--")
+            .unwrap_or_else(|| panic!("fuzz/regressions/{name}: not named <target>--<what>"));
         assert!(
-            autoact::fuzz::TARGETS.contains(&target.as_str()),
-            "fuzz/regressions/{target} names no fuzz target"
+            autoact::fuzz::TARGETS.contains(&target),
+            "fuzz/regressions/{name} names no fuzz target"
         );
-        for file in std::fs::read_dir(&dir).unwrap() {
-            let path = file.unwrap().path();
-            let data = std::fs::read(&path).unwrap();
-            assert!(autoact::fuzz::run(&target, &data), "{}", path.display());
-            replayed += 1;
-        }
+        let data = std::fs::read(&path).unwrap();
+        assert!(autoact::fuzz::run(target, &data), "{}", path.display());
+        replayed += 1;
     }
     assert!(replayed >= 10, "only {replayed} regression inputs");
 }
