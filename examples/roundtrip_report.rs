@@ -279,17 +279,7 @@ fn twist_section(data: &Path, rig: &Rig, options: ConvertOptions) -> Result<()> 
         let clip = h36m_expmap::read(&path)?;
         let root = h36m_expmap::RootMode::Trajectory;
         let seq = clip.to_pose_sequence(root);
-        let source = eval::SourceMotion {
-            parents: h36m_expmap::PARENTS.to_vec(),
-            frames: (0..clip.frame_count())
-                .map(|f| {
-                    clip.positions_m(f, root)
-                        .into_iter()
-                        .zip(clip.world_rotations(f, root))
-                        .collect()
-                })
-                .collect(),
-        };
+        let source = h36m_expmap::source_motion(&clip, root);
         let layout = Layout::builtin("h36m-32")?;
         twist_row(
             &file_name(&path),

@@ -435,6 +435,23 @@ pub fn parse(text: &str, source: &str) -> Result<ExpmapClip, H36mError> {
     })
 }
 
+/// A clip's own joint motion (positions and world rotations per frame), what
+/// [`crate::skeleton::eval::twist_spin`] compares a conversion with.
+#[must_use]
+pub fn source_motion(clip: &ExpmapClip, root: RootMode) -> crate::skeleton::eval::SourceMotion {
+    crate::skeleton::eval::SourceMotion {
+        parents: PARENTS.to_vec(),
+        frames: (0..clip.frame_count())
+            .map(|f| {
+                clip.positions_m(f, root)
+                    .into_iter()
+                    .zip(clip.world_rotations(f, root))
+                    .collect()
+            })
+            .collect(),
+    }
+}
+
 /// Read and parse an exp-map file.
 ///
 /// # Errors

@@ -324,17 +324,7 @@ fn no_limb_spins_beyond_its_source() {
     }) {
         let clip = h36m_expmap::read(&path).unwrap();
         let root = h36m_expmap::RootMode::Trajectory;
-        let source = eval::SourceMotion {
-            parents: h36m_expmap::PARENTS.to_vec(),
-            frames: (0..clip.frame_count())
-                .map(|f| {
-                    clip.positions_m(f, root)
-                        .into_iter()
-                        .zip(clip.world_rotations(f, root))
-                        .collect()
-                })
-                .collect(),
-        };
+        let source = h36m_expmap::source_motion(&clip, root);
         let seq = clip.to_pose_sequence(root);
         runs.push((
             path.display().to_string(),
