@@ -16,6 +16,12 @@ use crate::skeleton::geom::{align_hemisphere, exp_rotation, log_rotation, rotati
 /// Tracks reaching further than this from their mean rotation have no range (0.8 π).
 pub const MAX_SPREAD_RAD: f64 = 0.8 * std::f64::consts::PI;
 
+/// A rotation this far past the box (per component) counts as inside it, radians.
+pub const INSIDE_TOLERANCE_RAD: f64 = 1e-9;
+
+/// Bisection steps of [`SourceRange::pull_inside`]: the way is cut to 2⁻⁴⁰ of its length.
+const PULL_ROUNDS: usize = 40;
+
 /// The box of a track's rotations about its mean.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SourceRange {
@@ -25,6 +31,9 @@ pub struct SourceRange {
     pub lo: Vector3<f64>,
     /// Largest component of the rotation vectors, radians.
     pub hi: Vector3<f64>,
+    /// The track's rotations on the box's six faces (smallest, then largest, per component):
+    /// rotations known to be inside, for [`SourceRange::pull_inside`].
+    pub anchors: [UnitQuaternion<f64>; 6],
 }
 
 impl SourceRange {
@@ -47,15 +56,29 @@ impl SourceRange {
         let mean = UnitQuaternion::new_unchecked(sum / norm);
         let mut lo = Vector3::repeat(f64::INFINITY);
         let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+        let mut anchors = [mean; 6];
         for q in track {
             if rotation_distance(&mean, q) > MAX_SPREAD_RAD {
                 return None;
             }
             let v = log_rotation(&(mean.inverse() * q));
-            lo = lo.inf(&v);
-            hi = hi.sup(&v);
+            for c in 0..3 {
+                if v[c] < lo[c] {
+                    lo[c] = v[c];
+                    anchors[c] = *q;
+                }
+                if v[c] > hi[c] {
+                    hi[c] = v[c];
+                    anchors[3 + c] = *q;
+                }
+            }
         }
-        Some(SourceRange { mean, lo, hi })
+        Some(SourceRange {
+            mean,
+            lo,
+            hi,
+            anchors,
+        })
     }
 
     /// `q` in the range's chart: its rotation vector about the mean.
@@ -80,6 +103,46 @@ impl SourceRange {
     pub fn excess(&self, q: &UnitQuaternion<f64>) -> Vector3<f64> {
         let v = self.coordinates(q);
         (v - self.hi).sup(&Vector3::zeros()) + (self.lo - v).sup(&Vector3::zeros())
+    }
+
+    /// Whether `q` is in the box, to `tolerance_rad` on every component.
+    #[must_use]
+    pub fn contains(&self, q: &UnitQuaternion<f64>, tolerance_rad: f64) -> bool {
+        self.excess(q).max() <= tolerance_rad
+    }
+
+    /// `q` brought into the box along the way from `inside`, through `project` (a bone's DoF
+    /// class): the furthest `project(slerp(inside, q, t))` that is in the box, found by
+    /// bisection on `t`. For when [`SourceRange::clamp`] and `project` disagree (a box and a
+    /// curved class can meet at an angle where alternating between them stalls). `inside` is
+    /// the nearest to `q` of `previous` (when given) and the range's
+    /// [`anchors`](SourceRange::anchors) whose projection is in the box; `None` when there is
+    /// none (a source that is not in the class itself can leave the box and the class without
+    /// a common rotation near its edges).
+    #[must_use]
+    pub fn pull_inside(
+        &self,
+        q: &UnitQuaternion<f64>,
+        previous: Option<&UnitQuaternion<f64>>,
+        project: impl Fn(&UnitQuaternion<f64>) -> UnitQuaternion<f64>,
+    ) -> Option<UnitQuaternion<f64>> {
+        let inside = previous
+            .into_iter()
+            .chain(&self.anchors)
+            .filter(|c| self.contains(&project(c), INSIDE_TOLERANCE_RAD))
+            .min_by(|a, b| rotation_distance(a, q).total_cmp(&rotation_distance(b, q)))?;
+        let inside = align_hemisphere(project(inside), q);
+        let at = |t: f64| project(&inside.slerp(q, t));
+        let (mut feasible, mut infeasible) = (0.0, 1.0);
+        for _ in 0..PULL_ROUNDS {
+            let t = 0.5 * (feasible + infeasible);
+            if self.contains(&at(t), INSIDE_TOLERANCE_RAD) {
+                feasible = t;
+            } else {
+                infeasible = t;
+            }
+        }
+        Some(align_hemisphere(at(feasible), q))
     }
 
     /// The box's extent per component, radians.
@@ -111,5 +174,43 @@ mod tests {
             .map(|k| UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 0.2 * f64::from(k)))
             .collect();
         assert!(SourceRange::of(&turn).is_none());
+    }
+
+    #[test]
+    fn pull_inside_ends_in_the_box_and_the_class_at_the_edge_of_the_way_in() {
+        // The class: rotations about the tilted axis a = (1, 1, 0)/√2; the track turns 0…0.2 rad
+        // about it.
+        let axis = nalgebra::Unit::new_normalize(Vector3::new(1.0, 1.0, 0.0));
+        let about = |angle: f64| UnitQuaternion::from_axis_angle(&axis, angle);
+        let track: Vec<UnitQuaternion<f64>> = (0..=4).map(|k| about(0.05 * f64::from(k))).collect();
+        let range = SourceRange::of(&track).unwrap();
+        let project = |q: &UnitQuaternion<f64>| {
+            let v = q.as_ref().vector();
+            UnitQuaternion::new_normalize(Quaternion::from_parts(
+                q.w,
+                axis.into_inner() * axis.dot(&v),
+            ))
+        };
+        // Past the end, in the class: pulled back to the end, from an anchor or the previous
+        // frame alike.
+        let past = about(0.6);
+        assert!(!range.contains(&past, INSIDE_TOLERANCE_RAD));
+        for previous in [None, Some(about(0.1))] {
+            let pulled = range
+                .pull_inside(&past, previous.as_ref(), project)
+                .unwrap();
+            assert!(range.contains(&pulled, INSIDE_TOLERANCE_RAD));
+            let angle = rotation_distance(&pulled, &about(0.2));
+            assert!(angle < 1e-8, "{previous:?}: {angle}");
+        }
+        // Off the class, in the middle: pulled in from the previous frame (nearer than any
+        // anchor), ending in both.
+        let off = about(0.12) * UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 0.3);
+        let pulled = range
+            .pull_inside(&off, Some(&about(0.11)), project)
+            .unwrap();
+        assert!(range.contains(&pulled, INSIDE_TOLERANCE_RAD));
+        assert!(rotation_distance(&pulled, &project(&pulled)) < 1e-12);
+        assert!(rotation_distance(&pulled, &about(0.11)) < 0.02);
     }
 }
