@@ -31,46 +31,25 @@ use autoact::bags::pose::skeleton_message;
 use autoact::mcap_io::{BagReader, BagWriter, WriteConfig};
 use autoact::ros::autoact_msgs::Skeleton3D;
 use autoact::ros::cdr;
-use autoact::skeleton::character::Character;
-use autoact::skeleton::fk::{self, BonePose};
 use autoact::skeleton::layout::Layout;
 use autoact::skeleton::pose::{PoseSequence, stamp_nanos_at};
-use autoact::skeleton::rig::{Dof, Rig};
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 
-fn synthesize(frames: usize, fps: f64) -> PoseSequence {
-    let rig = Rig::standard();
-    let layout = Layout::builtin("h36m-17").expect("built-in layout");
-    let character = Character::standard(&rig);
-    let mut pose = BonePose::rest(&rig);
-    let arm = rig.bone_index("r_upper_arm").expect("bone");
+mod synth;
+
+fn synthesize(frames: usize, fps: f64) -> Result<PoseSequence> {
+    let mut motion = synth::Motion::new()?;
     let frames = (0..frames)
-        .map(|k| {
-            #[expect(clippy::cast_precision_loss, reason = "frame counts are small")]
-            let t = k as f64 / fps;
-            for (b, bone) in rig.bones.iter().enumerate() {
-                if let Dof::Hinge { axis } = bone.dof {
-                    pose.local_rotations[b] =
-                        UnitQuaternion::from_axis_angle(&axis, 0.5 + 0.3 * (2.0 * t).sin());
-                }
-            }
-            pose.local_rotations[arm] =
-                UnitQuaternion::from_axis_angle(&Vector3::y_axis(), -1.0 + 0.5 * (3.0 * t).sin());
-            pose.local_rotations[0] = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 0.1 * t);
-            pose.root_translation_m = Vector3::new(0.0, 0.8 * t, 0.0);
-            let world = fk::forward(&rig, &character, &pose, 1.0);
-            layout.keypoints_from_rig(&rig, &character, &world, stamp_nanos_at(k, fps))
-        })
+        .map(|k| motion.frame(k, fps, |t| Vector3::new(0.0, 0.8 * t, 0.0)))
         .collect();
-    PoseSequence {
+    Ok(PoseSequence {
         source: "synthetic".into(),
         track_id: 0,
-        joint_names: layout.joints.clone(),
+        joint_names: motion.layout.joints.clone(),
         frames,
-    }
+    })
 }
 
-/// The usual 17 joints of an `h36m-32` sequence, named as the `h36m-17` layout names them.
 fn h36m_17_of(seq: PoseSequence) -> PoseSequence {
     use autoact::formats::h36m_expmap::H36M_17_JOINTS;
     let pick = |f: &autoact::skeleton::pose::PoseFrame| autoact::skeleton::pose::PoseFrame {
@@ -103,7 +82,7 @@ fn main() -> Result<()> {
             let n: usize = args.get(2).context("FRAMES")?.parse()?;
             let out = Path::new(args.get(3).context("OUT")?);
             let fps: f64 = args.get(4).map_or(Ok(30.0), |f| f.parse())?;
-            let seq = synthesize(n, fps);
+            let seq = synthesize(n, fps)?;
             let messages: Vec<Skeleton3D> = seq
                 .frames
                 .iter()
@@ -144,7 +123,7 @@ fn main() -> Result<()> {
             let n: usize = args.get(2).context("FRAMES")?.parse()?;
             let out = args.get(3).context("OUT")?;
             let fps: f64 = args.get(4).map_or(Ok(30.0), |f| f.parse())?;
-            let seq = synthesize(n, fps);
+            let seq = synthesize(n, fps)?;
             let mut w = std::io::BufWriter::new(std::fs::File::create(out)?);
             for f in &seq.frames {
                 let p: Vec<[f64; 3]> = f.positions_m.iter().map(|p| [p.x, p.y, p.z]).collect();
