@@ -50,6 +50,7 @@ fn synthesize(frames: usize, fps: f64) -> Result<PoseSequence> {
     })
 }
 
+/// The usual 17 joints of an `h36m-32` sequence, named as the `h36m-17` layout names them.
 fn h36m_17_of(seq: PoseSequence) -> PoseSequence {
     use autoact::formats::h36m_expmap::H36M_17_JOINTS;
     let pick = |f: &autoact::skeleton::pose::PoseFrame| autoact::skeleton::pose::PoseFrame {
