@@ -36,9 +36,11 @@ pub struct Args {
     /// Reader durability.
     #[arg(long, value_enum, default_value_t = DurabilityArg::Volatile)]
     pub durability: DurabilityArg,
-    /// Keep-last history depth per topic.
-    #[arg(long, default_value_t = 100)]
-    pub depth: i32,
+    /// Keep-last history depth per topic: the samples a topic holds, and the backlog absorbed
+    /// when the recorder falls behind (e.g. stopped by Ctrl-Z) before the oldest is lost
+    /// [default: 1000; 100 for images, compressed video and point clouds]
+    #[arg(long, value_parser = clap::value_parser!(i32).range(1..))]
+    pub depth: Option<i32>,
     /// Output: a `.mcap` file (splits go beside it as `<stem>_1.mcap`, `<stem>_2.mcap`, …), or
     /// a rosbag2 directory (any other path: `<dir>/<dir>_0.mcap`, … and `metadata.yaml`, which
     /// `ros2 bag play` and `autoact convert` open).

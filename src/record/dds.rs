@@ -58,24 +58,66 @@ pub struct DdsConfig {
     pub reliability: Reliability,
     /// Reader durability.
     pub durability: Durability,
-    /// Reader history: keep-last depth (samples held per topic until [`Recorder::take`]).
-    pub history_depth: i32,
+    /// Reader history: keep-last depth (samples held per topic until [`Recorder::take`]), or
+    /// `None` for [`default_history_depth`] of each topic's type.
+    pub history_depth: Option<i32>,
 }
 
 impl Default for DdsConfig {
-    /// Domain 0, reliable, volatile, keep-last 100 (see [`DdsConfig::from_env`]).
+    /// Domain 0, reliable, volatile, keep-last by type (see [`DdsConfig::from_env`]).
     fn default() -> Self {
         Self {
             domain_id: 0,
             reliability: Reliability::Reliable,
             durability: Durability::Volatile,
-            history_depth: DEFAULT_HISTORY_DEPTH,
+            history_depth: None,
         }
     }
 }
 
-/// Keep-last depth of the recorder's readers: 1 s of a 100 Hz topic.
-const DEFAULT_HISTORY_DEPTH: i32 = 100;
+/// The recorder's keep-last depth for a topic of ROS type `type_name`, when `--depth` is not
+/// given: 1,000 samples (10 s of a 100 Hz topic), or 100 for images, compressed video and point
+/// clouds.
+///
+/// RustDDS's topic cache keeps the last `depth` samples whether or not they were taken, so the
+/// depth is both the memory a topic holds and the backlog the recorder absorbs when it falls
+/// behind (a Ctrl-Z and `fg`, a slow disk): what a backlog pushes out of it before it is taken
+/// is lost, and counted as dropped. Skeletons, markers and transforms are a few KB, so 1,000 of
+/// them cost a few MB; a 640×480 rgb8 image is 0.9 MB, so 100 of them already hold 90 MB. At
+/// 100 for every type, a 3 s stop of a 50 Hz topic lost the 50 oldest samples of its backlog
+/// in every run; at 1,000, none (`tools/dds/check_record.sh sigstop`).
+#[must_use]
+pub fn default_history_depth(type_name: &str) -> i32 {
+    if LARGE_SAMPLE_TYPES.contains(&type_name) {
+        LARGE_SAMPLE_DEPTH
+    } else {
+        SMALL_SAMPLE_DEPTH
+    }
+}
+
+/// Types whose samples are large (images, video, point clouds): [`LARGE_SAMPLE_DEPTH`].
+const LARGE_SAMPLE_TYPES: [&str; 4] = [
+    "sensor_msgs/msg/Image",
+    "sensor_msgs/msg/CompressedImage",
+    "sensor_msgs/msg/PointCloud2",
+    "foxglove_msgs/msg/CompressedVideo",
+];
+const LARGE_SAMPLE_DEPTH: i32 = 100;
+const SMALL_SAMPLE_DEPTH: i32 = 1000;
+
+/// The keep-last depth `--depth` gave, or the per-type rule, as text (for the bag's metadata).
+#[must_use]
+pub fn describe_depth(history_depth: Option<i32>) -> String {
+    history_depth.map_or_else(
+        || {
+            format!(
+                "{SMALL_SAMPLE_DEPTH} ({LARGE_SAMPLE_DEPTH} for {})",
+                LARGE_SAMPLE_TYPES.join(", ")
+            )
+        },
+        |d| d.to_string(),
+    )
+}
 
 /// Largest domain id ROS 2 / DDS port mapping allows (7400 + 250 * id must fit the port range).
 const MAX_DOMAIN_ID: u16 = 232;
@@ -88,9 +130,10 @@ impl DdsConfig {
     ///   sensor-data topics with [`Reliability::BestEffort`].)
     /// - **Volatile**: a volatile reader matches both volatile and transient-local writers,
     ///   whereas a transient-local reader would not match the (default) volatile writers at all.
-    /// - **Keep-last 100**: bounds memory per topic, and gives the recorder 1 s of slack at
-    ///   100 Hz between [`Recorder::take`] calls before the oldest samples are overwritten
-    ///   (which then shows up as a sequence-number gap).
+    /// - **Keep-last by type** ([`default_history_depth`]): bounds memory per topic, and gives
+    ///   the recorder 10 s of slack at 100 Hz on pose, marker and transform topics (1 s on
+    ///   images) before the oldest samples are overwritten (which then shows up as a
+    ///   sequence-number gap).
     ///
     /// An invalid `ROS_DOMAIN_ID` is logged (`tracing::warn`) and domain 0 is used; use
     /// [`parse_domain_id`] to reject it instead.
@@ -107,14 +150,23 @@ impl DdsConfig {
         }
     }
 
-    fn qos(self) -> QosPolicies {
+    /// The keep-last depth of a topic of ROS type `type_name`: `--depth`, or its type's default.
+    #[must_use]
+    pub fn depth_for(&self, type_name: &str) -> i32 {
+        self.history_depth
+            .unwrap_or_else(|| default_history_depth(type_name))
+            .max(1)
+    }
+
+    /// The QoS of a reader (and its topic) keeping the last `depth` samples.
+    fn qos(self, depth: i32) -> QosPolicies {
         let builder = QosPolicyBuilder::new()
             .durability(match self.durability {
                 Durability::Volatile => policy::Durability::Volatile,
                 Durability::TransientLocal => policy::Durability::TransientLocal,
             })
             .history(policy::History::KeepLast {
-                depth: self.history_depth.max(1),
+                depth: depth.max(1),
             });
         match self.reliability {
             Reliability::Reliable => builder.reliable(rustdds::Duration::from_millis(100)),
@@ -397,7 +449,6 @@ pub struct Recorder {
     participant: DomainParticipant,
     /// Keeps the ROS 2 context (which owns the participant) alive.
     _context: ros2_client::Context,
-    qos: QosPolicies,
     config: DdsConfig,
     domain_id: u16,
     rejected: u64,
@@ -419,9 +470,10 @@ impl Recorder {
             .map_err(|e| err(e.into()))?;
         let context = ros2_client::Context::from_domain_participant(participant).map_err(err)?;
         let participant = context.domain_participant();
-        let qos = config.qos();
+        // Every reader gets its own QoS (its depth depends on its type): the subscriber's history
+        // is overridden by each.
         let subscriber = participant
-            .create_subscriber(&qos)
+            .create_subscriber(&config.qos(1))
             .map_err(|e| err(e.into()))?;
         let poll = mio1::Poll::new().map_err(|source| DdsError::Poll {
             topic: "(none)".to_owned(),
@@ -440,7 +492,6 @@ impl Recorder {
             _context: context,
             participant,
             subscriber,
-            qos,
             config: *config,
             domain_id,
             subscriptions: Vec::new(),
@@ -521,12 +572,14 @@ impl Recorder {
             domain_id: self.domain_id,
             source: source.into(),
         };
+        let depth = self.config.depth_for(type_name);
+        let qos = self.config.qos(depth);
         let dds_topic = self
             .participant
             .create_topic(
                 ros_to_dds_topic(&ros_topic),
                 dds_type,
-                &self.qos,
+                &qos,
                 TopicKind::NoKey,
             )
             .map_err(err)?;
@@ -548,9 +601,9 @@ impl Recorder {
                 reliability: Reliability::BestEffort,
                 ..self.config
             }
-            .qos()
+            .qos(depth)
         } else {
-            self.qos.clone()
+            qos
         };
         let mut reader = self
             .subscriber
@@ -802,13 +855,25 @@ mod tests {
     }
 
     #[test]
-    fn default_qos_is_reliable_volatile_keep_last_100() {
+    fn default_qos_is_reliable_volatile_keep_last_by_type() {
         let c = DdsConfig::default();
         assert_eq!(
             (c.reliability, c.durability, c.history_depth),
-            (Reliability::Reliable, Durability::Volatile, 100)
+            (Reliability::Reliable, Durability::Volatile, None)
         );
-        let qos = c.qos();
+        assert_eq!(c.depth_for("autoact_msgs/msg/Skeleton3D"), 1000);
+        assert_eq!(c.depth_for("tf2_msgs/msg/TFMessage"), 1000);
+        assert_eq!(c.depth_for("sensor_msgs/msg/Image"), 100);
+        assert_eq!(c.depth_for("sensor_msgs/msg/PointCloud2"), 100);
+        let given = DdsConfig {
+            history_depth: Some(7),
+            ..c
+        };
+        assert_eq!(given.depth_for("autoact_msgs/msg/Skeleton3D"), 7);
+        assert_eq!(given.depth_for("sensor_msgs/msg/Image"), 7);
+        assert_eq!(describe_depth(Some(7)), "7");
+        assert!(describe_depth(None).starts_with("1000 (100 for sensor_msgs/msg/Image, "));
+        let qos = c.qos(c.depth_for("sensor_msgs/msg/Image"));
         assert_eq!(
             qos.history(),
             Some(policy::History::KeepLast { depth: 100 })

@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use regex::Regex;
 
-use super::dds::{DdsConfig, DdsError, Durability, Recorder, Reliability};
+use super::dds::{DdsConfig, DdsError, Durability, Recorder, Reliability, describe_depth};
 use super::session::{Output, Received, RecordWriter, SplitPolicy, TopicStats};
 use crate::mcap_io::{Compression, McapIoError, WriteConfig};
 use crate::ros;
@@ -260,7 +260,9 @@ pub fn record(options: &RecordOptions, stop: &AtomicBool) -> Result<RecordSummar
         "qos",
         format!(
             "{:?} {:?} keep-last {}",
-            dds.reliability, dds.durability, dds.history_depth
+            dds.reliability,
+            dds.durability,
+            describe_depth(dds.history_depth)
         ),
     );
     let failure = match session.run(options, stop) {

@@ -649,7 +649,7 @@ fn record_topics_qos_splits_and_limits() {
     assert_eq!(args.domain_id, None);
     assert_eq!(args.reliability, ReliabilityArg::Reliable);
     assert_eq!(args.durability, DurabilityArg::Volatile);
-    assert_eq!(args.depth, 100);
+    assert_eq!(args.depth, None);
     assert_eq!(args.output, Path::new("live.mcap"));
     assert_eq!(args.compression, Compression::Zstd);
     assert_eq!((args.split_size, args.split_duration), (None, None));
@@ -699,7 +699,7 @@ fn record_topics_qos_splits_and_limits() {
     assert_eq!(args.domain_id, Some(42));
     assert_eq!(args.reliability, ReliabilityArg::BestEffort);
     assert_eq!(args.durability, DurabilityArg::TransientLocal);
-    assert_eq!(args.depth, 10);
+    assert_eq!(args.depth, Some(10));
     assert_eq!(args.compression, Compression::Lz4);
     assert_eq!(args.split_size, Some(512));
     assert_eq!(args.split_duration, Some(60.0));
@@ -718,6 +718,10 @@ fn record_topics_qos_splits_and_limits() {
     assert_eq!(
         refused_kind(&["record", "-o", "o", "--reliability", "lossy"], "lossy"),
         ErrorKind::InvalidValue
+    );
+    assert_eq!(
+        refused_kind(&["record", "-o", "o", "--depth", "0"], "0"),
+        ErrorKind::ValueValidation
     );
 }
 

@@ -19,7 +19,7 @@
 #             an error naming the file; `autoact recover` restores a valid bag of what was flushed;
 #   rosbag2 - `-o DIR` with --split-duration: a rosbag2 directory of several files that `rosbags`
 #             reads whole (metadata.yaml lists them all);
-#   sigstop - the recorder stopped (SIGSTOP, as Ctrl-Z does) for 2 s mid-stream and continued
+#   sigstop - the recorder stopped (SIGSTOP, as Ctrl-Z does) for 3 s mid-stream and continued
 #             (SIGCONT, as fg does), then SIGINT: every message of both topics, 0 dropped, exit 0
 #             (RustDDS's event loop used to end on the EINTR this leaves: issue 20);
 #   besteffort - a best-effort publisher (sensor-data QoS) recorded in full with the default
@@ -185,20 +185,20 @@ fi
 
 if want sigstop; then
   dir=$OUT/sigstop
-  # 200 of each at 25 Hz (8 s); the recorder is stopped from 1.5 s to 3.5 s. The 50 samples per
-  # topic sent meanwhile are half of the publisher's keep-last 100 (what reliable repair can
-  # resend) and of the recorder's reader history (what the backlog fills at SIGCONT). At 50 Hz
-  # the 100 sent in the stop filled both exactly, and one run in three lost the sample sent as
-  # the recorder stopped: a real loss, reported as such (exit 3), not the EINTR this checks.
+  # 300 of each at 50 Hz (6 s); the recorder is stopped from 1.5 s to 4.5 s. The 150 samples per
+  # topic sent meanwhile fit the publisher's history (--depth 1000: what reliable repair can
+  # resend) and the recorder's default reader history (1000 for these types), which the backlog
+  # fills at SIGCONT. With the recorder's old default of 100 such a backlog lost its oldest
+  # samples (counted as dropped, exit 3).
   if ! record_while "$dir" "/skeleton /skeleton/markers" \
-      '$PUB -n 200 -r 25 --linger 2 --json "$DIR/published.json" 2>"$DIR/publisher.err" & pub=$!
-       sleep 1.5; kill -STOP "$rec"; sleep 2; kill -CONT "$rec"
+      '$PUB -n 300 -r 50 --depth 1000 --linger 2 --json "$DIR/published.json" 2>"$DIR/publisher.err" & pub=$!
+       sleep 1.5; kill -STOP "$rec"; sleep 3; kill -CONT "$rec"
        wait $pub'; then
     fail "sigstop: namespace run" "$dir/record.err" "$dir/publisher.err"
   elif [ "$(cat "$dir/record.rc")" != 0 ] || grep -q "[1-9][0-9]* dropped" "$dir/record.out"; then
     fail "sigstop: record exit $(cat "$dir/record.rc")" "$dir/record.out" "$dir/record.err"
   elif tools/interop/run.sh --exec python tools/dds/check_recorded.py "$dir/published.json" "$dir/rec.mcap"; then
-    echo "ok sigstop: stopped 2 s mid-stream and continued: $(head -1 "$dir/record.out" | cut -d' ' -f1-3), 0 dropped, exit 0"
+    echo "ok sigstop: stopped 3 s mid-stream and continued: $(head -1 "$dir/record.out" | cut -d' ' -f1-3), 0 dropped, exit 0"
     passed=$((passed + 1))
   else
     fail "sigstop: bag differs from what was published" "$dir/record.out"

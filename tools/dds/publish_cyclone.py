@@ -382,6 +382,8 @@ def main() -> int:
     ap.add_argument("--wholebody", action="store_true", help="133-joint coco-wholebody-133 skeletons")
     ap.add_argument("--image", type=parse_image, metavar="WxH@HZ", help="also publish rt/camera/image_raw")
     ap.add_argument("--first", type=int, default=0, help="first frame index (default 0)")
+    ap.add_argument("--depth", type=int, default=100,
+                    help="keep-last history depth of every writer: what reliable repair can resend (default 100)")
     ap.add_argument("--best-effort", action="store_true",
                     help="offer best-effort reliability (sensor-data QoS) instead of reliable")
     args = ap.parse_args()
@@ -421,7 +423,7 @@ def main() -> int:
                    else Policy.Reliability.Reliable(max_blocking_time=duration(seconds=1)))
     qos = Qos(reliability,
               Policy.Durability.Volatile,
-              Policy.History.KeepLast(100))
+              Policy.History.KeepLast(args.depth))
     t0 = time.monotonic()  # discovery time is measured from participant creation
     dp = DomainParticipant(args.domain)
     writers = [DataWriter(dp, Topic(dp, "rt/" + s[0].lstrip("/"), s[2], qos=qos), qos=qos) for s in streams]
