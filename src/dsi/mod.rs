@@ -20,12 +20,13 @@ pub mod plan;
 pub mod range;
 pub mod reference;
 pub mod smoothing;
+pub mod store;
+pub mod stream;
 pub mod supersmoother;
 pub mod variants;
 
 use crate::skeleton::convert::AnimationFrame;
 use crate::skeleton::fk::BonePose;
-use crate::skeleton::pose::stamp_nanos_at;
 use crate::skeleton::rig::{Dof, Rig};
 use interp::Method;
 use plan::{Plan, Threshold};
@@ -84,6 +85,17 @@ pub enum DsiError {
     NonMonotonic {
         /// Index of the offending frame.
         index: usize,
+    },
+    /// The temporary file that holds a long clip's keys cannot be written or read.
+    #[error(
+        "the temporary file for the clip's key frames{}",
+        dir.as_ref().map_or_else(String::new, |d| format!(" (in {})", d.display()))
+    )]
+    Spill {
+        /// Its folder.
+        dir: Option<std::path::PathBuf>,
+        /// Why.
+        source: std::io::Error,
     },
 }
 
@@ -220,7 +232,8 @@ pub struct DsiOutput {
     pub animations: Vec<Vec<AnimationFrame>>,
 }
 
-/// Runs DSI on one clip's key frames (strictly increasing stamps).
+/// Runs DSI on one clip's key frames (strictly increasing stamps), in memory, through the
+/// windowed solver of [`stream`] (which `convert --dsi` uses with the keys in a temporary file).
 ///
 /// # Errors
 /// [`DsiError`] for bad parameters or stamps.
@@ -229,6 +242,40 @@ pub fn run(
     keys: &[AnimationFrame],
     options: &DsiOptions,
 ) -> Result<DsiOutput, DsiError> {
+    run_in(rig, keys, options, stream::Windows::default())
+}
+
+/// [`run`] in the given windows.
+///
+/// # Errors
+/// As [`run`].
+pub fn run_in(
+    rig: &Rig,
+    keys: &[AnimationFrame],
+    options: &DsiOptions,
+    windows: stream::Windows,
+) -> Result<DsiOutput, DsiError> {
+    check(rig, options)?;
+    let mut clip = stream::ClipKeys::new(store::KeyStore::memory());
+    for key in keys {
+        clip.push(key.clone())?;
+    }
+    let mut solver = clip.solve_in(rig, options, windows)?;
+    let mut animations: Vec<Vec<AnimationFrame>> = Vec::new();
+    while let Some(window) = solver.next_window()? {
+        animations.resize_with(window.len(), Vec::new);
+        for (all, frames) in animations.iter_mut().zip(window) {
+            all.extend(frames);
+        }
+    }
+    Ok(DsiOutput {
+        plan: solver.plan().clone(),
+        animations,
+    })
+}
+
+/// Checks the options against the rig: valid smoothing, one weight per bone.
+fn check(rig: &Rig, options: &DsiOptions) -> Result<(), DsiError> {
     if let Some(s) = &options.smoothing {
         s.validate()?;
     }
@@ -238,91 +285,11 @@ pub fn run(
             bones: rig.bones.len(),
         });
     }
-    let Some(first) = keys.first() else {
-        return Err(DsiError::NoFrames);
-    };
-    if let Some(index) = keys
-        .windows(2)
-        .position(|w| w[1].stamp_nanos <= w[0].stamp_nanos)
-    {
-        return Err(DsiError::NonMonotonic { index: index + 1 });
-    }
-    let times_s: Vec<f64> = keys
-        .iter()
-        .map(|k| crate::skeleton::pose::nanos_to_secs(k.stamp_nanos - first.stamp_nanos))
-        .collect();
-    let mut poses: Vec<BonePose> = keys.iter().map(|k| k.pose.clone()).collect();
-    // The source's range, before anything is changed.
-    let key_ranges = ranges(rig, &poses);
-    if options.reject_outliers {
-        outliers::reject(rig, &mut poses, &times_s);
-    }
-    let noise_rad = outliers::noise_levels(rig, &poses, &times_s);
-    let plan = plan::plan(&poses, &times_s, options)?;
-    let base = interp::interpolate(
-        &poses,
-        &times_s,
-        &plan.transitions,
-        &plan.samples,
-        options.method,
-    );
-    let mut animations = Vec::new();
-    let mut base = Some(base);
-    for v in 0..=options.variants {
-        let mut out = match &base {
-            Some(b) if v > 0 => {
-                variants::variant(rig, b, options.out_fps, &options.bounds, options.seed, v)
-            }
-            _ if v == options.variants => base.take().unwrap_or_default(),
-            Some(b) => b.clone(),
-            None => Vec::new(),
-        };
-        // Nothing leaves the source's range: the animation stays in its keys' range, a variant
-        // in its own (perturbed) range before smoothing.
-        let own_ranges;
-        let bounds = if v == 0 {
-            &key_ranges
-        } else {
-            own_ranges = ranges(rig, &out);
-            &own_ranges
-        };
-        if let Some(s) = &options.smoothing {
-            let before = out.clone();
-            s.apply(rig, &mut out, options.out_fps);
-            limit_corrections(&before, &mut out, &noise_rad);
-        }
-        clamp(rig, &mut out, bounds);
-        finish(rig, &mut out);
-        animations.push(
-            out.into_iter()
-                .enumerate()
-                .map(|(k, pose)| AnimationFrame {
-                    stamp_nanos: first.stamp_nanos + stamp_nanos_at(k, options.out_fps),
-                    pose,
-                })
-                .collect(),
-        );
-    }
-    Ok(DsiOutput { plan, animations })
-}
-
-/// Per bone, the range of a moving, non-static bone's track (`None` for the others).
-fn ranges(rig: &Rig, poses: &[BonePose]) -> Vec<Option<range::SourceRange>> {
-    let moving = crate::skeleton::fk::moving_bones(poses);
-    rig.bones
-        .iter()
-        .enumerate()
-        .map(|(b, bone)| {
-            if !moving.get(b).copied().unwrap_or(false) || matches!(bone.dof, Dof::Static) {
-                return None;
-            }
-            range::SourceRange::of(poses.iter().map(|p| &p.local_rotations[b]))
-        })
-        .collect()
+    Ok(())
 }
 
 /// Smoothing removes noise, not motion: each bone's correction is at most
-/// [`NOISE_BAND`] times its noise level (see [`outliers::noise_levels`]).
+/// [`NOISE_BAND`] times its noise level (see [`outliers::NoiseLevels`]).
 pub const NOISE_BAND: f64 = 3.0;
 
 /// Shortens every smoothing correction (`before → after`, per bone) to [`NOISE_BAND`] times
@@ -352,10 +319,16 @@ fn limit_corrections(before: &[BonePose], after: &mut [BonePose], noise_rad: &[f
 /// the range, the rotation is pulled in along the way from the bone's previous frame or the
 /// nearest source rotation on the range's faces ([`range::SourceRange::pull_inside`]) when one
 /// of them is in both.
-fn clamp(rig: &Rig, poses: &mut [BonePose], ranges: &[Option<range::SourceRange>]) {
+/// `previous` holds each bone's last rotation of the window before (updated).
+fn clamp(
+    rig: &Rig,
+    poses: &mut [BonePose],
+    ranges: &[Option<range::SourceRange>],
+    previous: &mut [Option<nalgebra::UnitQuaternion<f64>>],
+) {
     for (b, (r, bone)) in ranges.iter().zip(&rig.bones).enumerate() {
         let Some(r) = r else { continue };
-        let mut previous: Option<nalgebra::UnitQuaternion<f64>> = None;
+        let previous = &mut previous[b];
         for pose in poses.iter_mut() {
             let q = &mut pose.local_rotations[b];
             for _ in 0..CLAMP_ROUNDS {
@@ -372,7 +345,7 @@ fn clamp(rig: &Rig, poses: &mut [BonePose], ranges: &[Option<range::SourceRange>
             {
                 *q = pulled;
             }
-            previous = Some(*q);
+            *previous = Some(*q);
         }
     }
 }
@@ -384,20 +357,26 @@ fn clamp(rig: &Rig, poses: &mut [BonePose], ranges: &[Option<range::SourceRange>
 /// [`range::SourceRange::pull_inside`] takes the rest).
 const CLAMP_ROUNDS: usize = 128;
 
-/// Puts every rotation in its bone's class, renormalises, and makes each track sign-continuous.
-fn finish(rig: &Rig, poses: &mut [BonePose]) {
-    let moving = crate::skeleton::fk::moving_bones(poses);
+/// Puts every rotation of the bones that move (`moving`) in its bone's class, renormalises, and
+/// makes each track sign-continuous, from `previous` (each bone's last rotation of the window
+/// before; updated).
+fn finish(
+    rig: &Rig,
+    poses: &mut [BonePose],
+    moving: &[bool],
+    previous: &mut [Option<nalgebra::UnitQuaternion<f64>>],
+) {
     for (b, bone) in rig.bones.iter().enumerate() {
         if !moving[b] {
             continue;
         }
-        let mut previous: Option<nalgebra::UnitQuaternion<f64>> = None;
+        let previous = &mut previous[b];
         for pose in poses.iter_mut() {
             let q = &mut pose.local_rotations[b];
             let c = bone.constrain(q);
             let c = nalgebra::UnitQuaternion::new_normalize(c.into_inner());
             *q = previous.map_or(c, |p| crate::skeleton::geom::align_hemisphere(c, &p));
-            previous = Some(*q);
+            *previous = Some(*q);
         }
     }
 }
@@ -458,6 +437,7 @@ pub(crate) mod fixture {
 mod tests {
     use super::*;
     use crate::skeleton::geom::rotation_distance;
+    use crate::skeleton::pose::stamp_nanos_at;
 
     /// 4 s of whole-body motion with jitter and a cut between takes in the middle.
     fn keys(rig: &Rig) -> Vec<AnimationFrame> {

@@ -37,13 +37,13 @@ const NEIGHBOUR_AGREEMENT: f64 = 1.0;
 /// Half-width of the window of residuals a key is compared with, keys.
 const WINDOW: usize = 7;
 
-/// Replaces single-frame outliers of every moving bone of `keys` (at `times_s`) by the
-/// prediction from their neighbours; returns how many (bone, key) pairs were replaced.
-pub fn reject(rig: &Rig, keys: &mut [BonePose], times_s: &[f64]) -> usize {
+/// Replaces single-frame outliers of the bones of `keys` (at `times_s`) that move in the clip
+/// (`moving`, per bone) by the prediction from their neighbours; returns how many (bone, key)
+/// pairs were replaced.
+pub fn reject(rig: &Rig, keys: &mut [BonePose], times_s: &[f64], moving: &[bool]) -> usize {
     if keys.len() < 4 || times_s.len() != keys.len() {
         return 0;
     }
-    let moving = crate::skeleton::fk::moving_bones(keys);
     let mut replaced = 0;
     let mut track: Vec<UnitQuaternion<f64>> = Vec::with_capacity(keys.len());
     for (b, bone) in rig.bones.iter().enumerate() {
@@ -144,29 +144,76 @@ pub fn reject_track(track: &mut [UnitQuaternion<f64>], times_s: &[f64]) -> usize
 /// ([`predict`], which follows smooth motion of any speed to fourth order), divided by
 /// `√1.944` (that polynomial's noise gain), radians; 0 for bones that do not move or tracks of
 /// fewer than five keys. Clean motion capture has almost none; estimator output degrees.
-#[must_use]
-pub fn noise_levels(rig: &Rig, keys: &[BonePose], times_s: &[f64]) -> Vec<f64> {
-    let n = keys.len();
-    let moving = crate::skeleton::fk::moving_bones(keys);
-    rig.bones
-        .iter()
-        .enumerate()
-        .map(|(b, bone)| {
-            if n < 5 || !moving.get(b).copied().unwrap_or(false) || matches!(bone.dof, Dof::Static)
-            {
-                return 0.0;
+///
+/// The clip is read in pieces ([`NoiseLevels::push`]), and of a clip longer than
+/// [`MAX_NOISE_SAMPLES`] interior keys only every `k`-th key counts (`k` the smallest stride that
+/// keeps within it), so the memory does not grow with the clip.
+#[derive(Debug, Clone)]
+pub struct NoiseLevels {
+    keys: usize,
+    stride: usize,
+    residuals_rad: Vec<Vec<f64>>,
+}
+
+/// At most this many residuals per bone make a noise level (an hour of 30 fps is 108,000 keys):
+/// the median of 65,536 evenly spread samples is within a percent of the whole clip's.
+pub const MAX_NOISE_SAMPLES: usize = 1 << 16;
+
+impl NoiseLevels {
+    /// Ready for a clip of `keys` keys of a rig of `bones` bones.
+    #[must_use]
+    pub fn new(bones: usize, keys: usize) -> NoiseLevels {
+        NoiseLevels {
+            keys,
+            stride: keys.saturating_sub(4).div_ceil(MAX_NOISE_SAMPLES).max(1),
+            residuals_rad: vec![Vec::new(); bones],
+        }
+    }
+
+    /// Takes the residuals of the clip's keys `core` (indices in the clip) from `keys`, the
+    /// clip's keys `offset..offset + keys.len()`, which must hold two keys on each side of
+    /// `core` wherever the clip has them.
+    pub fn push(
+        &mut self,
+        rig: &Rig,
+        moving: &[bool],
+        keys: &[BonePose],
+        times_s: &[f64],
+        offset: usize,
+        core: std::ops::Range<usize>,
+    ) {
+        let n = self.keys;
+        let wanted: Vec<usize> = core
+            .filter(|&f| f >= 2 && f + 2 < n && (f - 2) % self.stride == 0)
+            .collect();
+        if wanted.is_empty() {
+            return;
+        }
+        let mut track: Vec<UnitQuaternion<f64>> = Vec::with_capacity(keys.len());
+        for (b, bone) in rig.bones.iter().enumerate() {
+            if !moving.get(b).copied().unwrap_or(false) || matches!(bone.dof, Dof::Static) {
+                continue;
             }
-            let mut track: Vec<UnitQuaternion<f64>> = Vec::with_capacity(n);
+            track.clear();
             for p in keys {
                 let q = p.local_rotations[b];
                 track.push(track.last().map_or(q, |prev| align_hemisphere(q, prev)));
             }
-            let mut residuals: Vec<f64> = (2..n - 2)
-                .map(|f| rotation_distance(&track[f], &predict(&track, times_s, f, Side::Both)))
-                .collect();
-            median_of(&mut residuals) / 1.944_f64.sqrt()
-        })
-        .collect()
+            self.residuals_rad[b].extend(wanted.iter().map(|&f| {
+                let local = f - offset;
+                rotation_distance(&track[local], &predict(&track, times_s, local, Side::Both))
+            }));
+        }
+    }
+
+    /// The noise level of every bone, radians.
+    #[must_use]
+    pub fn levels(self) -> Vec<f64> {
+        self.residuals_rad
+            .into_iter()
+            .map(|mut r| median_of(&mut r) / 1.944_f64.sqrt())
+            .collect()
+    }
 }
 
 /// Which neighbours predict a key.

@@ -155,64 +155,90 @@ impl Plan {
 /// docs). `weights` has one entry per bone; bones that never move in the clip do not count.
 #[must_use]
 pub fn angular_distances(keys: &[BonePose], times_s: &[f64], weights: &[f64]) -> Vec<f64> {
-    distances_with_and_without_largest(keys, times_s, weights).0
+    let moving = crate::skeleton::fk::moving_bones(keys);
+    Distances::new(weights, &moving, source_period_s(times_s))
+        .of(keys, times_s)
+        .0
 }
 
-/// [`angular_distances`], and the same with the two bones that contribute most to each interval
-/// left out: a cut between takes or a dropped span moves the body, a jump carried by one bone
-/// and the child that compensates it (a limb's twist flipping by half a turn) is an artefact of
-/// the source, not a cut.
-#[must_use]
-pub fn distances_with_and_without_largest(
-    keys: &[BonePose],
-    times_s: &[f64],
-    weights: &[f64],
-) -> (Vec<f64>, Vec<f64>) {
-    let period_s = source_period_s(times_s);
-    let moving: Vec<usize> = crate::skeleton::fk::moving_bones(keys)
-        .iter()
-        .enumerate()
-        .filter(|&(b, &m)| m && weights.get(b).copied().unwrap_or(0.0) > 0.0)
-        .map(|(b, _)| b)
-        .collect();
-    let total: f64 = moving.iter().map(|&b| weights[b]).sum();
-    keys.windows(2)
-        .zip(times_s.windows(2))
-        .map(|(pair, t)| {
-            if total <= 0.0 {
-                return (0.0, 0.0);
+/// The per-interval distances of a clip ([`angular_distances`]), and the same with the two
+/// bones that contribute most to each interval left out: a cut between takes or a dropped span
+/// moves the body, a jump carried by one bone and the child that compensates it (a limb's twist
+/// flipping by half a turn) is an artefact of the source, not a cut. Made once per clip (its
+/// moving bones and frame period), then applied to the clip piece by piece.
+#[derive(Debug, Clone)]
+pub struct Distances<'w> {
+    weights: &'w [f64],
+    /// The bones that count: moving in the clip, with a positive weight.
+    moving: Vec<usize>,
+    total: f64,
+    period_s: f64,
+}
+
+impl<'w> Distances<'w> {
+    /// For a clip whose bones move as `moving` says, with keys every `period_s` seconds.
+    #[must_use]
+    pub fn new(weights: &'w [f64], moving: &[bool], period_s: f64) -> Distances<'w> {
+        let moving: Vec<usize> = moving
+            .iter()
+            .enumerate()
+            .filter(|&(b, &m)| m && weights.get(b).copied().unwrap_or(0.0) > 0.0)
+            .map(|(b, _)| b)
+            .collect();
+        let total = moving.iter().map(|&b| weights[b]).sum();
+        Distances {
+            weights,
+            moving,
+            total,
+            period_s,
+        }
+    }
+
+    /// The distances, with and without the two largest bones, of the intervals between
+    /// consecutive `keys` (at `times_s`).
+    #[must_use]
+    pub fn of(&self, keys: &[BonePose], times_s: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        keys.windows(2)
+            .zip(times_s.windows(2))
+            .map(|(pair, t)| self.interval(&pair[0], &pair[1], t[1] - t[0]))
+            .unzip()
+    }
+
+    fn interval(&self, a: &BonePose, b: &BonePose, dt_s: f64) -> (f64, f64) {
+        let (weights, total) = (self.weights, self.total);
+        if total <= 0.0 {
+            return (0.0, 0.0);
+        }
+        // The two largest contributions and their weights.
+        let mut sum = 0.0;
+        let mut top = [(0.0, 0.0); 2];
+        for &bone in &self.moving {
+            // The paper's 2·acos(|⟨q, q'⟩|): precise enough for a threshold, and cheap.
+            let dot = a.local_rotations[bone]
+                .as_ref()
+                .dot(b.local_rotations[bone].as_ref())
+                .abs()
+                .min(1.0);
+            let part = weights[bone] * 2.0 * dot.acos();
+            sum += part;
+            if part > top[0].0 {
+                top = [(part, weights[bone]), top[0]];
+            } else if part > top[1].0 {
+                top[1] = (part, weights[bone]);
             }
-            // The two largest contributions and their weights.
-            let mut sum = 0.0;
-            let mut top = [(0.0, 0.0); 2];
-            for &b in &moving {
-                // The paper's 2·acos(|⟨q, q'⟩|): precise enough for a threshold, and cheap.
-                let dot = pair[0].local_rotations[b]
-                    .as_ref()
-                    .dot(pair[1].local_rotations[b].as_ref())
-                    .abs()
-                    .min(1.0);
-                let part = weights[b] * 2.0 * dot.acos();
-                sum += part;
-                if part > top[0].0 {
-                    top = [(part, weights[b]), top[0]];
-                } else if part > top[1].0 {
-                    top[1] = (part, weights[b]);
-                }
-            }
-            let frames = ((t[1] - t[0]) / period_s).max(1.0);
-            let rest = total - top[0].1 - top[1].1;
-            let without = if moving.len() <= 2 {
-                // Nothing to compare with: the clip's distance itself.
-                sum / total / frames
-            } else if rest > 0.0 {
-                (sum - top[0].0 - top[1].0) / rest / frames
-            } else {
-                0.0
-            };
-            (sum / total / frames, without)
-        })
-        .unzip()
+        }
+        let frames = (dt_s / self.period_s).max(1.0);
+        let rest = total - top[0].1 - top[1].1;
+        let without = if self.moving.len() <= 2 {
+            // Nothing to compare with: the clip's distance itself.
+            sum / total / frames
+        } else if rest > 0.0 {
+            (sum - top[0].0 - top[1].0) / rest / frames
+        } else {
+            0.0
+        };
+        (sum / total / frames, without)
+    }
 }
 
 /// The source's frame period: the median interval between keys (robust to dropped frames).
@@ -267,27 +293,25 @@ struct Cuts {
     transitions: Vec<bool>,
 }
 
-/// The transitions of a clip under `threshold` (see [`local_thresholds`]).
+/// The transitions of a clip under `threshold` (see [`local_thresholds`]), from its distances
+/// with and without the two largest bones ([`Distances`]).
 fn cuts(
-    keys: &[BonePose],
-    times_s: &[f64],
-    weights: &[f64],
+    distances_rad: &[f64],
+    without_largest: &[f64],
     threshold: Threshold,
     period_s: f64,
 ) -> Cuts {
-    let (distances_rad, without_largest) =
-        distances_with_and_without_largest(keys, times_s, weights);
     let floor_rad = RELATIVE_FLOOR_RAD_PER_S * period_s;
     let thresholds_rad: Option<Vec<f64>> = match threshold {
         Threshold::Off => None,
         Threshold::RadPerFrame(r) => Some(vec![r; distances_rad.len()]),
         Threshold::RadPerSecond(r) => Some(vec![r * period_s; distances_rad.len()]),
-        Threshold::TimesMedian(k) => Some(local_thresholds(&distances_rad, k, floor_rad)),
+        Threshold::TimesMedian(k) => Some(local_thresholds(distances_rad, k, floor_rad)),
     };
     // A relative threshold cuts only where the body jumps: the interval must pass its threshold
     // also without its two largest bones.
     let without_thresholds = match threshold {
-        Threshold::TimesMedian(k) => Some(local_thresholds(&without_largest, k, floor_rad)),
+        Threshold::TimesMedian(k) => Some(local_thresholds(without_largest, k, floor_rad)),
         _ => None,
     };
     let body_wide = |i: usize| {
@@ -322,12 +346,28 @@ fn cuts(
 /// # Errors
 /// [`DsiError::NotPositive`] for a non-positive rate, speed or η.
 pub fn plan(keys: &[BonePose], times_s: &[f64], options: &DsiOptions) -> Result<Plan, DsiError> {
+    let moving = crate::skeleton::fk::moving_bones(keys);
+    let (distances_rad, without_largest) =
+        Distances::new(&options.weights, &moving, source_period_s(times_s)).of(keys, times_s);
+    plan_from_distances(times_s, distances_rad, &without_largest, options)
+}
+
+/// [`plan`] from the clip's key times and its [`Distances`] (with and without the two largest
+/// bones), for a clip read in pieces.
+///
+/// # Errors
+/// [`DsiError::NotPositive`] for a non-positive rate, speed or η.
+pub fn plan_from_distances(
+    times_s: &[f64],
+    distances_rad: Vec<f64>,
+    without_largest: &[f64],
+    options: &DsiOptions,
+) -> Result<Plan, DsiError> {
     let DsiOptions {
         out_fps,
         pace,
         threshold,
         eta,
-        ref weights,
         ..
     } = *options;
     let period_s = source_period_s(times_s);
@@ -348,12 +388,11 @@ pub fn plan(keys: &[BonePose], times_s: &[f64], options: &DsiOptions) -> Result<
         positive("η", e)?;
     }
     let delta = speed / (period_s * out_fps);
-    let distances_rad = angular_distances(keys, times_s, weights);
     let Cuts {
         thresholds_rad,
         threshold_rad,
         transitions,
-    } = cuts(keys, times_s, weights, threshold, period_s);
+    } = cuts(&distances_rad, without_largest, threshold, period_s);
     // η per interval: given, or 1 / the interval's threshold.
     let eta_at = |i: usize| match (eta, &thresholds_rad) {
         (Some(e), _) => e,
@@ -384,9 +423,9 @@ pub fn plan(keys: &[BonePose], times_s: &[f64], options: &DsiOptions) -> Result<
     let mut k = 0u32;
     loop {
         let u = f64::from(k);
-        if u >= total - END_TOLERANCE_FRAMES || keys.len() < 2 {
+        if u >= total - END_TOLERANCE_FRAMES || times_s.len() < 2 {
             samples.push(Sample {
-                interval: keys.len().saturating_sub(1),
+                interval: times_s.len().saturating_sub(1),
                 s: 0.0,
             });
             break;

@@ -42,43 +42,15 @@ impl SourceRange {
     pub fn of<'a>(
         track: impl IntoIterator<Item = &'a UnitQuaternion<f64>> + Clone,
     ) -> Option<Self> {
-        let mut sum = Quaternion::from_parts(0.0, Vector3::zeros());
-        let mut previous: Option<UnitQuaternion<f64>> = None;
+        let mut mean = MeanRotation::default();
         for q in track.clone() {
-            let q = previous.map_or(*q, |p| align_hemisphere(*q, &p));
-            sum += q.into_inner();
-            previous = Some(q);
+            mean.push(q);
         }
-        let norm = sum.norm();
-        if !(norm > 1e-9 && norm.is_finite()) {
-            return None;
-        }
-        let mean = UnitQuaternion::new_unchecked(sum / norm);
-        let mut lo = Vector3::repeat(f64::INFINITY);
-        let mut hi = Vector3::repeat(f64::NEG_INFINITY);
-        let mut anchors = [mean; 6];
+        let mut range = RangeBox::new(mean.mean()?);
         for q in track {
-            if rotation_distance(&mean, q) > MAX_SPREAD_RAD {
-                return None;
-            }
-            let v = log_rotation(&(mean.inverse() * q));
-            for c in 0..3 {
-                if v[c] < lo[c] {
-                    lo[c] = v[c];
-                    anchors[c] = *q;
-                }
-                if v[c] > hi[c] {
-                    hi[c] = v[c];
-                    anchors[3 + c] = *q;
-                }
-            }
+            range.push(q);
         }
-        Some(SourceRange {
-            mean,
-            lo,
-            hi,
-            anchors,
-        })
+        range.finish()
     }
 
     /// `q` in the range's chart: its rotation vector about the mean.
@@ -149,6 +121,89 @@ impl SourceRange {
     #[must_use]
     pub fn extent(&self) -> Vector3<f64> {
         self.hi - self.lo
+    }
+}
+
+/// The first of the two passes over a track that [`SourceRange::of`] makes, for a track read in
+/// pieces: the sum of its sign-continuous quaternions.
+#[derive(Debug, Clone, Copy)]
+pub struct MeanRotation {
+    sum: Quaternion<f64>,
+    previous: Option<UnitQuaternion<f64>>,
+}
+
+impl Default for MeanRotation {
+    fn default() -> MeanRotation {
+        MeanRotation {
+            sum: Quaternion::from_parts(0.0, Vector3::zeros()),
+            previous: None,
+        }
+    }
+}
+
+impl MeanRotation {
+    /// Adds the track's next rotation.
+    pub fn push(&mut self, q: &UnitQuaternion<f64>) {
+        let q = self.previous.map_or(*q, |p| align_hemisphere(*q, &p));
+        self.sum += q.into_inner();
+        self.previous = Some(q);
+    }
+
+    /// The normalised sum, or `None` for an empty track or one whose signs cancel.
+    #[must_use]
+    pub fn mean(&self) -> Option<UnitQuaternion<f64>> {
+        let norm = self.sum.norm();
+        (norm > 1e-9 && norm.is_finite()).then(|| UnitQuaternion::new_unchecked(self.sum / norm))
+    }
+}
+
+/// The second pass of [`SourceRange::of`]: the box of the track's rotation vectors about its
+/// mean, for a track read in pieces.
+#[derive(Debug, Clone)]
+pub struct RangeBox {
+    range: SourceRange,
+    too_wide: bool,
+}
+
+impl RangeBox {
+    /// An empty box about `mean` (from [`MeanRotation`]).
+    #[must_use]
+    pub fn new(mean: UnitQuaternion<f64>) -> RangeBox {
+        RangeBox {
+            range: SourceRange {
+                mean,
+                lo: Vector3::repeat(f64::INFINITY),
+                hi: Vector3::repeat(f64::NEG_INFINITY),
+                anchors: [mean; 6],
+            },
+            too_wide: false,
+        }
+    }
+
+    /// Adds the track's next rotation.
+    pub fn push(&mut self, q: &UnitQuaternion<f64>) {
+        let r = &mut self.range;
+        if self.too_wide || rotation_distance(&r.mean, q) > MAX_SPREAD_RAD {
+            self.too_wide = true;
+            return;
+        }
+        let v = log_rotation(&(r.mean.inverse() * q));
+        for c in 0..3 {
+            if v[c] < r.lo[c] {
+                r.lo[c] = v[c];
+                r.anchors[c] = *q;
+            }
+            if v[c] > r.hi[c] {
+                r.hi[c] = v[c];
+                r.anchors[3 + c] = *q;
+            }
+        }
+    }
+
+    /// The range, or `None` when the track spread past [`MAX_SPREAD_RAD`].
+    #[must_use]
+    pub fn finish(self) -> Option<SourceRange> {
+        (!self.too_wide).then_some(self.range)
     }
 }
 

@@ -20,7 +20,6 @@ use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
 use super::supersmoother::{SmoothScratch, SuperSmoother};
 use crate::skeleton::fk::BonePose;
-use crate::skeleton::fk::moving_bones;
 use crate::skeleton::geom::{align_hemisphere, exp_rotation, log_rotation};
 use crate::skeleton::rig::{Dof, Rig};
 
@@ -82,16 +81,21 @@ impl Smoothing {
         Ok(())
     }
 
-    /// The SuperSmoother for a clip of `n` frames at `fps`.
+    /// The SuperSmoother for `n` frames of a clip of `clip_frames` frames (≥ `n`) at `fps`: the
+    /// spans in seconds turned into fractions of the `n` frames, scaled down together when the
+    /// clip is shorter than the woofer.
     #[must_use]
-    pub fn smoother_for(&self, n: usize, fps: f64) -> SuperSmoother {
+    pub fn smoother_for(&self, n: usize, clip_frames: usize, fps: f64) -> SuperSmoother {
         #[expect(
             clippy::cast_precision_loss,
             reason = "frame counts are far below 2^52"
         )]
-        let duration_s = n.max(1) as f64 / fps;
-        let scale = (duration_s / self.spans_s[2]).min(1.0);
-        let fraction = |s: f64| s * scale / duration_s;
+        let (frames, clip_frames) = (n.max(1) as f64, clip_frames.max(n).max(1) as f64);
+        let scale = (clip_frames / fps / self.spans_s[2]).min(1.0);
+        // A span's window is `⌊fraction · n⌋` frames: a hair more than the span's frames, so
+        // that a whole number of frames (0.6 s at 30 fps) is not rounded down to one less for
+        // some lengths, and a clip smoothed in pieces gets the same windows in every piece.
+        let fraction = |s: f64| s * scale * fps * (1.0 + 1e-12) / frames;
         let spans = self.spans_s.map(fraction);
         SuperSmoother {
             primary_spans: spans,
@@ -101,13 +105,27 @@ impl Smoothing {
         }
     }
 
-    /// Smooths `poses` (one clip, `fps` frames per second) in place.
-    pub fn apply(&self, rig: &Rig, poses: &mut [BonePose], fps: f64) {
+    /// Smooths `poses` (one clip, `fps` frames per second) in place. Only the bones that move
+    /// in the clip (`moving`, per bone) are smoothed.
+    pub fn apply(&self, rig: &Rig, poses: &mut [BonePose], fps: f64, moving: &[bool]) {
+        self.apply_as_part(rig, poses, fps, moving, poses.len());
+    }
+
+    /// [`Smoothing::apply`] to a piece of a clip of `clip_frames` frames: the same spans, in
+    /// frames, as the whole clip's.
+    pub fn apply_as_part(
+        &self,
+        rig: &Rig,
+        poses: &mut [BonePose],
+        fps: f64,
+        moving: &[bool],
+        clip_frames: usize,
+    ) {
         let n = poses.len();
         if n < 3 {
             return;
         }
-        let smoother = self.smoother_for(n, fps);
+        let smoother = self.smoother_for(n, clip_frames, fps);
         let plan = smoother.plan(n);
         let mut scratch = SmoothScratch::default();
         let mut y = vec![0.0; n];
@@ -131,7 +149,6 @@ impl Smoothing {
             reason = "window sizes are small positive counts"
         )]
         let window = (smoother.primary_spans[2] * n as f64).max(3.0).floor() as usize;
-        let moving = moving_bones(poses);
         let mut track: Vec<UnitQuaternion<f64>> = Vec::with_capacity(n);
         let mut prefix: Vec<Quaternion<f64>> = Vec::with_capacity(n + 1);
         let mut means: Vec<UnitQuaternion<f64>> = Vec::with_capacity(n);
@@ -229,7 +246,8 @@ mod tests {
         let rig = Rig::standard();
         let (clean, noisy) = clip(&rig, 240, 0.05);
         let mut smoothed = noisy.clone();
-        Smoothing::default().apply(&rig, &mut smoothed, 30.0);
+        let moving = crate::skeleton::fk::moving_bones(&smoothed);
+        Smoothing::default().apply(&rig, &mut smoothed, 30.0, &moving);
         let before = mean_error(&rig, &noisy, &clean);
         let after = mean_error(&rig, &smoothed, &clean);
         assert!(after < 0.5 * before, "noise {before} rad → {after} rad");
@@ -245,7 +263,8 @@ mod tests {
         let rig = Rig::standard();
         let (clean, _) = clip(&rig, 240, 0.0);
         let mut smoothed = clean.clone();
-        Smoothing::default().apply(&rig, &mut smoothed, 30.0);
+        let moving = crate::skeleton::fk::moving_bones(&smoothed);
+        Smoothing::default().apply(&rig, &mut smoothed, 30.0, &moving);
         let err = mean_error(&rig, &smoothed, &clean);
         assert!(err < 0.3f64.to_radians(), "{}°", err.to_degrees());
     }
@@ -255,7 +274,8 @@ mod tests {
         let rig = Rig::standard();
         for n in [0, 1, 2, 3, 5, 17] {
             let (_, mut noisy) = clip(&rig, n, 0.05);
-            Smoothing::default().apply(&rig, &mut noisy, 30.0);
+            let moving = crate::skeleton::fk::moving_bones(&noisy);
+            Smoothing::default().apply(&rig, &mut noisy, 30.0, &moving);
             assert!(
                 noisy
                     .iter()

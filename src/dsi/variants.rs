@@ -239,26 +239,58 @@ pub fn variant(
     index: u64,
 ) -> Vec<BonePose> {
     let moving = crate::skeleton::fk::moving_bones(poses);
-    let wobbles = wobbles(rig, &moving, bounds, seed, index);
-    poses
-        .iter()
-        .enumerate()
-        .map(|(k, pose)| {
-            #[expect(
-                clippy::cast_precision_loss,
-                reason = "frame counts are far below 2^52"
-            )]
-            let t_s = k as f64 / fps;
-            let mut out = pose.clone();
-            for ((q, wobble), bone) in out.local_rotations.iter_mut().zip(&wobbles).zip(&rig.bones)
-            {
-                if let Some(w) = wobble {
-                    *q = perturb(bone, q, w.at(t_s), w.bound_rad);
+    Variation {
+        rig,
+        moving: &moving,
+        fps,
+        bounds,
+        seed,
+    }
+    .variant(index, poses, 0)
+}
+
+/// The variants of one animation, for an animation made piece by piece.
+#[derive(Debug, Clone, Copy)]
+pub struct Variation<'a> {
+    /// The rig.
+    pub rig: &'a Rig,
+    /// Per bone: it moves in the animation (the others are left alone).
+    pub moving: &'a [bool],
+    /// The animation's frame rate.
+    pub fps: f64,
+    /// Bounds of the perturbations.
+    pub bounds: &'a VariationBounds,
+    /// The variants' seed.
+    pub seed: u64,
+}
+
+impl Variation<'_> {
+    /// Variant `index` (≥ 1) of the animation's frames `first_frame..first_frame + poses.len()`.
+    #[must_use]
+    pub fn variant(&self, index: u64, poses: &[BonePose], first_frame: usize) -> Vec<BonePose> {
+        let rig = self.rig;
+        let wobbles = wobbles(rig, self.moving, self.bounds, self.seed, index);
+        poses
+            .iter()
+            .enumerate()
+            .map(|(k, pose)| {
+                #[expect(
+                    clippy::cast_precision_loss,
+                    reason = "frame counts are far below 2^52"
+                )]
+                let t_s = (first_frame + k) as f64 / self.fps;
+                let mut out = pose.clone();
+                for ((q, wobble), bone) in
+                    out.local_rotations.iter_mut().zip(&wobbles).zip(&rig.bones)
+                {
+                    if let Some(w) = wobble {
+                        *q = perturb(bone, q, w.at(t_s), w.bound_rad);
+                    }
                 }
-            }
-            out
-        })
-        .collect()
+                out
+            })
+            .collect()
+    }
 }
 
 /// `q · exp(θ)` projected onto the bone's class. The projection (a 2-D bone's swing) can carry
