@@ -78,6 +78,7 @@ fn bench_dsi(c: &mut Criterion) {
         });
     }
     let poses: Vec<BonePose> = keys.iter().map(|k| k.pose.clone()).collect();
+    let moving = autoact::skeleton::fk::moving_bones(&poses);
     group.throughput(Throughput::Elements(FRAMES as u64));
     group.bench_with_input(
         BenchmarkId::new("smooth_only", FRAMES),
@@ -85,7 +86,7 @@ fn bench_dsi(c: &mut Criterion) {
         |b, poses| {
             b.iter_batched_ref(
                 || poses.clone(),
-                |p| Smoothing::default().apply(&rig, p, 30.0),
+                |p| Smoothing::default().apply(&rig, p, 30.0, &moving),
                 criterion::BatchSize::LargeInput,
             );
         },

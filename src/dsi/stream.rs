@@ -182,9 +182,12 @@ impl ClipKeys {
         let (key_ranges, mut keys) =
             clip.ranges_and_outliers(&mut store, &means, options.reject_outliers)?;
         drop(store);
-        let (noise_rad, distances, without_largest) =
-            clip.noise_and_distances(&mut keys, options)?;
-        let plan = plan::plan_from_distances(&times_s, distances, &without_largest, options)?;
+        let Measured {
+            noise_rad,
+            distances_rad,
+            without_largest,
+        } = clip.noise_and_distances(&mut keys, options)?;
+        let plan = plan::plan_from_distances(&times_s, distances_rad, &without_largest, options)?;
         let mut solver = Solver {
             rig,
             options: options.clone(),
@@ -287,7 +290,7 @@ impl Passes<'_> {
         &mut self,
         keys: &mut KeyStore,
         options: &DsiOptions,
-    ) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>), DsiError> {
+    ) -> Result<Measured, DsiError> {
         let n = self.times_s.len();
         let mut noise = NoiseLevels::new(self.rig.bones.len(), n);
         let distances = Distances::new(
@@ -318,8 +321,19 @@ impl Passes<'_> {
             with.extend(d);
             without.extend(w);
         }
-        Ok((noise.levels(), with, without))
+        Ok(Measured {
+            noise_rad: noise.levels(),
+            distances_rad: with,
+            without_largest: without,
+        })
     }
+}
+
+/// What pass 3 measures.
+struct Measured {
+    noise_rad: Vec<f64>,
+    distances_rad: Vec<f64>,
+    without_largest: Vec<f64>,
 }
 
 /// What the previous window of one animation left: each bone's last rotation after clamping

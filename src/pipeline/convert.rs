@@ -323,10 +323,11 @@ pub fn convert_bag(rig: &Rig, job: &ConvertJob) -> Result<ConvertSummary, Pipeli
     };
     let tracks = if let Some(dsi) = &job.dsi {
         whole_clip::record_options(&mut meta, dsi);
+        let spill_dir = whole_clip::spill_dir(&job.output.path);
         let mut clips: Vec<whole_clip::Clip> = scan
             .tracks
             .iter()
-            .map(|t| whole_clip::Clip::with_capacity(t.frames))
+            .map(|t| whole_clip::Clip::new(t.track_id, &spill_dir, rig.bones.len()))
             .collect();
         let stamps = read_again(&mut |f| {
             let person = &mut people[f.track];
@@ -334,12 +335,12 @@ pub fn convert_bag(rig: &Rig, job: &ConvertJob) -> Result<ConvertSummary, Pipeli
             clips[f.track].take(&mut person.converter, &frame, f.gap.is_some())
         })?;
         take_stamp_report(&stamps, &mut losses);
-        // Whole clips are solved before the output exists, so a failing one leaves no file.
+        // Whole clips are planned before the output exists, so a failing one leaves no file
+        // (and the output, written under a temporary name, is never left half made).
         let (tracks, mut animations) =
             whole_clip::solve_all(rig, people, clips, dsi, prefixed, &mut losses)?;
         let mut out = BagOutput::create(&job.output)?;
-        let writers = animations.iter().map(|(w, _)| w);
-        write_header(&mut out, &scan.metadata, meta, first, writers)?;
+        write_header(&mut out, &scan.metadata, meta, first, animations.writers())?;
         whole_clip::write_in_stamp_order(&mut out, &mut animations)?;
         out.finish()?;
         tracks

@@ -1,131 +1,216 @@
-//! `convert` with DSI: each person's clip solved whole, then cut into unit motions, resampled,
-//! varied and smoothed ([`crate::dsi`]); every animation (variant 0 first) gets its own writer,
-//! and all of them are written in one stamp order.
+//! `convert` with DSI: each person's clip collected (its keys in a temporary file next to the
+//! output), planned stretch by stretch (a gap splits it), then solved in windows
+//! ([`crate::dsi::stream`]) while it is written: every animation (per person, variant 0 first)
+//! has its own writer, and all of them are written in one stamp order. Memory stays bounded
+//! whatever the clip's length.
 
-use std::collections::BTreeMap;
+use std::cmp::Reverse;
+use std::collections::{BTreeMap, BinaryHeap, VecDeque};
+use std::path::{Path, PathBuf};
 
 use super::PipelineError;
 use super::convert::{DsiSummary, Person, TrackSummary};
 use crate::bags::animation::{TrackWriter, frame_prefix};
 use crate::bags::output::BagOutput;
-use crate::dsi::{self, DsiOptions, Pace};
+use crate::dsi::store::KeyStore;
+use crate::dsi::stream::{ClipKeys, Solver};
+use crate::dsi::{self, DsiError, DsiOptions, Pace};
 use crate::loss::{Losses, WARN_LIMIT};
-use crate::mcap_io::McapIoError;
 use crate::skeleton::convert::{AnimationFrame, SequenceConverter};
 use crate::skeleton::pose::{PoseFrame, stamp_nanos_at};
 use crate::skeleton::rig::Rig;
 
-/// Each animation's writer and frames.
-pub type Animations = Vec<(TrackWriter, Vec<AnimationFrame>)>;
+/// Where the keys of DSI clips are kept while they are solved: the output's folder (so a long
+/// clip costs space where the output goes), or the system's temporary folder for an output
+/// that is a device or a pipe.
+#[must_use]
+pub fn spill_dir(output: &Path) -> PathBuf {
+    if crate::atomic_file::is_special(output) {
+        return std::env::temp_dir();
+    }
+    match output.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    }
+}
 
-/// One person's clip, solved frame by frame as the input is read: its key frames and where a
-/// gap in its stamps splits it.
-#[derive(Debug, Default)]
+/// One person's clip, solved frame by frame as the input is read: its keys, a new stretch
+/// after each gap in its stamps.
+#[derive(Debug)]
 pub(super) struct Clip {
-    keys: Vec<AnimationFrame>,
-    /// Indices of the keys that start a stretch after a gap.
-    breaks: Vec<usize>,
+    track_id: u64,
+    spill_dir: PathBuf,
+    bones: usize,
+    stretches: Vec<ClipKeys>,
 }
 
 impl Clip {
-    /// An empty clip with room for `frames` keys (the count pass 1 read), so that collecting
-    /// them never holds twice their memory while growing.
-    pub(super) fn with_capacity(frames: u64) -> Clip {
+    /// An empty clip of person `track_id`, its keys to be kept in `spill_dir`.
+    pub(super) fn new(track_id: u64, spill_dir: &Path, bones: usize) -> Clip {
         Clip {
-            keys: Vec::with_capacity(usize::try_from(frames).unwrap_or(0)),
-            breaks: Vec::new(),
+            track_id,
+            spill_dir: spill_dir.to_path_buf(),
+            bones,
+            stretches: Vec::new(),
         }
     }
 
     /// Solves the next frame and keeps its pose (`after_gap`: it starts a new stretch).
     ///
     /// # Errors
-    /// [`PipelineError::Solve`] for a frame that cannot be solved.
+    /// [`PipelineError::Solve`] for a frame that cannot be solved, [`PipelineError::Dsi`] when
+    /// the key cannot be kept.
     pub(super) fn take(
         &mut self,
         converter: &mut SequenceConverter<'_>,
         frame: &PoseFrame,
         after_gap: bool,
     ) -> Result<(), PipelineError> {
-        if let Some((stamp_nanos, pose)) = converter.push(frame)? {
-            if after_gap && !self.keys.is_empty() {
-                self.breaks.push(self.keys.len());
-            }
-            self.keys.push(AnimationFrame {
-                stamp_nanos,
-                pose: pose.clone(),
-            });
+        let Some((stamp_nanos, pose)) = converter.push(frame)? else {
+            return Ok(());
+        };
+        let dsi_error = |source| PipelineError::Dsi {
+            track_id: self.track_id,
+            source,
+        };
+        if self
+            .stretches
+            .last()
+            .is_none_or(|s| after_gap && !s.is_empty())
+        {
+            let store = KeyStore::spill(&self.spill_dir, self.bones).map_err(|source| {
+                dsi_error(DsiError::Spill {
+                    dir: Some(self.spill_dir.clone()),
+                    source,
+                })
+            })?;
+            self.stretches.push(ClipKeys::new(store));
         }
-        Ok(())
+        let key = AnimationFrame {
+            stamp_nanos,
+            pose: pose.clone(),
+        };
+        match self.stretches.last_mut() {
+            Some(stretch) => stretch.push(key).map_err(dsi_error),
+            None => Ok(()),
+        }
     }
 }
 
-/// Runs DSI on every person's clip: one summary per person, and every animation (per person,
-/// variant 0 first). Frames dropped for non-monotonic stamps are logged and added to `losses`.
+/// One person's animations (variant 0 first), made window by window as they are written.
+#[derive(Debug)]
+struct PersonAnimations<'r> {
+    track_id: u64,
+    writers: Vec<TrackWriter>,
+    /// The stretches not yet made, each with the shift that starts it one output frame after
+    /// the one before ends.
+    stretches: VecDeque<(Solver<'r>, u64)>,
+    /// Per animation: frames made, not yet written.
+    pending: Vec<VecDeque<AnimationFrame>>,
+}
+
+impl PersonAnimations<'_> {
+    /// The stamp of animation `v`'s next frame, making the next window when none is pending.
+    fn next_stamp(&mut self, v: usize) -> Result<Option<u64>, PipelineError> {
+        while self.pending[v].is_empty() {
+            let Some((solver, shift)) = self.stretches.front_mut() else {
+                return Ok(None);
+            };
+            let shift = *shift;
+            match solver.next_window() {
+                Ok(Some(window)) => {
+                    for (pending, frames) in self.pending.iter_mut().zip(window) {
+                        pending.extend(frames.into_iter().map(|mut f| {
+                            f.stamp_nanos += shift;
+                            f
+                        }));
+                    }
+                }
+                Ok(None) => {
+                    self.stretches.pop_front();
+                }
+                Err(source) => {
+                    return Err(PipelineError::Dsi {
+                        track_id: self.track_id,
+                        source,
+                    });
+                }
+            }
+        }
+        Ok(self.pending[v].front().map(|f| f.stamp_nanos))
+    }
+}
+
+/// Every person's animations, planned and ready to be written.
+#[derive(Debug)]
+pub struct Animations<'r> {
+    people: Vec<PersonAnimations<'r>>,
+}
+
+impl Animations<'_> {
+    /// Every animation's writer (per person, variant 0 first).
+    pub fn writers(&self) -> impl Iterator<Item = &TrackWriter> {
+        self.people.iter().flat_map(|p| &p.writers)
+    }
+}
+
+/// Plans DSI on every person's clip: one summary per person, and every animation (per person,
+/// variant 0 first), to be written by [`write_in_stamp_order`]. Frames dropped for
+/// non-monotonic stamps are logged and added to `losses`.
 ///
 /// # Errors
 /// [`PipelineError::Dsi`] naming the track.
-pub(super) fn solve_all(
-    rig: &Rig,
+pub(super) fn solve_all<'r>(
+    rig: &'r Rig,
     people: Vec<Person<'_>>,
     clips: Vec<Clip>,
     options: &DsiOptions,
     several_people: bool,
     losses: &mut Losses,
-) -> Result<(Vec<TrackSummary>, Animations), PipelineError> {
+) -> Result<(Vec<TrackSummary>, Animations<'r>), PipelineError> {
     let mut tracks = Vec::with_capacity(people.len());
-    let mut all = Vec::new();
+    let mut all = Vec::with_capacity(people.len());
     for (person, clip) in people.into_iter().zip(clips) {
         let (summary, animations) = whole_clip(rig, person, clip, options, several_people, losses)?;
         tracks.push(summary);
-        all.extend(animations);
+        all.push(animations);
     }
-    Ok((tracks, all))
+    Ok((tracks, Animations { people: all }))
 }
 
-/// DSI on a clip stretch by stretch (a gap splits it): the plans, and per variant the stretches'
-/// frames end to end. A stretch whose output would start before the previous one's ends (DSI
-/// can lengthen a stretch) is moved to start one output frame after it.
-fn run_stretches(
-    rig: &Rig,
+/// Plans every stretch of a clip, each shifted to start one output frame after the one before
+/// ends (DSI can lengthen a stretch).
+fn plan_stretches<'r>(
+    rig: &'r Rig,
     track_id: u64,
-    clip: &Clip,
+    clip: Clip,
     options: &DsiOptions,
-) -> Result<(Vec<dsi::plan::Plan>, Vec<Vec<AnimationFrame>>), PipelineError> {
-    let mut bounds = vec![0];
-    bounds.extend(&clip.breaks);
-    bounds.push(clip.keys.len());
-    let mut plans = Vec::new();
-    let mut animations: Vec<Vec<AnimationFrame>> = Vec::new();
-    for w in bounds.windows(2) {
-        let result = dsi::run(rig, &clip.keys[w[0]..w[1]], options)
+) -> Result<VecDeque<(Solver<'r>, u64)>, PipelineError> {
+    let mut stretches = VecDeque::with_capacity(clip.stretches.len());
+    let mut end: Option<u64> = None;
+    for keys in clip.stretches {
+        let solver = keys
+            .solve(rig, options)
             .map_err(|source| PipelineError::Dsi { track_id, source })?;
-        let start = result.animations[0].first().map_or(0, |f| f.stamp_nanos);
-        let shift = animations.first().and_then(|a| a.last()).map_or(0, |last| {
-            (last.stamp_nanos + stamp_nanos_at(1, options.out_fps)).saturating_sub(start)
+        let shift = end.map_or(0, |last| {
+            (last + stamp_nanos_at(1, options.out_fps)).saturating_sub(solver.first_stamp_nanos())
         });
-        animations.resize_with(result.animations.len(), Vec::new);
-        for (all, frames) in animations.iter_mut().zip(result.animations) {
-            all.extend(frames.into_iter().map(|mut f| {
-                f.stamp_nanos += shift;
-                f
-            }));
-        }
-        plans.push(result.plan);
+        end = Some(solver.stamp_nanos(solver.frames().saturating_sub(1)) + shift);
+        stretches.push_back((solver, shift));
     }
-    Ok((plans, animations))
+    Ok(stretches)
 }
 
-/// Runs DSI on one person's clip: the person's summary and a writer with its frames per
-/// animation (variant 0 first).
-fn whole_clip(
-    rig: &Rig,
+/// Plans DSI on one person's clip: the person's summary, and a writer per animation (variant 0
+/// first) with its stretches.
+fn whole_clip<'r>(
+    rig: &'r Rig,
     person: Person<'_>,
     clip: Clip,
     options: &DsiOptions,
     several_people: bool,
     losses: &mut Losses,
-) -> Result<(TrackSummary, Animations), PipelineError> {
+) -> Result<(TrackSummary, PersonAnimations<'r>), PipelineError> {
     let Person {
         track_id,
         topic,
@@ -140,18 +225,18 @@ fn whole_clip(
     let dropped = Losses::non_monotonic(source, topic, track_id, &report.dropped_non_monotonic);
     dropped.warn(WARN_LIMIT);
     losses.append(dropped);
-    let (plans, result_animations) = run_stretches(rig, track_id, &clip, options)?;
-    drop(clip);
+    let stretches = plan_stretches(rig, track_id, clip, options)?;
+    let plans: Vec<&dsi::plan::Plan> = stretches.iter().map(|(s, _)| s.plan()).collect();
     let Some(plan) = plans.first() else {
         return Err(PipelineError::Dsi {
             track_id,
-            source: dsi::DsiError::NoFrames,
+            source: DsiError::NoFrames,
         });
     };
     let summary = TrackSummary {
         track_id,
         frames_in: report.frames,
-        frames_out: result_animations.first().map_or(0, |a| a.len() as u64),
+        frames_out: stretches.iter().map(|(s, _)| s.frames() as u64).sum(),
         fps: options.out_fps,
         degenerate_frames: report.degenerate_frames,
         bones_at_rest: report.coverage.at_rest.len(),
@@ -159,8 +244,8 @@ fn whole_clip(
         dsi: Some(DsiSummary {
             threshold_rad: plan.threshold_rad,
             segments: plans.iter().map(|p| p.segments).sum(),
-            transitions: plans.iter().map(dsi::plan::Plan::transition_count).sum(),
-            frames_added: plans.iter().map(dsi::plan::Plan::frames_added).sum(),
+            transitions: plans.iter().map(|p| p.transition_count()).sum(),
+            frames_added: plans.iter().map(|p| p.frames_added()).sum(),
             eta: plan.eta,
             delta: plan.delta,
             smoothed: options.smoothing.is_some(),
@@ -168,49 +253,61 @@ fn whole_clip(
             seed: options.seed,
         }),
     };
-    let mut writer = Some(writer);
-    let animations = result_animations
-        .into_iter()
-        .zip(0u32..)
-        .map(|(frames, v)| {
-            let w = writer.take().filter(|_| v == 0).unwrap_or_else(|| {
-                TrackWriter::new(
-                    rig,
-                    &character,
-                    &coverage,
-                    track_id,
-                    v,
-                    &frame_prefix(track_id, v, several_people),
-                )
-            });
-            (w, frames)
-        })
-        .collect();
-    Ok((summary, animations))
+    let mut writers = vec![writer];
+    for v in 1..=options.variants {
+        // `ConvertJob::check` keeps the variants within u32.
+        let v = u32::try_from(v).unwrap_or(u32::MAX);
+        writers.push(TrackWriter::new(
+            rig,
+            &character,
+            &coverage,
+            track_id,
+            v,
+            &frame_prefix(track_id, v, several_people),
+        ));
+    }
+    let pending = (0..writers.len()).map(|_| VecDeque::new()).collect();
+    Ok((
+        summary,
+        PersonAnimations {
+            track_id,
+            writers,
+            stretches,
+            pending,
+        },
+    ))
 }
 
-/// Writes all animations in stamp order (ties: person, then variant).
+/// Makes and writes all animations in stamp order (ties: person, then variant), holding a
+/// window of each at a time.
 ///
 /// # Errors
-/// [`McapIoError`] from the writer.
+/// [`PipelineError`] from DSI or the writer.
 pub(super) fn write_in_stamp_order(
     out: &mut BagOutput,
-    animations: &mut Animations,
-) -> Result<(), McapIoError> {
-    let mut order: Vec<(u64, usize, usize)> = animations
+    animations: &mut Animations<'_>,
+) -> Result<(), PipelineError> {
+    let index: Vec<(usize, usize)> = animations
+        .people
         .iter()
         .enumerate()
-        .flat_map(|(c, (_, frames))| {
-            frames
-                .iter()
-                .enumerate()
-                .map(move |(k, f)| (f.stamp_nanos, c, k))
-        })
+        .flat_map(|(p, person)| (0..person.writers.len()).map(move |v| (p, v)))
         .collect();
-    order.sort_unstable();
-    for (stamp, c, k) in order {
-        let (writer, frames) = &mut animations[c];
-        writer.write_frame(&mut out.writer, stamp, &frames[k].pose)?;
+    let mut heads = BinaryHeap::with_capacity(index.len());
+    for (c, &(p, v)) in index.iter().enumerate() {
+        if let Some(stamp) = animations.people[p].next_stamp(v)? {
+            heads.push(Reverse((stamp, c)));
+        }
+    }
+    while let Some(Reverse((stamp, c))) = heads.pop() {
+        let (p, v) = index[c];
+        let person = &mut animations.people[p];
+        if let Some(frame) = person.pending[v].pop_front() {
+            person.writers[v].write_frame(&mut out.writer, stamp, &frame.pose)?;
+        }
+        if let Some(next) = person.next_stamp(v)? {
+            heads.push(Reverse((next, c)));
+        }
     }
     Ok(())
 }
