@@ -75,6 +75,8 @@ pub struct Args {
 pub struct DsiArgs {
     /// Run DSI: cut the clip into unit motions at fast transitions, resample them at real speed
     /// with a tangent-space cubic, give each transition extra frames, smooth (SuperSmoother).
+    /// The clip is planned whole and solved in windows: its solved keys wait in an unnamed
+    /// temporary file in the output's folder (1.7 KB per input frame), not in memory.
     #[arg(long)]
     pub dsi: bool,
     /// Where DSI cuts: `3x` (3 × the clip's median weighted angular distance, never below
