@@ -1285,3 +1285,57 @@ fn pose_arrays_in_a_tilted_camera_frame_are_grounded() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(!stderr(&o).contains("grounded"), "{}", stderr(&o));
 }
+
+#[test]
+fn dsi_on_long_clips_of_several_people_is_written_in_one_stamp_order() {
+    // Two people for 3,000 frames (more than one of DSI's 2,048-frame windows), person 8 with a
+    // 10 s gap; two variants each: six animations made window by window and merged.
+    let dir = tempfile::tempdir().unwrap();
+    let path = two_people_bag(dir.path(), 3000, |k, track| {
+        track == 3 || !(1000..1300).contains(&k)
+    });
+    let out = dir.path().join("out.mcap");
+    let o = autoact(&[
+        "convert",
+        arg(&path),
+        "-o",
+        arg(&out),
+        "--dsi",
+        "--variants",
+        "2",
+        "--max-gap",
+        "1",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let frames = bone_frames(&out);
+    let key = |(t, f): &(u64, BoneFrame)| (*t, f.track_id, f.variant);
+    assert!(
+        frames.windows(2).all(|w| key(&w[0]) < key(&w[1])),
+        "not in (stamp, person, variant) order"
+    );
+    for track in [3, 8] {
+        let count = |v: u32| {
+            frames
+                .iter()
+                .filter(|(_, f)| f.track_id == track && f.variant == v)
+                .count()
+        };
+        assert!(count(0) >= 2700, "track {track}: {} frames", count(0));
+        assert_eq!(count(1), count(0), "track {track}");
+        assert_eq!(count(2), count(0), "track {track}");
+    }
+    // Nothing of person 8 inside its gap.
+    let (gap_start, gap_end) = (stamp_nanos_at(1000, 30.0), stamp_nanos_at(1299, 30.0));
+    assert!(
+        frames
+            .iter()
+            .filter(|(_, f)| f.track_id == 8)
+            .all(|(t, _)| *t < gap_start || *t > gap_end)
+    );
+    // No temporary file is left next to the output.
+    let left: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(left.len(), 2, "{left:?}");
+}

@@ -122,6 +122,15 @@ fn a_full_disk_leaves_no_truncated_file_and_the_old_output_untouched() {
         &["convert", pose.as_str(), "-o", arg(&folder), "--rosbag2"],
     );
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    // With DSI, the clip's keys wait in a temporary file in the output's folder: a full disk
+    // stops them there, with an error that says so, and leaves nothing behind.
+    let o = autoact_with_full_disk(16, &["convert", pose.as_str(), "-o", arg(&fresh), "--dsi"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("temporary file for the clip's key frames"),
+        "{}",
+        stderr(&o)
+    );
     assert_eq!(names_in(dir.path()), ["walk.anim.mcap"], "leftovers");
 }
 
@@ -131,6 +140,8 @@ fn a_device_output_is_written_in_place_and_never_replaced() {
     for command in [
         vec!["convert", pose.as_str(), "-o", "/dev/null"],
         vec!["convert", pose.as_str(), "-o", "/dev/null", "--force"],
+        // DSI's keys go to the system's temporary folder, not next to the device.
+        vec!["convert", pose.as_str(), "-o", "/dev/null", "--dsi"],
     ] {
         let o = autoact(&command);
         assert_eq!(o.status.code(), Some(0), "{command:?}: {}", stderr(&o));
