@@ -75,40 +75,43 @@ pub fn reject_track(track: &mut [UnitQuaternion<f64>], times_s: &[f64]) -> usize
     let residuals: Vec<f64> = (0..n)
         .map(|f| rotation_distance(&track[f], &expect(track, times_s, f, side_of(f, n))))
         .collect();
-    let bounds: Vec<f64> = (0..n)
-        .map(|f| {
-            // Compared with residuals of the same kind: the ends are extrapolated, so their
-            // neighbours' residuals are taken as if each were an end too.
-            let side = side_of(f, n);
-            let lo = f.saturating_sub(if side == Side::FromLeft {
+    // Each key's bound, from the residuals before any replacement: computed only for the keys
+    // that pass the cheaper tests (most keys of clean motion do not), the ends' up front since
+    // theirs are measured on the track, which the replacements change.
+    let bound = |track: &[UnitQuaternion<f64>], f: usize| {
+        // Compared with residuals of the same kind: the ends are extrapolated, so their
+        // neighbours' residuals are taken as if each were an end too.
+        let side = side_of(f, n);
+        let lo = f.saturating_sub(if side == Side::FromLeft {
+            2 * WINDOW
+        } else {
+            WINDOW
+        });
+        let hi = (f
+            + 1
+            + if side == Side::FromRight {
                 2 * WINDOW
             } else {
                 WINDOW
-            });
-            let hi = (f
-                + 1
-                + if side == Side::FromRight {
-                    2 * WINDOW
-                } else {
-                    WINDOW
-                })
-            .min(n);
-            let mut window: Vec<f64> = (lo..hi)
-                .filter(|&j| j != f)
-                .filter_map(|j| match side {
-                    Side::Both => Some(residuals[j]),
-                    Side::FromRight => (j + 2 < n)
-                        .then(|| rotation_distance(&track[j], &expect(track, times_s, j, side))),
-                    Side::FromLeft => (j >= 2)
-                        .then(|| rotation_distance(&track[j], &expect(track, times_s, j, side))),
-                })
-                .collect();
-            let median = median_of(&mut window);
-            let mut deviations: Vec<f64> = window.iter().map(|r| (r - median).abs()).collect();
-            let mad = median_of(&mut deviations);
-            median + Z_OUTLIER * 1.4826 * mad
-        })
-        .collect();
+            })
+        .min(n);
+        let mut window: Vec<f64> = (lo..hi)
+            .filter(|&j| j != f)
+            .filter_map(|j| match side {
+                Side::Both => Some(residuals[j]),
+                Side::FromRight => (j + 2 < n)
+                    .then(|| rotation_distance(&track[j], &expect(track, times_s, j, side))),
+                Side::FromLeft => {
+                    (j >= 2).then(|| rotation_distance(&track[j], &expect(track, times_s, j, side)))
+                }
+            })
+            .collect();
+        let median = median_of(&mut window);
+        let mut deviations: Vec<f64> = window.iter().map(|r| (r - median).abs()).collect();
+        let mad = median_of(&mut deviations);
+        median + Z_OUTLIER * 1.4826 * mad
+    };
+    let end_bounds = [bound(track, 0), bound(track, n - 1)];
     // Interior keys first, the largest first; then the ends, which are extrapolated from keys
     // that must be repaired before.
     let mut order: Vec<usize> = (1..n - 1)
@@ -126,7 +129,14 @@ pub fn reject_track(track: &mut [UnitQuaternion<f64>], times_s: &[f64]) -> usize
             (None, _) => rotation_distance(&track[1], &track[2]),
             (Some(_), None) => rotation_distance(&track[n - 3], &track[n - 2]),
         };
-        if r > MIN_OUTLIER_RAD && r > bounds[f] && r > NEIGHBOUR_AGREEMENT * spread {
+        if r > MIN_OUTLIER_RAD && r > NEIGHBOUR_AGREEMENT * spread && {
+            let b = match f {
+                0 => end_bounds[0],
+                f if f + 1 == n => end_bounds[1],
+                f => bound(track, f),
+            };
+            r > b
+        } {
             let prediction = predict(track, times_s, f, side);
             track[f] = align_hemisphere(prediction, &track[f]);
             replaced += 1;
@@ -273,18 +283,24 @@ fn predict(
         let ratio = (times_s[f] - times_s[b]) / (times_s[b] - times_s[a]);
         return track[b] * exp_rotation(&(step * ratio));
     }
-    let neighbours: Vec<usize> = [f.checked_sub(2), f.checked_sub(1), Some(f + 1), Some(f + 2)]
+    let mut stencil = [0; 4];
+    let mut count = 0;
+    for j in [f.checked_sub(2), f.checked_sub(1), Some(f + 1), Some(f + 2)]
         .into_iter()
         .flatten()
         .filter(|&j| j < n)
-        .collect();
+    {
+        stencil[count] = j;
+        count += 1;
+    }
+    let neighbours = &stencil[..count];
     // The chart at the nearest earlier neighbour.
     let chart = track[f - 1];
     let inverse = chart.inverse();
     let mut v = Vector3::zeros();
-    for &j in &neighbours {
+    for &j in neighbours {
         let mut w = 1.0;
-        for &m in &neighbours {
+        for &m in neighbours {
             if m != j {
                 w *= (times_s[f] - times_s[m]) / (times_s[j] - times_s[m]);
             }
