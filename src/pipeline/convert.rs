@@ -132,6 +132,9 @@ pub struct TrackSummary {
     pub fps: f64,
     /// Frames in which a bone needed the degenerate-input path.
     pub degenerate_frames: usize,
+    /// The bones that needed it, with their counts per kind
+    /// ([`crate::skeleton::convert::Degeneracy::ALL`] order), the most frequent first.
+    pub degenerate_bones: Vec<(String, [usize; 5])>,
     /// Bones the layout does not drive.
     pub bones_at_rest: usize,
     /// The input's layout.
@@ -174,7 +177,7 @@ impl std::fmt::Display for TrackSummary {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(
             f,
-            "  track {}: {} frames in, {} out{} at {} fps; {} frames needed the degenerate-input path; {} bones at rest ({})",
+            "  track {}: {} frames in, {} out{} at {} fps; {} frames needed the degenerate-input path{}; {} bones at rest ({})",
             self.track_id,
             self.frames_in,
             self.frames_out,
@@ -185,6 +188,11 @@ impl std::fmt::Display for TrackSummary {
             },
             self.fps,
             self.degenerate_frames,
+            if self.degenerate_frames > 0 {
+                " (per bone and kind: -v, or `autoact info` on the output)"
+            } else {
+                ""
+            },
             self.bones_at_rest,
             self.layout_name,
         )?;
@@ -342,6 +350,7 @@ pub fn convert_bag(rig: &Rig, job: &ConvertJob) -> Result<ConvertSummary, Pipeli
         let mut out = BagOutput::create(&job.output)?;
         write_header(&mut out, &scan.metadata, meta, first, animations.writers())?;
         whole_clip::write_in_stamp_order(&mut out, &mut animations)?;
+        write_degenerate(&mut out, &tracks)?;
         out.finish()?;
         tracks
     } else {
@@ -351,7 +360,8 @@ pub fn convert_bag(rig: &Rig, job: &ConvertJob) -> Result<ConvertSummary, Pipeli
         let stamps =
             read_again(&mut |f| stream_frame(&mut out, &mut people[f.track], &f, job.fps))?;
         take_stamp_report(&stamps, &mut losses);
-        let tracks = finish_people(&mut out, people, job.fps, &mut losses)?;
+        let tracks = finish_people(rig, &mut out, people, job.fps, &mut losses)?;
+        write_degenerate(&mut out, &tracks)?;
         out.finish()?;
         tracks
     };
@@ -360,6 +370,30 @@ pub fn convert_bag(rig: &Rig, job: &ConvertJob) -> Result<ConvertSummary, Pipeli
         tracks,
         losses,
     })
+}
+
+/// The name of the metadata record that explains the degenerate input of a conversion.
+pub const DEGENERATE_RECORD: &str = "autoact.degenerate";
+
+/// Explains every track's degenerate input (per bone, per kind) on stderr at `-v` and in the
+/// [`DEGENERATE_RECORD`] metadata record (written after the frames, so `info` shows it), keyed
+/// `track <id> <bone>`. Nothing when no bone needed the degenerate-input path.
+fn write_degenerate(out: &mut BagOutput, tracks: &[TrackSummary]) -> Result<(), McapIoError> {
+    let mut record = BTreeMap::new();
+    for t in tracks {
+        for (bone, events) in &t.degenerate_bones {
+            let words = crate::skeleton::convert::describe_events(events);
+            tracing::info!(
+                "track {}: {bone} took the degenerate-input path: {words}",
+                t.track_id
+            );
+            record.insert(format!("track {} {bone}", t.track_id), words);
+        }
+    }
+    if record.is_empty() {
+        return Ok(());
+    }
+    out.writer.write_metadata(DEGENERATE_RECORD, record)
 }
 
 /// The longest gap in a track's stamps that is interpolated across: `--max-gap` when given,
@@ -573,6 +607,7 @@ fn stream_frame(
 /// Ends every streamed person: the resampler's last frames written, the report summed up, the
 /// frames dropped for non-monotonic stamps logged and added to `losses`.
 fn finish_people(
+    rig: &Rig,
     out: &mut BagOutput,
     people: Vec<Person<'_>>,
     fps: f64,
@@ -609,6 +644,7 @@ fn finish_people(
             frames_out,
             fps,
             degenerate_frames: report.degenerate_frames,
+            degenerate_bones: report.degenerate_bones(rig),
             bones_at_rest: report.coverage.at_rest.len(),
             layout_name,
             dsi: None,

@@ -239,6 +239,7 @@ fn whole_clip<'r>(
         frames_out: stretches.iter().map(|(s, _)| s.frames() as u64).sum(),
         fps: options.out_fps,
         degenerate_frames: report.degenerate_frames,
+        degenerate_bones: report.degenerate_bones(rig),
         bones_at_rest: report.coverage.at_rest.len(),
         layout_name,
         dsi: Some(DsiSummary {

@@ -160,15 +160,43 @@ pub struct ConversionReport {
     pub degenerate_frames: usize,
     /// Per kind ([`Degeneracy::ALL`] order): how many (frame, bone) events.
     pub events: [usize; 5],
-    /// Per bone: frames in which it needed the degenerate-input path.
-    pub bone_degenerate_frames: Vec<usize>,
+    /// Per bone, per kind ([`Degeneracy::ALL`] order): frames in which the bone took the
+    /// degenerate-input path for that reason.
+    pub bone_events: Vec<[usize; 5]>,
     /// Frames dropped because their stamp was not after the previous one: (frame index, stamp).
     pub dropped_non_monotonic: Vec<(usize, u64)>,
     /// Which bones the layout drives.
     pub coverage: Coverage,
 }
 
-impl ConversionReport {}
+impl ConversionReport {
+    /// The bones that took the degenerate-input path, by name, with their counts per kind
+    /// ([`Degeneracy::ALL`] order), the most frequent first.
+    #[must_use]
+    pub fn degenerate_bones(&self, rig: &Rig) -> Vec<(String, [usize; 5])> {
+        let mut bones: Vec<(String, [usize; 5])> = self
+            .bone_events
+            .iter()
+            .zip(&rig.bones)
+            .filter(|(events, _)| events.iter().any(|&n| n > 0))
+            .map(|(events, bone)| (bone.name.clone(), *events))
+            .collect();
+        bones.sort_by_key(|(_, events)| std::cmp::Reverse(events.iter().sum::<usize>()));
+        bones
+    }
+}
+
+/// `events` per kind ([`Degeneracy::ALL`] order) in words: `missing joint ×12, low confidence ×3`.
+#[must_use]
+pub fn describe_events(events: &[usize; 5]) -> String {
+    Degeneracy::ALL
+        .iter()
+        .zip(events)
+        .filter(|&(_, &n)| n > 0)
+        .map(|(kind, n)| format!("{} ×{n}", kind.label()))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
 
 /// One animation frame.
 #[derive(Debug, Clone, PartialEq)]
@@ -422,7 +450,7 @@ impl<'r> Converter<'r> {
                 frames: 0,
                 degenerate_frames: 0,
                 events: [0; 5],
-                bone_degenerate_frames: vec![0; rig.bones.len()],
+                bone_events: vec![[0; 5]; rig.bones.len()],
                 dropped_non_monotonic: Vec::new(),
                 coverage,
             },
@@ -450,7 +478,7 @@ impl<'r> Converter<'r> {
 
     fn count(&mut self, bone: usize, kind: Degeneracy) {
         self.report.events[kind.index()] += 1;
-        self.report.bone_degenerate_frames[bone] += 1;
+        self.report.bone_events[bone][kind.index()] += 1;
         self.frame_flags = true;
     }
 

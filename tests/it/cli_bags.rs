@@ -1339,3 +1339,136 @@ fn dsi_on_long_clips_of_several_people_is_written_in_one_stamp_order() {
         .collect();
     assert_eq!(left.len(), 2, "{left:?}");
 }
+
+#[test]
+fn a_long_json_file_is_imported_frame_by_frame_in_stamp_then_track_order() {
+    // 9,000 frames (past the 8,192-frame sample), two people listed as 7 then 2, person 7
+    // missing for 100 frames: both grounded and length-fixed on their samples, every frame
+    // written, in (stamp, track) order.
+    let dir = tempfile::tempdir().unwrap();
+    let poses: Vec<Vec<[f64; 3]>> = (0..300)
+        .map(|k| {
+            h36m_frame(k)
+                .positions_m
+                .iter()
+                .map(|p| [p.x, p.y, p.z])
+                .collect()
+        })
+        .collect();
+    let json = dir.path().join("long.json");
+    let mut text = String::from("[");
+    for k in 0..9000usize {
+        let pose = &poses[k % poses.len()];
+        let shifted: Vec<[f64; 3]> = pose.iter().map(|p| [p[0] + 1.0, p[1], p[2]]).collect();
+        let mut people = Vec::new();
+        if !(100..200).contains(&k) {
+            people.push(serde_json::json!({"track_id": 7, "keypoints": pose}));
+        }
+        people.push(serde_json::json!({"track_id": 2, "keypoints": shifted}));
+        if k > 0 {
+            text.push(',');
+        }
+        text += &serde_json::json!({"frame_id": k, "instances": people}).to_string();
+    }
+    text.push(']');
+    std::fs::write(&json, text).unwrap();
+    let bag = dir.path().join("long.pose.mcap");
+    let o = autoact(&[
+        "import",
+        arg(&json),
+        "-o",
+        arg(&bag),
+        "--layout",
+        "h36m-17",
+        "--fps",
+        "30",
+        "--axes",
+        "z-up",
+        "--lengths",
+        "fixed",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = common::stdout(&o);
+    assert!(out.contains("17900 skeletons (2 tracks)"), "{out}");
+    for track in [2, 7] {
+        assert!(out.contains(&format!("track {track}: grounded")), "{out}");
+        assert!(
+            out.contains(&format!("track {track}: l_hip→l_knee→l_ankle held at")),
+            "{out}"
+        );
+    }
+    let skeletons: Vec<(u64, u64)> = BagReader::open(&bag)
+        .unwrap()
+        .messages()
+        .map(Result::unwrap)
+        .filter(|m| m.channel.topic == "/skeleton")
+        .map(|m| {
+            let s = cdr::decode::<Skeleton3D>(&m.data).unwrap();
+            (s.header.stamp.to_nanos().unwrap(), s.track_id)
+        })
+        .collect();
+    assert_eq!(skeletons.len(), 17_900);
+    assert!(
+        skeletons.windows(2).all(|w| w[0] < w[1]),
+        "not in (stamp, track) order"
+    );
+    assert_eq!(skeletons[0], (0, 2));
+    assert_eq!(skeletons[1], (0, 7));
+}
+
+#[test]
+fn degenerate_input_is_explained_per_bone_and_kind() {
+    // A left wrist lost for 5 frames, a right elbow below the confidence threshold for 3, a left
+    // knee on its hip (a zero-length thigh) for 2: each counted on the bone it drives, by kind,
+    // at -v on stderr and in the output's `autoact.degenerate` record, which `info` shows.
+    let dir = tempfile::tempdir().unwrap();
+    let input = pose_bag(dir.path(), "bad.mcap", 40, |k, s| {
+        if (10..15).contains(&k) {
+            s.positions[13].x = f64::NAN;
+        }
+        if (20..23).contains(&k) {
+            s.confidence[15] = 0.05;
+        }
+        if (30..32).contains(&k) {
+            s.positions[5] = s.positions[4].clone();
+        }
+    });
+    let out = dir.path().join("out.mcap");
+    let o = autoact(&["-v", "convert", arg(&input), "-o", arg(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("l_forearm took the degenerate-input path: missing joint ×5"),
+        "{err}"
+    );
+    assert!(common::stdout(&o).contains("10 frames needed the degenerate-input path (per bone"));
+    let info = autoact(&["info", arg(&out), "--format", "json"]);
+    let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    let record = v["metadata"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|m| m["name"] == "autoact.degenerate")
+        .expect("the record")["metadata"]
+        .clone();
+    let of = |bone: &str| {
+        record[format!("track 0 {bone}")]
+            .as_str()
+            .unwrap_or("")
+            .to_string()
+    };
+    assert_eq!(of("l_forearm"), "missing joint ×5", "{record}");
+    assert!(of("r_upper_arm").contains("low confidence ×3"), "{record}");
+    assert!(of("r_forearm").contains("low confidence ×3"), "{record}");
+    assert!(of("l_thigh").contains("zero-length bone ×2"), "{record}");
+    // A clean clip writes no record.
+    let clean = dir.path().join("clean.mcap");
+    let input = pose_bag(dir.path(), "clean_in.mcap", 40, |_, _| {});
+    assert!(
+        autoact(&["convert", arg(&input), "-o", arg(&clean)])
+            .status
+            .success()
+    );
+    let info = common::stdout(&autoact(&["info", arg(&clean)]));
+    assert!(!info.contains("autoact.degenerate"), "{info}");
+}
