@@ -38,7 +38,7 @@ use nalgebra::Vector3;
 mod synth;
 
 fn synthesize(frames: usize, fps: f64) -> Result<PoseSequence> {
-    let mut motion = synth::Motion::new()?;
+    let mut motion = synth::Motion::in_layout("h36m-17")?;
     let frames = (0..frames)
         .map(|k| motion.frame(k, fps, |t| Vector3::new(0.0, 0.8 * t, 0.0)))
         .collect();

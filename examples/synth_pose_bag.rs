@@ -22,7 +22,7 @@ fn main() -> Result<()> {
     let frames: usize = args.get(1).context("FRAMES")?.parse()?;
     let out = Path::new(args.get(2).context("OUT.mcap")?);
     let fps: f64 = args.get(3).map_or(Ok(50.0), |s| s.parse())?;
-    let mut motion = synth::Motion::new()?;
+    let mut motion = synth::Motion::in_layout("h36m-17")?;
     let seq = PoseSequence {
         source: "synthetic".into(),
         track_id: 0,

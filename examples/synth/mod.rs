@@ -1,4 +1,4 @@
-//! The synthetic H36M-17 motion the benchmarks write and convert: every hinge swings, the right
+//! The synthetic motion (H36M-17 keypoints, or any built-in layout's) the benchmarks write and convert: every hinge swings, the right
 //! upper arm waves, the root turns slowly; where the root goes is the caller's.
 
 use anyhow::{Context, Result};
@@ -12,7 +12,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 /// The body and layout the motion is made on, and its current pose.
 pub struct Motion {
     rig: Rig,
-    /// The `h36m-17` layout the keypoints are in.
+    /// The layout the keypoints are in.
     pub layout: Layout,
     character: Character,
     pose: BonePose,
@@ -20,10 +20,10 @@ pub struct Motion {
 }
 
 impl Motion {
-    /// The standard rig and body, keypoints in `h36m-17`.
-    pub fn new() -> Result<Motion> {
+    /// The standard rig and body, keypoints in the built-in layout `layout`.
+    pub fn in_layout(layout: &str) -> Result<Motion> {
         let rig = Rig::standard();
-        let layout = Layout::builtin("h36m-17").context("built-in layout")?;
+        let layout = Layout::builtin(layout).context("built-in layout")?;
         let character = Character::standard(&rig);
         let pose = BonePose::rest(&rig);
         let arm = rig.bone_index("r_upper_arm").context("bone")?;

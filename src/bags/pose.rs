@@ -17,7 +17,7 @@ use std::path::Path;
 
 use nalgebra::Point3;
 
-use crate::mcap_io::{BagMessage, BagReader, BagWriter, McapIoError, ReadIssue};
+use crate::mcap_io::{BagMessage, BagReader, McapIoError, ReadIssue};
 use crate::ros::autoact_msgs::Skeleton3D;
 use crate::ros::builtin_interfaces::Time;
 use crate::ros::geometry_msgs::{Point, PoseArray};
@@ -45,36 +45,6 @@ pub const POSE_TYPES: [&str; 3] = [
     MarkerArray::TYPE_NAME,
     PoseArray::TYPE_NAME,
 ];
-
-/// Writes pose sequences as a pose bag: one `Skeleton3D` per person per frame on
-/// [`SKELETON_TOPIC`], in stamp order (ties by track id), and a metadata record.
-///
-/// # Errors
-/// [`McapIoError`] from the writer.
-pub fn write_pose_bag<W: std::io::Write + std::io::Seek>(
-    writer: &mut BagWriter<W>,
-    sequences: &[PoseSequence],
-    layout: &str,
-    metadata: BTreeMap<String, String>,
-) -> Result<u64, McapIoError> {
-    writer.write_metadata(METADATA_NAME, metadata)?;
-    let mut order: Vec<(u64, u64, usize, usize)> = Vec::new();
-    for (s, seq) in sequences.iter().enumerate() {
-        for (f, frame) in seq.frames.iter().enumerate() {
-            order.push((frame.stamp_nanos, seq.track_id, s, f));
-        }
-    }
-    order.sort_unstable();
-    for &(stamp, _, s, f) in &order {
-        let seq = &sequences[s];
-        writer.write(
-            SKELETON_TOPIC,
-            stamp,
-            &skeleton_message(seq, &seq.frames[f], layout),
-        )?;
-    }
-    Ok(order.len() as u64)
-}
 
 /// The `Skeleton3D` message of one frame.
 #[must_use]

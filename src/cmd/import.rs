@@ -5,7 +5,6 @@ use std::path::PathBuf;
 use anyhow::Result;
 
 use super::{Outcome, OutputArgs, print_stdout};
-use crate::bags;
 use crate::bags::output::BagOutput;
 use crate::formats::import::{self, ImportOptions, Imported, InputFormat};
 use crate::skeleton::frames::SourceAxes;
@@ -111,17 +110,18 @@ pub fn run(args: Args) -> Result<Outcome> {
     };
     crate::atomic_file::refuse_input_as_output(&input, &output.output)?;
     output.options().refuse_existing()?;
-    let imported = import::import(&input, &options)?;
+    // MMPose JSON is measured on a sample, then read again frame by frame as it is written.
+    let mut imported = import::measure(&input, &options)?;
     let metadata = imported.metadata(&input, category, action);
+    let mut out = BagOutput::create(&output.options())?;
+    let written = imported.write(&mut out.writer, metadata)?;
+    let stats = out.finish()?;
     let notes = imported.notes();
     let Imported {
         sequences,
         layout: layout_name,
         ..
     } = imported;
-    let mut out = BagOutput::create(&output.options())?;
-    let written = bags::pose::write_pose_bag(&mut out.writer, &sequences, &layout_name, metadata)?;
-    let stats = out.finish()?;
     let (start, end) = stats.time_range.unwrap_or((0, 0));
     let seconds = crate::skeleton::pose::nanos_to_secs(end - start);
     print_stdout(&format!(

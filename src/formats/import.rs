@@ -14,14 +14,15 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use crate::bags::pose::skeleton_message;
 use crate::formats::bvh_map::{self, BvhMapError, BvhMapping};
 use crate::formats::{bvh, h36m_expmap, mmpose_json, ntu, zed_mat};
 use crate::skeleton::eval::LengthStability;
 use crate::skeleton::frames::SourceAxes;
 use crate::skeleton::ground::{self, GroundMode, Grounding};
 use crate::skeleton::layout::{Layout, LayoutError};
-use crate::skeleton::lengths::{self, LengthFix, LengthMode};
-use crate::skeleton::pose::PoseSequence;
+use crate::skeleton::lengths::{self, LengthFix, LengthMode, LimbFixer};
+use crate::skeleton::pose::{PoseFrame, PoseSequence};
 
 /// Input formats.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
@@ -94,7 +95,27 @@ pub struct Imported {
     pub stability: Vec<Vec<LengthStability>>,
     /// Per sequence, what `--lengths fixed` did (`None`: lengths as measured).
     pub length_fixes: Vec<Option<LengthFix>>,
+    /// For a file read as a stream (MMPose JSON): the second reading still to do. The
+    /// sequences then have no frames yet; [`Imported::for_each_frame`] reads them.
+    replay: Option<Replay>,
 }
+
+/// The second reading of a JSON file, each frame grounded and fixed as its track's sample said.
+#[derive(Debug, Clone)]
+struct Replay {
+    path: PathBuf,
+    options: mmpose_json::JsonOptions,
+    /// Per track id: its sequence's index.
+    index: BTreeMap<u64, usize>,
+    /// Per sequence: the limbs' fixer of `--lengths fixed`.
+    fixers: Vec<Option<LimbFixer>>,
+}
+
+/// A JSON file is read twice: once for each track's frame count and a sample of at most this
+/// many of its frames (every `2^k`-th), on which its ground, its bone-length spread and the
+/// lengths of `--lengths fixed` are measured; then frame by frame as it is written. A track of
+/// up to this many frames (4.5 min at 30 fps) is measured on every frame.
+pub const JSON_SAMPLE_FRAMES: usize = 8192;
 
 /// Why a dataset file could not be imported.
 #[derive(Debug, thiserror::Error)]
@@ -145,6 +166,9 @@ pub enum ImportError {
         /// The file.
         path: PathBuf,
     },
+    /// Writing the pose bag failed.
+    #[error(transparent)]
+    Write(#[from] crate::mcap_io::McapIoError),
     /// A layout that does not load.
     #[error(transparent)]
     Layout(#[from] LayoutError),
@@ -182,13 +206,39 @@ pub enum ImportError {
 /// An option that does not fit the format, an unreadable file (the message names the file and
 /// the place), or a file without frames.
 pub fn import(input: &Path, options: &ImportOptions) -> Result<Imported, ImportError> {
+    let mut imported = measure(input, options)?;
+    if imported.replay.is_some() {
+        let mut frames: Vec<Vec<PoseFrame>> = vec![Vec::new(); imported.sequences.len()];
+        imported.for_each_frame(|s, frame| {
+            frames[s].push(frame.clone());
+            Ok(())
+        })?;
+        for (seq, frames) in imported.sequences.iter_mut().zip(frames) {
+            seq.frames = frames;
+        }
+    }
+    Ok(imported)
+}
+
+/// [`import`] without holding the frames of a file that can be read as a stream (MMPose
+/// JSON: every track measured on its sample, see [`JSON_SAMPLE_FRAMES`]); its frames are then
+/// read by [`Imported::for_each_frame`] or [`Imported::write`].
+///
+/// # Errors
+/// As [`import`].
+pub fn measure(input: &Path, options: &ImportOptions) -> Result<Imported, ImportError> {
     if let Some(f) = options.fps
         && !(f.is_finite() && f > 0.0)
     {
         return Err(ImportError::BadFps(f));
     }
     let format = resolve_format(options.format, input)?;
-    let (mut sequences, layout, rate) = read_input(input, format, options)?;
+    let Input {
+        sequences,
+        layout,
+        rate,
+        replay,
+    } = read_input(input, format, options)?;
     if sequences.iter().all(|s| s.frames.is_empty()) {
         return Err(ImportError::NoFrames {
             path: input.to_path_buf(),
@@ -204,9 +254,11 @@ pub fn import(input: &Path, options: &ImportOptions) -> Result<Imported, ImportE
         groundings: Vec::new(),
         stability: Vec::new(),
         length_fixes: Vec::new(),
+        replay: None,
     };
     let grounded = options.ground.applies(format.is_camera_frame());
-    for mut seq in sequences.drain(..) {
+    let mut fixers = Vec::new();
+    for mut seq in sequences {
         let grounding = if grounded {
             ground_one(&mut seq, &loaded)
         } else {
@@ -214,14 +266,138 @@ pub fn import(input: &Path, options: &ImportOptions) -> Result<Imported, ImportE
         };
         let stability = lengths::stability(&seq, &loaded).unwrap_or_default();
         warn_unstable(&seq.source, seq.track_id, &stability);
-        let fix = (options.lengths == LengthMode::Fixed)
-            .then(|| lengths::fix_limb_lengths(&mut seq, &loaded));
+        let mut fixer = (options.lengths == LengthMode::Fixed)
+            .then(|| LimbFixer::fit(&loaded, &seq.joint_names, &seq.frames));
+        if replay.is_some() {
+            // A sample: the frames come in the second reading.
+            seq.frames = Vec::new();
+        } else if let Some(fixer) = &mut fixer {
+            for f in &mut seq.frames {
+                fixer.fix(f);
+            }
+        }
+        imported
+            .length_fixes
+            .push(fixer.as_ref().map(LimbFixer::summary));
+        fixers.push(fixer);
         imported.sequences.push(seq);
         imported.groundings.push(grounding);
         imported.stability.push(stability);
-        imported.length_fixes.push(fix);
     }
+    imported.replay = replay.map(|(path, options)| Replay {
+        path,
+        options,
+        index: (imported.sequences.iter().enumerate())
+            .map(|(i, s)| (s.track_id, i))
+            .collect(),
+        fixers,
+    });
     Ok(imported)
+}
+
+impl Imported {
+    /// Every frame of every sequence in stamp order (ties: track id), with its sequence's
+    /// index: the sequences' own frames, or those of the file's second reading, grounded and
+    /// fixed as the first one decided.
+    ///
+    /// # Errors
+    /// The file's second reading failing, or `f`'s error.
+    pub fn for_each_frame(
+        &mut self,
+        mut f: impl FnMut(usize, &PoseFrame) -> Result<(), ImportError>,
+    ) -> Result<(), ImportError> {
+        let Some(mut replay) = self.replay.take() else {
+            let mut order: Vec<(u64, u64, usize, usize)> = Vec::new();
+            for (s, seq) in self.sequences.iter().enumerate() {
+                for (k, frame) in seq.frames.iter().enumerate() {
+                    order.push((frame.stamp_nanos, seq.track_id, s, k));
+                }
+            }
+            order.sort_unstable();
+            for (_, _, s, k) in order {
+                f(s, &self.sequences[s].frames[k])?;
+            }
+            return Ok(());
+        };
+        let groundings = &self.groundings;
+        let Replay {
+            path,
+            options,
+            index,
+            fixers,
+        } = &mut replay;
+        let result = mmpose_json::for_each_frame(path, options, |mut people| {
+            people.sort_by_key(|(track_id, _)| *track_id);
+            for (track_id, mut frame) in people {
+                // The first reading saw every track the second one does.
+                let Some(&s) = index.get(&track_id) else {
+                    continue;
+                };
+                if let Some(Some(g)) = groundings.get(s) {
+                    for p in &mut frame.positions_m {
+                        *p = g.world_from_camera * *p;
+                    }
+                }
+                if let Some(Some(fixer)) = fixers.get_mut(s) {
+                    fixer.fix(&mut frame);
+                }
+                f(s, &frame).map_err(ReplayError::Caller)?;
+            }
+            Ok(())
+        });
+        for (fix, fixer) in self.length_fixes.iter_mut().zip(fixers.iter()) {
+            *fix = fixer.as_ref().map(LimbFixer::summary);
+        }
+        match result {
+            Ok(()) => Ok(()),
+            Err(ReplayError::Json(e)) => Err(ImportError::Json {
+                path: path.clone(),
+                layout: self.layout.clone(),
+                source: Box::new(e),
+            }),
+            Err(ReplayError::Caller(e)) => Err(e),
+        }
+    }
+
+    /// Writes the pose bag's `autoact` metadata record and every frame ([`skeleton_message`]s in
+    /// stamp order); returns the number of skeletons written.
+    ///
+    /// # Errors
+    /// The bag cannot be written, or the file's second reading fails.
+    pub fn write<W: std::io::Write + std::io::Seek>(
+        &mut self,
+        writer: &mut crate::mcap_io::BagWriter<W>,
+        metadata: BTreeMap<String, String>,
+    ) -> Result<u64, ImportError> {
+        writer.write_metadata(crate::bags::pose::METADATA_NAME, metadata)?;
+        let sequences = std::mem::take(&mut self.sequences);
+        let layout = self.layout.clone();
+        let mut written = 0;
+        let result = self.for_each_frame(|s, frame| {
+            let seq = &sequences[s];
+            writer.write(
+                crate::bags::pose::SKELETON_TOPIC,
+                frame.stamp_nanos,
+                &skeleton_message(seq, frame, &layout),
+            )?;
+            written += 1;
+            Ok(())
+        });
+        self.sequences = sequences;
+        result.map(|()| written)
+    }
+}
+
+/// Why the second reading of a JSON file stopped.
+enum ReplayError {
+    Json(mmpose_json::JsonError),
+    Caller(ImportError),
+}
+
+impl From<mmpose_json::JsonError> for ReplayError {
+    fn from(e: mmpose_json::JsonError) -> ReplayError {
+        ReplayError::Json(e)
+    }
 }
 
 /// Grounds one sequence, warning when its feet at contact sit more than [`ground::INLIER_M`]
@@ -359,12 +535,32 @@ fn no_fps(fps: Option<f64>, why: &'static str) -> Result<(), ImportError> {
     }
 }
 
+/// What [`read_input`] read: the pose sequences (for a file read as a stream, each track's
+/// sample), their layout name, a description of the rate, and the file to read again.
+struct Input {
+    sequences: Vec<PoseSequence>,
+    layout: String,
+    rate: String,
+    replay: Option<(PathBuf, mmpose_json::JsonOptions)>,
+}
+
+impl Input {
+    fn read(sequences: Vec<PoseSequence>, layout: String, rate: String) -> Input {
+        Input {
+            sequences,
+            layout,
+            rate,
+            replay: None,
+        }
+    }
+}
+
 /// Reads the input: its pose sequences, their layout name, and a description of its rate.
 fn read_input(
     input: &Path,
     format: InputFormat,
     options: &ImportOptions,
-) -> Result<(Vec<PoseSequence>, String, String), ImportError> {
+) -> Result<Input, ImportError> {
     let (layout, fps) = (options.layout.as_deref(), options.fps);
     if format != InputFormat::Bvh && options.bvh_map.is_some() {
         return Err(ImportError::BvhMapNotBvh);
@@ -388,36 +584,34 @@ fn read_input(
                 .keypoints(&clip, &layout)?
                 .without_unobserved_joints();
             let rate = format!("{:.3} fps (BVH frame time)", clip.fps());
-            (vec![seq], layout.name, rate)
+            Input::read(vec![seq], layout.name, rate)
         }
         InputFormat::Ntu => {
             let layout = fixed_layout("NTU", "ntu-25", layout)?;
             let rate = fps.unwrap_or(ntu::FPS);
             let seqs = ntu::read(input)?.to_pose_sequences(rate);
-            (seqs, layout, format!("{rate} fps"))
+            Input::read(seqs, layout, format!("{rate} fps"))
         }
         InputFormat::H36mExpmap => {
             let layout = fixed_layout("Human3.6M exp-map", "h36m-32", layout)?;
             no_fps(fps, "Human3.6M exp-map files are 50 fps")?;
             let clip = h36m_expmap::read(input)?;
             let seq = clip.to_pose_sequence(h36m_expmap::RootMode::Trajectory);
-            (vec![seq], layout, format!("{} fps", h36m_expmap::FPS))
+            Input::read(vec![seq], layout, format!("{} fps", h36m_expmap::FPS))
         }
         InputFormat::ZedMat => {
             let layout = fixed_layout("ZED", "zed-body-34", layout)?;
             no_fps(fps, "ZED recordings carry their own timestamps")?;
             let seq = zed_mat::read(input)?.to_pose_sequence();
-            (vec![seq], layout, "recorded timestamps".to_string())
+            Input::read(vec![seq], layout, "recorded timestamps".to_string())
         }
         InputFormat::MmposeJson => read_json(input, options)?,
     })
 }
 
-/// Reads an MMPose-style JSON file (which needs a frame rate and has no layout of its own).
-fn read_json(
-    input: &Path,
-    options: &ImportOptions,
-) -> Result<(Vec<PoseSequence>, String, String), ImportError> {
+/// Reads an MMPose-style JSON file (which needs a frame rate and has no layout of its own) for
+/// the first time: each track's sample (see [`JSON_SAMPLE_FRAMES`]).
+fn read_json(input: &Path, options: &ImportOptions) -> Result<Input, ImportError> {
     let layout = Layout::load(options.layout.as_deref().unwrap_or("coco-wholebody-133"))?;
     let Some(fps) = options.fps else {
         return Err(ImportError::NoRate {
@@ -434,13 +628,47 @@ fn read_json(
         axes: options.axes,
         joint_names: layout.joints.clone(),
     };
-    let seqs = mmpose_json::read(input, &json_options).map_err(|source| ImportError::Json {
+    let source = input.display().to_string();
+    // Per track: its sample, frames seen, and the sample's stride.
+    let mut tracks: BTreeMap<u64, (PoseSequence, usize, usize)> = BTreeMap::new();
+    mmpose_json::for_each_frame(input, &json_options, |people| {
+        for (track_id, frame) in people {
+            let (sample, seen, stride) = tracks.entry(track_id).or_insert_with(|| {
+                let seq = PoseSequence {
+                    source: source.clone(),
+                    track_id,
+                    joint_names: json_options.joint_names.clone(),
+                    frames: Vec::new(),
+                };
+                (seq, 0, 1)
+            });
+            if *seen % *stride == 0 {
+                sample.frames.push(frame);
+                if sample.frames.len() > JSON_SAMPLE_FRAMES {
+                    sample.frames = std::mem::take(&mut sample.frames)
+                        .into_iter()
+                        .step_by(2)
+                        .collect();
+                    *stride *= 2;
+                }
+            }
+            *seen += 1;
+        }
+        Ok(())
+    })
+    .map_err(|source| ImportError::Json {
         path: input.to_path_buf(),
         layout: layout.name.clone(),
         source: Box::new(source),
     })?;
+    let seqs: Vec<PoseSequence> = tracks.into_values().map(|(s, _, _)| s).collect();
     warn_if_implausible_size(&seqs, metres_per_unit);
-    Ok((seqs, layout.name, format!("{fps} fps")))
+    Ok(Input {
+        sequences: seqs,
+        layout: layout.name,
+        rate: format!("{fps} fps"),
+        replay: Some((input.to_path_buf(), json_options)),
+    })
 }
 
 /// A body that spans more than 3 m or less than 0.3 m is almost always a unit mistake.

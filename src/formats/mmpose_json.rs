@@ -46,7 +46,6 @@
 //! from the joint names, non-increasing `frame_id`s (naming both ids), or the same track twice
 //! in one frame.
 
-use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -189,7 +188,8 @@ pub enum JsonError {
     },
 }
 
-/// Read a JSON file.
+/// Read a JSON file into one sequence per track (the whole file in memory; [`for_each_frame`]
+/// reads it frame by frame).
 ///
 /// # Errors
 ///
@@ -197,16 +197,12 @@ pub enum JsonError {
 pub fn read(path: impl AsRef<Path>, options: &JsonOptions) -> Result<Vec<PoseSequence>, JsonError> {
     let path = path.as_ref();
     let file = path.display().to_string();
-    match super::read_text(path) {
-        Ok(text) => parse(&text, &file, options),
-        Err(super::TextError::Io(error)) => Err(JsonError::Io { file, error }),
-        Err(super::TextError::NotUtf8 { line, column }) => Err(JsonError::Syntax {
-            file,
-            line,
-            column,
-            message: "not utf-8 text".to_owned(),
-        }),
-    }
+    let mut tracks = Tracks::default();
+    for_each_frame(path, options, |people| {
+        tracks.add(&file, options, people);
+        Ok(())
+    })?;
+    Ok(tracks.into_sequences())
 }
 
 /// Parse JSON text; `source` names it in errors and in the result.
@@ -219,36 +215,143 @@ pub fn parse(
     source: &str,
     options: &JsonOptions,
 ) -> Result<Vec<PoseSequence>, JsonError> {
-    check_options(source, options)?;
-    let value: Value =
-        serde_json::from_str(&non_finite_as_null(text)).map_err(|e| JsonError::Syntax {
-            file: source.to_owned(),
-            line: e.line(),
-            column: e.column(),
-            message: e.to_string(),
-        })?;
-    let frames = match &value {
-        Value::Array(frames) => frames,
-        Value::Object(map) => match map.get("instance_info") {
-            Some(Value::Array(frames)) => frames,
-            _ => {
-                return Err(JsonError::NotAList {
-                    file: source.to_owned(),
-                    found: "an object",
-                });
-            }
-        },
-        other => {
-            return Err(JsonError::NotAList {
-                file: source.to_owned(),
-                found: type_name(other),
-            });
-        }
-    };
+    let mut tracks = Tracks::default();
+    stream(text.as_bytes(), source, options, &mut |people| {
+        tracks.add(source, options, people);
+        Ok(())
+    })?;
+    Ok(tracks.into_sequences())
+}
 
-    let mut tracks: BTreeMap<u64, PoseSequence> = BTreeMap::new();
-    let mut previous: Option<u64> = None;
-    for (index, frame) in frames.iter().enumerate() {
+/// Reads the file at `path` frame by frame, in file order, without holding more than one
+/// frame: `on_frame` gets each frame's people as (track id, pose) in their order in the frame
+/// (an empty list for a frame with nobody). An error `on_frame` returns stops the reading and
+/// is returned.
+///
+/// # Errors
+///
+/// [`JsonError::Io`] if the file cannot be read, otherwise as [`parse`], or `on_frame`'s.
+pub fn for_each_frame<E: From<JsonError>>(
+    path: &Path,
+    options: &JsonOptions,
+    mut on_frame: impl FnMut(Vec<(u64, PoseFrame)>) -> Result<(), E>,
+) -> Result<(), E> {
+    let file = path.display().to_string();
+    let reader = std::fs::File::open(path).map_err(|error| JsonError::Io {
+        file: file.clone(),
+        error,
+    })?;
+    stream(
+        std::io::BufReader::with_capacity(1 << 16, reader),
+        &file,
+        options,
+        &mut on_frame,
+    )
+}
+
+/// Sequences per track, in ascending track id order, built frame by frame.
+#[derive(Default)]
+struct Tracks(BTreeMap<u64, PoseSequence>);
+
+impl Tracks {
+    fn add(&mut self, source: &str, options: &JsonOptions, people: Vec<(u64, PoseFrame)>) {
+        for (track_id, pose) in people {
+            self.0
+                .entry(track_id)
+                .or_insert_with(|| PoseSequence {
+                    source: source.to_owned(),
+                    track_id,
+                    joint_names: options.joint_names.clone(),
+                    frames: Vec::new(),
+                })
+                .frames
+                .push(pose);
+        }
+    }
+
+    fn into_sequences(self) -> Vec<PoseSequence> {
+        self.0.into_values().collect()
+    }
+}
+
+/// The one reader behind [`parse`], [`read`] and [`for_each_frame`]: the top level is walked
+/// by a serde visitor that takes one frame at a time.
+fn stream<E: From<JsonError>>(
+    reader: impl std::io::Read,
+    source: &str,
+    options: &JsonOptions,
+    on_frame: &mut dyn FnMut(Vec<(u64, PoseFrame)>) -> Result<(), E>,
+) -> Result<(), E> {
+    check_options(source, options)?;
+    let not_utf8 = std::rc::Rc::new(std::cell::Cell::new(None));
+    let reader = NonFiniteAsNull::new(reader, std::rc::Rc::clone(&not_utf8));
+    let failure = std::cell::RefCell::new(None);
+    let mut frames = FrameReader {
+        source,
+        options,
+        on_frame,
+        failure: &failure,
+        index: 0,
+        previous: None,
+    };
+    let mut de = serde_json::Deserializer::from_reader(reader);
+    let result =
+        serde::de::DeserializeSeed::deserialize(Top(&mut frames), &mut de).and_then(|()| de.end());
+    if let Some(e) = failure.into_inner() {
+        return Err(e);
+    }
+    if let Some((line, column)) = not_utf8.get() {
+        return Err(E::from(JsonError::Syntax {
+            file: source.to_owned(),
+            line,
+            column,
+            message: "not utf-8 text".to_owned(),
+        }));
+    }
+    result.map_err(|e| {
+        E::from(match e.classify() {
+            serde_json::error::Category::Io => JsonError::Io {
+                file: source.to_owned(),
+                error: std::io::Error::other(e.to_string()),
+            },
+            _ => JsonError::Syntax {
+                file: source.to_owned(),
+                line: e.line(),
+                column: e.column(),
+                message: e.to_string(),
+            },
+        })
+    })
+}
+
+/// Turns each frame's JSON into its people, checking the order of the frame ids.
+struct FrameReader<'a, E> {
+    source: &'a str,
+    options: &'a JsonOptions,
+    on_frame: &'a mut dyn FnMut(Vec<(u64, PoseFrame)>) -> Result<(), E>,
+    /// The error that stopped the reading, if it was not the parser's.
+    failure: &'a std::cell::RefCell<Option<E>>,
+    index: usize,
+    previous: Option<u64>,
+}
+
+impl<E: From<JsonError>> FrameReader<'_, E> {
+    /// Records `e` as the reason the reading stops; the parser gets a placeholder.
+    fn fail<D: serde::de::Error>(&self, e: E) -> D {
+        *self.failure.borrow_mut() = Some(e);
+        D::custom("stopped")
+    }
+
+    fn frame(&mut self, frame: &Value) -> Result<(), E> {
+        let index = self.index;
+        self.index += 1;
+        let people = self.people(frame, index).map_err(E::from)?;
+        (self.on_frame)(people)
+    }
+
+    /// The people of frame `index`, checked.
+    fn people(&mut self, frame: &Value, index: usize) -> Result<Vec<(u64, PoseFrame)>, JsonError> {
+        let (source, options) = (self.source, self.options);
         let ctx = FrameCtx {
             file: source,
             frame: index,
@@ -263,7 +366,7 @@ pub fn parse(
         let frame_id = id_value
             .as_u64()
             .ok_or_else(|| ctx.field("frame_id", "a non-negative integer", id_value))?;
-        if let Some(previous) = previous
+        if let Some(previous) = self.previous
             && frame_id <= previous
         {
             return Err(JsonError::FrameOrder {
@@ -273,7 +376,7 @@ pub fn parse(
                 frame_id,
             });
         }
-        previous = Some(frame_id);
+        self.previous = Some(frame_id);
         let ctx = FrameCtx { frame_id, ..ctx };
         let stamp = stamp_nanos_at(usize::try_from(frame_id).unwrap_or(usize::MAX), options.fps);
 
@@ -286,11 +389,10 @@ pub fn parse(
                 return Err(ctx.field("instances", "a list of instances or one instance", other));
             }
         };
-
-        let mut seen: Vec<u64> = Vec::with_capacity(instances.len());
+        let mut people: Vec<(u64, PoseFrame)> = Vec::with_capacity(instances.len());
         for (instance, value) in instances.into_iter().enumerate() {
             let (track_id, pose) = parse_instance(&ctx, instance, value, stamp, options)?;
-            if seen.contains(&track_id) {
+            if people.iter().any(|(t, _)| *t == track_id) {
                 return Err(JsonError::DuplicateTrack {
                     file: source.to_owned(),
                     frame: index,
@@ -299,20 +401,140 @@ pub fn parse(
                     track_id,
                 });
             }
-            seen.push(track_id);
-            tracks
-                .entry(track_id)
-                .or_insert_with(|| PoseSequence {
-                    source: source.to_owned(),
-                    track_id,
-                    joint_names: options.joint_names.clone(),
-                    frames: Vec::new(),
-                })
-                .frames
-                .push(pose);
+            people.push((track_id, pose));
+        }
+        Ok(people)
+    }
+}
+
+/// The top level: a list of frames, or an object whose `instance_info` is one.
+struct Top<'r, 'a, E>(&'r mut FrameReader<'a, E>);
+
+impl<'de, E: From<JsonError>> serde::de::DeserializeSeed<'de> for Top<'_, '_, E> {
+    type Value = ();
+
+    fn deserialize<D: serde::Deserializer<'de>>(self, d: D) -> Result<(), D::Error> {
+        d.deserialize_any(self)
+    }
+}
+
+impl<E: From<JsonError>> Top<'_, '_, E> {
+    fn not_a_list<D: serde::de::Error>(self, found: &'static str) -> Result<(), D> {
+        let e = JsonError::NotAList {
+            file: self.0.source.to_owned(),
+            found,
+        };
+        Err(self.0.fail(E::from(e)))
+    }
+}
+
+impl<'de, E: From<JsonError>> serde::de::Visitor<'de> for Top<'_, '_, E> {
+    type Value = ();
+
+    fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("a list of frames")
+    }
+
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<(), A::Error> {
+        while let Some(frame) = seq.next_element::<Value>()? {
+            if let Err(e) = self.0.frame(&frame) {
+                return Err(self.0.fail(e));
+            }
+        }
+        Ok(())
+    }
+
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<(), A::Error> {
+        let mut found = false;
+        while let Some(key) = map.next_key::<String>()? {
+            if key == "instance_info" && !found {
+                found = true;
+                map.next_value_seed(InstanceInfo(&mut *self.0))?;
+            } else {
+                map.next_value::<serde::de::IgnoredAny>()?;
+            }
+        }
+        if found {
+            Ok(())
+        } else {
+            self.not_a_list("an object")
         }
     }
-    Ok(tracks.into_values().collect())
+
+    fn visit_unit<D: serde::de::Error>(self) -> Result<(), D> {
+        self.not_a_list("null")
+    }
+
+    fn visit_bool<D: serde::de::Error>(self, _: bool) -> Result<(), D> {
+        self.not_a_list("a boolean")
+    }
+
+    fn visit_i64<D: serde::de::Error>(self, _: i64) -> Result<(), D> {
+        self.not_a_list("a number")
+    }
+
+    fn visit_u64<D: serde::de::Error>(self, _: u64) -> Result<(), D> {
+        self.not_a_list("a number")
+    }
+
+    fn visit_f64<D: serde::de::Error>(self, _: f64) -> Result<(), D> {
+        self.not_a_list("a number")
+    }
+
+    fn visit_str<D: serde::de::Error>(self, _: &str) -> Result<(), D> {
+        self.not_a_list("a string")
+    }
+}
+
+/// `instance_info` of the object form: it must be the list of frames.
+struct InstanceInfo<'r, 'a, E>(&'r mut FrameReader<'a, E>);
+
+impl<'de, E: From<JsonError>> serde::de::DeserializeSeed<'de> for InstanceInfo<'_, '_, E> {
+    type Value = ();
+
+    fn deserialize<D: serde::Deserializer<'de>>(self, d: D) -> Result<(), D::Error> {
+        d.deserialize_any(self)
+    }
+}
+
+impl<'de, E: From<JsonError>> serde::de::Visitor<'de> for InstanceInfo<'_, '_, E> {
+    type Value = ();
+
+    fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("a list of frames")
+    }
+
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, seq: A) -> Result<(), A::Error> {
+        Top(self.0).visit_seq(seq)
+    }
+
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, _: A) -> Result<(), A::Error> {
+        Top(self.0).not_a_list("an object")
+    }
+
+    fn visit_unit<D: serde::de::Error>(self) -> Result<(), D> {
+        Top(self.0).not_a_list("an object")
+    }
+
+    fn visit_bool<D: serde::de::Error>(self, _: bool) -> Result<(), D> {
+        Top(self.0).not_a_list("an object")
+    }
+
+    fn visit_i64<D: serde::de::Error>(self, _: i64) -> Result<(), D> {
+        Top(self.0).not_a_list("an object")
+    }
+
+    fn visit_u64<D: serde::de::Error>(self, _: u64) -> Result<(), D> {
+        Top(self.0).not_a_list("an object")
+    }
+
+    fn visit_f64<D: serde::de::Error>(self, _: f64) -> Result<(), D> {
+        Top(self.0).not_a_list("an object")
+    }
+
+    fn visit_str<D: serde::de::Error>(self, _: &str) -> Result<(), D> {
+        Top(self.0).not_a_list("an object")
+    }
 }
 
 fn check_options(file: &str, options: &JsonOptions) -> Result<(), JsonError> {
@@ -509,45 +731,126 @@ fn type_name(value: &Value) -> &'static str {
 }
 
 /// Python's `json` module writes `NaN`, `Infinity` and `-Infinity`, which are not JSON: outside
-/// strings, replace those tokens by `null`.
-fn non_finite_as_null(text: &str) -> Cow<'_, str> {
-    if !text.contains("NaN") && !text.contains("Infinity") {
-        return Cow::Borrowed(text);
-    }
-    let mut out = String::with_capacity(text.len() + 16);
-    let mut in_string = false;
-    let mut escaped = false;
-    let mut resume = 0;
-    for (i, ch) in text.char_indices() {
-        if i < resume {
-            continue;
+/// strings, this reader passes those tokens on as `null`. It also checks that the text is UTF-8,
+/// and where it is not, records the place (1-based line and byte column) in `not_utf8` and ends
+/// the text there.
+struct NonFiniteAsNull<R> {
+    inner: R,
+    /// Bytes read, not yet passed on.
+    input: Vec<u8>,
+    /// Bytes ready to be passed on, from `out_at`.
+    out: Vec<u8>,
+    out_at: usize,
+    eof: bool,
+    in_string: bool,
+    escaped: bool,
+    line: usize,
+    column: usize,
+    not_utf8: std::rc::Rc<std::cell::Cell<Option<(usize, usize)>>>,
+}
+
+const NON_FINITE: [&[u8]; 3] = [b"NaN", b"Infinity", b"-Infinity"];
+
+impl<R: std::io::Read> NonFiniteAsNull<R> {
+    fn new(inner: R, not_utf8: std::rc::Rc<std::cell::Cell<Option<(usize, usize)>>>) -> Self {
+        NonFiniteAsNull {
+            inner,
+            input: Vec::new(),
+            out: Vec::new(),
+            out_at: 0,
+            eof: false,
+            in_string: false,
+            escaped: false,
+            line: 1,
+            column: 1,
+            not_utf8,
         }
-        if in_string {
-            if escaped {
-                escaped = false;
-            } else if ch == '\\' {
-                escaped = true;
-            } else if ch == '"' {
-                in_string = false;
+    }
+
+    /// Reads more and passes on what can be decided (a possible token cut at the end of what
+    /// was read waits for the rest).
+    fn refill(&mut self) -> std::io::Result<()> {
+        let mut chunk = [0u8; 1 << 15];
+        let n = self.inner.read(&mut chunk)?;
+        self.eof = n == 0;
+        self.input.extend_from_slice(&chunk[..n]);
+        // Only whole UTF-8 characters; stop for good at the first invalid byte.
+        let valid = match std::str::from_utf8(&self.input) {
+            Ok(_) => self.input.len(),
+            Err(e) if e.error_len().is_none() && !self.eof => e.valid_up_to(),
+            Err(e) => {
+                let valid = e.valid_up_to();
+                let (line, column) = self.advance(valid);
+                self.not_utf8.set(Some((line, column)));
+                self.input.truncate(valid);
+                self.eof = true;
+                valid
             }
-            out.push(ch);
-            continue;
+        };
+        let mut i = 0;
+        while i < valid {
+            let b = self.input[i];
+            if self.in_string {
+                if self.escaped {
+                    self.escaped = false;
+                } else if b == b'\\' {
+                    self.escaped = true;
+                } else if b == b'"' {
+                    self.in_string = false;
+                }
+            } else if matches!(b, b'N' | b'I' | b'-') {
+                let rest = &self.input[i..valid];
+                if let Some(token) = NON_FINITE.iter().find(|t| rest.starts_with(t)) {
+                    self.out.extend_from_slice(b"null");
+                    i += token.len();
+                    continue;
+                }
+                if !self.eof && NON_FINITE.iter().any(|t| t.starts_with(rest)) {
+                    break;
+                }
+            } else if b == b'"' {
+                self.in_string = true;
+            }
+            self.out.push(b);
+            i += 1;
         }
-        let rest = text.get(i..).unwrap_or_default();
-        if let Some(token) = ["NaN", "Infinity", "-Infinity"]
-            .into_iter()
-            .find(|t| rest.starts_with(t))
-        {
-            out.push_str("null");
-            resume = i + token.len();
-            continue;
+        if self.not_utf8.get().is_none() {
+            self.advance(i);
         }
-        if ch == '"' {
-            in_string = true;
-        }
-        out.push(ch);
+        self.input.drain(..i);
+        Ok(())
     }
-    Cow::Owned(out)
+
+    /// The line and column after the first `n` bytes of `input`, counted from where the
+    /// passed-on text ends (updated when `n` bytes are passed on).
+    fn advance(&mut self, n: usize) -> (usize, usize) {
+        for &b in &self.input[..n] {
+            if b == b'\n' {
+                self.line += 1;
+                self.column = 1;
+            } else {
+                self.column += 1;
+            }
+        }
+        (self.line, self.column)
+    }
+}
+
+impl<R: std::io::Read> std::io::Read for NonFiniteAsNull<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        while self.out_at >= self.out.len() {
+            self.out.clear();
+            self.out_at = 0;
+            if self.eof && self.input.is_empty() {
+                return Ok(0);
+            }
+            self.refill()?;
+        }
+        let n = buf.len().min(self.out.len() - self.out_at);
+        buf[..n].copy_from_slice(&self.out[self.out_at..self.out_at + n]);
+        self.out_at += n;
+        Ok(n)
+    }
 }
 
 #[cfg(test)]
@@ -663,7 +966,33 @@ mod tests {
         assert!(f.positions_m[0].x.is_nan() && f.positions_m[1].x.is_nan());
         assert_eq!(f.confidence, vec![0.0, 0.0, 0.0]);
         assert_eq!(f.positions_m[2], Point3::new(1.0, 2.0, 3.0));
-        assert_eq!(non_finite_as_null(r#"["NaN", NaN]"#), r#"["NaN", null]"#);
+        // Tokens cut anywhere between reads, escapes, and tokens in strings.
+        let text = r#"["NaN", NaN, -Infinity,Infinity, "a\" NaN", Nx, -1.5, "é"]"#;
+        let want = r#"["NaN", null, null,null, "a\" NaN", Nx, -1.5, "é"]"#;
+        assert_eq!(filtered(text), want);
+    }
+
+    /// `text` through [`NonFiniteAsNull`] from a reader that gives one byte at a time.
+    fn filtered(text: &str) -> String {
+        struct OneByte<'a>(&'a [u8]);
+        impl std::io::Read for OneByte<'_> {
+            fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+                let Some((first, rest)) = self.0.split_first() else {
+                    return Ok(0);
+                };
+                buf[0] = *first;
+                self.0 = rest;
+                Ok(1)
+            }
+        }
+        let flag = std::rc::Rc::new(std::cell::Cell::new(None));
+        let mut out = String::new();
+        std::io::Read::read_to_string(
+            &mut NonFiniteAsNull::new(OneByte(text.as_bytes()), flag),
+            &mut out,
+        )
+        .unwrap();
+        out
     }
 
     #[test]

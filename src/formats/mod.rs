@@ -18,8 +18,8 @@ pub mod zed_mat;
 pub(crate) enum TextError {
     /// The file could not be read.
     Io(std::io::Error),
-    /// It is not UTF-8: the first bad byte is at this 1-based line and column.
-    NotUtf8 { line: usize, column: usize },
+    /// It is not UTF-8: the first bad byte is on this 1-based line.
+    NotUtf8 { line: usize },
 }
 
 /// Reads a whole file as UTF-8 text, locating the first invalid byte (one place for every
@@ -33,7 +33,6 @@ pub(crate) fn read_text(path: &std::path::Path) -> Result<String, TextError> {
             .unwrap_or_default();
         TextError::NotUtf8 {
             line: 1 + valid.iter().filter(|b| **b == b'\n').count(),
-            column: 1 + valid.iter().rev().take_while(|b| **b != b'\n').count(),
         }
     })
 }

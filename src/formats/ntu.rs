@@ -411,7 +411,7 @@ pub fn read(path: impl AsRef<Path>) -> Result<NtuSkeleton, NtuError> {
     match super::read_text(path) {
         Ok(text) => parse(&text, &file),
         Err(super::TextError::Io(error)) => Err(NtuError::Io { file, error }),
-        Err(super::TextError::NotUtf8 { line, .. }) => Err(NtuError::Encoding { file, line }),
+        Err(super::TextError::NotUtf8 { line }) => Err(NtuError::Encoding { file, line }),
     }
 }
 

@@ -19,7 +19,7 @@ use nalgebra::{Point3, Vector3};
 use crate::skeleton::convert::ConvertError;
 use crate::skeleton::eval::{LengthStability, bone_length_stability};
 use crate::skeleton::layout::{JointExpr, Layout};
-use crate::skeleton::pose::PoseSequence;
+use crate::skeleton::pose::{PoseFrame, PoseSequence};
 use crate::skeleton::rig::Rig;
 
 /// Coefficient of variation above which a segment is reported as unstable (a warning).
@@ -149,26 +149,59 @@ fn finite(p: &Point3<f64>) -> bool {
 /// documentation). Frames where a limb joint is missing keep that limb as it is.
 #[must_use]
 pub fn fix_limb_lengths(seq: &mut PoseSequence, layout: &Layout) -> LengthFix {
-    let mut fix = LengthFix::default();
-    for limb in limbs(layout, &seq.joint_names) {
-        let [a, b, c] = limb.joints;
-        let measure = |i: usize, j: usize| -> Vec<f64> {
-            seq.frames
-                .iter()
-                .map(|f| (f.positions_m[j] - f.positions_m[i]).norm())
-                .collect()
-        };
-        let (Some(upper), Some(lower)) = (median(measure(a, b)), median(measure(b, c))) else {
-            continue;
-        };
-        let mut side: Option<Vector3<f64>> = None;
-        for f in &mut seq.frames {
+    let mut fixer = LimbFixer::fit(layout, &seq.joint_names, &seq.frames);
+    for f in &mut seq.frames {
+        fixer.fix(f);
+    }
+    fixer.summary()
+}
+
+/// [`fix_limb_lengths`] frame by frame, for a clip read as a stream: the limbs' lengths are
+/// fitted once (on all of the clip's frames, or a sample of them), then each frame is fixed
+/// in order.
+#[derive(Debug, Clone)]
+pub struct LimbFixer {
+    /// Each limb with its fitted (upper, lower) lengths and the side its last frame bent to.
+    limbs: Vec<(Limb, f64, f64, Option<Vector3<f64>>)>,
+    out_of_reach: usize,
+}
+
+impl LimbFixer {
+    /// The median segment lengths of every limb of `layout` in `frames` (data whose joints are
+    /// `joint_names`); limbs never measured are left out.
+    #[must_use]
+    pub fn fit(layout: &Layout, joint_names: &[String], frames: &[PoseFrame]) -> LimbFixer {
+        let limbs = limbs(layout, joint_names)
+            .into_iter()
+            .filter_map(|limb| {
+                let [a, b, c] = limb.joints;
+                let measure = |i: usize, j: usize| -> Vec<f64> {
+                    frames
+                        .iter()
+                        .map(|f| (f.positions_m[j] - f.positions_m[i]).norm())
+                        .collect()
+                };
+                let upper = median(measure(a, b))?;
+                let lower = median(measure(b, c))?;
+                Some((limb, upper, lower, None))
+            })
+            .collect();
+        LimbFixer {
+            limbs,
+            out_of_reach: 0,
+        }
+    }
+
+    /// Re-poses the limbs of the clip's next frame.
+    pub fn fix(&mut self, f: &mut PoseFrame) {
+        for (limb, upper, lower, side) in &mut self.limbs {
+            let [a, b, c] = limb.joints;
             let (pa, pb, pc) = (f.positions_m[a], f.positions_m[b], f.positions_m[c]);
             if !(finite(&pa) && finite(&pb) && finite(&pc)) {
                 continue;
             }
-            let (middle, end, clamped) = solve_two_bone(pa, pb, pc, upper, lower, &mut side);
-            fix.out_of_reach += usize::from(clamped);
+            let (middle, end, clamped) = solve_two_bone(pa, pb, pc, *upper, *lower, side);
+            self.out_of_reach += usize::from(clamped);
             let shift = end - pc;
             f.positions_m[b] = middle;
             f.positions_m[c] = end;
@@ -176,9 +209,20 @@ pub fn fix_limb_lengths(seq: &mut PoseSequence, layout: &Layout) -> LengthFix {
                 f.positions_m[h] += shift;
             }
         }
-        fix.limbs.push((limb.name, upper, lower));
     }
-    fix
+
+    /// What was done so far.
+    #[must_use]
+    pub fn summary(&self) -> LengthFix {
+        LengthFix {
+            limbs: self
+                .limbs
+                .iter()
+                .map(|(limb, upper, lower, _)| (limb.name.clone(), *upper, *lower))
+                .collect(),
+            out_of_reach: self.out_of_reach,
+        }
+    }
 }
 
 /// Two-bone IK: the middle joint for root `a`, measured middle `b` and end `c`, with segment
