@@ -724,3 +724,46 @@ fn a_shrug_lifts_the_shoulder_through_the_clavicle_only() {
         );
     }
 }
+
+#[test]
+fn degenerate_input_is_counted_on_its_bone_by_kind() {
+    // Exactly straight limbs (the rest pose): no bend plane, counted on the upper limbs as a
+    // reference parallel to the bone; a foot whose points all sit on its ankle: a zero-length
+    // bone on that foot alone. (Missing and low-confidence joints: the test above, and
+    // `tests/it/cli_bags.rs` through the CLI; a hinge along its own axis is not reachable from
+    // landmarks, since the parent's twist follows the bend plane.)
+    let rig = Rig::standard();
+    let character = Character::standard(&rig);
+    let layout = Layout::rig_landmarks(&rig);
+    let mut c = Converter::new(&rig, &layout, &character, ConvertOptions::default()).unwrap();
+    let rest = landmark_frame(&rig, &character, &BonePose::rest(&rig), 0);
+    let mut out = BonePose::rest(&rig);
+    c.convert_frame(&rest, &mut out).unwrap();
+    let mut flat = landmark_frame(&rig, &character, &BonePose::rest(&rig), 1);
+    let ankle = flat.positions_m[rig.landmark_index("r_ankle").unwrap()];
+    for n in ["r_toe", "r_heel", "r_big_toe", "r_small_toe"] {
+        if let Some(l) = rig.landmark_index(n) {
+            flat.positions_m[l] = ankle;
+        }
+    }
+    c.convert_frame(&flat, &mut out).unwrap();
+    let named = c.report().degenerate_bones(&rig);
+    let of = |bone: &str| {
+        named
+            .iter()
+            .find(|(n, _)| n == bone)
+            .map(|(_, e)| crate::skeleton::convert::describe_events(e))
+    };
+    for upper in ["l_upper_arm", "r_upper_arm", "r_thigh"] {
+        assert!(
+            of(upper).is_some_and(|w| w.starts_with("reference parallel to bone ×")),
+            "{upper}: {named:?}"
+        );
+    }
+    assert_eq!(
+        of("r_foot").as_deref(),
+        Some("zero-length bone ×1"),
+        "{named:?}"
+    );
+    assert_eq!(of("l_foot"), None, "{named:?}");
+}
