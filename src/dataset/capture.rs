@@ -84,6 +84,9 @@ pub enum SourceError {
     /// DSI failed on the animation.
     #[error(transparent)]
     Dsi(#[from] DsiError),
+    /// A dataset file (BVH, NTU, Human3.6M, ZED) that cannot be imported.
+    #[error(transparent)]
+    Import(Box<crate::formats::import::ImportError>),
 }
 
 /// One source animation, converted: its variants at the output rate and the body it was solved
@@ -150,10 +153,32 @@ pub fn convert_source(
     })
 }
 
-/// The key frames, body and coverage of one person of a bag: a pose bag is converted (its own
+/// The key frames, body and coverage of one person of a source: a dataset file `import` reads
+/// is imported and converted ([`super::import_source`]), a pose bag is converted (its own
 /// layout); an animation bag is read back ([`crate::bags::animation::read_animation_variant_with_losses`]). Either
 /// way, what of the bag could not be used is listed (of an animation bag: its unreadable parts).
 fn read_source(rig: &Rig, path: &Path, track: Option<u64>) -> Result<Source, SourceError> {
+    if let Some(imported) = super::import_source(path) {
+        let imported = imported.map_err(SourceError::Import)?;
+        let seq = super::imported_track(&imported, track).ok_or(match track {
+            Some(t) => SourceError::NoTrack(t),
+            None => SourceError::NoFrames,
+        })?;
+        let layout = Layout::load(&imported.layout)?;
+        let animation = convert_sequence(rig, &layout, seq, ConvertOptions::default())?;
+        let losses = Losses::non_monotonic(
+            &seq.source,
+            "(imported)",
+            seq.track_id,
+            &animation.report.dropped_non_monotonic,
+        );
+        return Ok(Source {
+            keys: animation.frames,
+            character: animation.character,
+            coverage: animation.report.coverage,
+            losses,
+        });
+    }
     let readers = BagReader::open_all(path).map_err(SourceError::Open)?;
     let is_animation = readers.iter().any(|r| {
         r.messages()

@@ -6,16 +6,59 @@ pub mod plan;
 pub mod plan_report;
 pub mod spec;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
+use crate::formats::import::{self, ImportError, ImportOptions, Imported, InputFormat};
 use crate::mcap_io::{BagReader, McapIoError};
+use crate::skeleton::frames::SourceAxes;
+use crate::skeleton::ground::GroundMode;
+use crate::skeleton::lengths::LengthMode;
+use crate::skeleton::pose::PoseSequence;
 use spec::Spec;
+
+/// A spec source that is a dataset file `autoact import` reads rather than a bag — BVH,
+/// NTU `.skeleton`, Human3.6M `.txt`, ZED `.mat` — read with `import`'s defaults (grounded if
+/// it is estimator output); `None` for anything else (a bag, or MMPose JSON, which has no
+/// frame rate of its own: import it first).
+#[must_use]
+pub fn import_source(path: &Path) -> Option<Result<Imported, Box<ImportError>>> {
+    let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+    if ext == "json" {
+        let path = path.to_path_buf();
+        return Some(Err(Box::new(ImportError::JsonInSpec { path })));
+    }
+    if !matches!(ext.as_str(), "bvh" | "skeleton" | "txt" | "mat") {
+        return None;
+    }
+    let options = ImportOptions {
+        format: InputFormat::Auto,
+        layout: None,
+        bvh_map: None,
+        fps: None,
+        axes: SourceAxes::YDown,
+        metres_per_unit: 1.0,
+        ground: GroundMode::Auto,
+        lengths: LengthMode::Measured,
+    };
+    Some(import::import(path, &options).map_err(Box::new))
+}
+
+/// The sequence of person `track` (the first with frames when `None`) of an imported source.
+#[must_use]
+pub fn imported_track(imported: &Imported, track: Option<u64>) -> Option<&PoseSequence> {
+    imported
+        .sequences
+        .iter()
+        .find(|s| track.is_none_or(|t| s.track_id == t) && !s.frames.is_empty())
+}
 
 /// Why a source's length cannot be estimated.
 #[derive(Debug, thiserror::Error)]
 pub enum EstimateError {
     /// The source's bag cannot be opened.
-    #[error("{key}: {source}")]
+    #[error(
+        "{key}: {source} (a source is a pose or animation bag, or a file `autoact import` reads: .bvh, .skeleton, .txt, .mat)"
+    )]
     Open {
         /// The spec key of the source, e.g. `class[2].sources[0]`.
         key: String,
@@ -30,6 +73,25 @@ pub enum EstimateError {
         key: String,
         /// The bag file.
         path: PathBuf,
+    },
+    /// A dataset file that cannot be imported.
+    #[error("{key}: {source}")]
+    Import {
+        /// The spec key of the source.
+        key: String,
+        /// Why.
+        #[source]
+        source: Box<ImportError>,
+    },
+    /// A dataset file without the person the spec names.
+    #[error("{key}: {} has no person with frames{}", path.display(), track.map_or_else(String::new, |t| format!(" with track id {t}")))]
+    NoTrack {
+        /// The spec key of the source.
+        key: String,
+        /// The file.
+        path: PathBuf,
+        /// The track id asked for.
+        track: Option<u64>,
     },
 }
 
@@ -51,6 +113,22 @@ pub fn estimated_frames(spec: &Spec) -> Result<Vec<Vec<u64>>, EstimateError> {
                 .enumerate()
                 .map(|(i, s)| {
                     let key = format!("class[{k}].sources[{i}]");
+                    if let Some(imported) = import_source(&s.path) {
+                        let imported = imported.map_err(|source| EstimateError::Import {
+                            key: key.clone(),
+                            source,
+                        })?;
+                        let seq = imported_track(&imported, s.track).ok_or_else(|| {
+                            EstimateError::NoTrack {
+                                key: key.clone(),
+                                path: s.path.clone(),
+                                track: s.track,
+                            }
+                        })?;
+                        let first = seq.frames.first().map_or(0, |f| f.stamp_nanos);
+                        let last = seq.frames.last().map_or(0, |f| f.stamp_nanos);
+                        return Ok(frames_at(last - first, fps, speed));
+                    }
                     let readers =
                         BagReader::open_all(&s.path).map_err(|source| EstimateError::Open {
                             key: key.clone(),
@@ -67,17 +145,20 @@ pub fn estimated_frames(spec: &Spec) -> Result<Vec<Vec<u64>>, EstimateError> {
                         range = Some(range.map_or((a, b), |(x, y)| (x.min(a), y.max(b))));
                     }
                     let (a, b) = range.unwrap_or((0, 0));
-                    #[expect(
-                        clippy::cast_possible_truncation,
-                        clippy::cast_sign_loss,
-                        reason = "frame counts far inside f64's exact range"
-                    )]
-                    let frames = (crate::skeleton::pose::nanos_to_secs(b - a) * fps / speed).round()
-                        as u64
-                        + 1;
-                    Ok(frames)
+                    Ok(frames_at(b - a, fps, speed))
                 })
                 .collect()
         })
         .collect()
+}
+
+/// Frames at `fps` of a source lasting `nanos` played at `speed`, both ends included.
+fn frames_at(nanos: u64, fps: f64, speed: f64) -> u64 {
+    #[expect(
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        reason = "frame counts far inside f64's exact range"
+    )]
+    let frames = (crate::skeleton::pose::nanos_to_secs(nanos) * fps / speed).round() as u64;
+    frames + 1
 }

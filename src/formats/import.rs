@@ -160,6 +160,16 @@ pub enum ImportError {
         /// The file.
         path: PathBuf,
     },
+    /// MMPose JSON named as a dataset spec's source, where no frame rate can be given.
+    #[error(
+        "{}: MMPose JSON has no frame rate of its own: import it first (`autoact import {} --fps N -o FILE.pose.mcap`) and name the pose bag in the spec",
+        path.display(),
+        path.display()
+    )]
+    JsonInSpec {
+        /// The file.
+        path: PathBuf,
+    },
     /// The file was read but holds no frame.
     #[error("{} holds no frames", path.display())]
     NoFrames {

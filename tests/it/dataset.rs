@@ -325,3 +325,59 @@ fn the_papers_ntu_scale_plan_has_exact_counts_and_unique_ids() {
         "{summary}"
     );
 }
+
+#[test]
+fn a_spec_source_may_be_a_file_import_reads() {
+    // The wave as a BVH file (written by `export`, read back through the autoact53 mapping):
+    // planned and captured like the bag it came from; MMPose JSON is refused with the way out.
+    let dir = tempfile::tempdir().unwrap();
+    let bvh = dir.path().join("wave.bvh");
+    let o = autoact(&[
+        "export",
+        &common::repo("bags/bandai_wave.anim.mcap"),
+        "--format",
+        "bvh",
+        "-o",
+        arg(&bvh),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = spec_text(3, "variants = 1\nscenes = 1\nviewpoints = 1", "")
+        .replace(&common::repo("bags/bandai_wave.pose.mcap"), "wave.bvh");
+    let spec = write(dir.path(), "s.toml", &text);
+    let o = autoact(&["plan", arg(&spec)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let planned = stdout(&o);
+    let out = dir.path().join("capture");
+    let o = autoact(&["convert", "--spec", arg(&spec), "-o", arg(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bags = std::fs::read_dir(&out)
+        .unwrap()
+        .filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .path()
+                .extension()
+                .is_some_and(|x| x == "mcap")
+        })
+        .count();
+    assert_eq!(bags, 2, "one capture bag per animation");
+    // The same spec over the bag plans the same clip lengths to within a frame or two.
+    let from_bag = stdout(&autoact(&[
+        "plan",
+        arg(&write(
+            dir.path(),
+            "b.toml",
+            &spec_text(3, "variants = 1\nscenes = 1\nviewpoints = 1", ""),
+        )),
+    ]));
+    assert_eq!(
+        planned.lines().find(|l| l.contains("clips in")),
+        from_bag.lines().find(|l| l.contains("clips in")),
+        "{planned}\n{from_bag}"
+    );
+    let json = write(dir.path(), "wave.json", "[]");
+    let text = text.replace("wave.bvh", &json.display().to_string());
+    let o = autoact(&["plan", arg(&write(dir.path(), "j.toml", &text))]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("autoact import"), "{}", stderr(&o));
+}
