@@ -256,7 +256,7 @@ pub fn run_in(
     windows: stream::Windows,
 ) -> Result<DsiOutput, DsiError> {
     check(rig, options)?;
-    let mut clip = stream::ClipKeys::new(store::KeyStore::memory());
+    let mut clip = stream::ClipKeys::in_memory();
     for key in keys {
         clip.push(key.clone())?;
     }

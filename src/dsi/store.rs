@@ -68,17 +68,6 @@ impl KeyStore {
         }
     }
 
-    /// An empty store of the same kind, in the same place.
-    ///
-    /// # Errors
-    /// The temporary file cannot be created.
-    pub fn sibling(&self) -> io::Result<KeyStore> {
-        match self {
-            KeyStore::Memory(_) => Ok(KeyStore::memory()),
-            KeyStore::Spill(s) => KeyStore::spill(&s.dir, s.bones),
-        }
-    }
-
     /// Appends a key.
     ///
     /// # Errors
@@ -101,6 +90,59 @@ impl KeyStore {
             KeyStore::Memory(v) => Ok(v[range].to_vec()),
             KeyStore::Spill(s) => s.read(range),
         }
+    }
+}
+
+/// One clip's part of a store that several clips share (the stretches of one person, so that a
+/// recording cut by many gaps does not open a file per stretch): keys `start..` of the store.
+/// Clips sharing a store are written one after the other: a part is appended to only while it
+/// ends the store.
+#[derive(Debug, Clone)]
+pub struct Shelf {
+    store: std::rc::Rc<std::cell::RefCell<KeyStore>>,
+    start: usize,
+}
+
+impl Shelf {
+    /// The whole of `store`, which starts empty.
+    #[must_use]
+    pub fn new(store: KeyStore) -> Shelf {
+        Shelf {
+            start: store.len(),
+            store: std::rc::Rc::new(std::cell::RefCell::new(store)),
+        }
+    }
+
+    /// A new part of the same store, from its current end.
+    #[must_use]
+    pub fn next(&self) -> Shelf {
+        Shelf {
+            store: std::rc::Rc::clone(&self.store),
+            start: self.store.borrow().len(),
+        }
+    }
+
+    /// Appends a key to the store (this part's next key while it ends the store).
+    ///
+    /// # Errors
+    /// Writing the temporary file failed.
+    pub fn push(&self, pose: BonePose) -> io::Result<()> {
+        self.store.borrow_mut().push(pose)
+    }
+
+    /// This part's keys `range`.
+    ///
+    /// # Errors
+    /// Reading the temporary file failed.
+    pub fn read(&self, range: Range<usize>) -> io::Result<Vec<BonePose>> {
+        let shifted = self.start + range.start..self.start + range.end;
+        self.store.borrow_mut().read(shifted)
+    }
+
+    /// The folder of the temporary file (`None` in memory), for messages.
+    #[must_use]
+    pub fn dir(&self) -> Option<PathBuf> {
+        self.store.borrow().dir().map(Path::to_path_buf)
     }
 }
 

@@ -24,7 +24,7 @@ use super::interp::{self, Sample};
 use super::outliers::{self, NoiseLevels};
 use super::plan::{self, Distances, Plan};
 use super::range::{MeanRotation, RangeBox, SourceRange};
-use super::store::KeyStore;
+use super::store::{KeyStore, Shelf};
 use super::variants::Variation;
 use super::{DsiError, DsiOptions};
 use crate::skeleton::convert::AnimationFrame;
@@ -58,7 +58,11 @@ impl Default for Windows {
 /// A clip's keys, being collected.
 #[derive(Debug)]
 pub struct ClipKeys {
-    store: KeyStore,
+    /// Where the keys go as they come.
+    raw: Shelf,
+    /// Where the keys with their outliers replaced go when the clip is solved (a new part of
+    /// this store).
+    clean: Shelf,
     first_stamp_nanos: Option<u64>,
     last_stamp_nanos: u64,
     times_s: Vec<f64>,
@@ -68,11 +72,22 @@ pub struct ClipKeys {
 }
 
 impl ClipKeys {
-    /// No keys yet, to be kept in `store`.
+    /// No keys yet, to be kept in memory.
     #[must_use]
-    pub fn new(store: KeyStore) -> ClipKeys {
+    pub fn in_memory() -> ClipKeys {
+        ClipKeys::new(
+            Shelf::new(KeyStore::memory()),
+            Shelf::new(KeyStore::memory()),
+        )
+    }
+
+    /// No keys yet: they are to be appended to `raw`, and, when the clip is solved, with their
+    /// outliers replaced, to `clean`'s store (one of each per person for `convert --dsi`).
+    #[must_use]
+    pub fn new(raw: Shelf, clean: Shelf) -> ClipKeys {
         ClipKeys {
-            store,
+            raw,
+            clean,
             first_stamp_nanos: None,
             last_stamp_nanos: 0,
             times_s: Vec::new(),
@@ -134,10 +149,10 @@ impl ClipKeys {
         }
         self.times_s.push(nanos_to_secs(stamp - first_stamp));
         self.last_stamp_nanos = stamp;
-        let dir = self.store.dir().map(std::path::Path::to_path_buf);
-        self.store
-            .push(pose)
-            .map_err(|source| DsiError::Spill { dir, source })
+        self.raw.push(pose).map_err(|source| DsiError::Spill {
+            dir: self.raw.dir(),
+            source,
+        })
     }
 
     /// Plans the clip (see the module docs) in [`Windows::default`].
@@ -167,7 +182,8 @@ impl ClipKeys {
             frames: windows.frames.max(1),
         };
         let Self {
-            mut store,
+            raw,
+            clean,
             times_s,
             moving,
             means,
@@ -179,14 +195,13 @@ impl ClipKeys {
             moving: &moving,
             window: windows.keys,
         };
-        let (key_ranges, mut keys) =
-            clip.ranges_and_outliers(&mut store, &means, options.reject_outliers)?;
-        drop(store);
+        let (key_ranges, keys) =
+            clip.ranges_and_outliers(&raw, &clean, &means, options.reject_outliers)?;
         let Measured {
             noise_rad,
             distances_rad,
             without_largest,
-        } = clip.noise_and_distances(&mut keys, options)?;
+        } = clip.noise_and_distances(&keys, options)?;
         let plan = plan::plan_from_distances(&times_s, distances_rad, &without_largest, options)?;
         let mut solver = Solver {
             rig,
@@ -232,33 +247,29 @@ impl Passes<'_> {
     }
 
     /// Pass 2: each bone's range over the keys as they came, and the keys with their outliers
-    /// replaced (in a new store; the same one when outliers are kept).
+    /// replaced (a new part of `clean`'s store; `raw` itself when outliers are kept).
     fn ranges_and_outliers(
         &mut self,
-        store: &mut KeyStore,
+        raw: &Shelf,
+        clean: &Shelf,
         means: &[MeanRotation],
         reject: bool,
-    ) -> Result<(Vec<Option<SourceRange>>, KeyStore), DsiError> {
-        let dir = store.dir().map(std::path::Path::to_path_buf);
-        let spill = |source| DsiError::Spill {
-            dir: dir.clone(),
-            source,
+    ) -> Result<(Vec<Option<SourceRange>>, Shelf), DsiError> {
+        let spill = |shelf: &Shelf| {
+            let dir = shelf.dir();
+            move |source| DsiError::Spill { dir, source }
         };
         let mut boxes: Vec<Option<RangeBox>> = means
             .iter()
             .enumerate()
             .map(|(b, m)| m.mean().filter(|_| self.counts(b)).map(RangeBox::new))
             .collect();
-        let mut cleaned = if reject {
-            Some(store.sibling().map_err(spill)?)
-        } else {
-            None
-        };
+        let cleaned = reject.then(|| clean.next());
         let n = self.times_s.len();
         for core in Self::windows(n, self.window) {
             let margin = if reject { KEY_MARGIN } else { 0 };
             let read = core.start.saturating_sub(margin)..(core.end + margin).min(n);
-            let mut keys = store.read(read.clone()).map_err(spill)?;
+            let mut keys = raw.read(read.clone()).map_err(spill(raw))?;
             let inner = core.start - read.start..core.end - read.start;
             for key in &keys[inner.clone()] {
                 for (range, q) in boxes.iter_mut().zip(&key.local_rotations) {
@@ -267,10 +278,10 @@ impl Passes<'_> {
                     }
                 }
             }
-            if let Some(cleaned) = &mut cleaned {
+            if let Some(cleaned) = &cleaned {
                 outliers::reject(self.rig, &mut keys, &self.times_s[read], self.moving);
                 for key in keys.drain(inner) {
-                    cleaned.push(key).map_err(spill)?;
+                    cleaned.push(key).map_err(spill(cleaned))?;
                 }
             }
         }
@@ -278,17 +289,14 @@ impl Passes<'_> {
             .into_iter()
             .map(|r| r.and_then(RangeBox::finish))
             .collect();
-        Ok((
-            ranges,
-            cleaned.unwrap_or_else(|| std::mem::replace(store, KeyStore::memory())),
-        ))
+        Ok((ranges, cleaned.unwrap_or_else(|| raw.clone())))
     }
 
     /// Pass 3: the noise level of every bone, and the distances of every interval with and
     /// without the two largest bones (see [`plan`]).
     fn noise_and_distances(
         &mut self,
-        keys: &mut KeyStore,
+        keys: &Shelf,
         options: &DsiOptions,
     ) -> Result<Measured, DsiError> {
         let n = self.times_s.len();
@@ -303,7 +311,7 @@ impl Passes<'_> {
         for core in Self::windows(n, self.window) {
             let read = core.start.saturating_sub(2)..(core.end + 2).min(n);
             let poses = keys.read(read.clone()).map_err(|source| DsiError::Spill {
-                dir: keys.dir().map(std::path::Path::to_path_buf),
+                dir: keys.dir(),
                 source,
             })?;
             let times = &self.times_s[read.clone()];
@@ -359,7 +367,7 @@ pub struct Solver<'r> {
     rig: &'r Rig,
     options: DsiOptions,
     /// The keys, outliers replaced.
-    keys: KeyStore,
+    keys: Shelf,
     times_s: Vec<f64>,
     first_stamp_nanos: u64,
     moving: Vec<bool>,
@@ -417,7 +425,7 @@ impl Solver<'_> {
 
     fn spill_error(&self, source: std::io::Error) -> DsiError {
         DsiError::Spill {
-            dir: self.keys.dir().map(std::path::Path::to_path_buf),
+            dir: self.keys.dir(),
             source,
         }
     }
@@ -671,7 +679,11 @@ mod tests {
             frames: 150,
         };
         let dir = tempfile::tempdir().unwrap();
-        let mut clip = ClipKeys::new(KeyStore::spill(dir.path(), rig.bones.len()).unwrap());
+        let bones = rig.bones.len();
+        let mut clip = ClipKeys::new(
+            Shelf::new(KeyStore::spill(dir.path(), bones).unwrap()),
+            Shelf::new(KeyStore::spill(dir.path(), bones).unwrap()),
+        );
         for key in &keys {
             clip.push(key.clone()).unwrap();
         }
@@ -692,7 +704,7 @@ mod tests {
     fn keys_out_of_order_are_refused_with_their_index() {
         let rig = Rig::standard();
         let keys = long_noisy_clip(&rig);
-        let mut clip = ClipKeys::new(KeyStore::memory());
+        let mut clip = ClipKeys::in_memory();
         clip.push(keys[0].clone()).unwrap();
         clip.push(keys[1].clone()).unwrap();
         assert!(matches!(
@@ -700,7 +712,7 @@ mod tests {
             Err(DsiError::NonMonotonic { index: 2 })
         ));
         assert!(matches!(
-            ClipKeys::new(KeyStore::memory()).solve(&rig, &DsiOptions::new(&rig)),
+            ClipKeys::in_memory().solve(&rig, &DsiOptions::new(&rig)),
             Err(DsiError::NoFrames)
         ));
     }

@@ -770,10 +770,11 @@ impl<R: std::io::Read> NonFiniteAsNull<R> {
     /// Reads more and passes on what can be decided (a possible token cut at the end of what
     /// was read waits for the rest).
     fn refill(&mut self) -> std::io::Result<()> {
-        let mut chunk = [0u8; 1 << 15];
-        let n = self.inner.read(&mut chunk)?;
+        let have = self.input.len();
+        self.input.resize(have + (1 << 15), 0);
+        let n = self.inner.read(&mut self.input[have..])?;
+        self.input.truncate(have + n);
         self.eof = n == 0;
-        self.input.extend_from_slice(&chunk[..n]);
         // Only whole UTF-8 characters; stop for good at the first invalid byte.
         let valid = match std::str::from_utf8(&self.input) {
             Ok(_) => self.input.len(),

@@ -12,7 +12,7 @@ use super::PipelineError;
 use super::convert::{DsiSummary, Person, TrackSummary};
 use crate::bags::animation::{TrackWriter, frame_prefix};
 use crate::bags::output::BagOutput;
-use crate::dsi::store::KeyStore;
+use crate::dsi::store::{KeyStore, Shelf};
 use crate::dsi::stream::{ClipKeys, Solver};
 use crate::dsi::{self, DsiError, DsiOptions, Pace};
 use crate::loss::{Losses, WARN_LIMIT};
@@ -35,12 +35,15 @@ pub fn spill_dir(output: &Path) -> PathBuf {
 }
 
 /// One person's clip, solved frame by frame as the input is read: its keys, a new stretch
-/// after each gap in its stamps.
+/// after each gap in its stamps. All stretches share two temporary files (the keys as they
+/// come, and with their outliers replaced), created with the first key.
 #[derive(Debug)]
 pub(super) struct Clip {
     track_id: u64,
     spill_dir: PathBuf,
     bones: usize,
+    /// The raw and the clean store, once there is a key.
+    stores: Option<(Shelf, Shelf)>,
     stretches: Vec<ClipKeys>,
 }
 
@@ -51,6 +54,7 @@ impl Clip {
             track_id,
             spill_dir: spill_dir.to_path_buf(),
             bones,
+            stores: None,
             stretches: Vec::new(),
         }
     }
@@ -78,13 +82,22 @@ impl Clip {
             .last()
             .is_none_or(|s| after_gap && !s.is_empty())
         {
-            let store = KeyStore::spill(&self.spill_dir, self.bones).map_err(|source| {
-                dsi_error(DsiError::Spill {
-                    dir: Some(self.spill_dir.clone()),
-                    source,
-                })
-            })?;
-            self.stretches.push(ClipKeys::new(store));
+            let stores = if let Some(stores) = self.stores.take() {
+                stores
+            } else {
+                let spill = || {
+                    KeyStore::spill(&self.spill_dir, self.bones).map_err(|source| {
+                        dsi_error(DsiError::Spill {
+                            dir: Some(self.spill_dir.clone()),
+                            source,
+                        })
+                    })
+                };
+                (Shelf::new(spill()?), Shelf::new(spill()?))
+            };
+            let (raw, clean) = self.stores.insert(stores);
+            self.stretches
+                .push(ClipKeys::new(raw.next(), clean.clone()));
         }
         let key = AnimationFrame {
             stamp_nanos,

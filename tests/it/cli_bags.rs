@@ -1430,7 +1430,7 @@ fn degenerate_input_is_explained_per_bone_and_kind() {
             s.confidence[15] = 0.05;
         }
         if (30..32).contains(&k) {
-            s.positions[5] = s.positions[4].clone();
+            s.positions[5] = s.positions[4];
         }
     });
     let out = dir.path().join("out.mcap");
@@ -1471,4 +1471,35 @@ fn degenerate_input_is_explained_per_bone_and_kind() {
     );
     let info = common::stdout(&autoact(&["info", arg(&clean)]));
     assert!(!info.contains("autoact.degenerate"), "{info}");
+}
+
+#[test]
+fn dsi_on_a_clip_cut_by_hundreds_of_gaps_opens_two_files_per_person() {
+    // 900 frames, a 1 s gap after every 6th: 150 stretches, each solved on its own, all in two
+    // temporary files, so that 32 open files are plenty.
+    let dir = tempfile::tempdir().unwrap();
+    let input = pose_bag(dir.path(), "gappy.mcap", 900, |k, s| {
+        let nanos = s.header.stamp.to_nanos().unwrap() + (k as u64 / 6) * 1_000_000_000;
+        s.header.stamp = Time::from_nanos(nanos);
+    });
+    let out = dir.path().join("out.mcap");
+    let o = std::process::Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "ulimit -n 32; exec '{}' convert '{}' -o '{}' --dsi --max-gap 0.5",
+            env!("CARGO_BIN_EXE_autoact"),
+            input.display(),
+            out.display()
+        ))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        common::stdout(&o).contains("150 unit motions"),
+        "{}",
+        common::stdout(&o)
+    );
+    let frames = bone_frames(&out);
+    assert!(frames.windows(2).all(|w| w[0].0 < w[1].0));
+    assert!(frames.len() >= 880, "{} frames", frames.len());
 }
