@@ -380,21 +380,29 @@ impl Imported {
         metadata: BTreeMap<String, String>,
     ) -> Result<u64, ImportError> {
         writer.write_metadata(crate::bags::pose::METADATA_NAME, metadata)?;
-        let sequences = std::mem::take(&mut self.sequences);
+        // Each sequence's name and joints, for the messages (not its frames).
+        let heads: Vec<PoseSequence> = self
+            .sequences
+            .iter()
+            .map(|s| PoseSequence {
+                source: s.source.clone(),
+                track_id: s.track_id,
+                joint_names: s.joint_names.clone(),
+                frames: Vec::new(),
+            })
+            .collect();
         let layout = self.layout.clone();
         let mut written = 0;
-        let result = self.for_each_frame(|s, frame| {
-            let seq = &sequences[s];
+        self.for_each_frame(|s, frame| {
             writer.write(
                 crate::bags::pose::SKELETON_TOPIC,
                 frame.stamp_nanos,
-                &skeleton_message(seq, frame, &layout),
+                &skeleton_message(&heads[s], frame, &layout),
             )?;
             written += 1;
             Ok(())
-        });
-        self.sequences = sequences;
-        result.map(|()| written)
+        })?;
+        Ok(written)
     }
 }
 
