@@ -96,6 +96,8 @@ pub fn trim_capture(
         frame_count,
     };
     std::fs::create_dir_all(dir).map_err(TrimError::io("create", dir))?;
+    // Held until this run returns: its manifest and lists then see every clip of any other run.
+    let _lock = lock_dataset(dir)?;
     ensure_classes(dir, &capture.labels)?;
     let mut manifest = Manifest::open(dir)?;
     let (ranges, truncated) = frame_ranges(&capture.segments, &timing);
@@ -136,6 +138,32 @@ pub fn trim_capture(
             Err(e)
         }
     }
+}
+
+/// The dataset folder, held for one run: a second `trim` into the same folder waits until the
+/// first is done (saying so), so that neither reads the manifest while the other appends to it
+/// and the lists written last name every clip. The lock is the kernel's (`flock`) on
+/// `.autoact-trim.lock`, released when the run ends, however it ends.
+fn lock_dataset(dir: &Path) -> Result<std::fs::File, TrimError> {
+    let path = dir.join(".autoact-trim.lock");
+    let file = std::fs::OpenOptions::new()
+        .create(true)
+        .write(true)
+        .truncate(false)
+        .open(&path)
+        .map_err(TrimError::io("open", &path))?;
+    match file.try_lock() {
+        Ok(()) => {}
+        Err(std::fs::TryLockError::WouldBlock) => {
+            tracing::warn!(
+                "another trim is writing into {}: waiting for it to finish",
+                dir.display()
+            );
+            file.lock().map_err(TrimError::io("lock", &path))?;
+        }
+        Err(std::fs::TryLockError::Error(e)) => return Err(TrimError::io("lock", &path)(e)),
+    }
+    Ok(file)
 }
 
 /// Every list rewritten from the manifest's clips whose file is on disk, split anew.

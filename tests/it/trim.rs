@@ -252,6 +252,12 @@ use autoact::skeleton::rig::Rig;
 
 /// A one-session capture bag with two classes; the wave class is labelled `wave_label`.
 fn capture_bag(dir: &Path, wave_label: &str) -> PathBuf {
+    capture_bag_of(dir, wave_label, "pose")
+}
+
+/// [`capture_bag`] with the sample bags of `kind` (`pose` or `anim`) as sources: the same
+/// classes, other clip ids.
+fn capture_bag_of(dir: &Path, wave_label: &str, kind: &str) -> PathBuf {
     let spec = format!(
         r#"[dataset]
 name = "t"
@@ -275,8 +281,8 @@ category = "locomotion"
 action = "walk"
 sources = ["{walk}"]
 "#,
-        wave = common::repo("bags/bandai_wave.pose.mcap"),
-        walk = common::repo("bags/bandai_walk.pose.mcap"),
+        wave = common::repo(&format!("bags/bandai_wave.{kind}.mcap")),
+        walk = common::repo(&format!("bags/bandai_walk.{kind}.mcap")),
     );
     common::capture_bag_from_spec(dir, &spec)
 }
@@ -869,4 +875,58 @@ fn trim_on_a_full_disk_fails_and_no_list_names_an_incomplete_clip() {
             assert!(!name.starts_with('.'), "{name} left behind");
         }
     }
+}
+
+#[test]
+fn two_trims_into_one_folder_take_turns_and_list_every_clip() {
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
+    // Two captures of the same classes from different bags (so other clip ids), trimmed at
+    // once into one folder: the second waits for the first, and the lists name both's clips.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("ds");
+    let mut runs = Vec::new();
+    let mut clips = 0;
+    for kind in ["pose", "anim"] {
+        let own = dir.path().join(kind);
+        std::fs::create_dir(&own).unwrap();
+        let bag = capture_bag_of(&own, "wave", kind);
+        let capture = Capture::read(&Rig::standard(), &bag).unwrap();
+        clips += capture.segments.len();
+        let video = own.join("capture.mp4");
+        coded_video(
+            &ffmpeg,
+            &video,
+            capture.frames.len() as u64,
+            &capture.boundary_frames(),
+        );
+        runs.push((bag, video));
+    }
+    let children: Vec<std::process::Child> = runs
+        .iter()
+        .map(|(bag, video)| {
+            std::process::Command::new(env!("CARGO_BIN_EXE_autoact"))
+                .args([
+                    "trim",
+                    bag.to_str().unwrap(),
+                    video.to_str().unwrap(),
+                    "-o",
+                    out.to_str().unwrap(),
+                    "--video-start",
+                    "0",
+                ])
+                .stdout(std::process::Stdio::null())
+                .stderr(std::process::Stdio::piped())
+                .spawn()
+                .unwrap()
+        })
+        .collect();
+    for child in children {
+        let o = child.wait_with_output().unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let listed: usize = check_lists(&out).values().map(Vec::len).sum();
+    assert_eq!(listed, clips, "every clip of both captures listed once");
+    assert_eq!(read_jsonl(&out.join("manifest.jsonl")).len(), clips);
 }
