@@ -134,6 +134,20 @@ fn remove_any(path: &Path) {
     }
 }
 
+/// Where scratch files for making `output` go (the keys of DSI clips, say): the output's folder,
+/// so that a long job costs space where its output goes, or the system's temporary folder for
+/// an output that is a device or a pipe ([`is_special`]).
+#[must_use]
+pub fn scratch_dir(output: &Path) -> std::path::PathBuf {
+    if is_special(output) {
+        return std::env::temp_dir();
+    }
+    match output.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => std::path::PathBuf::from("."),
+    }
+}
+
 /// Whether `path` exists and is neither a regular file nor a folder (`/dev/null`, a FIFO, a
 /// terminal): such an output is written in place, never renamed over.
 #[must_use]

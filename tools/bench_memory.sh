@@ -23,6 +23,31 @@ json_limit_mb=${JSON_LIMIT_MB:-200}
 cargo build --release --quiet --bin autoact --example synth_pose_bag --example synth_pose_json
 declare -A peak_kb
 status=0
+
+# measure MODE N INPUT OUT COMMAND...: runs COMMAND (writing OUT) under /usr/bin/time, prints a
+# line with INPUT's size and the peak RSS, keeps the peak in peak_kb[N] and removes OUT.
+measure() {
+    local mode=$1 n=$2 input=$3 out=$4
+    shift 4
+    rm -f "$out"
+    /usr/bin/time -v -o "$work/time_${n}_$mode.txt" "$@" >/dev/null
+    rm -f "$out"
+    peak_kb[$n]=$(awk -F': ' '/Maximum resident set size/ {print $2}' "$work/time_${n}_$mode.txt")
+    local wall
+    wall=$(awk -F': ' '/Elapsed \(wall clock\)/ {print $2}' "$work/time_${n}_$mode.txt")
+    printf '%-5s %9d frames: input %6.1f MB, peak RSS %6.1f MB, wall %s\n' "$mode" "$n" \
+        "$(echo "$(stat -c %s "$input") / 1000000" | bc -l)" \
+        "$(echo "${peak_kb[$n]} / 1024" | bc -l)" "$wall"
+}
+
+# within MODE N LIMIT_MB: fails the run (status 1) when N frames took more than LIMIT_MB.
+within() {
+    if [ "$((peak_kb[$2] / 1024))" -gt "$3" ]; then
+        echo "FAIL: $1: $2 frames took $((peak_kb[$2] / 1024)) MB, more than $3 MB" >&2
+        status=1
+    fi
+}
+
 first=${sizes%% *}
 last=${sizes##* }
 for mode in plain dsi; do
@@ -32,41 +57,21 @@ for mode in plain dsi; do
         bag="$work/synth_$n.pose.mcap"
         [ -s "$bag" ] || target/release/examples/synth_pose_bag "$n" "$bag" >/dev/null
         out="$work/synth_${n}_$mode.anim.mcap"
-        rm -f "$out"
-        /usr/bin/time -v -o "$work/time_${n}_$mode.txt" target/release/autoact -q convert "$bag" \
-            -o "$out" --fps 30 "${flags[@]}" >/dev/null
-        rm -f "$out"
-        peak_kb[$n]=$(awk -F': ' '/Maximum resident set size/ {print $2}' "$work/time_${n}_$mode.txt")
-        wall=$(awk -F': ' '/Elapsed \(wall clock\)/ {print $2}' "$work/time_${n}_$mode.txt")
-        printf '%-5s %9d frames: input %6.1f MB, peak RSS %6.1f MB, wall %s\n' "$mode" "$n" \
-            "$(echo "$(stat -c %s "$bag") / 1000000" | bc -l)" \
-            "$(echo "${peak_kb[$n]} / 1024" | bc -l)" "$wall"
+        measure "$mode" "$n" "$bag" "$out" \
+            target/release/autoact -q convert "$bag" -o "$out" --fps 30 "${flags[@]}"
     done
     printf '%-5s ratio %d / %d frames: %.2f\n' "$mode" "$last" "$first" \
         "$(echo "${peak_kb[$last]} / ${peak_kb[$first]}" | bc -l)"
-    if [ "$((peak_kb[$last] / 1024))" -gt "$limit_mb" ]; then
-        echo "FAIL: $mode: $last frames took $((peak_kb[$last] / 1024)) MB, more than $limit_mb MB" >&2
-        status=1
-    fi
+    within "$mode" "$last" "$limit_mb"
 done
 for n in $json_sizes; do
     json="$work/synth_$n.json"
     [ -s "$json" ] || target/release/examples/synth_pose_json "$n" "$json" >/dev/null
     out="$work/synth_${n}_json.pose.mcap"
-    rm -f "$out"
-    /usr/bin/time -v -o "$work/time_${n}_json.txt" target/release/autoact -q import "$json" \
-        -o "$out" --fps 30 --axes z-up >/dev/null
-    rm -f "$out"
-    peak_kb[$n]=$(awk -F': ' '/Maximum resident set size/ {print $2}' "$work/time_${n}_json.txt")
-    wall=$(awk -F': ' '/Elapsed \(wall clock\)/ {print $2}' "$work/time_${n}_json.txt")
-    printf 'json  %9d frames: input %6.1f MB, peak RSS %6.1f MB, wall %s\n' "$n" \
-        "$(echo "$(stat -c %s "$json") / 1000000" | bc -l)" \
-        "$(echo "${peak_kb[$n]} / 1024" | bc -l)" "$wall"
+    measure json "$n" "$json" "$out" \
+        target/release/autoact -q import "$json" -o "$out" --fps 30 --axes z-up
 done
 json_last=${json_sizes##* }
-if [ "$((peak_kb[$json_last] / 1024))" -gt "$json_limit_mb" ]; then
-    echo "FAIL: json import: $json_last frames took $((peak_kb[$json_last] / 1024)) MB, more than $json_limit_mb MB" >&2
-    status=1
-fi
+within "json import" "$json_last" "$json_limit_mb"
 [ "$status" = 0 ] && echo "ok: $last frames within $limit_mb MB, plain and with --dsi; JSON import of $json_last frames within $json_limit_mb MB"
 exit "$status"

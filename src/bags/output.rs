@@ -124,7 +124,7 @@ impl BagOutput {
         let special = crate::atomic_file::is_special(path);
         let no_name = || BagOutputError::NoFileName { path: path.clone() };
         let part = if special {
-            Part::new(&spool_path()).ok_or_else(no_name)?
+            Part::new(&spool_path(path)).ok_or_else(no_name)?
         } else {
             Part::new(path).ok_or_else(no_name)?
         };
@@ -200,11 +200,12 @@ impl BagOutput {
     }
 }
 
-/// A fresh name in the temporary folder for spooling a bag bound for a device or a pipe.
-fn spool_path() -> PathBuf {
+/// A fresh name for spooling a bag bound for the device or pipe `device`, where its scratch
+/// files go ([`crate::atomic_file::scratch_dir`]: the temporary folder).
+fn spool_path(device: &Path) -> PathBuf {
     static COUNT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     let n = COUNT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    std::env::temp_dir().join(format!("autoact-{}-{n}.mcap", std::process::id()))
+    crate::atomic_file::scratch_dir(device).join(format!("autoact-{}-{n}.mcap", std::process::id()))
 }
 
 /// Copies the complete spooled bag into a device or a pipe.

@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
+use super::DsiError;
 use crate::skeleton::fk::BonePose;
 
 /// A clip's key frames, appended in order and read back by index range.
@@ -113,6 +114,19 @@ impl Shelf {
         }
     }
 
+    /// The whole of a new store in a temporary file in `dir` ([`KeyStore::spill`]).
+    ///
+    /// # Errors
+    /// [`DsiError::Spill`] when the file cannot be created.
+    pub fn spill(dir: &Path, bones: usize) -> Result<Shelf, DsiError> {
+        KeyStore::spill(dir, bones)
+            .map(Shelf::new)
+            .map_err(|source| DsiError::Spill {
+                dir: Some(dir.to_path_buf()),
+                source,
+            })
+    }
+
     /// A new part of the same store, from its current end.
     #[must_use]
     pub fn next(&self) -> Shelf {
@@ -125,24 +139,28 @@ impl Shelf {
     /// Appends a key to the store (this part's next key while it ends the store).
     ///
     /// # Errors
-    /// Writing the temporary file failed.
-    pub fn push(&self, pose: BonePose) -> io::Result<()> {
-        self.store.borrow_mut().push(pose)
+    /// [`DsiError::Spill`] when the temporary file cannot be written (a full disk).
+    pub fn push(&self, pose: BonePose) -> Result<(), DsiError> {
+        let result = self.store.borrow_mut().push(pose);
+        result.map_err(|source| self.error(source))
     }
 
     /// This part's keys `range`.
     ///
     /// # Errors
-    /// Reading the temporary file failed.
-    pub fn read(&self, range: Range<usize>) -> io::Result<Vec<BonePose>> {
+    /// [`DsiError::Spill`] when the temporary file cannot be read.
+    pub fn read(&self, range: Range<usize>) -> Result<Vec<BonePose>, DsiError> {
         let shifted = self.start + range.start..self.start + range.end;
-        self.store.borrow_mut().read(shifted)
+        let result = self.store.borrow_mut().read(shifted);
+        result.map_err(|source| self.error(source))
     }
 
-    /// The folder of the temporary file (`None` in memory), for messages.
-    #[must_use]
-    pub fn dir(&self) -> Option<PathBuf> {
-        self.store.borrow().dir().map(Path::to_path_buf)
+    /// The one place a store's I/O error becomes a [`DsiError`], naming the file's folder.
+    fn error(&self, source: io::Error) -> DsiError {
+        DsiError::Spill {
+            dir: self.store.borrow().dir().map(Path::to_path_buf),
+            source,
+        }
     }
 }
 

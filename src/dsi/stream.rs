@@ -149,10 +149,7 @@ impl ClipKeys {
         }
         self.times_s.push(nanos_to_secs(stamp - first_stamp));
         self.last_stamp_nanos = stamp;
-        self.raw.push(pose).map_err(|source| DsiError::Spill {
-            dir: self.raw.dir(),
-            source,
-        })
+        self.raw.push(pose)
     }
 
     /// Plans the clip (see the module docs) in [`Windows::default`].
@@ -234,13 +231,26 @@ struct Passes<'a> {
     window: usize,
 }
 
-impl Passes<'_> {
-    /// Whether bone `b` has a range and is smoothed, varied and cleaned.
-    fn counts(&self, b: usize) -> bool {
-        self.moving.get(b).copied().unwrap_or(false)
-            && !matches!(self.rig.bones[b].dof, Dof::Static)
-    }
+/// Whether bone `b` of a clip whose bones move as `moving` says has a range (it moves and is
+/// not static).
+fn has_range(rig: &Rig, moving: &[bool], b: usize) -> bool {
+    moving.get(b).copied().unwrap_or(false) && !matches!(rig.bones[b].dof, Dof::Static)
+}
 
+/// Each bone's empty range box about the mean of `means`, for the bones that have one.
+fn range_boxes(rig: &Rig, moving: &[bool], means: &[MeanRotation]) -> Vec<Option<RangeBox>> {
+    means
+        .iter()
+        .enumerate()
+        .map(|(b, m)| {
+            m.mean()
+                .filter(|_| has_range(rig, moving, b))
+                .map(RangeBox::new)
+        })
+        .collect()
+}
+
+impl Passes<'_> {
     /// The windows of a pass over `n` keys (or frames).
     fn windows(n: usize, size: usize) -> impl Iterator<Item = Range<usize>> {
         (0..n).step_by(size).map(move |a| a..(a + size).min(n))
@@ -255,21 +265,13 @@ impl Passes<'_> {
         means: &[MeanRotation],
         reject: bool,
     ) -> Result<(Vec<Option<SourceRange>>, Shelf), DsiError> {
-        let spill = |shelf: &Shelf| {
-            let dir = shelf.dir();
-            move |source| DsiError::Spill { dir, source }
-        };
-        let mut boxes: Vec<Option<RangeBox>> = means
-            .iter()
-            .enumerate()
-            .map(|(b, m)| m.mean().filter(|_| self.counts(b)).map(RangeBox::new))
-            .collect();
+        let mut boxes = range_boxes(self.rig, self.moving, means);
         let cleaned = reject.then(|| clean.next());
         let n = self.times_s.len();
         for core in Self::windows(n, self.window) {
             let margin = if reject { KEY_MARGIN } else { 0 };
             let read = core.start.saturating_sub(margin)..(core.end + margin).min(n);
-            let mut keys = raw.read(read.clone()).map_err(spill(raw))?;
+            let mut keys = raw.read(read.clone())?;
             let inner = core.start - read.start..core.end - read.start;
             for key in &keys[inner.clone()] {
                 for (range, q) in boxes.iter_mut().zip(&key.local_rotations) {
@@ -281,7 +283,7 @@ impl Passes<'_> {
             if let Some(cleaned) = &cleaned {
                 outliers::reject(self.rig, &mut keys, &self.times_s[read], self.moving);
                 for key in keys.drain(inner) {
-                    cleaned.push(key).map_err(spill(cleaned))?;
+                    cleaned.push(key)?;
                 }
             }
         }
@@ -310,10 +312,7 @@ impl Passes<'_> {
         let mut without = Vec::with_capacity(n.saturating_sub(1));
         for core in Self::windows(n, self.window) {
             let read = core.start.saturating_sub(2)..(core.end + 2).min(n);
-            let poses = keys.read(read.clone()).map_err(|source| DsiError::Spill {
-                dir: keys.dir(),
-                source,
-            })?;
+            let poses = keys.read(read.clone())?;
             let times = &self.times_s[read.clone()];
             noise.push(
                 self.rig,
@@ -423,13 +422,6 @@ impl Solver<'_> {
         })
     }
 
-    fn spill_error(&self, source: std::io::Error) -> DsiError {
-        DsiError::Spill {
-            dir: self.keys.dir(),
-            source,
-        }
-    }
-
     /// The animation's output frames `frames`, interpolated from the keys around them.
     fn base(&mut self, frames: Range<usize>) -> Result<Vec<BonePose>, DsiError> {
         let samples = &self.plan.samples[frames];
@@ -449,10 +441,7 @@ impl Solver<'_> {
         let transitions = &self.plan.transitions;
         let transitions =
             &transitions[read.start.min(transitions.len())..(read.end - 1).min(transitions.len())];
-        let keys = self
-            .keys
-            .read(read.clone())
-            .map_err(|e| self.spill_error(e))?;
+        let keys = self.keys.read(read.clone())?;
         Ok(interp::interpolate(
             &keys,
             &self.times_s[read],
@@ -488,15 +477,9 @@ impl Solver<'_> {
                 }
             }
         })?;
-        let counts = |b: usize| self.moving[b] && !matches!(self.rig.bones[b].dof, Dof::Static);
         let mut boxes: Vec<Vec<Option<RangeBox>>> = means
             .iter()
-            .map(|m| {
-                m.iter()
-                    .enumerate()
-                    .map(|(b, m)| m.mean().filter(|_| counts(b)).map(RangeBox::new))
-                    .collect()
-            })
+            .map(|m| range_boxes(self.rig, &self.moving, m))
             .collect();
         self.each_variant_window(|v, frames| {
             for pose in frames {
@@ -681,8 +664,8 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let bones = rig.bones.len();
         let mut clip = ClipKeys::new(
-            Shelf::new(KeyStore::spill(dir.path(), bones).unwrap()),
-            Shelf::new(KeyStore::spill(dir.path(), bones).unwrap()),
+            Shelf::spill(dir.path(), bones).unwrap(),
+            Shelf::spill(dir.path(), bones).unwrap(),
         );
         for key in &keys {
             clip.push(key.clone()).unwrap();

@@ -295,8 +295,14 @@ fn stream<E: From<JsonError>>(
         previous: None,
     };
     let mut de = serde_json::Deserializer::from_reader(reader);
-    let result =
-        serde::de::DeserializeSeed::deserialize(Top(&mut frames), &mut de).and_then(|()| de.end());
+    let result = serde::de::DeserializeSeed::deserialize(
+        Top {
+            reader: &mut frames,
+            nested: false,
+        },
+        &mut de,
+    )
+    .and_then(|()| de.end());
     if let Some(e) = failure.into_inner() {
         return Err(e);
     }
@@ -407,8 +413,12 @@ impl<E: From<JsonError>> FrameReader<'_, E> {
     }
 }
 
-/// The top level: a list of frames, or an object whose `instance_info` is one.
-struct Top<'r, 'a, E>(&'r mut FrameReader<'a, E>);
+/// The top level: a list of frames, or an object whose `instance_info` is one (`nested`: this
+/// is that `instance_info`, where anything but a list is reported as the object around it).
+struct Top<'r, 'a, E> {
+    reader: &'r mut FrameReader<'a, E>,
+    nested: bool,
+}
 
 impl<'de, E: From<JsonError>> serde::de::DeserializeSeed<'de> for Top<'_, '_, E> {
     type Value = ();
@@ -421,10 +431,10 @@ impl<'de, E: From<JsonError>> serde::de::DeserializeSeed<'de> for Top<'_, '_, E>
 impl<E: From<JsonError>> Top<'_, '_, E> {
     fn not_a_list<D: serde::de::Error>(self, found: &'static str) -> Result<(), D> {
         let e = JsonError::NotAList {
-            file: self.0.source.to_owned(),
-            found,
+            file: self.reader.source.to_owned(),
+            found: if self.nested { "an object" } else { found },
         };
-        Err(self.0.fail(E::from(e)))
+        Err(self.reader.fail(E::from(e)))
     }
 }
 
@@ -437,19 +447,25 @@ impl<'de, E: From<JsonError>> serde::de::Visitor<'de> for Top<'_, '_, E> {
 
     fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<(), A::Error> {
         while let Some(frame) = seq.next_element::<Value>()? {
-            if let Err(e) = self.0.frame(&frame) {
-                return Err(self.0.fail(e));
+            if let Err(e) = self.reader.frame(&frame) {
+                return Err(self.reader.fail(e));
             }
         }
         Ok(())
     }
 
     fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<(), A::Error> {
+        if self.nested {
+            return self.not_a_list("an object");
+        }
         let mut found = false;
         while let Some(key) = map.next_key::<String>()? {
             if key == "instance_info" && !found {
                 found = true;
-                map.next_value_seed(InstanceInfo(&mut *self.0))?;
+                map.next_value_seed(Top {
+                    reader: &mut *self.reader,
+                    nested: true,
+                })?;
             } else {
                 map.next_value::<serde::de::IgnoredAny>()?;
             }
@@ -483,57 +499,6 @@ impl<'de, E: From<JsonError>> serde::de::Visitor<'de> for Top<'_, '_, E> {
 
     fn visit_str<D: serde::de::Error>(self, _: &str) -> Result<(), D> {
         self.not_a_list("a string")
-    }
-}
-
-/// `instance_info` of the object form: it must be the list of frames.
-struct InstanceInfo<'r, 'a, E>(&'r mut FrameReader<'a, E>);
-
-impl<'de, E: From<JsonError>> serde::de::DeserializeSeed<'de> for InstanceInfo<'_, '_, E> {
-    type Value = ();
-
-    fn deserialize<D: serde::Deserializer<'de>>(self, d: D) -> Result<(), D::Error> {
-        d.deserialize_any(self)
-    }
-}
-
-impl<'de, E: From<JsonError>> serde::de::Visitor<'de> for InstanceInfo<'_, '_, E> {
-    type Value = ();
-
-    fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("a list of frames")
-    }
-
-    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, seq: A) -> Result<(), A::Error> {
-        Top(self.0).visit_seq(seq)
-    }
-
-    fn visit_map<A: serde::de::MapAccess<'de>>(self, _: A) -> Result<(), A::Error> {
-        Top(self.0).not_a_list("an object")
-    }
-
-    fn visit_unit<D: serde::de::Error>(self) -> Result<(), D> {
-        Top(self.0).not_a_list("an object")
-    }
-
-    fn visit_bool<D: serde::de::Error>(self, _: bool) -> Result<(), D> {
-        Top(self.0).not_a_list("an object")
-    }
-
-    fn visit_i64<D: serde::de::Error>(self, _: i64) -> Result<(), D> {
-        Top(self.0).not_a_list("an object")
-    }
-
-    fn visit_u64<D: serde::de::Error>(self, _: u64) -> Result<(), D> {
-        Top(self.0).not_a_list("an object")
-    }
-
-    fn visit_f64<D: serde::de::Error>(self, _: f64) -> Result<(), D> {
-        Top(self.0).not_a_list("an object")
-    }
-
-    fn visit_str<D: serde::de::Error>(self, _: &str) -> Result<(), D> {
-        Top(self.0).not_a_list("an object")
     }
 }
 

@@ -331,7 +331,7 @@ pub fn convert_bag(rig: &Rig, job: &ConvertJob) -> Result<ConvertSummary, Pipeli
     };
     let tracks = if let Some(dsi) = &job.dsi {
         whole_clip::record_options(&mut meta, dsi);
-        let spill_dir = whole_clip::spill_dir(&job.output.path);
+        let spill_dir = crate::atomic_file::scratch_dir(&job.output.path);
         let mut clips: Vec<whole_clip::Clip> = scan
             .tracks
             .iter()

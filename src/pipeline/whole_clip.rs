@@ -12,27 +12,13 @@ use super::PipelineError;
 use super::convert::{DsiSummary, Person, TrackSummary};
 use crate::bags::animation::{TrackWriter, frame_prefix};
 use crate::bags::output::BagOutput;
-use crate::dsi::store::{KeyStore, Shelf};
+use crate::dsi::store::Shelf;
 use crate::dsi::stream::{ClipKeys, Solver};
 use crate::dsi::{self, DsiError, DsiOptions, Pace};
 use crate::loss::{Losses, WARN_LIMIT};
 use crate::skeleton::convert::{AnimationFrame, SequenceConverter};
 use crate::skeleton::pose::{PoseFrame, stamp_nanos_at};
 use crate::skeleton::rig::Rig;
-
-/// Where the keys of DSI clips are kept while they are solved: the output's folder (so a long
-/// clip costs space where the output goes), or the system's temporary folder for an output
-/// that is a device or a pipe.
-#[must_use]
-pub fn spill_dir(output: &Path) -> PathBuf {
-    if crate::atomic_file::is_special(output) {
-        return std::env::temp_dir();
-    }
-    match output.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    }
-}
 
 /// One person's clip, solved frame by frame as the input is read: its keys, a new stretch
 /// after each gap in its stamps. All stretches share two temporary files (the keys as they
@@ -85,15 +71,8 @@ impl Clip {
             let stores = if let Some(stores) = self.stores.take() {
                 stores
             } else {
-                let spill = || {
-                    KeyStore::spill(&self.spill_dir, self.bones).map_err(|source| {
-                        dsi_error(DsiError::Spill {
-                            dir: Some(self.spill_dir.clone()),
-                            source,
-                        })
-                    })
-                };
-                (Shelf::new(spill()?), Shelf::new(spill()?))
+                let spill = || Shelf::spill(&self.spill_dir, self.bones).map_err(dsi_error);
+                (spill()?, spill()?)
             };
             let (raw, clean) = self.stores.insert(stores);
             self.stretches

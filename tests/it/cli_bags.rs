@@ -42,6 +42,33 @@ fn h36m_frame(k: usize) -> PoseFrame {
     layout.keypoints_from_rig(&rig, &character, &world, stamp_nanos_at(k, 30.0))
 }
 
+/// [`h36m_frame`]'s keypoints as MMPose JSON writes them.
+fn h36m_keypoints(k: usize) -> Vec<[f64; 3]> {
+    h36m_frame(k)
+        .positions_m
+        .iter()
+        .map(|p| [p.x, p.y, p.z])
+        .collect()
+}
+
+/// `autoact import JSON -o BAG` of H36M-17 keypoints at 30 fps, z up, plus `extra`.
+fn import_h36m_json(json: &Path, bag: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec![
+        "import",
+        arg(json),
+        "-o",
+        arg(bag),
+        "--layout",
+        "h36m-17",
+        "--fps",
+        "30",
+        "--axes",
+        "z-up",
+    ];
+    args.extend_from_slice(extra);
+    autoact(&args)
+}
+
 fn skeleton(k: usize, track_id: u64) -> Skeleton3D {
     let layout = Layout::builtin("h36m-17").unwrap();
     let f = h36m_frame(k);
@@ -1192,29 +1219,13 @@ fn an_mmpose_frame_id_jump_is_a_gap_not_hours_of_invented_frames() {
     let frames: Vec<serde_json::Value> = (0..40usize)
         .map(|k| {
             let id = if k < 20 { k } else { 1_000_000 + k };
-            let keypoints: Vec<[f64; 3]> = h36m_frame(k)
-                .positions_m
-                .iter()
-                .map(|p| [p.x, p.y, p.z])
-                .collect();
-            serde_json::json!({"frame_id": id, "instances": [{"keypoints": keypoints}]})
+            serde_json::json!({"frame_id": id, "instances": [{"keypoints": h36m_keypoints(k)}]})
         })
         .collect();
     let json = dir.path().join("jump.json");
     std::fs::write(&json, serde_json::to_string(&frames).unwrap()).unwrap();
     let bag = dir.path().join("jump.pose.mcap");
-    let o = autoact(&[
-        "import",
-        arg(&json),
-        "-o",
-        arg(&bag),
-        "--layout",
-        "h36m-17",
-        "--fps",
-        "30",
-        "--axes",
-        "z-up",
-    ]);
+    let o = import_h36m_json(&json, &bag, &[]);
     assert!(o.status.success(), "{}", stderr(&o));
     let out = dir.path().join("jump.anim.mcap");
     let o = autoact(&["convert", arg(&bag), "-o", arg(&out)]);
@@ -1346,15 +1357,7 @@ fn a_long_json_file_is_imported_frame_by_frame_in_stamp_then_track_order() {
     // missing for 100 frames: both grounded and length-fixed on their samples, every frame
     // written, in (stamp, track) order.
     let dir = tempfile::tempdir().unwrap();
-    let poses: Vec<Vec<[f64; 3]>> = (0..300)
-        .map(|k| {
-            h36m_frame(k)
-                .positions_m
-                .iter()
-                .map(|p| [p.x, p.y, p.z])
-                .collect()
-        })
-        .collect();
+    let poses: Vec<Vec<[f64; 3]>> = (0..300).map(h36m_keypoints).collect();
     let json = dir.path().join("long.json");
     let mut text = String::from("[");
     for k in 0..9000usize {
@@ -1373,20 +1376,7 @@ fn a_long_json_file_is_imported_frame_by_frame_in_stamp_then_track_order() {
     text.push(']');
     std::fs::write(&json, text).unwrap();
     let bag = dir.path().join("long.pose.mcap");
-    let o = autoact(&[
-        "import",
-        arg(&json),
-        "-o",
-        arg(&bag),
-        "--layout",
-        "h36m-17",
-        "--fps",
-        "30",
-        "--axes",
-        "z-up",
-        "--lengths",
-        "fixed",
-    ]);
+    let o = import_h36m_json(&json, &bag, &["--lengths", "fixed"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let out = common::stdout(&o);
     assert!(out.contains("17900 skeletons (2 tracks)"), "{out}");
