@@ -14,6 +14,12 @@
 //!                                        thousand recorded frames make a long bag with no
 //!                                        jumps; an `h36m-32` track (a Human3.6M import) is cut
 //!                                        to its usual 17 joints, `h36m-17`
+//!   `bench_mcap wholebody IN.mcap FRAMES OUT.mcap` — as `loop`, for a `coco-wholebody-133` track
+//!                                        of real mocap with body and feet only (a BVH import):
+//!                                        each hand's 21 points come from a moving synthetic hand
+//!                                        (every finger curling) held rigidly in the real
+//!                                        forearm's frame, the 68 face points likewise in the real
+//!                                        head's, so all 133 points are there and the hands move
 //!
 //! Timing is the median of three runs (the machine is shared); the printed seconds are wall time.
 
@@ -32,8 +38,8 @@ use autoact::mcap_io::{BagReader, BagWriter, WriteConfig};
 use autoact::ros::autoact_msgs::Skeleton3D;
 use autoact::ros::cdr;
 use autoact::skeleton::layout::Layout;
-use autoact::skeleton::pose::{PoseSequence, stamp_nanos_at};
-use nalgebra::Vector3;
+use autoact::skeleton::pose::{PoseFrame, PoseSequence, stamp_nanos_at};
+use nalgebra::{Matrix3, Point3, Vector3};
 
 mod synth;
 
@@ -61,6 +67,88 @@ fn h36m_17_of(seq: PoseSequence) -> PoseSequence {
     PoseSequence {
         joint_names: Layout::builtin("h36m-17").expect("built-in layout").joints,
         frames: seq.frames.iter().map(pick).collect(),
+        ..seq
+    }
+}
+
+/// Orthonormal frame at a body part: x along `along`, y across `side` (made perpendicular),
+/// z = x × y.
+fn part_frame(along: Vector3<f64>, side: Vector3<f64>) -> Matrix3<f64> {
+    let x = along.normalize();
+    let y = (side - x * side.dot(&x)).normalize();
+    Matrix3::from_columns(&[x, y, x.cross(&y)])
+}
+
+/// COCO-WholeBody indices: per side elbow, wrist, first hand point; hand points relative to it.
+const HANDS: [(usize, usize, usize); 2] = [(7, 9, 91), (8, 10, 112)];
+const FOREFINGER1: usize = 5;
+const PINKY1: usize = 17;
+const NOSE: usize = 0;
+const EARS: (usize, usize) = (3, 4);
+const FACE: std::ops::Range<usize> = 23..91;
+
+/// The frames (forearm or head) the hands' and the face's points are held in: `(origin, points,
+/// frame)`. The palm lies across the finger bases where there are fingers (`hips` is `None`),
+/// else across the hips.
+fn part_frames(
+    p: &[Point3<f64>],
+    hips: Option<Vector3<f64>>,
+) -> Vec<(usize, std::ops::Range<usize>, Matrix3<f64>)> {
+    let mut out: Vec<_> = HANDS
+        .iter()
+        .map(|&(elbow, wrist, hand)| {
+            let side = hips.unwrap_or(p[hand + PINKY1] - p[hand + FOREFINGER1]);
+            (wrist, hand..hand + 21, part_frame(p[wrist] - p[elbow], side))
+        })
+        .collect();
+    let ears = p[EARS.1] - p[EARS.0];
+    let mid_ears = nalgebra::center(&p[EARS.0], &p[EARS.1]);
+    out.push((NOSE, FACE, part_frame(ears, p[NOSE] - mid_ears)));
+    out
+}
+
+/// `real` (a 133-point frame whose hands and face are missing) with both hands' 21 points and
+/// the 68 face points taken from `synthetic` (the same layout), moved rigidly from the synthetic
+/// forearm's or head's frame into the real one's.
+fn transplant_hands_and_face(real: &mut PoseFrame, synthetic: &PoseFrame) {
+    let (r, s) = (&real.positions_m, &synthetic.positions_m);
+    let to = part_frames(r, Some(r[12] - r[11]));
+    let mut placed = Vec::new();
+    for ((origin, points, from), (_, _, to)) in part_frames(s, None).into_iter().zip(to) {
+        for j in points {
+            placed.push((j, r[origin] + to * (from.transpose() * (s[j] - s[origin]))));
+        }
+    }
+    for (j, p) in placed {
+        real.positions_m[j] = p;
+        real.confidence[j] = 1.0;
+    }
+}
+
+/// `seq` with every joint of `layout`, in its order (those `seq` lacks missing: NaN, confidence 0).
+fn in_full_layout(seq: PoseSequence, layout: &Layout) -> PoseSequence {
+    let index: Vec<Option<usize>> = layout
+        .joints
+        .iter()
+        .map(|j| seq.joint_names.iter().position(|n| n == j))
+        .collect();
+    let frames = seq
+        .frames
+        .iter()
+        .map(|f| {
+            let mut full = PoseFrame::missing(f.stamp_nanos, index.len());
+            for (to, from) in index.iter().enumerate() {
+                if let Some(from) = *from {
+                    full.positions_m[to] = f.positions_m[from];
+                    full.confidence[to] = f.confidence[from];
+                }
+            }
+            full
+        })
+        .collect();
+    PoseSequence {
+        joint_names: layout.joints.clone(),
+        frames,
         ..seq
     }
 }
@@ -135,7 +223,7 @@ fn main() -> Result<()> {
                 )?;
             }
         }
-        Some("loop") => {
+        Some(command @ ("loop" | "wholebody")) => {
             let input = Path::new(args.get(2).context("IN")?);
             let n: usize = args.get(3).context("FRAMES")?.parse()?;
             let out = Path::new(args.get(4).context("OUT")?);
@@ -150,6 +238,18 @@ fn main() -> Result<()> {
             } else {
                 (seq, layout.as_str())
             };
+            let (seq, mut hands) = if command == "wholebody" {
+                if layout != "coco-wholebody-133" {
+                    bail!(
+                        "{}: wholebody needs a coco-wholebody-133 track, not {layout}",
+                        input.display()
+                    );
+                }
+                let motion = synth::Motion::in_layout(layout)?;
+                (in_full_layout(seq, &motion.layout), Some(motion))
+            } else {
+                (seq, None)
+            };
             let seq = &seq;
             let stamps: Vec<u64> = seq.frames.iter().map(|f| f.stamp_nanos).collect();
             let fps = autoact::skeleton::pose::frame_rate(None, &stamps)
@@ -161,6 +261,9 @@ fn main() -> Result<()> {
                 let phase = k % (2 * len - 2).max(1);
                 let mut frame = seq.frames[phase.min(2 * len - 2 - phase)].clone();
                 frame.stamp_nanos = stamp_nanos_at(k, fps);
+                if let Some(motion) = &mut hands {
+                    transplant_hands_and_face(&mut frame, &motion.frame(k, fps, |_| Vector3::zeros()));
+                }
                 w.write(
                     "/skeleton",
                     frame.stamp_nanos,
@@ -168,10 +271,10 @@ fn main() -> Result<()> {
                 )?;
             }
             w.finish()?;
-            println!("loop {n} frames of {len} at {fps:.3} fps, layout {layout}");
+            println!("{command} {n} frames of {len} at {fps:.3} fps, layout {layout}");
         }
         _ => bail!(
-            "usage: bench_mcap write FRAMES OUT.mcap | read IN.mcap | json FRAMES OUT.json | loop IN.mcap FRAMES OUT.mcap"
+            "usage: bench_mcap write FRAMES OUT.mcap | read IN.mcap | json FRAMES OUT.json | loop|wholebody IN.mcap FRAMES OUT.mcap"
         ),
     }
     Ok(())

@@ -13,6 +13,11 @@ autoact / Python. The machine is shared: compare ratios, not absolute numbers.
 
 `convert` runs on synthetic bags at 50 and 30 fps and, where `../shared/data` is present, on real
 Human3.6M motion (S1 walking, 3,476 frames at 50 fps, played back and forth to FRAMES frames).
+The whole-body case (issue 25) converts FRAMES COCO-WholeBody-133 skeletons of real mocap: the
+checked-in Bandai-Namco wave (`bags/bandai_wave.pose.mcap`: body, feet) played back and forth,
+with moving synthetic hands held in the real forearms and face points in the real head
+(`bench_mcap wholebody`), all 133 points present and all 53 bones moving; it runs with the
+default zstd output and again uncompressed, to show what the output's compression costs.
 It runs on one thread. Its rate is given per second of wall time and per second of CPU
 time (user + system, from the child's resource usage): on a shared machine the process waits for a
 core now and then, and the CPU rate is what one core delivers.
@@ -38,6 +43,7 @@ ROOT = Path(__file__).resolve().parent.parent
 BENCH = ROOT / "target/release/examples/bench_mcap"
 AUTOACT = ROOT / "target/release/autoact"
 REAL_CLIP = ROOT.parent / "shared/data/h36m_expmap/S1_walking_1.txt"
+WHOLE_BODY_CLIP = ROOT / "bags/bandai_wave.pose.mcap"
 JOINTS = ["root", "right_hip", "right_knee", "right_foot", "left_hip", "left_knee", "left_foot", "spine",
           "thorax", "neck_base", "head", "left_shoulder", "left_elbow", "left_wrist", "right_shoulder",
           "right_elbow", "right_wrist"]
@@ -111,8 +117,8 @@ def main(frames: int) -> None:
         print(f"read   autoact {mb / rust_r:8.1f} MB/s   python mcap {mb / py_r:6.1f} MB/s   ratio {py_r / rust_r:6.1f}x")
 
         # convert end to end, at H36M's native 50 fps and at equal rates (30 fps in and out).
-        def convert(bag, what):
-            wall, cpu = medians(5, lambda: run(AUTOACT, "convert", "-q", bag, "-o", tmp / "anim.mcap"))
+        def convert(bag, what, *flags):
+            wall, cpu = medians(5, lambda: run(AUTOACT, "convert", "-q", "--force", bag, "-o", tmp / "anim.mcap", *flags))
             print(f"convert {frames} frames {what} -> 30 fps: {wall:.2f} s wall, {cpu:.2f} s CPU;"
                   f" {frames / wall:,.0f} input frames/s (wall), {frames / cpu:,.0f} per CPU second")
 
@@ -128,6 +134,10 @@ def main(frames: int) -> None:
             convert(tmp / "real.mcap", f"of real H36M motion ({REAL_CLIP.stem}) at 50 fps")
         else:
             print(f"convert on real motion: skipped, {REAL_CLIP} is not here")
+        run(BENCH, "wholebody", WHOLE_BODY_CLIP, frames, tmp / "wholebody.mcap")
+        what = "of whole-body (133 keypoints: real mocap body, moving hands) at 30 fps"
+        convert(tmp / "wholebody.mcap", what)
+        convert(tmp / "wholebody.mcap", what + ", output uncompressed", "--compression", "none")
 
 
 if __name__ == "__main__":
