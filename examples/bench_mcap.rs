@@ -98,7 +98,11 @@ fn part_frames(
         .iter()
         .map(|&(elbow, wrist, hand)| {
             let side = hips.unwrap_or(p[hand + PINKY1] - p[hand + FOREFINGER1]);
-            (wrist, hand..hand + 21, part_frame(p[wrist] - p[elbow], side))
+            (
+                wrist,
+                hand..hand + 21,
+                part_frame(p[wrist] - p[elbow], side),
+            )
         })
         .collect();
     let ears = p[EARS.1] - p[EARS.0];
@@ -262,7 +266,10 @@ fn main() -> Result<()> {
                 let mut frame = seq.frames[phase.min(2 * len - 2 - phase)].clone();
                 frame.stamp_nanos = stamp_nanos_at(k, fps);
                 if let Some(motion) = &mut hands {
-                    transplant_hands_and_face(&mut frame, &motion.frame(k, fps, |_| Vector3::zeros()));
+                    transplant_hands_and_face(
+                        &mut frame,
+                        &motion.frame(k, fps, |_| Vector3::zeros()),
+                    );
                 }
                 w.write(
                     "/skeleton",

@@ -1083,22 +1083,24 @@ fn decompress<'d>(
                 static CONTEXT: std::cell::RefCell<Option<zstd::zstd_safe::DCtx<'static>>> =
                     const { std::cell::RefCell::new(None) };
             }
-            CONTEXT.with_borrow_mut(|context| {
-                let context = match context {
-                    Some(c) => c,
-                    None => context.insert(
-                        zstd::zstd_safe::DCtx::try_create()
-                            .ok_or_else(|| std::io::Error::other("no memory for a zstd context"))?,
-                    ),
-                };
-                context
-                    .reset(zstd::zstd_safe::ResetDirective::SessionOnly)
-                    .map_err(|code| std::io::Error::other(zstd::zstd_safe::get_error_name(code)))?;
-                zstd::stream::read::Decoder::with_context(data, context)
-                    .take(size + 1)
-                    .read_to_end(&mut out)
-            })
-            .map_err(DecompressError::Zstd)?;
+            CONTEXT
+                .with_borrow_mut(|context| {
+                    let context = match context {
+                        Some(c) => c,
+                        None => context.insert(zstd::zstd_safe::DCtx::try_create().ok_or_else(
+                            || std::io::Error::other("no memory for a zstd context"),
+                        )?),
+                    };
+                    context
+                        .reset(zstd::zstd_safe::ResetDirective::SessionOnly)
+                        .map_err(|code| {
+                            std::io::Error::other(zstd::zstd_safe::get_error_name(code))
+                        })?;
+                    zstd::stream::read::Decoder::with_context(data, context)
+                        .take(size + 1)
+                        .read_to_end(&mut out)
+                })
+                .map_err(DecompressError::Zstd)?;
         }
         "lz4" => {
             let decoder = lz4::Decoder::new(data).map_err(DecompressError::Lz4)?;

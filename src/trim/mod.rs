@@ -33,6 +33,7 @@ pub mod job;
 pub mod lists;
 pub mod manifest;
 pub mod plan;
+pub mod qa;
 pub mod run;
 pub mod split;
 
