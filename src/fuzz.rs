@@ -147,7 +147,7 @@ fn pose_mcap(data: &[u8]) {
             output: crate::bags::output::OutputOptions {
                 path: path.with_file_name("out.mcap"),
                 compression: crate::mcap_io::Compression::Zstd,
-                rosbag2: false,
+                rosbag2: None,
                 journal: false,
                 force: true,
             },

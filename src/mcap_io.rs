@@ -112,6 +112,8 @@ pub struct BagWriter<W: Write + Seek> {
     path: PathBuf,
     writer: mcap::Writer<W>,
     schemas: BTreeMap<String, u16>,
+    /// Type name → its RIHS01 type description hash (empty if its schema text does not give one).
+    type_hashes: BTreeMap<String, String>,
     /// Topic → index in `channels`.
     topics: BTreeMap<String, usize>,
     channels: Vec<Channel>,
@@ -139,6 +141,9 @@ struct Channel {
 pub struct BagStats {
     /// Per topic: (type name, message count).
     pub topics: BTreeMap<String, (String, u64)>,
+    /// Per type name of those topics: its RIHS01 type description hash, computed from the schema
+    /// text written ([`ros::type_hash::rihs01`]; empty when the text does not give one).
+    pub type_hashes: BTreeMap<String, String>,
     /// Earliest and latest log time, nanoseconds.
     pub time_range: Option<(u64, u64)>,
 }
@@ -148,6 +153,25 @@ impl BagStats {
     #[must_use]
     pub fn message_count(&self) -> u64 {
         self.topics.values().map(|(_, n)| n).sum()
+    }
+
+    /// Adds what `other` holds (another file of the same recording): message counts per topic,
+    /// type hashes (the first file's for a type both have), the union of the time ranges.
+    pub fn merge(&mut self, other: &BagStats) {
+        for (topic, (type_name, n)) in &other.topics {
+            let entry = self.topics.entry(topic.clone());
+            entry.or_insert_with(|| (type_name.clone(), 0)).1 += n;
+        }
+        for (type_name, hash) in &other.type_hashes {
+            let entry = self.type_hashes.entry(type_name.clone());
+            entry.or_insert_with(|| hash.clone());
+        }
+        if let Some((a, b)) = other.time_range {
+            let range = self
+                .time_range
+                .map_or((a, b), |(x, y)| (x.min(a), y.max(b)));
+            self.time_range = Some(range);
+        }
     }
 }
 
@@ -285,6 +309,7 @@ impl<W: Write + Seek> BagWriter<W> {
             path: path.to_path_buf(),
             writer,
             schemas: BTreeMap::new(),
+            type_hashes: BTreeMap::new(),
             topics: BTreeMap::new(),
             channels: Vec::new(),
             time_range: None,
@@ -323,9 +348,12 @@ impl<W: Write + Seek> BagWriter<W> {
         let schema_id = if let Some(&id) = self.schemas.get(type_name) {
             id
         } else {
+            let text = definition();
+            let hash = ros::type_hash::rihs01(type_name, &text).unwrap_or_default();
+            self.type_hashes.insert(type_name.to_string(), hash);
             let id = self
                 .writer
-                .add_schema(type_name, "ros2msg", definition().as_bytes())
+                .add_schema(type_name, "ros2msg", text.as_bytes())
                 .map_err(|source| McapIoError::Mcap {
                     action: "cannot add a schema to",
                     path: self.path.clone(),
@@ -492,12 +520,16 @@ impl<W: Write + Seek> BagWriter<W> {
             path,
             source,
         })?;
+        let written = || self.channels.iter().filter(|c| c.messages > 0);
         Ok(BagStats {
-            topics: self
-                .channels
-                .iter()
-                .filter(|c| c.messages > 0)
+            topics: written()
                 .map(|c| (c.topic.clone(), (c.type_name.clone(), c.messages)))
+                .collect(),
+            type_hashes: written()
+                .map(|c| {
+                    let hash = self.type_hashes.get(&c.type_name).cloned();
+                    (c.type_name.clone(), hash.unwrap_or_default())
+                })
                 .collect(),
             time_range: self.time_range,
         })
@@ -521,60 +553,14 @@ impl<W: Write + Seek> BagWriter<W> {
     }
 }
 
-/// Writes the `metadata.yaml` of a rosbag2 directory (format version 9, MCAP storage) whose
-/// files are `files` (name in `dir`, and what it holds), in order — one for a bag, several for a
-/// split recording — for ROS distributions whose `ros2 bag play` wants a directory.
-///
-/// # Errors
-/// [`McapIoError::Io`].
-pub fn write_rosbag2_metadata(dir: &Path, files: &[(String, BagStats)]) -> Result<(), McapIoError> {
-    let mut topics_total: BTreeMap<&String, (&String, u64)> = BTreeMap::new();
-    let mut range: Option<(u64, u64)> = None;
-    for (_, stats) in files {
-        for (topic, (type_name, n)) in &stats.topics {
-            topics_total.entry(topic).or_insert((type_name, 0)).1 += n;
-        }
-        if let Some((a, b)) = stats.time_range {
-            range = Some(range.map_or((a, b), |(x, y)| (x.min(a), y.max(b))));
-        }
-    }
-    let (start, end) = range.unwrap_or((0, 0));
-    let count: u64 = files.iter().map(|(_, s)| s.message_count()).sum();
-    let mut topics = String::new();
-    for (topic, (type_name, n)) in &topics_total {
-        topics.push_str(&format!(
-            "  - message_count: {n}\n    topic_metadata:\n      name: {topic}\n      offered_qos_profiles: []\n      serialization_format: cdr\n      type: {type_name}\n      type_description_hash: ''\n"
-        ));
-    }
-    let mut relative = String::new();
-    let mut entries = String::new();
-    for (name, stats) in files {
-        let (a, b) = stats.time_range.unwrap_or((start, start));
-        relative.push_str(&format!("  - {name}\n"));
-        entries.push_str(&format!(
-            "  - path: {name}\n    starting_time:\n      nanoseconds_since_epoch: {a}\n    duration:\n      nanoseconds: {}\n    message_count: {}\n",
-            b - a,
-            stats.message_count()
-        ));
-    }
-    let yaml = format!(
-        "rosbag2_bagfile_information:\n  version: 9\n  storage_identifier: mcap\n  duration:\n    nanoseconds: {}\n  starting_time:\n    nanoseconds_since_epoch: {start}\n  message_count: {count}\n  topics_with_message_count:\n{topics}  compression_format: ''\n  compression_mode: ''\n  relative_file_paths:\n{relative}  files:\n{entries}  custom_data: {{}}\n  ros_distro: autoact\n",
-        end - start
-    );
-    let path = dir.join("metadata.yaml");
-    std::fs::write(&path, yaml).map_err(|source| McapIoError::Io {
-        action: "cannot write",
-        path,
-        source,
-    })
-}
-
 mod read;
 mod records;
+mod rosbag2;
 
 pub use read::{
     BagMessage, BagReader, ChannelInfo, Messages, ReadIssue, SchemaInfo, mcap_files_in,
 };
+pub use rosbag2::{Rosbag2Version, write_rosbag2_metadata};
 
 #[cfg(test)]
 #[path = "mcap_io_tests.rs"]

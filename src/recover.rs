@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use crate::atomic_file::Part;
 use crate::bags::output::{BagOutput, BagOutputError, OutputOptions};
 use crate::mcap_io::{
-    BagReader, BagStats, BagWriter, Compression, FileSink, McapIoError, WriteConfig,
+    BagReader, BagStats, BagWriter, Compression, FileSink, McapIoError, Rosbag2Version, WriteConfig,
 };
 
 /// What a recovery kept and what it could not.
@@ -92,15 +92,16 @@ pub fn recover(
     output: &Path,
     compression: Compression,
     force: bool,
+    rosbag2_version: Rosbag2Version,
 ) -> Result<Recovery, RecoverError> {
     crate::atomic_file::refuse_input_as_output(input, output)?;
     if input.is_dir() {
-        return recover_folder(input, output, compression, force);
+        return recover_folder(input, output, compression, force, rosbag2_version);
     }
     let options = OutputOptions {
         path: output.to_path_buf(),
         compression,
-        rosbag2: false,
+        rosbag2: None,
         journal: false,
         force,
     };
@@ -124,6 +125,7 @@ pub fn recover_folder(
     output: &Path,
     compression: Compression,
     force: bool,
+    version: Rosbag2Version,
 ) -> Result<Recovery, RecoverError> {
     crate::atomic_file::refuse_input_as_output(input, output)?;
     if output.exists() && !output.is_dir() {
@@ -165,23 +167,14 @@ pub fn recover_folder(
             path: shown.clone(),
             source,
         })?;
-        for (topic, (type_name, n)) in &stats.topics {
-            let entry = stats_all.topics.entry(topic.clone());
-            entry.or_insert_with(|| (type_name.clone(), 0)).1 += n;
-        }
-        if let Some((a, b)) = stats.time_range {
-            let range = stats_all
-                .time_range
-                .map_or((a, b), |(x, y)| (x.min(a), y.max(b)));
-            stats_all.time_range = Some(range);
-        }
+        stats_all.merge(&stats);
         all.issues.extend(one.issues);
         all.without_schema += one.without_schema;
         all.complete &= one.complete;
         recovered.push(shown);
         written.push((name, stats));
     }
-    crate::mcap_io::write_rosbag2_metadata(part.temporary(), &written)?;
+    crate::mcap_io::write_rosbag2_metadata(part.temporary(), &written, version)?;
     part.commit().map_err(create_error)?;
     Ok(all.into_recovery(input, output, stats_all, recovered))
 }

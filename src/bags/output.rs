@@ -6,7 +6,9 @@ use std::path::{Path, PathBuf};
 
 use crate::atomic_file::Part;
 
-use crate::mcap_io::{BagStats, BagWriter, Compression, FileSink, McapIoError, WriteConfig};
+use crate::mcap_io::{
+    BagStats, BagWriter, Compression, FileSink, McapIoError, Rosbag2Version, WriteConfig,
+};
 
 /// Where and how to write a bag.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -15,8 +17,9 @@ pub struct OutputOptions {
     pub path: PathBuf,
     /// Chunk compression.
     pub compression: Compression,
-    /// Write a rosbag2 directory (`metadata.yaml` + `<dir name>_0.mcap`) instead of a bare file.
-    pub rosbag2: bool,
+    /// Write a rosbag2 directory (`metadata.yaml` in this format version + `<dir name>_0.mcap`)
+    /// instead of a bare file.
+    pub rosbag2: Option<Rosbag2Version>,
     /// Also write the journal: every message as autoact meant it, as `<output>.expected.json`
     /// (for the interoperability checks in `tools/interop`).
     pub journal: bool,
@@ -34,7 +37,7 @@ impl OutputOptions {
     pub fn refuse_existing(&self) -> Result<(), BagOutputError> {
         let path = &self.path;
         if crate::atomic_file::is_special(path) {
-            if self.rosbag2 {
+            if self.rosbag2.is_some() {
                 return Err(BagOutputError::SpecialRosbag2 { path: path.clone() });
             }
         } else if !self.force && std::fs::symlink_metadata(path).is_ok() {
@@ -129,7 +132,7 @@ impl BagOutput {
             Part::new(path).ok_or_else(no_name)?
         };
         // The file being written, and the name errors give it: the output it becomes.
-        let (mcap_path, shown) = if options.rosbag2 {
+        let (mcap_path, shown) = if options.rosbag2.is_some() {
             std::fs::create_dir(part.temporary()).map_err(|source| {
                 BagOutputError::CreateDirectory {
                     path: path.clone(),
@@ -181,11 +184,12 @@ impl BagOutput {
         } else {
             writer.finish()?
         };
-        if options.rosbag2 {
+        if let Some(version) = options.rosbag2 {
             let name = mcap_path
                 .file_name()
                 .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-            crate::mcap_io::write_rosbag2_metadata(part.temporary(), &[(name, stats.clone())])?;
+            let files = [(name, stats.clone())];
+            crate::mcap_io::write_rosbag2_metadata(part.temporary(), &files, version)?;
         }
         let commit_error = |source| BagOutputError::Commit {
             path: options.path.clone(),
@@ -218,7 +222,7 @@ fn copy_into(spool: &Path, device: &Path) -> std::io::Result<()> {
 
 /// The interop contract: `X.mcap` ↔ `X.expected.json`, directory `D` ↔ `D.expected.json`.
 fn journal_path(options: &OutputOptions) -> PathBuf {
-    if options.rosbag2 {
+    if options.rosbag2.is_some() {
         let mut p = options.path.clone().into_os_string();
         p.push(".expected.json");
         PathBuf::from(p)

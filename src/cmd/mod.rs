@@ -17,7 +17,7 @@ pub mod trim;
 use std::path::PathBuf;
 
 use crate::bags::output::OutputOptions;
-use crate::mcap_io::Compression;
+use crate::mcap_io::{Compression, Rosbag2Version};
 
 pub use crate::outcome::{EXIT_DATA_LOST, EXIT_FAILURE, EXIT_USAGE, Outcome};
 
@@ -54,8 +54,20 @@ pub(crate) fn print_stdout(text: &str) -> std::io::Result<()> {
     out.flush()
 }
 
+/// The `metadata.yaml` format of a rosbag2 directory: one option shared by every command that
+/// writes one (`convert`, `import`, `record`, `recover`).
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct Rosbag2Args {
+    /// rosbag2 `metadata.yaml` format version: 9 for Jazzy and later (type description hashes,
+    /// `ros_distro`), 5 for Humble, which refuses version 9 (Iron and later read both).
+    #[arg(long, value_enum, value_name = "VERSION", default_value_t = Rosbag2Version::V9)]
+    pub rosbag2_version: Rosbag2Version,
+}
+
 /// Where and how a command writes its bag.
 #[derive(Debug, Clone, clap::Args)]
+// The format version means something only for a directory.
+#[command(mut_arg("rosbag2_version", |a| a.requires("rosbag2")))]
 pub struct OutputArgs {
     /// Output file (`.mcap`), or directory with `--rosbag2`.
     #[arg(short, long, value_name = "PATH")]
@@ -67,6 +79,9 @@ pub struct OutputArgs {
     /// for ROS distributions whose `ros2 bag play` wants one.
     #[arg(long)]
     pub rosbag2: bool,
+    /// The format of the rosbag2 directory's `metadata.yaml`.
+    #[command(flatten)]
+    pub rosbag2_format: Rosbag2Args,
     /// Test hook: also write `<output>.expected.json`, every message as autoact meant it, for the
     /// interoperability checks in `tools/interop`.
     #[arg(long, hide = true)]
@@ -84,7 +99,7 @@ impl OutputArgs {
         OutputOptions {
             path: self.output.clone(),
             compression: self.compression,
-            rosbag2: self.rosbag2,
+            rosbag2: self.rosbag2.then_some(self.rosbag2_format.rosbag2_version),
             journal: self.write_expected_json,
             force: self.force,
         }

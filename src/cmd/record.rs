@@ -46,6 +46,9 @@ pub struct Args {
     /// `ros2 bag play` and `autoact convert` open).
     #[arg(short, long, value_name = "FILE.mcap|DIR")]
     pub output: PathBuf,
+    /// The format of a rosbag2 directory's `metadata.yaml`.
+    #[command(flatten)]
+    pub rosbag2: super::Rosbag2Args,
     /// Replace an existing output.
     #[arg(long)]
     pub force: bool,
@@ -115,6 +118,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         flush_every: seconds("--flush-interval", Some(args.flush_interval))?
             .unwrap_or(Duration::from_secs(1)),
         output: args.output,
+        rosbag2_version: args.rosbag2.rosbag2_version,
         force: args.force,
     };
     let summary = record(&options, crate::interrupt::Interrupt::install()?.flag())?;

@@ -26,6 +26,9 @@ pub struct Args {
     /// Chunk compression of the output.
     #[arg(long, value_enum, default_value_t = Compression::Zstd)]
     pub compression: Compression,
+    /// The format of the fresh `metadata.yaml` of a recovered rosbag2 folder.
+    #[command(flatten)]
+    pub rosbag2: super::Rosbag2Args,
 }
 
 /// Runs `autoact recover`.
@@ -38,8 +41,9 @@ pub fn run(args: Args) -> Result<Outcome> {
         output,
         force,
         compression,
+        rosbag2,
     } = args;
-    let recovery = recover(&input, &output, compression, force)?;
+    let recovery = recover(&input, &output, compression, force, rosbag2.rosbag2_version)?;
     print_stdout(&recovery.report())?;
     for warning in recovery.warnings() {
         tracing::warn!("{warning}");

@@ -237,15 +237,6 @@ pub struct SessionWritten {
     pub viewpoints_pushed_out: usize,
 }
 
-/// Nanoseconds of frame `frame` on a session timeline at `fps`.
-fn nanos_at(frame: u64, fps: f64) -> u64 {
-    stamp_nanos_at(usize::try_from(frame).unwrap_or(usize::MAX), fps)
-}
-
-fn time_at(frame: u64, fps: f64) -> Time {
-    Time::from_nanos(nanos_at(frame, fps))
-}
-
 /// The scene's state message.
 fn scene_state(
     spec: &Spec,
@@ -384,6 +375,16 @@ struct Dataset<'a> {
 }
 
 impl Dataset<'_> {
+    /// Nanoseconds of frame `frame` on a session timeline (`[dataset] start_time` + frame time).
+    fn nanos_at(&self, frame: u64) -> u64 {
+        let k = usize::try_from(frame).unwrap_or(usize::MAX);
+        self.spec.start_nanos + stamp_nanos_at(k, self.fps)
+    }
+
+    fn time_at(&self, frame: u64) -> Time {
+        Time::from_nanos(self.nanos_at(frame))
+    }
+
     /// Writes one session's bag: its metadata, then clip by clip the scene (when it changes), the
     /// segment and the frames.
     fn write_session(
@@ -401,7 +402,7 @@ impl Dataset<'_> {
         let mut pushed_out = 0;
         for leaf in &self.plan.leaves[session.leaves.clone()] {
             let node = &self.plan.scenes[leaf.scene];
-            let start_nanos = nanos_at(leaf.start_frame, self.fps);
+            let start_nanos = self.nanos_at(leaf.start_frame);
             let scene = match staged.take() {
                 Some((index, s)) if index == leaf.scene => s,
                 _ => {
@@ -452,6 +453,10 @@ impl Dataset<'_> {
         );
         meta.insert("fov_deg".to_string(), d.fov_deg.to_string());
         meta.insert(
+            "start_time".to_string(),
+            crate::dataset::spec::iso_8601(self.spec.start_nanos),
+        );
+        meta.insert(
             "labels".to_string(),
             serde_json::to_string(&self.plan.labels).unwrap_or_default(),
         );
@@ -464,7 +469,7 @@ impl Dataset<'_> {
         let node = &self.plan.scenes[leaf.scene];
         let anim = &self.plan.animations[node.animation];
         let class = &self.spec.file.classes[anim.class];
-        let start = time_at(leaf.start_frame, self.fps);
+        let start = self.time_at(leaf.start_frame);
         Segment {
             header: Header {
                 stamp: start,
@@ -481,9 +486,9 @@ impl Dataset<'_> {
             viewpoint: leaf.viewpoint,
             scene_id: node.id.clone(),
             start,
-            end: time_at(leaf.end_frame, self.fps),
-            content_start: time_at(leaf.content_start_frame, self.fps),
-            content_end: time_at(leaf.content_end_frame, self.fps),
+            end: self.time_at(leaf.end_frame),
+            content_start: self.time_at(leaf.content_start_frame),
+            content_end: self.time_at(leaf.content_end_frame),
         }
     }
 
@@ -528,7 +533,7 @@ impl Dataset<'_> {
             .unwrap_or(0)
             .min(content.len() - 1);
             let pose = &content[k];
-            let stamp = nanos_at(f, self.fps);
+            let stamp = self.nanos_at(f);
             #[expect(clippy::cast_precision_loss, reason = "frame counts far below 2^52")]
             let s = (f - leaf.start_frame) as f64 / (clip_frames.max(2) - 1) as f64;
             let cam = camera_at(

@@ -47,6 +47,15 @@ pub enum SpecError {
         #[source]
         source: NameError,
     },
+    /// `dataset.start_time` is not an instant a bag can stamp.
+    #[error("{path}: dataset.start_time: {source}")]
+    StartTime {
+        /// The spec file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: StartTimeError,
+    },
     /// `dsi.threshold` does not parse.
     #[error("{path}: dsi.threshold: {source}")]
     Threshold {
@@ -121,6 +130,78 @@ pub struct DatasetSection {
     /// One capture timeline per: the whole dataset, each action, or each source animation.
     #[serde(default)]
     pub session: SessionBy,
+    /// The instant every capture timeline starts at: ISO 8601 / RFC 3339 with a UTC offset, as a
+    /// TOML date-time or a string (default [`DEFAULT_START_TIME`]; fixed, so the same spec gives
+    /// byte-identical bags).
+    #[serde(default = "default_start_time")]
+    pub start_time: StartTime,
+}
+
+/// When capture timelines start unless `[dataset] start_time` says otherwise.
+pub const DEFAULT_START_TIME: &str = "2000-01-01T00:00:00Z";
+
+/// `[dataset] start_time` as written: a TOML offset date-time or a string.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum StartTime {
+    /// `start_time = 2024-05-01T09:00:00Z`.
+    Toml(toml::value::Datetime),
+    /// `start_time = "2024-05-01T09:00:00+02:00"`.
+    Text(String),
+}
+
+/// Why a `start_time` is not an instant a bag can stamp.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum StartTimeError {
+    /// Not ISO 8601 / RFC 3339, or without a UTC offset.
+    #[error("{text:?} is not an ISO 8601 instant with a UTC offset (e.g. {DEFAULT_START_TIME})")]
+    Parse {
+        /// The value.
+        text: String,
+        /// chrono's reason.
+        #[source]
+        source: chrono::ParseError,
+    },
+    /// Before the Unix epoch, or past what 64-bit nanoseconds hold.
+    #[error("{text}: must be between 1970 and 2554")]
+    OutOfRange {
+        /// The value.
+        text: String,
+    },
+}
+
+impl StartTime {
+    /// Nanoseconds since the Unix epoch.
+    ///
+    /// # Errors
+    /// [`StartTimeError`]: no UTC offset, not an instant, before 1970 or after 2554.
+    pub fn nanos_since_epoch(&self) -> Result<u64, StartTimeError> {
+        let text = match self {
+            StartTime::Toml(t) => t.to_string(),
+            StartTime::Text(s) => s.clone(),
+        };
+        match chrono::DateTime::parse_from_rfc3339(&text) {
+            Ok(instant) => instant
+                .timestamp_nanos_opt()
+                .and_then(|n| u64::try_from(n).ok())
+                .ok_or(StartTimeError::OutOfRange { text }),
+            Err(source) => Err(StartTimeError::Parse { text, source }),
+        }
+    }
+}
+
+/// `nanos` since the Unix epoch as an ISO 8601 instant in UTC (`2000-01-01T00:00:00Z`, with as
+/// many fraction digits as it needs).
+#[must_use]
+pub fn iso_8601(nanos: u64) -> String {
+    let nanos = i64::try_from(nanos).unwrap_or(i64::MAX);
+    chrono::DateTime::from_timestamp_nanos(nanos)
+        .to_rfc3339_opts(chrono::SecondsFormat::AutoSi, true)
+}
+
+fn default_start_time() -> StartTime {
+    StartTime::Text(DEFAULT_START_TIME.to_string())
 }
 
 fn default_fps() -> f64 {
@@ -332,6 +413,8 @@ pub struct Spec {
     pub variation: VariationBounds,
     /// The sorted action labels; a label's id is its index.
     pub labels: Vec<String>,
+    /// When every capture timeline starts (`[dataset] start_time`), nanoseconds since the epoch.
+    pub start_nanos: u64,
 }
 
 impl Spec {
@@ -358,6 +441,14 @@ impl Spec {
         })?;
         let check = Checker { path };
         check.dataset(&file.dataset)?;
+        let start_nanos = file
+            .dataset
+            .start_time
+            .nanos_since_epoch()
+            .map_err(|source| SpecError::StartTime {
+                path: path.to_path_buf(),
+                source,
+            })?;
         check.counts(&file.counts)?;
         let (threshold, variation) = check.dsi(&file.dsi)?;
         check.scene_and_camera(&file.scene, &file.camera)?;
@@ -373,6 +464,7 @@ impl Spec {
             threshold,
             variation,
             labels,
+            start_nanos,
         })
     }
 }
@@ -652,4 +744,43 @@ fn check_name(name: &str) -> Result<(), NameError> {
         });
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(dataset_extra: &str) -> Result<Spec, SpecError> {
+        let bag = concat!(env!("CARGO_MANIFEST_DIR"), "/bags/bandai_wave.pose.mcap");
+        let text = format!(
+            "[dataset]\nname = \"t\"\nseed = 1\n{dataset_extra}\n[counts]\n[[class]]\ncategory = \"gesture\"\naction = \"wave\"\nsources = [\"{bag}\"]\n"
+        );
+        Spec::parse(Path::new("spec.toml"), &text)
+    }
+
+    #[test]
+    fn capture_timelines_start_at_the_spec_start_time_or_the_fixed_default() {
+        assert_eq!(parse("").unwrap().start_nanos, 946_684_800_000_000_000);
+        assert_eq!(iso_8601(946_684_800_000_000_000), DEFAULT_START_TIME);
+        // A TOML date-time and a string, any UTC offset.
+        let toml = parse("start_time = 2024-05-01T09:00:00.25Z").unwrap();
+        assert_eq!(toml.start_nanos, 1_714_554_000_250_000_000);
+        assert_eq!(iso_8601(toml.start_nanos), "2024-05-01T09:00:00.250Z");
+        let text = parse("start_time = \"2024-05-01T11:00:00.25+02:00\"").unwrap();
+        assert_eq!(text.start_nanos, toml.start_nanos);
+    }
+
+    #[test]
+    fn a_start_time_that_is_no_instant_is_refused_by_key() {
+        for bad in [
+            "start_time = 2024-05-01T09:00:00",
+            "start_time = 2024-05-01",
+            "start_time = \"yesterday\"",
+            "start_time = 1969-12-31T23:59:59Z",
+            "start_time = 2600-01-01T00:00:00Z",
+        ] {
+            let err = parse(bad).unwrap_err().to_string();
+            assert!(err.contains("dataset.start_time"), "{bad}: {err}");
+        }
+    }
 }

@@ -123,6 +123,8 @@ pub struct RecordOptions {
     pub dds: DdsConfig,
     /// A `.mcap` file (splits beside it) or a rosbag2 directory (any other path).
     pub output: PathBuf,
+    /// The `metadata.yaml` format of a rosbag2 directory output.
+    pub rosbag2_version: crate::mcap_io::Rosbag2Version,
     /// Replace an existing output.
     pub force: bool,
     /// Chunk compression of the MCAP files.
@@ -235,7 +237,7 @@ pub fn record(options: &RecordOptions, stop: &AtomicBool) -> Result<RecordSummar
     if options.output.exists() && !options.force {
         return Err(RecordError::OutputExists(options.output.clone()));
     }
-    let output = prepare_output(&options.output)?;
+    let output = prepare_output(&options.output, options.rosbag2_version)?;
     let mut session = Session {
         recorder: Recorder::new(&options.dds)?,
         writer: RecordWriter::new(
@@ -301,8 +303,12 @@ pub fn record(options: &RecordOptions, stop: &AtomicBool) -> Result<RecordSummar
     })
 }
 
-/// A `.mcap` path as it is; any other path as a rosbag2 directory, emptied and created.
-fn prepare_output(path: &std::path::Path) -> Result<Output, RecordError> {
+/// A `.mcap` path as it is; any other path as a rosbag2 directory (its metadata in format
+/// `version`), emptied and created.
+fn prepare_output(
+    path: &std::path::Path,
+    version: crate::mcap_io::Rosbag2Version,
+) -> Result<Output, RecordError> {
     if path.extension().is_some_and(|e| e == "mcap") {
         return Ok(Output::File(path.to_path_buf()));
     }
@@ -317,7 +323,7 @@ fn prepare_output(path: &std::path::Path) -> Result<Output, RecordError> {
         std::fs::remove_dir_all(path).map_err(io("replacing"))?;
     }
     std::fs::create_dir_all(path).map_err(io("creating"))?;
-    Ok(Output::Rosbag2(path.to_path_buf()))
+    Ok(Output::Rosbag2(path.to_path_buf(), version))
 }
 
 /// A recording in progress.

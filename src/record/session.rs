@@ -62,8 +62,8 @@ pub enum Output {
     /// A bare `.mcap`; splits go beside it as `<stem>_1.mcap`, `<stem>_2.mcap`, …
     File(PathBuf),
     /// A rosbag2 directory: `<dir>/<name>_0.mcap`, `<name>_1.mcap`, … and `metadata.yaml`
-    /// listing them, `<name>` being the directory's name.
-    Rosbag2(PathBuf),
+    /// (in the format version given) listing them, `<name>` being the directory's name.
+    Rosbag2(PathBuf, crate::mcap_io::Rosbag2Version),
 }
 
 impl Output {
@@ -72,7 +72,7 @@ impl Output {
     pub fn path(&self, index: usize) -> PathBuf {
         match self {
             Output::File(base) => split_path(base, index),
-            Output::Rosbag2(dir) => {
+            Output::Rosbag2(dir, _) => {
                 let name = dir
                     .file_name()
                     .map_or_else(|| "record".into(), |s| s.to_string_lossy().into_owned());
@@ -288,8 +288,8 @@ impl RecordWriter {
     /// [`McapIoError`].
     pub fn finish(mut self) -> Result<(Vec<PathBuf>, BTreeMap<String, TopicStats>), McapIoError> {
         self.close_current()?;
-        if let Output::Rosbag2(dir) = &self.output {
-            crate::mcap_io::write_rosbag2_metadata(dir, &self.file_stats)?;
+        if let Output::Rosbag2(dir, version) = &self.output {
+            crate::mcap_io::write_rosbag2_metadata(dir, &self.file_stats, *version)?;
         }
         Ok((self.files, self.topics))
     }
@@ -395,7 +395,7 @@ mod tests {
         let bag = dir.path().join("take");
         std::fs::create_dir(&bag).unwrap();
         let mut w = RecordWriter::new(
-            Output::Rosbag2(bag.clone()),
+            Output::Rosbag2(bag.clone(), crate::mcap_io::Rosbag2Version::V9),
             WriteConfig::default(),
             SplitPolicy {
                 max_bytes: Some(400),
@@ -423,6 +423,37 @@ mod tests {
             .map(|m| ros::cdr::decode::<Skeleton3D>(&m.data).unwrap().track_id)
             .collect();
         assert_eq!(ids, (1..=40).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn a_recorded_rosbag2_directory_gets_the_metadata_format_asked_for() {
+        use crate::mcap_io::Rosbag2Version;
+        for (version, number) in [(Rosbag2Version::V5, 5), (Rosbag2Version::V9, 9)] {
+            let dir = tempfile::tempdir().unwrap();
+            let bag = dir.path().join("take");
+            std::fs::create_dir(&bag).unwrap();
+            let mut w = RecordWriter::new(
+                Output::Rosbag2(bag.clone(), version),
+                WriteConfig::default(),
+                SplitPolicy::default(),
+                Duration::from_secs(1),
+            );
+            let cdr = skeleton_cdr(1);
+            w.write(&received(&cdr, 1)).unwrap();
+            w.finish().unwrap();
+            let yaml = std::fs::read_to_string(bag.join("metadata.yaml")).unwrap();
+            assert!(yaml.contains(&format!("  version: {number}\n")), "{yaml}");
+            let hash = crate::ros::type_hash::rihs01(
+                Skeleton3D::TYPE_NAME,
+                &ros::definition_of::<Skeleton3D>(),
+            )
+            .unwrap();
+            assert_eq!(
+                yaml.contains(&format!("type_description_hash: {hash}\n")),
+                version == Rosbag2Version::V9,
+                "{yaml}"
+            );
+        }
     }
 
     #[test]

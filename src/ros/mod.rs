@@ -16,9 +16,14 @@ pub mod geometry_msgs;
 pub mod sensor_msgs;
 pub mod std_msgs;
 pub mod tf2_msgs;
+pub mod type_hash;
 pub mod visualization_msgs;
 
 use serde::{Serialize, de::DeserializeOwned};
+
+/// The ROS 2 distribution whose standard message definitions `schemas/` holds (and whose type
+/// support `ros2-client` is built for): named as `ros_distro` in rosbag2 metadata.
+pub const ROS_DISTRO: &str = "jazzy";
 
 /// A ROS 2 message type.
 pub trait RosMessage: Serialize + DeserializeOwned {

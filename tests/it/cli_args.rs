@@ -16,7 +16,7 @@ use autoact::dsi::variants::VariationBounds;
 use autoact::dsi::{self, DsiOptions};
 use autoact::export::ExportFormat;
 use autoact::formats::import::InputFormat;
-use autoact::mcap_io::Compression;
+use autoact::mcap_io::{Compression, Rosbag2Version};
 use autoact::record::run::{DurabilityArg, ReliabilityArg};
 use autoact::skeleton::convert::RootMotion;
 use autoact::skeleton::ground::GroundMode;
@@ -636,6 +636,82 @@ fn recover_needs_input_and_output() {
     );
     assert_eq!(
         refused_kind(&["recover", "-o", "w.mcap"], "<INPUT>"),
+        ErrorKind::MissingRequiredArgument
+    );
+}
+
+#[test]
+fn every_command_writing_a_rosbag2_directory_takes_its_format_version() {
+    // Default 9; 5 for Humble; nothing else.
+    let convert = |extra: &[&str]| {
+        let mut argv = vec!["convert", "in.mcap", "-o", "out", "--rosbag2"];
+        argv.extend_from_slice(extra);
+        args_of!(Convert, &argv).output
+    };
+    assert_eq!(
+        convert(&[]).rosbag2_format.rosbag2_version,
+        Rosbag2Version::V9
+    );
+    let humble = convert(&["--rosbag2-version", "5"]);
+    assert_eq!(humble.rosbag2_format.rosbag2_version, Rosbag2Version::V5);
+    assert_eq!(humble.options().rosbag2, Some(Rosbag2Version::V5));
+    assert_eq!(
+        args_of!(Convert, &["convert", "in.mcap", "-o", "out.mcap"])
+            .output
+            .options()
+            .rosbag2,
+        None
+    );
+    let import = args_of!(
+        Import,
+        &[
+            "import",
+            "a.bvh",
+            "-o",
+            "o",
+            "--rosbag2",
+            "--rosbag2-version",
+            "5"
+        ]
+    );
+    assert_eq!(import.output.options().rosbag2, Some(Rosbag2Version::V5));
+    let record = args_of!(Record, &["record", "-o", "live", "--rosbag2-version", "5"]);
+    assert_eq!(record.rosbag2.rosbag2_version, Rosbag2Version::V5);
+    let record = args_of!(Record, &["record", "-o", "live"]);
+    assert_eq!(record.rosbag2.rosbag2_version, Rosbag2Version::V9);
+    let recover = args_of!(
+        Recover,
+        &["recover", "run", "-o", "fixed", "--rosbag2-version", "5"]
+    );
+    assert_eq!(recover.rosbag2.rosbag2_version, Rosbag2Version::V5);
+    assert_eq!(
+        refused_kind(
+            &[
+                "convert",
+                "in.mcap",
+                "-o",
+                "o",
+                "--rosbag2",
+                "--rosbag2-version",
+                "8"
+            ],
+            "8"
+        ),
+        ErrorKind::InvalidValue
+    );
+    // A format version without a directory to write is a mistake, not silently ignored.
+    assert_eq!(
+        refused_kind(
+            &[
+                "convert",
+                "in.mcap",
+                "-o",
+                "o.mcap",
+                "--rosbag2-version",
+                "5"
+            ],
+            "--rosbag2"
+        ),
         ErrorKind::MissingRequiredArgument
     );
 }

@@ -544,6 +544,13 @@ fn info_gives_each_persons_frame_rate_beside_the_channels_message_rate() {
     );
 }
 
+/// `rosbag2_bagfile_information` of the rosbag2 directory `dir`, as a YAML parser reads it.
+fn rosbag2_info(dir: &Path) -> yaml_rust2::Yaml {
+    let text = std::fs::read_to_string(dir.join("metadata.yaml")).unwrap();
+    let docs = yaml_rust2::YamlLoader::load_from_str(&text).unwrap();
+    docs[0]["rosbag2_bagfile_information"].clone()
+}
+
 #[test]
 fn rosbag2_directories_carry_metadata_yaml() {
     let dir = tempfile::tempdir().unwrap();
@@ -559,6 +566,63 @@ fn rosbag2_directories_carry_metadata_yaml() {
         "{yaml}"
     );
     assert_eq!(bone_frames(&out.join("anim_0.mcap")).len(), 30);
+    // Version 9: every topic's RIHS01 hash, computed from the schema text in the file, and the
+    // distribution the standard definitions come from.
+    let info = rosbag2_info(&out);
+    assert_eq!(info["version"].as_i64(), Some(9));
+    assert_eq!(info["ros_distro"].as_str(), Some("jazzy"));
+    let mut schemas = std::collections::BTreeMap::new();
+    for m in BagReader::open(&out.join("anim_0.mcap"))
+        .unwrap()
+        .messages()
+    {
+        let m = m.unwrap();
+        let schema = m.channel.schema.clone().unwrap();
+        schemas.insert(m.channel.topic.clone(), schema);
+    }
+    let topics = info["topics_with_message_count"].as_vec().unwrap();
+    assert_eq!(topics.len(), schemas.len());
+    for t in topics {
+        let meta = &t["topic_metadata"];
+        let schema = &schemas[meta["name"].as_str().unwrap()];
+        let text = String::from_utf8(schema.data.clone()).unwrap();
+        let hash = meta["type_description_hash"].as_str().unwrap();
+        assert!(
+            hash.starts_with("RIHS01_") && hash.len() == 7 + 64,
+            "{hash}"
+        );
+        assert_eq!(
+            Some(hash),
+            autoact::ros::type_hash::rihs01(&schema.name, &text).as_deref()
+        );
+    }
+    // Version 5, for Humble: the same bag, no hash, no distribution.
+    let humble = dir.path().join("humble");
+    let o = autoact(&[
+        "convert",
+        arg(&input),
+        "-o",
+        arg(&humble),
+        "--rosbag2",
+        "--rosbag2-version",
+        "5",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let info5 = rosbag2_info(&humble);
+    assert_eq!(info5["version"].as_i64(), Some(5));
+    assert!(info5["ros_distro"].is_badvalue());
+    for t in info5["topics_with_message_count"].as_vec().unwrap() {
+        assert!(t["topic_metadata"]["type_description_hash"].is_badvalue());
+        assert_eq!(
+            t["topic_metadata"]["offered_qos_profiles"].as_str(),
+            Some("")
+        );
+    }
+    assert_eq!(
+        std::fs::read(humble.join("humble_0.mcap")).unwrap(),
+        std::fs::read(out.join("anim_0.mcap")).unwrap(),
+        "the version changes metadata.yaml only"
+    );
     // A rosbag2 directory is a bag too, as input.
     let info = autoact(&["info", arg(&out)]);
     assert!(
@@ -1077,6 +1141,24 @@ fn recover_takes_a_rosbag2_folder_into_a_folder() {
     // The recovered folder reads whole.
     let o = autoact(&["info", arg(&out)]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(rosbag2_info(&out)["version"].as_i64(), Some(9));
+    // For Humble: the same files, metadata.yaml in version 5.
+    let humble = dir.path().join("recovered_humble");
+    let o = autoact(&[
+        "recover",
+        arg(&folder),
+        "-o",
+        arg(&humble),
+        "--rosbag2-version",
+        "5",
+    ]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    let info = rosbag2_info(&humble);
+    assert_eq!(info["version"].as_i64(), Some(5));
+    assert_eq!(
+        info["message_count"].as_i64(),
+        Some(i64::try_from(90 + kept).unwrap())
+    );
     // A folder is never written over a file, nor over itself, nor over an existing folder
     // without --force.
     let o = autoact(&["recover", arg(&folder), "-o", arg(&first)]);

@@ -133,12 +133,13 @@ fn capture_bags_are_deterministic_labelled_and_keep_the_character_in_frame() {
         std::fs::read(c.join(bags[0].file_name().unwrap())).unwrap()
     );
 
-    // Segments: 12 per session, unique ids, labels by sorted name, back to back.
+    // Segments: 12 per session, unique ids, labels by sorted name, back to back from the
+    // timeline's start: the spec's start_time, by default 2000-01-01T00:00:00Z (not 1970).
     let mut ids = BTreeSet::new();
     for bag in &bags {
         let segs = segments(bag);
         assert_eq!(segs.len(), 12);
-        let mut end = Time::default();
+        let mut end = Time::from_nanos(946_684_800_000_000_000);
         for s in &segs {
             assert!(ids.insert(s.id.clone()));
             assert_eq!(s.label_id, u32::from(s.action == "wave"));
