@@ -249,6 +249,8 @@ use std::path::PathBuf;
 use crate::common::{self, autoact, stderr, stdout};
 use autoact::bags::capture::Capture;
 use autoact::skeleton::rig::Rig;
+use autoact::trim::planned::PlannedClips;
+use autoact::trim::split::SplitItem;
 
 /// A one-session capture bag with two classes; the wave class is labelled `wave_label`.
 fn capture_bag(dir: &Path, wave_label: &str) -> PathBuf {
@@ -1063,6 +1065,27 @@ fn splits_come_from_the_plan_whatever_order_the_captures_are_trimmed_in() {
     assert!(scenes.values().all(|s| s.len() == 1), "{scenes:?}");
     let listed: usize = check_lists(&ab).values().map(Vec::len).sum();
     assert_eq!(listed, 24);
+    // The plan describes each clip as trim does: same id, class and values to group or hold
+    // out by (else a clip would be split apart from its planned self).
+    let plan = PlannedClips::read(&bags[0].parent().unwrap().join("plan.json")).unwrap();
+    let planned: BTreeMap<String, SplitItem> = plan
+        .items
+        .into_iter()
+        .map(|i| (i.clip_id.clone(), i))
+        .collect();
+    let cut: BTreeMap<String, SplitItem> = read_jsonl(&ab.join("manifest.jsonl"))
+        .into_iter()
+        .map(|v| {
+            let r: autoact::trim::ClipRecord = serde_json::from_value(v).unwrap();
+            (r.clip_id.clone(), SplitItem::from(&r))
+        })
+        .collect();
+    assert_eq!(planned, cut);
+    assert!(
+        !stderr(&first).contains("not in the plan"),
+        "{}",
+        stderr(&first)
+    );
 }
 
 #[test]
