@@ -65,6 +65,7 @@ fn main() -> Result<()> {
         force_reencode: false,
         reencode: ReencodeSettings::default(),
         rawframes: false,
+        planned: None,
     };
     let reencode_all = TrimOptions {
         force_reencode: true,

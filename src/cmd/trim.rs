@@ -31,11 +31,17 @@ Layout of DATASET_DIR (MMAction2's data_prefix; every path in the lists is relat
   annotations/<split>_list_rawframes.txt   <dir> <frames> <label_id>  (RawframeDataset)
   annotations/activitynet.json             untrimmed captures with every segment
   annotations/clips.jsonl                  per clip: source animation, variant, weather, time,
-                                           location, character, camera, seed, split
+                                           location, character, camera, seed, split,
+                                           split_by (what it shares its split with)
   manifest.jsonl                           journal of complete clips
-Splits are not in the paths: they are drawn over every clip in the manifest, so several captures
-can be trimmed into one folder. Clips are cut frame-exact: by stream copy when the clip starts
-on a keyframe (autoact's renders put one on every segment boundary), by re-encoding otherwise.
+Splits are not in the paths: they are decided over every clip of the dataset's plan (plan.json,
+beside the capture bags), so a clip's split does not depend on which captures are trimmed yet or
+in what order, and several captures can be trimmed into one folder (without a plan: over the
+clips in the folder so far, which may move clips between splits as captures arrive). A class
+with fewer groups than splits to fill is grouped more finely (variant, then scene, then clip),
+with a warning saying what leaks; clips.jsonl records each clip's `split_by`.
+Clips are cut frame-exact: by stream copy when the clip starts on a keyframe (autoact's renders
+put one on every segment boundary), by re-encoding otherwise.
 A re-run skips complete clips and rewrites the lists; lists never name a clip that is not
 complete on disk. Segments the video does not fully cover are reported, left out, and end the
 run with exit code 3.")]
@@ -59,12 +65,17 @@ pub struct Args {
     /// 0 on the capture's timeline. It must be a render of the capture bag's session.
     #[arg(long, value_name = "MCAP")]
     pub render_bag: Option<PathBuf>,
-    /// What clips of one split share: no value of it appears in two splits.
+    /// What clips of one split share: no value of it appears in two splits. A class with too few
+    /// groups to fill every split is grouped by the next finer level (variant, scene, clip).
     #[arg(long, value_enum, default_value_t = Key::Animation)]
     pub split_by: Key,
     /// Train, val and test fractions.
     #[arg(long, value_name = "TRAIN,VAL,TEST", default_value = "0.7,0.15,0.15", value_parser = parse_ratios)]
     pub split_ratios: [f64; 3],
+    /// The dataset's plan, to decide the splits over (default: `plan.json` beside the capture
+    /// bag, as `convert --spec` writes it, when it is this capture's).
+    #[arg(long, value_name = "PLAN_JSON")]
+    pub plan: Option<PathBuf>,
     /// Seed of the split (default: the dataset's seed).
     #[arg(long)]
     pub seed: Option<u64>,
@@ -107,6 +118,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         split_ratios: args.split_ratios,
         seed: args.seed,
         hold_out: args.hold_out,
+        plan: args.plan,
         force_reencode: args.reencode,
         reencode: ReencodeSettings {
             preset: args.preset,

@@ -6,6 +6,8 @@ use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
+use super::TrimError;
+use super::planned::PlannedClips;
 use super::run::{RunError, TrimOptions, TrimSummary, VideoSource, trim_capture};
 use super::split::{Key, Split, SplitConfig};
 use crate::bags::capture::{Capture, TimelineError};
@@ -38,6 +40,9 @@ pub struct TrimJob {
     pub seed: Option<u64>,
     /// Values whose clips all go to test.
     pub hold_out: Vec<(Key, String)>,
+    /// The dataset's plan, to decide the splits over; default: `plan.json` beside the capture
+    /// bag, when there is one.
+    pub plan: Option<PathBuf>,
     /// Re-encode every clip.
     pub force_reencode: bool,
     /// Encoder settings for re-encoded clips.
@@ -61,6 +66,9 @@ pub struct TrimReport {
     pub output: PathBuf,
     /// How the split was drawn.
     pub split: SplitConfig,
+    /// The plan the splits were decided over, and its number of clips; `None`: over the clips
+    /// in the dataset folder.
+    pub plan: Option<(PathBuf, usize)>,
 }
 
 /// Why a trim job failed.
@@ -91,6 +99,9 @@ pub enum TrimJobError {
     /// The render bag cannot be read or is of another capture.
     #[error(transparent)]
     RenderBag(#[from] RenderBagError),
+    /// The plan given with `--plan` cannot be read or is of another dataset.
+    #[error(transparent)]
+    Plan(#[from] TrimError),
     /// Stopped by a signal; the complete clips are listed.
     #[error(transparent)]
     Interrupted(Box<RunError>),
@@ -124,6 +135,7 @@ pub fn trim_job(job: &TrimJob, stop: &AtomicBool) -> Result<TrimReport, TrimJobE
         return Err(TrimJobError::NoVideo(job.video.clone()));
     }
     let (frame0_nanos, fps) = place_video(job, &capture)?;
+    let plan = planned_clips(job, &capture)?;
     let options = TrimOptions {
         split: SplitConfig {
             by: job.split_by,
@@ -134,6 +146,7 @@ pub fn trim_job(job: &TrimJob, stop: &AtomicBool) -> Result<TrimReport, TrimJobE
         force_reencode: job.force_reencode,
         reencode: job.reencode.clone(),
         rawframes: job.rawframes,
+        planned: plan.as_ref().map(|p| p.items.clone()),
     };
     let bar = Progress::bar("trimming", "clips", false, capture.segments.len() as u64);
     let started = Instant::now();
@@ -170,7 +183,38 @@ pub fn trim_job(job: &TrimJob, stop: &AtomicBool) -> Result<TrimReport, TrimJobE
         seconds: started.elapsed().as_secs_f64(),
         output: job.output.clone(),
         split: options.split,
+        plan: plan.map(|p| (p.path, p.items.len())),
     })
+}
+
+/// The plan to decide the splits over: `--plan`, which must be this capture's; else
+/// `plan.json` beside the capture bag when it is this capture's. Without one, says on stderr
+/// that the splits are drawn over the clips trimmed so far.
+fn planned_clips(job: &TrimJob, capture: &Capture) -> Result<Option<PlannedClips>, TrimJobError> {
+    if let Some(path) = &job.plan {
+        let plan = PlannedClips::read(path)?;
+        plan.check(capture)?;
+        return Ok(Some(plan));
+    }
+    let path = PlannedClips::beside(&job.capture);
+    let so_far = format!(
+        "splits are drawn over the clips in `{}` so far, and a clip's split may change as other captures of the dataset are trimmed into it",
+        job.output.display()
+    );
+    if !path.is_file() {
+        tracing::warn!(
+            "no `{}` beside the capture bag: {so_far} (pass the dataset's plan with --plan)",
+            path.display()
+        );
+        return Ok(None);
+    }
+    match PlannedClips::read(&path).and_then(|plan| plan.check(capture).map(|()| plan)) {
+        Ok(plan) => Ok(Some(plan)),
+        Err(e) => {
+            tracing::warn!("{e}; {so_far} (pass the dataset's plan with --plan)");
+            Ok(None)
+        }
+    }
 }
 
 /// The timeline stamp of video frame 0 and the video's frame rate: from `--video-start` (and
@@ -249,14 +293,20 @@ impl TrimReport {
                 format!("{} {clips}", s.name())
             })
             .collect();
+        let over = match &self.plan {
+            Some((path, clips)) => format!("over the {clips} clips of {}", path.display()),
+            None => "over the clips trimmed so far: no plan".to_owned(),
+        };
         text.push_str(&format!(
-            "  dataset {}: {} (split by {}, seed {})\n",
+            "  dataset {}: {} (split by {}, seed {}, {over})\n",
             self.output.display(),
             counts.join(", "),
-            clap::ValueEnum::to_possible_value(&self.split.by)
-                .map_or_else(String::new, |v| v.get_name().to_owned()),
+            self.split.by.name(),
             self.split.seed
         ));
+        for r in &summary.refined {
+            text.push_str(&format!("  {r}\n"));
+        }
         text
     }
 }

@@ -20,7 +20,9 @@
 //!   videos share a stem); `subset` is the split when all its segments share one, else `mixed`
 //!   (each annotation also carries its own `subset`).
 //! - `clips.jsonl`: every clip's record (source animation, variant, weather, time, location,
-//!   character, camera, seed, …) plus its `split`.
+//!   character, camera, seed, …) plus its `split` and `split_by`, what it shares its split with
+//!   (`animation`, or the finer `variant`, `scene`, `clip` its class fell back to, …, or
+//!   `held-out`).
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -28,7 +30,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::{Value, json};
 
-use super::split::Split;
+use super::split::{Assignment, Split};
 use super::{ClipRecord, TrimError};
 
 /// The annotations folder inside the dataset folder.
@@ -116,7 +118,8 @@ pub struct ListSummary {
 }
 
 /// Writes every list into `dir/annotations` from `clips` (complete clips, by id) and their
-/// splits. Lists for a split without clips are written empty, so stale ones never survive.
+/// splits (and how each was grouped). Lists for a split without clips are written empty, so
+/// stale ones never survive.
 ///
 /// # Errors
 /// [`TrimError::Io`]; [`TrimError::NoSplit`] if a clip has no split (then nothing is written);
@@ -124,7 +127,7 @@ pub struct ListSummary {
 pub fn write_lists(
     dir: &Path,
     clips: &BTreeMap<String, ClipRecord>,
-    splits: &BTreeMap<String, Split>,
+    splits: &Assignment,
 ) -> Result<ListSummary, TrimError> {
     let ann = dir.join(ANNOTATIONS_DIR);
     std::fs::create_dir_all(&ann).map_err(TrimError::io("create", &ann))?;
@@ -132,6 +135,7 @@ pub fn write_lists(
         .values()
         .map(|c| {
             splits
+                .splits
                 .get(&c.clip_id)
                 .map(|s| (c, *s))
                 .ok_or_else(|| TrimError::NoSplit {
@@ -168,7 +172,7 @@ pub fn write_lists(
             )?;
         }
     }
-    write("clips.jsonl".into(), clips_jsonl(&assigned, &ann)?)?;
+    write("clips.jsonl".into(), clips_jsonl(&assigned, splits, &ann)?)?;
     write(
         "activitynet.json".into(),
         activitynet_json(&assigned, &ann)?,
@@ -217,13 +221,20 @@ fn rawframe_list(clips: &[&ClipRecord]) -> String {
         .collect()
 }
 
-/// `clips.jsonl`: every clip's record plus its `split`, one JSON object a line.
-fn clips_jsonl(clips: &[Assigned<'_>], ann: &Path) -> Result<String, TrimError> {
+/// `clips.jsonl`: every clip's record plus its `split` and `split_by`, one JSON object a line.
+fn clips_jsonl(
+    clips: &[Assigned<'_>],
+    splits: &Assignment,
+    ann: &Path,
+) -> Result<String, TrimError> {
     let mut jsonl = String::new();
     for (c, split) in clips {
         let mut v = serde_json::to_value(c).map_err(TrimError::json(&ann.join("clips.jsonl")))?;
         if let Value::Object(m) = &mut v {
             m.insert("split".into(), json!(split.name()));
+            if let Some(g) = splits.grouped_by.get(&c.clip_id) {
+                m.insert("split_by".into(), json!(g.name()));
+            }
         }
         jsonl.push_str(&v.to_string());
         jsonl.push('\n');
@@ -319,8 +330,8 @@ mod tests {
     use std::collections::BTreeMap;
 
     use super::{csv_field, ensure_classes, write_lists};
-    use crate::trim::split::Split;
     use crate::trim::split::tests::record;
+    use crate::trim::split::{Assignment, Grouping, Key, Split};
 
     #[test]
     fn labels_are_quoted_only_when_needed() {
@@ -364,10 +375,17 @@ mod tests {
         b.rawframes = Some("rawframes/wave/b1".into());
         let clips: BTreeMap<String, _> =
             [a, b].into_iter().map(|c| (c.clip_id.clone(), c)).collect();
-        let splits = BTreeMap::from([
-            ("a1".to_owned(), Split::Train),
-            ("b1".to_owned(), Split::Test),
-        ]);
+        let splits = Assignment {
+            splits: BTreeMap::from([
+                ("a1".to_owned(), Split::Train),
+                ("b1".to_owned(), Split::Test),
+            ]),
+            grouped_by: BTreeMap::from([
+                ("a1".to_owned(), Grouping::By(Key::Scene)),
+                ("b1".to_owned(), Grouping::HeldOut),
+            ]),
+            refined: Vec::new(),
+        };
         let s = write_lists(dir.path(), &clips, &splits).unwrap();
         assert_eq!(s.clips[&Split::Train], 1);
         assert_eq!(s.clips[&Split::Val], 0);
@@ -396,7 +414,7 @@ mod tests {
         let mut more = clips.clone();
         more.insert(c.clip_id.clone(), c);
         let mut more_splits = splits.clone();
-        more_splits.insert("c1".into(), Split::Val);
+        more_splits.splits.insert("c1".into(), Split::Val);
         write_lists(dir.path(), &more, &more_splits).unwrap();
         let anet: serde_json::Value = serde_json::from_str(&read("activitynet.json")).unwrap();
         let db = anet["database"].as_object().unwrap();
@@ -415,6 +433,7 @@ mod tests {
         assert_eq!(meta.lines().count(), 2);
         let first: serde_json::Value = serde_json::from_str(meta.lines().next().unwrap()).unwrap();
         assert_eq!(first["split"], "train");
+        assert_eq!(first["split_by"], "scene");
         assert_eq!(first["weather"], "CLEAR");
         // No temporary files left behind.
         for e in std::fs::read_dir(dir.path().join("annotations")).unwrap() {

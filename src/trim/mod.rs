@@ -4,7 +4,8 @@
 //! - [`plan`]: segments (timeline stamps) → video frame ranges, given when video frame 0 is on
 //!   the timeline; clips the video does not fully cover are reported, never cut.
 //! - [`split`]: train/val/test by a hierarchy level (default: source animation), seeded,
-//!   stratified by class, with whole weathers, locations or characters held out on request.
+//!   stratified by class, with whole weathers, locations or characters held out on request;
+//!   decided over every clip of the dataset's plan ([`planned`]) when there is one.
 //! - [`manifest`]: the journal of complete clips (`manifest.jsonl`); re-runs skip what it
 //!   lists, and every list is written from it, so no list names a clip that is not on disk.
 //! - [`lists`]: `classes.txt`, `label_map.json`, Kinetics CSV, MMAction2 `VideoDataset` and
@@ -26,13 +27,15 @@
 //!     activitynet.json                  the untrimmed captures with every segment
 //!     clips.jsonl                       per-clip metadata
 //! ```
-//! The split is not part of a clip's path: splits are drawn over every clip in the manifest, so
-//! a dataset can grow capture by capture (or be re-split with other ratios) without moving files.
+//! The split is not part of a clip's path: splits are drawn over every clip of the plan (else
+//! every clip in the manifest), so a dataset can grow capture by capture (or be re-split with
+//! other ratios) without moving files.
 
 pub mod job;
 pub mod lists;
 pub mod manifest;
 pub mod plan;
+pub mod planned;
 pub mod qa;
 pub mod run;
 pub mod split;
@@ -144,6 +147,35 @@ pub enum TrimError {
         /// Train, validation and test ratios as given.
         ratios: [f64; 3],
     },
+    /// The plan file is not a dataset plan.
+    #[error("`{path}` is not a dataset plan (the `plan.json` `autoact convert --spec` writes)")]
+    PlanRead {
+        /// The file.
+        path: PathBuf,
+        /// Why it does not read as a plan.
+        #[source]
+        source: serde_json::Error,
+    },
+    /// A clip of the plan names a scene, animation or label the plan does not have.
+    #[error("`{path}`: clip `{clip}` names {what}, which the plan does not have")]
+    PlanIndex {
+        /// The plan file.
+        path: PathBuf,
+        /// The clip's segment id.
+        clip: String,
+        /// What it names.
+        what: String,
+    },
+    /// The capture bag is not a capture of the plan.
+    #[error("`{bag}` is not a capture of the plan `{plan}`: {why}")]
+    PlanMismatch {
+        /// The plan file.
+        plan: PathBuf,
+        /// The capture bag.
+        bag: PathBuf,
+        /// What differs.
+        why: String,
+    },
     /// A record could not be encoded as JSON for a file.
     #[error("cannot encode JSON for `{path}`")]
     Json {
@@ -244,6 +276,13 @@ pub struct ClipRecord {
     pub camera: String,
     /// The dataset seed.
     pub seed: Option<u64>,
+}
+
+/// The clip id of the segment `segment_id` (the file stem of its clip): the id with `/` as `-`,
+/// sanitised ([`sanitize_name`]).
+#[must_use]
+pub fn clip_id(segment_id: &str) -> String {
+    sanitize_name(&segment_id.replace('/', "-"))
 }
 
 /// `text` as a file or folder name: letters and digits of any script, `-`, `_` and `.` are

@@ -8,8 +8,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use super::lists::{ListSummary, ensure_classes, write_lists};
 use super::manifest::Manifest;
 use super::plan::{FrameRange, Truncated, VideoTiming, frame_ranges};
-use super::split::{SplitConfig, assign, fnv1a};
-use super::{ClipRecord, TrimError, label_dirs, sanitize_name};
+use super::planned::scene_values;
+use super::split::{Refined, SplitConfig, SplitItem, assign_clips};
+use super::{ClipRecord, TrimError, clip_id, label_dirs};
 
 use crate::bags::capture::Capture;
 use crate::ros::autoact_msgs::Segment;
@@ -34,6 +35,9 @@ pub struct TrimOptions {
     pub reencode: ReencodeSettings,
     /// Also extract every clip's frames as JPEG (`img_00001.jpg` …).
     pub rawframes: bool,
+    /// Every clip of the dataset's plan, to decide the splits over; `None`: over the clips in
+    /// the dataset folder.
+    pub planned: Option<Vec<SplitItem>>,
 }
 
 /// The capture video and where it sits on the capture's timeline.
@@ -62,10 +66,8 @@ pub struct TrimSummary {
     pub lists: ListSummary,
     /// Frames cut in this run.
     pub frames_cut: u64,
-}
-
-fn character_id(look: &serde_json::Value) -> String {
-    format!("{:016x}", fnv1a(&look.to_string()))[..8].to_owned()
+    /// Classes grouped more finely than `--split-by`, having too few groups.
+    pub refined: Vec<Refined>,
 }
 
 /// Cuts every segment of `capture` out of `video` into `dir`, skipping clips the manifest
@@ -124,10 +126,11 @@ pub fn trim_capture(
     let result = run.cut_all(&ranges, &mut manifest, &mut summary, progress, stop);
     progress(ranges.len(), ranges.len());
     // Lists from what is complete, whatever happened above.
-    let lists = rewrite_lists(dir, &manifest, &options.split);
+    let lists = rewrite_lists(dir, &manifest, options);
     match (result, lists) {
-        (Ok(()), Ok(lists)) => {
+        (Ok(()), Ok((lists, refined))) => {
             summary.lists = lists;
+            summary.refined = refined;
             Ok(summary)
         }
         (Ok(()), Err(e)) => Err(e.into()),
@@ -166,20 +169,26 @@ fn lock_dataset(dir: &Path) -> Result<std::fs::File, TrimError> {
     Ok(file)
 }
 
-/// Every list rewritten from the manifest's clips whose file is on disk, split anew.
+/// Every list rewritten from the manifest's clips whose file is on disk, split anew (over the
+/// plan's clips when there is one), each class grouped more finely than asked said on stderr.
 fn rewrite_lists(
     dir: &Path,
     manifest: &Manifest,
-    split: &SplitConfig,
-) -> Result<ListSummary, TrimError> {
+    options: &TrimOptions,
+) -> Result<(ListSummary, Vec<Refined>), TrimError> {
     let complete: BTreeMap<String, ClipRecord> = manifest
         .records()
         .iter()
         .filter(|(_, r)| dir.join(&r.video).is_file())
         .map(|(k, r)| (k.clone(), r.clone()))
         .collect();
-    let splits = assign(&complete.values().cloned().collect::<Vec<_>>(), split)?;
-    write_lists(dir, &complete, &splits)
+    let clips: Vec<ClipRecord> = complete.values().cloned().collect();
+    let splits = assign_clips(options.planned.as_deref(), &clips, &options.split)?;
+    for r in &splits.refined {
+        tracing::warn!("{r}");
+    }
+    let lists = write_lists(dir, &complete, &splits)?;
+    Ok((lists, splits.refined))
 }
 
 /// What every clip of one run shares: the capture, its video and the dataset folder.
@@ -276,7 +285,7 @@ impl Run<'_> {
                 segment.action
             );
         }
-        let clip_id = sanitize_name(&segment.id.replace('/', "-"));
+        let clip_id = clip_id(&segment.id);
         if !seen.insert(clip_id.clone()) {
             return Err(TrimError::DuplicateClipId {
                 bag: capture.path.clone(),
@@ -386,10 +395,12 @@ impl Run<'_> {
         let capture = self.capture;
         let seg = target.segment;
         let fps_f = self.fps.as_f64();
-        let scene = capture.scenes.iter().find(|s| s.scene_id == seg.scene_id);
-        let look = scene
-            .and_then(|s| serde_json::to_value(&s.scene.look).ok())
-            .unwrap_or(serde_json::Value::Null);
+        let scene = capture
+            .scenes
+            .iter()
+            .find(|s| s.scene_id == seg.scene_id)
+            .map(|s| &s.scene);
+        let values = scene_values(scene);
         ClipRecord {
             clip_id: target.clip_id,
             video: target.video,
@@ -415,15 +426,11 @@ impl Run<'_> {
             scene: seg.scene,
             viewpoint: seg.viewpoint,
             scene_id: seg.scene_id.clone(),
-            weather: scene
-                .map(|s| s.scene.weather.to_string())
-                .unwrap_or_default(),
-            time: scene.map(|s| s.scene.clock.to_string()).unwrap_or_default(),
-            location: scene
-                .map(|s| s.scene.location.name.clone())
-                .unwrap_or_default(),
-            character: character_id(&look),
-            character_look: look,
+            weather: values.weather,
+            time: values.time,
+            location: values.location,
+            character: values.character,
+            character_look: values.look,
             camera: format!("{}/c{}", seg.scene_id, seg.viewpoint),
             seed: capture.seed,
         }

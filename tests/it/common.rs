@@ -47,6 +47,14 @@ pub fn repo(path: &str) -> String {
 /// Writes `spec` (a dataset spec of one session) into `dir`, runs `autoact convert --spec` on it
 /// into `dir/capture`, and returns the one capture bag it made.
 pub fn capture_bag_from_spec(dir: &Path, spec: &str) -> PathBuf {
+    let bags = capture_bags_from_spec(dir, spec);
+    assert_eq!(bags.len(), 1, "{bags:?}");
+    bags.into_iter().next().expect("one bag")
+}
+
+/// Writes `spec` into `dir`, runs `autoact convert --spec` on it into `dir/capture` (bags and
+/// `plan.json`), and returns every capture bag it made, sorted.
+pub fn capture_bags_from_spec(dir: &Path, spec: &str) -> Vec<PathBuf> {
     let spec_path = dir.join("spec.toml");
     std::fs::write(&spec_path, spec).expect("write the spec");
     let out = dir.join("capture");
@@ -59,11 +67,11 @@ pub fn capture_bag_from_spec(dir: &Path, spec: &str) -> PathBuf {
         out.to_str().expect("UTF-8 path"),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let bags: Vec<PathBuf> = std::fs::read_dir(&out)
+    let mut bags: Vec<PathBuf> = std::fs::read_dir(&out)
         .expect("the capture folder")
         .map(|e| e.expect("a folder entry").path())
         .filter(|p| p.extension().is_some_and(|e| e == "mcap"))
         .collect();
-    assert_eq!(bags.len(), 1, "{bags:?}");
-    bags.into_iter().next().expect("one bag")
+    bags.sort();
+    bags
 }

@@ -249,6 +249,8 @@ use std::path::PathBuf;
 use crate::common::{self, autoact, stderr, stdout};
 use autoact::bags::capture::Capture;
 use autoact::skeleton::rig::Rig;
+use autoact::trim::planned::PlannedClips;
+use autoact::trim::split::SplitItem;
 
 /// A one-session capture bag with two classes; the wave class is labelled `wave_label`.
 fn capture_bag(dir: &Path, wave_label: &str) -> PathBuf {
@@ -929,4 +931,204 @@ fn two_trims_into_one_folder_take_turns_and_list_every_clip() {
     let listed: usize = check_lists(&out).values().map(Vec::len).sum();
     assert_eq!(listed, clips, "every clip of both captures listed once");
     assert_eq!(read_jsonl(&out.join("manifest.jsonl")).len(), clips);
+}
+
+/// The demo's shape (`examples/dataset.toml`): two classes of one source animation each, 2
+/// variants × 2 scenes × 3 viewpoints, one session (capture bag) per animation.
+fn demo_like_bags(dir: &Path) -> Vec<PathBuf> {
+    let spec = format!(
+        r#"[dataset]
+name = "d"
+seed = 7
+fps = 30.0
+resolution = [320, 240]
+lead_in_s = 0.1
+lead_out_s = 0.1
+session = "animation"
+[counts]
+variants = 2
+scenes = 2
+viewpoints = 3
+[[class]]
+category = "gesture"
+action = "wave"
+sources = ["{wave}"]
+
+[[class]]
+category = "locomotion"
+action = "walk"
+sources = ["{walk}"]
+"#,
+        wave = common::repo("bags/bandai_wave.pose.mcap"),
+        walk = common::repo("bags/bandai_walk.pose.mcap"),
+    );
+    common::capture_bags_from_spec(dir, &spec)
+}
+
+/// Every clip's `(label, animation, variant, scene, split, split_by)` in `clips.jsonl`, by id.
+fn clip_splits(out: &Path) -> BTreeMap<String, [String; 6]> {
+    read_jsonl(&out.join("annotations/clips.jsonl"))
+        .into_iter()
+        .map(|c| {
+            let field = |k: &str| match &c[k] {
+                serde_json::Value::String(s) => s.clone(),
+                other => other.to_string(),
+            };
+            (
+                field("clip_id"),
+                [
+                    "label",
+                    "animation",
+                    "variant",
+                    "scene",
+                    "split",
+                    "split_by",
+                ]
+                .map(field),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn splits_come_from_the_plan_whatever_order_the_captures_are_trimmed_in() {
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let bags = demo_like_bags(dir.path());
+    assert_eq!(bags.len(), 2, "{bags:?}");
+    let videos: Vec<PathBuf> = bags
+        .iter()
+        .enumerate()
+        .map(|(i, bag)| {
+            let capture = Capture::read(&Rig::standard(), bag).unwrap();
+            let video = dir.path().join(format!("capture{i}.mp4"));
+            coded_video(
+                &ffmpeg,
+                &video,
+                capture.frames.len() as u64,
+                &capture.boundary_frames(),
+            );
+            video
+        })
+        .collect();
+    let trim = |i: usize, out: &Path| {
+        let o = run_trim(&bags[i], &videos[i], out, &["--video-start", "0"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        o
+    };
+    // First one capture, then the other, into `ab`; the other way round into `ba`.
+    let (ab, ba) = (dir.path().join("ab"), dir.path().join("ba"));
+    let first = trim(0, &ab);
+    assert!(
+        stdout(&first).contains("over the 24 clips of"),
+        "{}",
+        stdout(&first)
+    );
+    assert!(
+        stderr(&first).contains("1 source animation for 3 splits, split by scene instead"),
+        "{}",
+        stderr(&first)
+    );
+    let after_first = clip_splits(&ab);
+    assert_eq!(after_first.len(), 12);
+    trim(1, &ab);
+    trim(1, &ba);
+    let after_other = clip_splits(&ba);
+    trim(0, &ba);
+    let (all_ab, all_ba) = (clip_splits(&ab), clip_splits(&ba));
+    assert_eq!(all_ab.len(), 24);
+    assert_eq!(all_ab, all_ba, "the same splits whatever the order");
+    for (id, c) in after_first.iter().chain(&after_other) {
+        assert_eq!(&all_ab[id], c, "{id} moved when the other capture arrived");
+    }
+    // Each class: 4 scenes of 3 clips, 2/1/1 scenes; no scene in two splits.
+    let mut counts: BTreeMap<(String, String), usize> = BTreeMap::new();
+    let mut scenes: BTreeMap<(String, String, String), BTreeSet<String>> = BTreeMap::new();
+    for [label, animation, variant, scene, split, split_by] in all_ab.values() {
+        assert_eq!(split_by, "scene");
+        *counts.entry((label.clone(), split.clone())).or_default() += 1;
+        scenes
+            .entry((animation.clone(), variant.clone(), scene.clone()))
+            .or_default()
+            .insert(split.clone());
+    }
+    for label in ["walk", "wave"] {
+        let n = |s: &str| counts.get(&(label.to_owned(), s.to_owned())).copied();
+        assert_eq!(
+            [n("train"), n("val"), n("test")],
+            [Some(6), Some(3), Some(3)],
+            "{label}"
+        );
+    }
+    assert!(scenes.values().all(|s| s.len() == 1), "{scenes:?}");
+    let listed: usize = check_lists(&ab).values().map(Vec::len).sum();
+    assert_eq!(listed, 24);
+    // The plan describes each clip as trim does: same id, class and values to group or hold
+    // out by (else a clip would be split apart from its planned self).
+    let plan = PlannedClips::read(&bags[0].parent().unwrap().join("plan.json")).unwrap();
+    let planned: BTreeMap<String, SplitItem> = plan
+        .items
+        .into_iter()
+        .map(|i| (i.clip_id.clone(), i))
+        .collect();
+    let cut: BTreeMap<String, SplitItem> = read_jsonl(&ab.join("manifest.jsonl"))
+        .into_iter()
+        .map(|v| {
+            let r: autoact::trim::ClipRecord = serde_json::from_value(v).unwrap();
+            (r.clip_id.clone(), SplitItem::from(&r))
+        })
+        .collect();
+    assert_eq!(planned, cut);
+    assert!(
+        !stderr(&first).contains("not in the plan"),
+        "{}",
+        stderr(&first)
+    );
+}
+
+#[test]
+fn trim_refuses_another_datasets_plan_and_says_when_there_is_none() {
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
+    let s = setup("wave");
+    let video = s.coded_capture_video(&ffmpeg);
+    let plan = s.bag.parent().unwrap().join("plan.json");
+    // A plan whose seed is not the capture's, given with --plan: refused, naming both files.
+    let mut other: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&plan).unwrap()).unwrap();
+    other["plan"]["seed"] = serde_json::json!(6);
+    let other_path = s.dir.path().join("other-plan.json");
+    std::fs::write(&other_path, other.to_string()).unwrap();
+    let out = s.dir.path().join("ds");
+    let args = ["--video-start", "0", "--plan", other_path.to_str().unwrap()];
+    let o = run_trim(&s.bag, &video, &out, &args);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(
+        err.contains("other-plan.json") && err.contains("seed"),
+        "{err}"
+    );
+    // Not a plan at all.
+    std::fs::write(&other_path, "{}").unwrap();
+    let o = run_trim(&s.bag, &video, &out, &args);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("is not a dataset plan"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.join("manifest.jsonl").exists(), "nothing cut");
+    // No plan beside the bag: the clips trimmed so far decide, and trim says so.
+    std::fs::remove_file(&plan).unwrap();
+    let o = run_trim(&s.bag, &video, &out, &["--video-start", "0"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("plan.json` beside the capture bag"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(stdout(&o).contains("no plan"), "{}", stdout(&o));
 }

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Reads a dataset `autoact trim` wrote the way its consumers do, and checks it.
 
-    check_trim.py DATASET_DIR [--split-key animation] [--expect-clips N]
+    check_trim.py DATASET_DIR [--split-key FIELD] [--expect-clips N]
 
 - MMAction2 `VideoDataset` / `RawframeDataset` rules (mmaction/datasets/video_dataset.py,
   rawframe_dataset.py): `line.strip().split(' ')`, paths joined to the data prefix (DATASET_DIR),
@@ -9,7 +9,10 @@
 - PyTorchVideo `LabeledVideoPaths.from_csv` rule: `line.rsplit(None, 1)`.
 - Kinetics CSV through Python's csv module: header `label,youtube_id,time_start,time_end,split`.
 - Every listed clip decoded with PyAV: frame count, duration, label id = its label's line in
-  classes.txt; class ids identical across splits; no value of the split key in two splits;
+  classes.txt; class ids identical across splits; no group in two splits: by each clip's
+  `split_by` in clips.jsonl (its class's grouping: animation, or the finer variant, scene or clip
+  a class with too few animations fell back to; held-out clips aside), or by the clips.jsonl
+  field FIELD for all clips when `--split-key` is given;
   ActivityNet JSON segments match the clips.
 Exits non-zero with a message on the first failure.
 """
@@ -36,10 +39,36 @@ def decode_count(path):
         return n, float(rate) if rate else None
 
 
+# The clips.jsonl fields that make a group of each `split_by`.
+GROUP_FIELDS = {
+    "animation": ("animation",),
+    "variant": ("animation", "variant"),
+    "scene": ("animation", "variant", "scene"),
+    "clip": ("clip_id",),
+    "weather": ("weather",),
+    "location": ("location",),
+    "character": ("character",),
+    "time": ("time",),
+}
+
+
+def group_of(m, split_key):
+    """The group clip record `m` shares its split with, or None for a held-out clip."""
+    if split_key:
+        return (split_key, m[split_key])
+    by = m.get("split_by", "animation")
+    if by == "held-out":
+        return None
+    if by not in GROUP_FIELDS:
+        fail(f"{m['clip_id']}: unknown split_by {by!r}")
+    return (by,) + tuple(m[f] for f in GROUP_FIELDS[by])
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("dataset")
-    ap.add_argument("--split-key", default="animation")
+    ap.add_argument("--split-key", help="clips.jsonl field no value of which may be in two splits "
+                    "(default: each clip's split_by)")
     ap.add_argument("--expect-clips", type=int)
     a = ap.parse_args()
     root = a.dataset
@@ -108,8 +137,9 @@ def main():
             dur = float(row["time_end"]) - float(row["time_start"])
             if abs(dur - n / m["fps"]) > 0.0015:
                 fail(f"{rel}: CSV duration {dur} s, decoded {n / m['fps']} s")
-            key = m[a.split_key]
-            key_splits.setdefault(key, set()).add(split)
+            key = group_of(m, a.split_key)
+            if key is not None:
+                key_splits.setdefault(key, set()).add(split)
         raw_path = os.path.join(ann, f"{split}_list_rawframes.txt")
         if os.path.exists(raw_path):
             for line in open(raw_path, encoding="utf-8").read().splitlines():
@@ -125,7 +155,7 @@ def main():
                     fail(f"{line!r}: label out of range")
     leaks = {k: s for k, s in key_splits.items() if len(s) > 1}
     if leaks:
-        fail(f"{a.split_key} values in more than one split: {leaks}")
+        fail(f"groups in more than one split: {leaks}")
     if len(seen) != len(meta):
         fail(f"{len(meta)} clips in clips.jsonl, {len(seen)} listed")
     if a.expect_clips is not None and len(seen) != a.expect_clips:
@@ -144,7 +174,7 @@ def main():
         fail(f"activitynet.json has {n_anet} segments, clips.jsonl {len(meta)}")
     counts = {s: sum(1 for v in seen.values() if v == s) for s in ["train", "val", "test"]}
     print(f"ok check_trim {root}: {decoded} clips decoded with PyAV {av.__version__}, {counts}, "
-          f"{len(classes)} classes, no {a.split_key} in two splits")
+          f"{len(classes)} classes, no {a.split_key or 'split_by group'} in two splits")
 
 
 if __name__ == "__main__":
