@@ -58,6 +58,7 @@ fn main() -> Result<()> {
         path: &video,
         frame0_nanos: i128::from(first),
         fps,
+        annotations: None,
     };
     let stop = AtomicBool::new(false);
     let options = TrimOptions {
@@ -66,6 +67,7 @@ fn main() -> Result<()> {
         reencode: ReencodeSettings::default(),
         rawframes: false,
         planned: None,
+        qa: autoact::trim::qa::Thresholds::default(),
     };
     let reencode_all = TrimOptions {
         force_reencode: true,

@@ -32,7 +32,10 @@ Layout of DATASET_DIR (MMAction2's data_prefix; every path in the lists is relat
   annotations/activitynet.json             untrimmed captures with every segment
   annotations/clips.jsonl                  per clip: source animation, variant, weather, time,
                                            location, character, camera, seed, split,
-                                           split_by (what it shares its split with)
+                                           split_by (what it shares its split with), qa
+  annotations/qa.json                      quality report: clips whose character is hidden,
+                                           occluded, tiny or still, and classes that barely
+                                           move (from the render bag's annotations)
   manifest.jsonl                           journal of complete clips
 Splits are not in the paths: they are decided over every clip of the dataset's plan (plan.json,
 beside the capture bags), so a clip's split does not depend on which captures are trimmed yet or

@@ -8,6 +8,7 @@ use std::time::Instant;
 
 use super::TrimError;
 use super::planned::PlannedClips;
+use super::qa::Thresholds;
 use super::run::{RunError, TrimOptions, TrimSummary, VideoSource, trim_capture};
 use super::split::{Key, Split, SplitConfig};
 use crate::bags::capture::{Capture, TimelineError};
@@ -147,7 +148,16 @@ pub fn trim_job(job: &TrimJob, stop: &AtomicBool) -> Result<TrimReport, TrimJobE
         reencode: job.reencode.clone(),
         rawframes: job.rawframes,
         planned: plan.as_ref().map(|p| p.items.clone()),
+        qa: Thresholds::default(),
     };
+    // The quality checks read the render bag's annotations, when there is one (a video placed
+    // by `--video-start` may have none).
+    let annotations = Some(
+        job.render_bag
+            .clone()
+            .unwrap_or_else(|| render_bag_beside(&job.video)),
+    )
+    .filter(|b| b.is_file());
     let bar = Progress::bar("trimming", "clips", false, capture.segments.len() as u64);
     let started = Instant::now();
     let progress = |done: usize, total: usize| bar.update(done as u64, total as u64);
@@ -155,6 +165,7 @@ pub fn trim_job(job: &TrimJob, stop: &AtomicBool) -> Result<TrimReport, TrimJobE
         path: &job.video,
         frame0_nanos,
         fps,
+        annotations: annotations.as_deref(),
     };
     let result = trim_capture(
         &ffmpeg,
@@ -306,6 +317,9 @@ impl TrimReport {
         ));
         for r in &summary.refined {
             text.push_str(&format!("  {r}\n"));
+        }
+        if let Some(qa) = &summary.qa {
+            text.push_str(&qa.to_string());
         }
         text
     }

@@ -8,6 +8,7 @@
 //!   decided over every clip of the dataset's plan ([`planned`]) when there is one.
 //! - [`manifest`]: the journal of complete clips (`manifest.jsonl`); re-runs skip what it
 //!   lists, and every list is written from it, so no list names a clip that is not on disk.
+//! - [`qa`]: per-clip quality measurements from the render bag's annotations, and the report.
 //! - [`lists`]: `classes.txt`, `label_map.json`, Kinetics CSV, MMAction2 `VideoDataset` and
 //!   `RawframeDataset` lists, ActivityNet JSON and the per-clip metadata JSONL.
 //!
@@ -26,6 +27,7 @@
 //!     {train,val,test}_list_rawframes.txt  rawframes/<label>/<clip_id> <frames> <label_id>
 //!     activitynet.json                  the untrimmed captures with every segment
 //!     clips.jsonl                       per-clip metadata
+//!     qa.json                           quality report ([`qa`])
 //! ```
 //! The split is not part of a clip's path: splits are drawn over every clip of the plan (else
 //! every clip in the manifest), so a dataset can grow capture by capture (or be re-split with
@@ -276,6 +278,9 @@ pub struct ClipRecord {
     pub camera: String,
     /// The dataset seed.
     pub seed: Option<u64>,
+    /// Quality measurements and flags ([`qa`]), when the render bag's annotations were read.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub qa: Option<qa::ClipQa>,
 }
 
 /// The clip id of the segment `segment_id` (the file stem of its clip): the id with `/` as `-`,

@@ -9,6 +9,7 @@ use super::lists::{ListSummary, ensure_classes, write_lists};
 use super::manifest::Manifest;
 use super::plan::{FrameRange, Truncated, VideoTiming, frame_ranges};
 use super::planned::scene_values;
+use super::qa::{ClipQa, QaSummary, Thresholds, measure_clips, write_qa_report};
 use super::split::{Refined, SplitConfig, SplitItem, assign_clips};
 use super::{ClipRecord, TrimError, clip_id, label_dirs};
 
@@ -38,6 +39,8 @@ pub struct TrimOptions {
     /// Every clip of the dataset's plan, to decide the splits over; `None`: over the clips in
     /// the dataset folder.
     pub planned: Option<Vec<SplitItem>>,
+    /// Where a clip is flagged by the quality checks.
+    pub qa: Thresholds,
 }
 
 /// The capture video and where it sits on the capture's timeline.
@@ -49,6 +52,8 @@ pub struct VideoSource<'a> {
     pub frame0_nanos: i128,
     /// Its constant frame rate.
     pub fps: Rational,
+    /// The render bag whose per-frame annotations the quality checks read (`None`: no checks).
+    pub annotations: Option<&'a Path>,
 }
 
 /// What a run did.
@@ -68,6 +73,8 @@ pub struct TrimSummary {
     pub frames_cut: u64,
     /// Classes grouped more finely than `--split-by`, having too few groups.
     pub refined: Vec<Refined>,
+    /// The quality report over the dataset's clips (`None`: none of them was checked).
+    pub qa: Option<QaSummary>,
 }
 
 /// Cuts every segment of `capture` out of `video` into `dir`, skipping clips the manifest
@@ -123,14 +130,19 @@ pub fn trim_capture(
             .map(|(w, h)| format!("{w}x{h}"))
             .unwrap_or_default(),
     };
-    let result = run.cut_all(&ranges, &mut manifest, &mut summary, progress, stop);
+    let qa = source
+        .annotations
+        .map(|bag| measure_run(bag, capture, &ranges, &options.qa))
+        .unwrap_or_default();
+    let result = run.cut_all(&ranges, &qa, &mut manifest, &mut summary, progress, stop);
     progress(ranges.len(), ranges.len());
     // Lists from what is complete, whatever happened above.
     let lists = rewrite_lists(dir, &manifest, options);
     match (result, lists) {
-        (Ok(()), Ok((lists, refined))) => {
+        (Ok(()), Ok((lists, refined, qa))) => {
             summary.lists = lists;
             summary.refined = refined;
+            summary.qa = qa;
             Ok(summary)
         }
         (Ok(()), Err(e)) => Err(e.into()),
@@ -169,13 +181,65 @@ fn lock_dataset(dir: &Path) -> Result<std::fs::File, TrimError> {
     Ok(file)
 }
 
+/// Flagged clips named one by one on stderr; past this many, only their count.
+const FLAGGED_CLIPS_NAMED: usize = 10;
+
+/// Each range's quality measurements from render bag `bag`, the flagged clips said on stderr
+/// (empty, also said, when the bag cannot be read: the clips are cut all the same).
+fn measure_run(
+    bag: &Path,
+    capture: &Capture,
+    ranges: &[FrameRange],
+    thresholds: &Thresholds,
+) -> Vec<Option<ClipQa>> {
+    match measure_clips(bag, ranges, thresholds) {
+        Ok((qa, undecodable)) => {
+            if undecodable > 0 {
+                tracing::warn!(
+                    "render bag `{}`: {undecodable} frame annotations do not decode; the quality checks leave them out",
+                    bag.display()
+                );
+            }
+            let flagged: Vec<(usize, &ClipQa)> = qa
+                .iter()
+                .enumerate()
+                .filter_map(|(i, q)| q.as_ref().filter(|q| !q.flags.is_empty()).map(|q| (i, q)))
+                .collect();
+            for (i, q) in flagged.iter().take(FLAGGED_CLIPS_NAMED) {
+                let why: Vec<&str> = q.flags.iter().map(|f| f.describe()).collect();
+                tracing::warn!(
+                    "clip {}: {} (visible joints {:.0} %, out of sight in {} of {} frames, motion {:.3} m/s)",
+                    clip_id(&capture.segments[ranges[*i].segment].id),
+                    why.join(", "),
+                    100.0 * q.visible_joint_fraction,
+                    q.hidden_frames,
+                    q.frames,
+                    q.motion_m_per_s
+                );
+            }
+            if flagged.len() > FLAGGED_CLIPS_NAMED {
+                tracing::warn!(
+                    "… and {} more flagged clips (all in annotations/qa.json)",
+                    flagged.len() - FLAGGED_CLIPS_NAMED
+                );
+            }
+            qa
+        }
+        Err(e) => {
+            tracing::warn!("no quality checks for this capture's clips: {e}");
+            Vec::new()
+        }
+    }
+}
+
 /// Every list rewritten from the manifest's clips whose file is on disk, split anew (over the
-/// plan's clips when there is one), each class grouped more finely than asked said on stderr.
+/// plan's clips when there is one), each class grouped more finely than asked said on stderr;
+/// then the quality report over those clips.
 fn rewrite_lists(
     dir: &Path,
     manifest: &Manifest,
     options: &TrimOptions,
-) -> Result<(ListSummary, Vec<Refined>), TrimError> {
+) -> Result<(ListSummary, Vec<Refined>, Option<QaSummary>), TrimError> {
     let complete: BTreeMap<String, ClipRecord> = manifest
         .records()
         .iter()
@@ -188,7 +252,8 @@ fn rewrite_lists(
         tracing::warn!("{r}");
     }
     let lists = write_lists(dir, &complete, &splits)?;
-    Ok((lists, splits.refined))
+    let qa = write_qa_report(dir, &complete, &options.qa)?;
+    Ok((lists, splits.refined, qa))
 }
 
 /// What every clip of one run shares: the capture, its video and the dataset folder.
@@ -231,6 +296,7 @@ impl Run<'_> {
     fn cut_all(
         &self,
         ranges: &[FrameRange],
+        qa: &[Option<ClipQa>],
         manifest: &mut Manifest,
         summary: &mut TrimSummary,
         progress: &dyn Fn(usize, usize),
@@ -253,7 +319,9 @@ impl Run<'_> {
                 CutMethod::Reencode => summary.reencoded += 1,
             }
             summary.frames_cut += range.frame_count;
-            manifest.append(self.record(target, range, method, rawframes))?;
+            let mut record = self.record(target, range, method, rawframes);
+            record.qa = qa.get(done).cloned().flatten();
+            manifest.append(record)?;
         }
         Ok(())
     }
@@ -433,6 +501,7 @@ impl Run<'_> {
             character_look: values.look,
             camera: format!("{}/c{}", seg.scene_id, seg.viewpoint),
             seed: capture.seed,
+            qa: None,
         }
     }
 }

@@ -511,6 +511,7 @@ pub(crate) mod tests {
             character_look: serde_json::Value::Null,
             camera: "viewpoint 0".into(),
             seed: Some(1),
+            qa: None,
         }
     }
 

@@ -1132,3 +1132,132 @@ fn trim_refuses_another_datasets_plan_and_says_when_there_is_none() {
     );
     assert!(stdout(&o).contains("no plan"), "{}", stdout(&o));
 }
+
+/// A render bag for `s`'s coded video, every frame annotated with a small body (pelvis, hips,
+/// neck, hands): in the `walk` class the body holds still, in the wave class its hands wave; in
+/// the first wave clip the character is out of sight from its 5th frame on. Returns that clip's
+/// id.
+fn write_qa_render_bag(s: &Setup, video: &Path) -> String {
+    use autoact::bags::render::{ANNOTATIONS_TOPIC, VIDEO_TOPIC, render_bag_beside};
+    use autoact::mcap_io::{BagWriter, WriteConfig};
+    use autoact::ros::autoact_msgs::{FrameAnnotation, VideoInfo};
+    use autoact::ros::builtin_interfaces::Time;
+    use autoact::ros::geometry_msgs::Point;
+    use autoact::ros::sensor_msgs::RegionOfInterest;
+
+    let names = ["pelvis", "l_thigh", "r_thigh", "neck", "l_hand", "r_hand"];
+    let first = s.capture.frames[0].stamp_nanos;
+    let mut info = VideoInfo {
+        session: s.capture.session.clone(),
+        fps: s.capture.fps,
+        width: 320,
+        height: 240,
+        ..VideoInfo::default()
+    };
+    info.header.stamp = Time::from_nanos(first);
+    let mut w = BagWriter::create(&render_bag_beside(video), WriteConfig::default()).unwrap();
+    w.write(VIDEO_TOPIC, first, &info).unwrap();
+    let segments = segment_frames(&s.capture);
+    let hidden = segments
+        .iter()
+        .zip(&s.capture.segments)
+        .find(|(_, seg)| seg.action != "walk")
+        .map(|((id, a, b), _)| (id.clone(), *a, *b))
+        .unwrap();
+    for (k, frame) in s.capture.frames.iter().enumerate() {
+        let k = k as u64;
+        let seg = segments.iter().position(|(_, a, b)| (*a..*b).contains(&k));
+        let waving = seg.is_some_and(|i| s.capture.segments[i].action != "walk");
+        let hand = if waving {
+            0.2 * (6.0 * k as f64 / s.capture.fps).sin()
+        } else {
+            0.0
+        };
+        let out_of_sight = (hidden.1 + 5..hidden.2).contains(&k);
+        let p = |x: f64, y: f64| Point { x, y, z: 3.0 };
+        let annotation = FrameAnnotation {
+            frame_index: k,
+            segment_id: seg.map(|i| segments[i].0.clone()).unwrap_or_default(),
+            keypoint_names: names.iter().map(|n| (*n).to_owned()).collect(),
+            keypoints_3d: vec![
+                p(0.0, 0.0),
+                p(0.1, 0.0),
+                p(-0.1, 0.0),
+                p(0.0, -0.5),
+                p(0.3, -0.2 - hand),
+                p(-0.3, -0.2 + hand),
+            ],
+            visibility: vec![if out_of_sight { 1 } else { 2 }; names.len()],
+            bbox: RegionOfInterest {
+                height: 120,
+                width: 40,
+                ..RegionOfInterest::default()
+            },
+            silhouette_pixels: if out_of_sight { 0 } else { 900 },
+            ..FrameAnnotation::default()
+        };
+        w.write(ANNOTATIONS_TOPIC, frame.stamp_nanos, &annotation)
+            .unwrap();
+    }
+    w.finish().unwrap();
+    autoact::trim::clip_id(&hidden.0)
+}
+
+#[test]
+fn trim_flags_a_hidden_clip_and_a_class_that_does_not_move() {
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
+    let s = setup("wave");
+    let video = s.coded_capture_video(&ffmpeg);
+    let hidden = write_qa_render_bag(&s, &video);
+    let out = s.dir.path().join("ds");
+    let o = run_trim(&s.bag, &video, &out, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains(&format!(
+            "clip {hidden}: most joints hidden, character out of sight"
+        )),
+        "{err}"
+    );
+    let summary = common::stdout(&o);
+    assert!(summary.contains("class `walk` barely moves"), "{summary}");
+    assert!(!summary.contains("class `wave` barely moves"), "{summary}");
+
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("annotations/qa.json")).unwrap())
+            .unwrap();
+    let clips = read_jsonl(&out.join("annotations/clips.jsonl"));
+    assert_eq!(report["clips_checked"], clips.len());
+    assert_eq!(report["classes"]["walk"]["still"], true);
+    assert_eq!(report["classes"]["wave"]["still"], false);
+    let flagged: BTreeMap<String, Vec<String>> = report["flagged"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| {
+            let flags = f["qa"]["flags"].as_array().unwrap();
+            (
+                f["clip_id"].as_str().unwrap().to_owned(),
+                flags
+                    .iter()
+                    .map(|v| v.as_str().unwrap().to_owned())
+                    .collect(),
+            )
+        })
+        .collect();
+    assert_eq!(flagged[&hidden], ["occluded", "hidden"]);
+    // Every walk clip barely moves; no other wave clip is flagged.
+    for c in &clips {
+        let id = c["clip_id"].as_str().unwrap();
+        let motion = c["qa"]["motion_m_per_s"].as_f64().unwrap();
+        if c["label"] == "walk" {
+            assert_eq!(flagged[id], ["still"], "{id}");
+            assert!(motion < 1e-9, "{id}: {motion}");
+        } else {
+            assert!(motion > 0.1, "{id}: {motion}");
+            assert_eq!(flagged.contains_key(id), id == hidden, "{id}");
+        }
+    }
+}
