@@ -64,6 +64,41 @@ def group_of(m, split_key):
     return (by,) + tuple(m[f] for f in GROUP_FIELDS[by])
 
 
+def check_qa(ann, meta):
+    """qa.json, when trim wrote one, agrees with clips.jsonl: every checked clip counted, every
+    clip flagged there listed, its flags recomputed from its measurements and the thresholds."""
+    path = os.path.join(ann, "qa.json")
+    checked = [m for m in meta.values() if "qa" in m]
+    if not os.path.exists(path):
+        if checked:
+            fail(f"{len(checked)} clips carry quality measurements but there is no qa.json")
+        return
+    qa = json.load(open(path, encoding="utf-8"))
+    t = qa["thresholds"]
+    if qa["clips_checked"] != len(checked):
+        fail(f"qa.json checked {qa['clips_checked']} clips, clips.jsonl has {len(checked)} measured")
+    expected = {}
+    for m in checked:
+        q = m["qa"]
+        flags = []
+        if q["frames"] > 0:
+            if q["visible_joint_fraction"] < t["min_visible_fraction"]:
+                flags.append("occluded")
+            if q["hidden_frames"] > t["max_hidden_fraction"] * q["frames"]:
+                flags.append("hidden")
+            if q["box_height_fraction"] is not None and q["box_height_fraction"] < t["min_box_height_fraction"]:
+                flags.append("small")
+            if q["motion_m_per_s"] < t["min_motion_m_per_s"]:
+                flags.append("still")
+        if flags:
+            expected[m["clip_id"]] = flags
+    listed = {f["clip_id"]: f["qa"]["flags"] for f in qa["flagged"]}
+    if listed != expected:
+        fail(f"qa.json flags {listed}, clips.jsonl's measurements give {expected}")
+    print(f"ok qa.json: {len(checked)} clips checked, {len(listed)} flagged, "
+          f"still classes {[c for c, s in qa['classes'].items() if s['still']]}")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("dataset")
@@ -172,6 +207,7 @@ def main():
                 fail(f"activitynet {vid}: label {s['label']!r} not in classes.txt")
     if n_anet != len(meta):
         fail(f"activitynet.json has {n_anet} segments, clips.jsonl {len(meta)}")
+    check_qa(ann, meta)
     counts = {s: sum(1 for v in seen.values() if v == s) for s in ["train", "val", "test"]}
     print(f"ok check_trim {root}: {decoded} clips decoded with PyAV {av.__version__}, {counts}, "
           f"{len(classes)} classes, no {a.split_key or 'split_by group'} in two splits")
