@@ -23,6 +23,7 @@ pub mod formats;
 pub mod fuzz;
 pub mod hash;
 pub mod inspect;
+pub mod instant;
 pub mod interrupt;
 pub mod loss;
 pub mod mcap_io;

@@ -67,6 +67,11 @@ pub struct Args {
     /// re-posed by two-bone IK (feet and hands kept, knees and elbows placed).
     #[arg(long, value_enum, default_value_t = LengthMode::Measured)]
     pub lengths: LengthMode,
+    /// The instant the file's first frame is stamped at (ISO 8601 with a UTC offset): the files
+    /// `import` reads carry no time of day, so their timelines start here.
+    #[arg(long, value_name = "ISO_8601", default_value = crate::instant::DEFAULT_START_TIME,
+          value_parser = crate::instant::nanos_since_epoch)]
+    pub start_time: u64,
     /// Label: the action category (e.g. `daily`).
     #[arg(long)]
     pub category: Option<String>,
@@ -94,6 +99,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         metres_per_unit,
         ground,
         lengths,
+        start_time,
         category,
         action,
         output,
@@ -112,9 +118,13 @@ pub fn run(args: Args) -> Result<Outcome> {
     output.options().refuse_existing()?;
     // MMPose JSON is measured on a sample, then read again frame by frame as it is written.
     let mut imported = import::measure(&input, &options)?;
-    let metadata = imported.metadata(&input, category, action);
+    let mut metadata = imported.metadata(&input, category, action);
+    metadata.insert(
+        "start_time".to_string(),
+        crate::instant::iso_8601(start_time),
+    );
     let mut out = BagOutput::create(&output.options())?;
-    let written = imported.write(&mut out.writer, metadata)?;
+    let written = imported.write(&mut out.writer, metadata, start_time)?;
     let stats = out.finish()?;
     let notes = imported.notes();
     let Imported {

@@ -137,8 +137,7 @@ pub struct DatasetSection {
     pub start_time: StartTime,
 }
 
-/// When capture timelines start unless `[dataset] start_time` says otherwise.
-pub const DEFAULT_START_TIME: &str = "2000-01-01T00:00:00Z";
+pub use crate::instant::{DEFAULT_START_TIME, StartTimeError, iso_8601};
 
 /// `[dataset] start_time` as written: a TOML offset date-time or a string.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -150,54 +149,17 @@ pub enum StartTime {
     Text(String),
 }
 
-/// Why a `start_time` is not an instant a bag can stamp.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum StartTimeError {
-    /// Not ISO 8601 / RFC 3339, or without a UTC offset.
-    #[error("{text:?} is not an ISO 8601 instant with a UTC offset (e.g. {DEFAULT_START_TIME})")]
-    Parse {
-        /// The value.
-        text: String,
-        /// chrono's reason.
-        #[source]
-        source: chrono::ParseError,
-    },
-    /// Before the Unix epoch, or past what 64-bit nanoseconds hold.
-    #[error("{text}: must be between 1970 and 2554")]
-    OutOfRange {
-        /// The value.
-        text: String,
-    },
-}
-
 impl StartTime {
     /// Nanoseconds since the Unix epoch.
     ///
     /// # Errors
     /// [`StartTimeError`]: no UTC offset, not an instant, before 1970 or after 2554.
     pub fn nanos_since_epoch(&self) -> Result<u64, StartTimeError> {
-        let text = match self {
-            StartTime::Toml(t) => t.to_string(),
-            StartTime::Text(s) => s.clone(),
-        };
-        match chrono::DateTime::parse_from_rfc3339(&text) {
-            Ok(instant) => instant
-                .timestamp_nanos_opt()
-                .and_then(|n| u64::try_from(n).ok())
-                .ok_or(StartTimeError::OutOfRange { text }),
-            Err(source) => Err(StartTimeError::Parse { text, source }),
+        match self {
+            StartTime::Toml(t) => crate::instant::nanos_since_epoch(&t.to_string()),
+            StartTime::Text(s) => crate::instant::nanos_since_epoch(s),
         }
     }
-}
-
-/// `nanos` since the Unix epoch as an ISO 8601 instant in UTC (`2000-01-01T00:00:00Z`, with as
-/// many fraction digits as it needs).
-#[must_use]
-pub fn iso_8601(nanos: u64) -> String {
-    let nanos = i64::try_from(nanos).unwrap_or(i64::MAX);
-    chrono::DateTime::from_timestamp_nanos(nanos)
-        .to_rfc3339_opts(chrono::SecondsFormat::AutoSi, true)
 }
 
 fn default_start_time() -> StartTime {

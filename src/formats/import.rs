@@ -370,7 +370,8 @@ impl Imported {
     }
 
     /// Writes the pose bag's `autoact` metadata record and every frame ([`skeleton_message`]s in
-    /// stamp order); returns the number of skeletons written.
+    /// stamp order, each stamped `start_nanos` after the epoch plus its own time in the file);
+    /// returns the number of skeletons written.
     ///
     /// # Errors
     /// The bag cannot be written, or the file's second reading fails.
@@ -378,6 +379,7 @@ impl Imported {
         &mut self,
         writer: &mut crate::mcap_io::BagWriter<W>,
         metadata: BTreeMap<String, String>,
+        start_nanos: u64,
     ) -> Result<u64, ImportError> {
         writer.write_metadata(crate::bags::pose::METADATA_NAME, metadata)?;
         // Each sequence's name and joints, for the messages (not its frames).
@@ -394,10 +396,14 @@ impl Imported {
         let layout = self.layout.clone();
         let mut written = 0;
         self.for_each_frame(|s, frame| {
+            let stamped = PoseFrame {
+                stamp_nanos: start_nanos.saturating_add(frame.stamp_nanos),
+                ..frame.clone()
+            };
             writer.write(
                 crate::bags::pose::SKELETON_TOPIC,
-                frame.stamp_nanos,
-                &skeleton_message(&heads[s], frame, &layout),
+                stamped.stamp_nanos,
+                &skeleton_message(&heads[s], &stamped, &layout),
             )?;
             written += 1;
             Ok(())

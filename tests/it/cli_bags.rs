@@ -1484,8 +1484,61 @@ fn a_long_json_file_is_imported_frame_by_frame_in_stamp_then_track_order() {
         skeletons.windows(2).all(|w| w[0] < w[1]),
         "not in (stamp, track) order"
     );
-    assert_eq!(skeletons[0], (0, 2));
-    assert_eq!(skeletons[1], (0, 7));
+    // The file has no time of day: its timeline starts at the default instant, 2000-01-01.
+    let start = 946_684_800_000_000_000;
+    assert_eq!(skeletons[0], (start, 2));
+    assert_eq!(skeletons[1], (start, 7));
+}
+
+#[test]
+fn import_starts_the_timeline_at_the_instant_asked_and_refuses_one_without_offset() {
+    let dir = tempfile::tempdir().unwrap();
+    let frames: Vec<serde_json::Value> = (0..10usize)
+        .map(
+            |k| serde_json::json!({"frame_id": k, "instances": [{"keypoints": h36m_keypoints(k)}]}),
+        )
+        .collect();
+    let json = dir.path().join("short.json");
+    std::fs::write(&json, serde_json::to_string(&frames).unwrap()).unwrap();
+    let bag = dir.path().join("short.pose.mcap");
+    let o = import_h36m_json(
+        &json,
+        &bag,
+        &["--start-time", "2024-05-01T09:00:00.5+02:00"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let reader = BagReader::open(&bag).unwrap();
+    let stamps: Vec<u64> = reader
+        .messages()
+        .map(Result::unwrap)
+        .filter(|m| m.channel.topic == "/skeleton")
+        .map(|m| {
+            let s = cdr::decode::<Skeleton3D>(&m.data).unwrap();
+            assert_eq!(
+                s.header.stamp.to_nanos(),
+                Some(m.log_time),
+                "header and log time agree"
+            );
+            m.log_time
+        })
+        .collect();
+    // 2024-05-01T07:00:00.5Z, then 30 fps.
+    let start = 1_714_546_800_500_000_000;
+    assert_eq!(stamps[0], start);
+    assert_eq!(stamps[9] - stamps[0], 300_000_000);
+    let info = common::stdout(&autoact(&["info", arg(&bag)]));
+    assert!(
+        info.contains("start_time=2024-05-01T07:00:00.500Z"),
+        "{info}"
+    );
+
+    let o = import_h36m_json(
+        &json,
+        &dir.path().join("bad.pose.mcap"),
+        &["--start-time", "2024-05-01T09:00:00"],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("UTC offset"), "{}", stderr(&o));
 }
 
 #[test]
