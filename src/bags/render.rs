@@ -46,7 +46,7 @@ pub enum EmbedVideo {
     /// `sensor_msgs/CompressedImage` (format `h264`) on `/render/camera/image/h264`: Rerun
     /// plays it.
     Rerun,
-    /// Both.
+    /// Both messages: the stream twice, so about twice the bag's bytes.
     Both,
 }
 
