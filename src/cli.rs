@@ -62,9 +62,10 @@ pub enum Command {
     /// Reads `autoact_msgs/Skeleton3D`, `visualization_msgs/MarkerArray` (sphere or points
     /// markers, one namespace per person) and `geometry_msgs/PoseArray` topics; markers and pose
     /// arrays need `--layout`. Writes `/animation` (BoneFrame) and `/tf` every frame, `/tf_static`,
-    /// and `/skeleton/markers` (lines fixed in the bones' tf frames, which `/tf` moves; sent once a
-    /// second). Unreadable chunks or messages are skipped, reported, and end the run with exit
-    /// code 3.
+    /// `/skeleton/markers` (lines fixed in the bones' tf frames, which `/tf` moves; sent once a
+    /// second) and the same skeleton as points for Rerun, which draws no markers
+    /// (`/skeleton/points/<bone frame>`, sensor_msgs/PointCloud2, sent with the markers).
+    /// Unreadable chunks or messages are skipped, reported, and end the run with exit code 3.
     ///
     /// With `--spec DATASET.toml` it builds a dataset's capture sessions instead: every source
     /// converted (DSI, variants), every clip of the plan laid on a timeline with its drawn scene,

@@ -12,6 +12,11 @@
 //!   frame, where they never change: RViz and Foxglove move them with `/tf` at every frame. So
 //!   they are sent with the first frame and then once a second ([`MARKERS_PERIOD_NANOS`]), for
 //!   viewers that join late and bags cut anywhere, not with every frame.
+//! - `/skeleton/points/<frame>` — `sensor_msgs/msg/PointCloud2`: the same skeleton for Rerun, which
+//!   has no decoder for markers but applies `/tf` to a point cloud's `header.frame_id`: one cloud
+//!   per marker, in the same bone frame, of points along that bone's segments
+//!   ([`POINT_SPACING_M`] apart). One topic per bone frame (`<frame>` is its tf frame name), since
+//!   a viewer keeps only the latest message of a topic; sent with the markers, moved by `/tf`.
 //!
 //! Bones that never move (static bones, and those the layout cannot drive) go once on
 //! `/tf_static`. With several people, frame names are prefixed `track<id>/`; with DSI variants,
@@ -29,6 +34,7 @@ use crate::ros::builtin_interfaces::Time;
 use crate::ros::geometry_msgs::{
     BadQuaternion, Point, Quaternion, Transform, TransformStamped, Vector3,
 };
+use crate::ros::sensor_msgs::PointCloud2;
 use crate::ros::std_msgs::{ColorRGBA, Header};
 use crate::ros::tf2_msgs::TFMessage;
 use crate::ros::visualization_msgs::{Marker, MarkerArray};
@@ -52,6 +58,12 @@ pub const MARKERS_TOPIC: &str = "/skeleton/markers";
 /// frames), so this only bounds how long a viewer that joins late, or a bag cut anywhere, waits
 /// for them.
 pub const MARKERS_PERIOD_NANOS: u64 = 1_000_000_000;
+/// Topic prefix of the skeleton's point clouds: `/skeleton/points/` then the bone's tf frame.
+pub const POINTS_TOPIC_PREFIX: &str = "/skeleton/points/";
+/// Largest gap between the points drawn along a segment of the skeleton's point clouds, metres:
+/// close enough that Rerun's default point size reads as a dotted line (a forearm gets 9
+/// points), far enough to keep the clouds' bytes small (2 cm cost a third more).
+pub const POINT_SPACING_M: f64 = 0.03;
 
 /// Writes one person's frames.
 #[derive(Debug)]
@@ -62,6 +74,8 @@ pub struct TrackWriter {
     tf: TFMessage,
     /// The skeleton, in the bones' own frames, where it never changes.
     markers: MarkerArray,
+    /// The same skeleton as points, one cloud per marker: (topic, cloud).
+    points: Vec<(String, PointCloud2)>,
     /// When the markers last went out.
     markers_sent_nanos: Option<u64>,
     statics: Vec<TransformStamped>,
@@ -693,6 +707,42 @@ fn skeleton_markers(
     MarkerArray { markers }
 }
 
+/// The skeleton's point clouds, for viewers that draw no markers (Rerun): per marker of
+/// [`skeleton_markers`], a cloud in the same frame on `/skeleton/points/<frame>`, holding the
+/// frame's origin and points along each of its segments at most [`POINT_SPACING_M`] apart, each
+/// segment's far end included.
+fn skeleton_points(markers: &MarkerArray) -> Vec<(String, PointCloud2)> {
+    #[expect(
+        clippy::cast_possible_truncation,
+        reason = "metres on a body, well within f32"
+    )]
+    let f32_point = |p: nalgebra::Point3<f64>| [p.x as f32, p.y as f32, p.z as f32];
+    markers
+        .markers
+        .iter()
+        .map(|marker| {
+            let mut points = vec![[0.0_f32; 3]];
+            for pair in marker.points.chunks_exact(2) {
+                let [a, b] = [pair[0], pair[1]].map(nalgebra::Point3::from);
+                #[expect(
+                    clippy::cast_possible_truncation,
+                    clippy::cast_sign_loss,
+                    reason = "a bone's length over 3 cm: a small positive count"
+                )]
+                let steps = ((b - a).norm() / POINT_SPACING_M).ceil().max(1.0) as usize;
+                #[expect(clippy::cast_precision_loss, reason = "small counts")]
+                points.extend(
+                    (1..=steps).map(|k| f32_point(a + (b - a) * (k as f64 / steps as f64))),
+                );
+            }
+            (
+                format!("{POINTS_TOPIC_PREFIX}{}", marker.header.frame_id),
+                PointCloud2::xyz(marker.header.clone(), &points),
+            )
+        })
+        .collect()
+}
+
 impl TrackWriter {
     /// A writer for person `track_id`'s animation `variant`, with tf frame names prefixed by
     /// `prefix` (see [`frame_prefix`]), animated on `character` with the bones `coverage` says its
@@ -753,6 +803,7 @@ impl TrackWriter {
                 root_translation: Vector3::default(),
             },
             tf,
+            points: skeleton_points(&markers),
             markers,
             markers_sent_nanos: None,
             moving,
@@ -770,8 +821,9 @@ impl TrackWriter {
         out
     }
 
-    /// Writes one frame at `stamp`: `/animation` and `/tf`, and `/skeleton/markers` with the first
-    /// frame and then once a second ([`MARKERS_PERIOD_NANOS`]).
+    /// Writes one frame at `stamp`: `/animation` and `/tf`, and `/skeleton/markers` and the
+    /// `/skeleton/points/…` clouds with the first frame and then once a second
+    /// ([`MARKERS_PERIOD_NANOS`]).
     ///
     /// # Errors
     /// [`McapIoError`] from the writer.
@@ -811,6 +863,10 @@ impl TrackWriter {
                 marker.header.stamp = time;
             }
             writer.write(MARKERS_TOPIC, stamp, &self.markers)?;
+            for (topic, cloud) in &mut self.points {
+                cloud.header.stamp = time;
+                writer.write(topic, stamp, cloud)?;
+            }
             self.markers_sent_nanos = Some(stamp);
         }
         Ok(())
@@ -961,6 +1017,148 @@ mod tests {
         assert_eq!((frame, placed), (stamps.len(), stamps.len() - 1));
         // The markers never change: sent with the first frame, then once a second.
         assert_eq!(marker_stamps, [stamps[0], stamps[30], stamps[60]]);
+    }
+
+    #[test]
+    fn point_clouds_in_the_bone_frames_draw_the_segments_where_forward_kinematics_puts_them() {
+        use crate::ros::RosMessage;
+        let rig = Rig::standard();
+        let coverage = crate::skeleton::layout::Layout::builtin("coco-17")
+            .unwrap()
+            .bind(&rig)
+            .unwrap()
+            .coverage(&rig);
+        let character = Character::from_scales(&rig, vec![0.9; rig.bones.len()]);
+        let prefix = frame_prefix(5, 0, true);
+        let mut track = TrackWriter::new(&rig, &character, &coverage, 5, 0, &prefix);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.mcap");
+        let mut w =
+            crate::mcap_io::BagWriter::create(&path, crate::mcap_io::WriteConfig::default())
+                .unwrap();
+        let statics = TFMessage {
+            transforms: track.static_transforms(0),
+        };
+        w.write(TF_STATIC_TOPIC, 0, &statics).unwrap();
+        let pose_at = |k: usize| {
+            let mut pose = BonePose::rest(&rig);
+            #[expect(clippy::cast_precision_loss, reason = "small numbers")]
+            for (b, q) in pose.local_rotations.iter_mut().enumerate() {
+                if matches!(rig.bones[b].dof, Dof::Static)
+                    || coverage.at_rest.contains(&rig.bones[b].name)
+                {
+                    continue;
+                }
+                let angle = 0.03 * (k + 2 * b) as f64;
+                *q = nalgebra::UnitQuaternion::from_axis_angle(&nalgebra::Vector3::y_axis(), angle);
+            }
+            #[expect(clippy::cast_precision_loss, reason = "small numbers")]
+            let y = 0.02 * k as f64;
+            pose.root_translation_m = nalgebra::Vector3::new(0.3, y, 0.0);
+            pose
+        };
+        // 1.5 s at 20 fps: the clouds go with the first frame and at 1 s.
+        let stamps: Vec<u64> = (0..30)
+            .map(|k| crate::skeleton::pose::stamp_nanos_at(k, 20.0))
+            .collect();
+        for (k, &t) in stamps.iter().enumerate() {
+            track.write_frame(&mut w, t, &pose_at(k)).unwrap();
+        }
+        w.finish().unwrap();
+
+        // Replay as Rerun does: tf as it arrives, the latest cloud of each topic.
+        let mut tf_tree = TfTree::default();
+        let mut clouds = std::collections::BTreeMap::<String, PointCloud2>::new();
+        let mut markers: Option<MarkerArray> = None;
+        let mut cloud_stamps = Vec::new();
+        let (mut frame, mut placed) = (0, 0);
+        let reader = crate::mcap_io::BagReader::open(&path).unwrap();
+        for m in reader.messages().map(Result::unwrap) {
+            let topic = m.channel.topic.as_str();
+            if topic == TF_TOPIC || topic == TF_STATIC_TOPIC {
+                tf_tree
+                    .update(&crate::ros::cdr::decode(&m.data).unwrap())
+                    .unwrap();
+            } else if topic == MARKERS_TOPIC {
+                markers = Some(crate::ros::cdr::decode(&m.data).unwrap());
+            } else if let Some(bone_frame) = topic.strip_prefix(POINTS_TOPIC_PREFIX) {
+                assert_eq!(m.channel.schema_name(), PointCloud2::TYPE_NAME);
+                let cloud: PointCloud2 = crate::ros::cdr::decode(&m.data).unwrap();
+                // Frame ids: the topic names the cloud's own frame, a bone of this person.
+                assert_eq!(cloud.header.frame_id, bone_frame);
+                assert_eq!(cloud.header.stamp.to_nanos(), Some(m.log_time));
+                assert_eq!(parse_frame_name(bone_frame).0, Some(5));
+                cloud_stamps.push(m.log_time);
+                clouds.insert(topic.to_string(), cloud);
+            }
+            if topic != TF_TOPIC {
+                continue;
+            }
+            let world = fk::forward(&rig, &character, &pose_at(frame), 1.0);
+            frame += 1;
+            // One cloud per marker, in the marker's frame; the first come after the first /tf.
+            let Some(markers) = &markers else { continue };
+            placed += 1;
+            assert_eq!(clouds.len(), markers.markers.len());
+            let mut segments = 0;
+            for marker in &markers.markers {
+                let id = &marker.header.frame_id;
+                let cloud = &clouds[&format!("{POINTS_TOPIC_PREFIX}{id}")];
+                let p = rig.bone_index(parse_frame_name(id).2).unwrap();
+                let world_from_p = tf_tree.world_from(id).unwrap();
+                let points: Vec<nalgebra::Point3<f64>> = cloud
+                    .xyz_points()
+                    .unwrap()
+                    .iter()
+                    .map(|q| world_from_p * nalgebra::Point3::from(q.map(f64::from)))
+                    .collect();
+                // The bone's head, then each segment's points up to the child's head.
+                assert!((points[0] - world.heads_m[p]).norm() < 1e-5, "{id}");
+                let mut from = world.heads_m[p];
+                let mut rest = &points[1..];
+                for pair in marker.points.chunks_exact(2) {
+                    let child = world_from_p * nalgebra::Point3::from(pair[1]);
+                    let c = (0..rig.bones.len())
+                        .find(|&c| {
+                            rig.bones[c].parent == Some(p)
+                                && (world.heads_m[c] - child).norm() < 1e-9
+                        })
+                        .unwrap();
+                    let end = rest
+                        .iter()
+                        .position(|q| (q - world.heads_m[c]).norm() < 1e-5)
+                        .unwrap_or_else(|| panic!("{id}: no point at {}", rig.bones[c].name));
+                    let mut at = from;
+                    for q in &rest[..=end] {
+                        let along = (q - from).dot(&(child - from).normalize());
+                        let off = ((q - from) - (child - from).normalize() * along).norm();
+                        assert!(off < 1e-5, "{id}: {q} is off the segment by {off}");
+                        assert!(
+                            (q - at).norm() <= POINT_SPACING_M + 1e-5,
+                            "{id}: gap at {q}"
+                        );
+                        at = *q;
+                    }
+                    from = world.heads_m[p];
+                    rest = &rest[end + 1..];
+                    segments += 1;
+                }
+                assert!(
+                    rest.is_empty(),
+                    "{id}: {} points past the segments",
+                    rest.len()
+                );
+            }
+            // COCO-17 sees no spine bends, clavicles, hands or feet: hips to thighs, knees and
+            // ankles; the torso to the neck and head; shoulders, elbows and wrists.
+            assert!(segments >= 10, "{segments}");
+        }
+        assert_eq!((frame, placed), (stamps.len(), stamps.len() - 1));
+        let sends = cloud_stamps.len() / clouds.len();
+        assert_eq!(cloud_stamps.len(), sends * clouds.len());
+        cloud_stamps.dedup();
+        assert_eq!(cloud_stamps, [stamps[0], stamps[20]]);
+        assert_eq!(sends, 2);
     }
 
     /// A frame as `TrackWriter` writes it for `pose`.

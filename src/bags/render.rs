@@ -7,7 +7,12 @@
 //! - `/render/annotations` — `autoact_msgs/FrameAnnotation` per video frame: 2D and 3D joints,
 //!   visibility, the bounding box and the segment the frame belongs to;
 //! - `/render/camera/h264` — `foxglove_msgs/CompressedVideo` per frame (optional,
-//!   `--embed-video`): the encoded stream itself, so Foxglove plays it beside the skeleton.
+//!   `--embed-video`, or `--embed-video=both`): the encoded stream itself, so Foxglove plays it
+//!   beside the skeleton;
+//! - `/render/camera/image/h264` — `sensor_msgs/CompressedImage` with format `h264` per frame
+//!   (optional, `--embed-video=rerun` or `=both`): the same access units, which Rerun plays (it
+//!   has no decoder for `foxglove_msgs/CompressedVideo` in ROS 2 bags; Foxglove's image panel
+//!   reads `CompressedImage` only as jpeg, png, webp or avif, so it is not the default).
 //!
 //! The bag is written under a temporary name and renamed when complete.
 
@@ -17,6 +22,8 @@ use crate::bags::capture::Capture;
 use crate::mcap_io::{BagReader, BagWriter, McapIoError, WriteConfig};
 use crate::ros::autoact_msgs::{FrameAnnotation, VideoInfo};
 use crate::ros::foxglove_msgs::CompressedVideo;
+use crate::ros::sensor_msgs::CompressedImage;
+use crate::ros::std_msgs::Header;
 use crate::ros::{RosMessage, cdr};
 use crate::video::Rational;
 
@@ -26,6 +33,36 @@ pub const VIDEO_TOPIC: &str = "/render/video";
 pub const ANNOTATIONS_TOPIC: &str = "/render/annotations";
 /// Topic of the embedded H.264 stream (`--embed-video`).
 pub const EMBEDDED_VIDEO_TOPIC: &str = "/render/camera/h264";
+/// Topic of the embedded H.264 stream as `sensor_msgs/CompressedImage` (`--embed-video=rerun`).
+pub const EMBEDDED_IMAGE_TOPIC: &str = "/render/camera/image/h264";
+
+/// Which viewer's message the render bag embeds the encoded video as. Each is the whole stream
+/// again, so `Both` nearly doubles the bag.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum EmbedVideo {
+    /// `foxglove_msgs/CompressedVideo` on `/render/camera/h264`: Foxglove plays it.
+    #[default]
+    Foxglove,
+    /// `sensor_msgs/CompressedImage` (format `h264`) on `/render/camera/image/h264`: Rerun
+    /// plays it.
+    Rerun,
+    /// Both messages: the stream twice, so about twice the bag's bytes.
+    Both,
+}
+
+impl EmbedVideo {
+    /// Whether the bag gets `foxglove_msgs/CompressedVideo`.
+    #[must_use]
+    pub fn foxglove(self) -> bool {
+        matches!(self, EmbedVideo::Foxglove | EmbedVideo::Both)
+    }
+
+    /// Whether the bag gets `sensor_msgs/CompressedImage` frames of format `h264`.
+    #[must_use]
+    pub fn rerun(self) -> bool {
+        matches!(self, EmbedVideo::Rerun | EmbedVideo::Both)
+    }
+}
 
 /// Where `autoact render` puts the render bag of `video` unless told otherwise:
 /// `<video stem>.render.mcap` beside it. `autoact trim` looks there.
@@ -105,8 +142,9 @@ pub struct RenderedFrame {
     pub video: Option<CompressedVideo>,
 }
 
-/// Writes the render bag `path`: `info` at `info_stamp_nanos`, then every frame, under a
-/// temporary name renamed into place when complete (removed on failure).
+/// Writes the render bag `path`: `info` at `info_stamp_nanos`, then every frame, its access unit
+/// (where it has one) as `embed` says, under a temporary name renamed into place when complete
+/// (removed on failure).
 ///
 /// # Errors
 /// [`RenderBagError`] naming the bag.
@@ -115,16 +153,23 @@ pub fn write(
     info_stamp_nanos: u64,
     info: &VideoInfo,
     frames: impl IntoIterator<Item = RenderedFrame>,
+    embed: EmbedVideo,
 ) -> Result<(), RenderBagError> {
     let part = crate::atomic_file::temporary_sibling(path)
         .ok_or_else(|| RenderBagError::NotAFile(path.to_path_buf()))?;
     let result = (|| -> Result<(), McapIoError> {
         let mut w = BagWriter::create(&part, WriteConfig::default())?;
         w.write(VIDEO_TOPIC, info_stamp_nanos, info)?;
+        let mut image = CompressedImage::default();
         for frame in frames {
             w.write(ANNOTATIONS_TOPIC, frame.stamp_nanos, &frame.annotation)?;
-            if let Some(video) = &frame.video {
+            let Some(video) = &frame.video else { continue };
+            if embed.foxglove() {
                 w.write(EMBEDDED_VIDEO_TOPIC, frame.stamp_nanos, video)?;
+            }
+            if embed.rerun() {
+                set_image(&mut image, video);
+                w.write(EMBEDDED_IMAGE_TOPIC, frame.stamp_nanos, &image)?;
             }
         }
         w.finish()?;
@@ -140,6 +185,18 @@ pub fn write(
         let _ = std::fs::remove_file(&part);
     }
     result
+}
+
+/// Makes `image` the `sensor_msgs/CompressedImage` of `video`'s access unit: the same stamp,
+/// frame and bytes, format `h264` (what Rerun reads as a video stream).
+fn set_image(image: &mut CompressedImage, video: &CompressedVideo) {
+    image.header = Header {
+        stamp: video.timestamp,
+        frame_id: video.frame_id.clone(),
+    };
+    image.format.clone_from(&video.format);
+    image.data.clear();
+    image.data.extend_from_slice(&video.data);
 }
 
 /// What the render bag says of the video it describes.
@@ -209,5 +266,64 @@ impl RenderedVideo {
             capture_bag: capture.path.clone(),
             session: capture.session.clone(),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ros::builtin_interfaces::Time;
+
+    #[test]
+    fn the_video_goes_in_as_the_chosen_viewers_message() {
+        let dir = tempfile::tempdir().unwrap();
+        let frames = || {
+            (0..3_u8).map(|k| RenderedFrame {
+                stamp_nanos: 100 + u64::from(k),
+                annotation: FrameAnnotation::default(),
+                video: Some(CompressedVideo {
+                    timestamp: Time::from_nanos(100 + u64::from(k)),
+                    frame_id: "camera".into(),
+                    data: vec![0, 0, 0, 1, 0x65, k],
+                    format: "h264".into(),
+                }),
+            })
+        };
+        for (embed, videos, images) in [
+            (EmbedVideo::Foxglove, 3, 0),
+            (EmbedVideo::Rerun, 0, 3),
+            (EmbedVideo::Both, 3, 3),
+        ] {
+            let path = dir.path().join(format!("{embed:?}.render.mcap"));
+            write(&path, 100, &VideoInfo::default(), frames(), embed).unwrap();
+            let (mut v, mut i) = (0, Vec::new());
+            for m in BagReader::open(&path)
+                .unwrap()
+                .messages()
+                .map(Result::unwrap)
+            {
+                match m.channel.topic.as_str() {
+                    EMBEDDED_VIDEO_TOPIC => {
+                        assert_eq!(m.channel.schema_name(), CompressedVideo::TYPE_NAME);
+                        v += 1;
+                    }
+                    EMBEDDED_IMAGE_TOPIC => {
+                        assert_eq!(m.channel.schema_name(), CompressedImage::TYPE_NAME);
+                        let image: CompressedImage = cdr::decode(&m.data).unwrap();
+                        assert_eq!(image.header.stamp.to_nanos(), Some(m.log_time));
+                        i.push(image);
+                    }
+                    _ => {}
+                }
+            }
+            assert_eq!((v, i.len()), (videos, images), "{embed:?}");
+            for (k, image) in (0_u8..).zip(&i) {
+                assert_eq!(image.data, [0, 0, 0, 1, 0x65, k]);
+                assert_eq!(
+                    (image.format.as_str(), image.header.frame_id.as_str()),
+                    ("h264", "camera")
+                );
+            }
+        }
     }
 }

@@ -20,7 +20,9 @@ Examples:
 Outputs: the video; beside it `<video>.render.mcap` with /render/video (autoact_msgs/VideoInfo:
 frame k shows the timeline at its k-th frame stamp) and /render/annotations
 (autoact_msgs/FrameAnnotation: 2D/3D joints, visibility and the silhouette's box per frame);
-with --embed-video also /render/camera/h264 (foxglove_msgs/CompressedVideo). Every segment
+with --embed-video also /render/camera/h264 (foxglove_msgs/CompressedVideo, which Foxglove plays),
+with --embed-video=rerun /render/camera/image/h264 instead (sensor_msgs/CompressedImage, format
+h264, which Rerun plays), with --embed-video=both the two. Every segment
 boundary is a keyframe, so `autoact trim` cuts clips by stream copy. Files appear only when
 complete; Ctrl-C or an error removes partial ones.")]
 pub struct Args {
@@ -55,9 +57,18 @@ pub struct Args {
     /// Render bag path (default: beside the video, `<video stem>.render.mcap`).
     #[arg(long, value_name = "MCAP")]
     pub render_bag: Option<PathBuf>,
-    /// Put the encoded H.264 (Annex B) into the render bag as foxglove_msgs/CompressedVideo.
-    #[arg(long)]
-    pub embed_video: bool,
+    /// Put the encoded H.264 (Annex B) into the render bag: as foxglove_msgs/CompressedVideo for
+    /// Foxglove (`--embed-video`), as sensor_msgs/CompressedImage frames of format h264 for
+    /// Rerun (`--embed-video=rerun`), or both (`=both`, the stream twice).
+    #[arg(
+        long,
+        value_enum,
+        value_name = "VIEWER",
+        num_args = 0..=1,
+        require_equals = true,
+        default_missing_value = "foxglove"
+    )]
+    pub embed_video: Option<crate::bags::render::EmbedVideo>,
     /// Render only the first N frames (a quick look; the video then covers only those).
     #[arg(long, value_name = "N")]
     pub limit: Option<usize>,

@@ -30,8 +30,8 @@ pub struct RenderJob {
     pub preset: String,
     /// Longest keyframe interval, frames.
     pub gop_frames: Option<u32>,
-    /// Put the encoded stream into the render bag.
-    pub embed_video: bool,
+    /// Put the encoded stream into the render bag, as which viewer's message.
+    pub embed_video: Option<crate::bags::render::EmbedVideo>,
     /// Replace outputs that exist.
     pub force: bool,
     /// Download ffmpeg when it is not installed.

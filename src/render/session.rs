@@ -114,8 +114,8 @@ pub struct RenderSettings {
     pub preset: String,
     /// Largest keyframe interval, frames (`None`: the encoder's default).
     pub gop_frames: Option<u32>,
-    /// Put the encoded stream into the render bag as `foxglove_msgs/CompressedVideo`.
-    pub embed_video: bool,
+    /// Put the encoded stream into the render bag, as which viewer's message.
+    pub embed_video: Option<crate::bags::render::EmbedVideo>,
 }
 
 /// Where to write.
@@ -644,7 +644,7 @@ fn embedded_units(
     let (Some(v), Some(ff)) = (video, ffmpeg) else {
         return Ok(None);
     };
-    if !settings.embed_video {
+    if settings.embed_video.is_none() {
         return Ok(None);
     }
     let units = crate::video::annexb_access_units(ff, &v.path)?;
@@ -794,7 +794,13 @@ fn write_render_bag(
                 format: "h264".into(),
             }),
         });
-    bags::render::write(path, first, &info, frames)
+    bags::render::write(
+        path,
+        first,
+        &info,
+        frames,
+        settings.embed_video.unwrap_or_default(),
+    )
 }
 
 #[cfg(test)]
@@ -810,7 +816,7 @@ mod tests {
             crf: 23,
             preset: "superfast".into(),
             gop_frames: None,
-            embed_video: false,
+            embed_video: None,
         }
     }
 

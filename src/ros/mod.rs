@@ -32,7 +32,7 @@ pub trait RosMessage: Serialize + DeserializeOwned {
 }
 
 /// The `.msg` texts autoact knows: (full type name, text), compiled in from `schemas/`.
-const SCHEMAS: [(&str, &str); 28] = [
+const SCHEMAS: [(&str, &str); 30] = [
     (
         "autoact_msgs/msg/BoneFrame",
         include_str!("../../schemas/autoact_msgs/msg/BoneFrame.msg"),
@@ -112,6 +112,14 @@ const SCHEMAS: [(&str, &str); 28] = [
     (
         "sensor_msgs/msg/Image",
         include_str!("../../schemas/sensor_msgs/msg/Image.msg"),
+    ),
+    (
+        "sensor_msgs/msg/PointCloud2",
+        include_str!("../../schemas/sensor_msgs/msg/PointCloud2.msg"),
+    ),
+    (
+        "sensor_msgs/msg/PointField",
+        include_str!("../../schemas/sensor_msgs/msg/PointField.msg"),
     ),
     (
         "sensor_msgs/msg/RegionOfInterest",
@@ -266,6 +274,7 @@ pub fn check_decodes(type_name: &str, cdr: &[u8]) -> Option<Result<(), cdr::CdrE
         sensor_msgs::CameraInfo::TYPE_NAME => check::<sensor_msgs::CameraInfo>,
         sensor_msgs::CompressedImage::TYPE_NAME => check::<sensor_msgs::CompressedImage>,
         sensor_msgs::Image::TYPE_NAME => check::<sensor_msgs::Image>,
+        sensor_msgs::PointCloud2::TYPE_NAME => check::<sensor_msgs::PointCloud2>,
         tf2_msgs::TFMessage::TYPE_NAME => check::<tf2_msgs::TFMessage>,
         visualization_msgs::Marker::TYPE_NAME => check::<visualization_msgs::Marker>,
         visualization_msgs::MarkerArray::TYPE_NAME => check::<visualization_msgs::MarkerArray>,
@@ -343,6 +352,8 @@ mod tests {
         check::<sensor_msgs::CameraInfo>();
         check::<sensor_msgs::Image>();
         check::<sensor_msgs::RegionOfInterest>();
+        check::<sensor_msgs::PointField>();
+        check::<sensor_msgs::PointCloud2>();
         check::<builtin_interfaces::Time>();
         check::<builtin_interfaces::Duration>();
         check::<std_msgs::Header>();

@@ -6,6 +6,7 @@
 use std::f64::consts::FRAC_PI_2;
 use std::path::{Path, PathBuf};
 
+use autoact::bags::render::EmbedVideo;
 use autoact::cli::{Cli, Command};
 use autoact::cmd::EXIT_USAGE;
 use autoact::cmd::convert::SmoothArg;
@@ -816,7 +817,7 @@ fn render_resolution_encoder_and_outputs() {
         (None, None, None)
     );
     assert_eq!((args.limit, args.threads), (None, None));
-    assert!(!args.embed_video && !args.force && !args.download_ffmpeg);
+    assert!(args.embed_video.is_none() && !args.force && !args.download_ffmpeg);
 
     let args = args_of!(
         Render,
@@ -860,7 +861,26 @@ fn render_resolution_encoder_and_outputs() {
     assert_eq!(args.preview, Some(path("sheet.png")));
     assert_eq!(args.render_bag, Some(path("r.mcap")));
     assert_eq!((args.limit, args.threads), (Some(10), Some(2)));
-    assert!(args.embed_video && args.force && args.download_ffmpeg);
+    assert_eq!(args.embed_video, Some(EmbedVideo::Foxglove));
+    assert!(args.force && args.download_ffmpeg);
+    // A viewer's name only after `=`: `--embed-video c.mcap` keeps the capture positional.
+    for (flag, embed) in [
+        ("--embed-video=foxglove", EmbedVideo::Foxglove),
+        ("--embed-video=rerun", EmbedVideo::Rerun),
+        ("--embed-video=both", EmbedVideo::Both),
+    ] {
+        let args = args_of!(Render, &["render", flag, "c.mcap"]);
+        assert_eq!(args.embed_video, Some(embed), "{flag}");
+    }
+    let args = args_of!(Render, &["render", "--embed-video", "c.mcap"]);
+    assert_eq!(
+        (args.embed_video, args.capture),
+        (Some(EmbedVideo::Foxglove), path("c.mcap"))
+    );
+    assert_eq!(
+        refused_kind(&["render", "c", "--embed-video=vlc"], "--embed-video"),
+        ErrorKind::InvalidValue
+    );
     let args = args_of!(
         Render,
         &["render", "c", "--resolution", "1280X720", "--crf", "51"]

@@ -202,10 +202,16 @@ fn convert_writes_bone_frames_tf_and_markers_that_info_calls_valid() {
         .iter()
         .map(|c| c["topic"].as_str().unwrap())
         .collect();
+    // Besides these, one point cloud per marker, for Rerun, in the same bone frame.
+    let (points, others): (Vec<&str>, Vec<&str>) = topics
+        .iter()
+        .partition(|t| t.starts_with("/skeleton/points/"));
     assert_eq!(
-        topics,
+        others,
         ["/animation", "/skeleton/markers", "/tf", "/tf_static"]
     );
+    assert!(points.contains(&"/skeleton/points/l_forearm"), "{points:?}");
+    assert!(points.contains(&"/skeleton/points/pelvis"), "{points:?}");
 }
 
 #[test]

@@ -18,6 +18,8 @@ use autoact::render::world::Surface;
 use autoact::render::{Camera, FrameInput, Image, Renderer, Stage};
 use autoact::ros::autoact_msgs::{FrameAnnotation, VideoInfo};
 use autoact::ros::cdr;
+use autoact::ros::foxglove_msgs::CompressedVideo;
+use autoact::ros::sensor_msgs::CompressedImage;
 use autoact::skeleton::fk;
 use autoact::skeleton::rig::Rig;
 use autoact::video::probe;
@@ -84,7 +86,7 @@ fn video_has_every_timeline_frame_at_its_stamp_with_keyframes_on_every_boundary(
         arg(&video),
         "--resolution",
         "160x120",
-        "--embed-video",
+        "--embed-video=both",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stdout(&o).contains("rendered"), "{}", stdout(&o));
@@ -112,16 +114,21 @@ fn video_has_every_timeline_frame_at_its_stamp_with_keyframes_on_every_boundary(
         assert!(keys.contains(b), "boundary {b} is not a keyframe: {keys:?}");
     }
 
-    // The render bag: one VideoInfo, one annotation and one H.264 unit per frame.
+    // The render bag: one VideoInfo, one annotation and one H.264 unit per frame, for Foxglove
+    // (CompressedVideo) and for Rerun (the same unit as a CompressedImage of format h264).
     let render_bag = dir.path().join("cap.render.mcap");
     let r = BagReader::open(&render_bag).unwrap();
-    let (mut info, mut notes, mut units) = (Vec::new(), Vec::new(), 0);
+    let (mut info, mut notes, mut units) = (Vec::new(), Vec::new(), Vec::new());
+    let mut images = Vec::new();
     for m in r.messages() {
         let m = m.unwrap();
         match m.channel.topic.as_str() {
             "/render/video" => info.push(cdr::decode::<VideoInfo>(&m.data).unwrap()),
             "/render/annotations" => notes.push(cdr::decode::<FrameAnnotation>(&m.data).unwrap()),
-            "/render/camera/h264" => units += 1,
+            "/render/camera/h264" => units.push(cdr::decode::<CompressedVideo>(&m.data).unwrap()),
+            "/render/camera/image/h264" => {
+                images.push(cdr::decode::<CompressedImage>(&m.data).unwrap());
+            }
             other => panic!("unexpected topic {other}"),
         }
     }
@@ -130,7 +137,28 @@ fn video_has_every_timeline_frame_at_its_stamp_with_keyframes_on_every_boundary(
     assert_eq!(info[0].video_file, "cap.mp4");
     assert_eq!(info[0].forced_keyframes, boundaries);
     assert_eq!(notes.len(), cap.frames.len());
-    assert_eq!(units, cap.frames.len());
+    assert_eq!(units.len(), cap.frames.len());
+    assert_eq!(images.len(), cap.frames.len());
+    for (u, i) in units.iter().zip(&images) {
+        assert_eq!((&i.data, i.format.as_str()), (&u.data, "h264"));
+        assert_eq!(
+            (i.header.stamp, &i.header.frame_id),
+            (u.timestamp, &u.frame_id)
+        );
+    }
+    // Annex B; every keyframe carries its parameter sets (SPS, NAL type 7), as decoders need.
+    assert!(
+        images
+            .iter()
+            .all(|i| i.data.starts_with(&[0, 0, 0, 1]) || i.data.starts_with(&[0, 0, 1]))
+    );
+    assert!(
+        images[0]
+            .data
+            .windows(5)
+            .any(|w| w[..4] == [0, 0, 0, 1] && w[4] & 0x1f == 7
+                || w[..3] == [0, 0, 1] && w[3] & 0x1f == 7)
+    );
     for (k, (n, f)) in notes.iter().zip(&cap.frames).enumerate() {
         assert_eq!(n.frame_index, k as u64);
         assert_eq!(n.header.stamp.to_nanos(), Some(f.stamp_nanos));

@@ -3,7 +3,9 @@
 mcap-ros2-support; /render/video says as many frames as the video has (ffprobe) and as many
 as there are /render/annotations, whose frame indices run 0..N-1 at increasing stamps; every
 annotation has 2 coordinates and one visibility per keypoint; /render/camera/h264 (if present)
-holds one Annex B access unit per frame, starting with a start code.
+holds one Annex B access unit per frame, starting with a start code; /render/camera/image/h264
+(if present, sensor_msgs/CompressedImage for Rerun) holds the same units, stamps and frame, format
+h264.
 
 Usage: check_render.py RENDER_BAG VIDEO
 """
@@ -18,7 +20,7 @@ from mcap_ros2.decoder import DecoderFactory
 
 def main() -> int:
     bag, video = sys.argv[1], sys.argv[2]
-    infos, notes, units = [], [], []
+    infos, notes, units, images = [], [], [], []
     with open(bag, "rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
         for _schema, channel, message, ros in reader.iter_decoded_messages(log_time_order=True):
@@ -28,6 +30,8 @@ def main() -> int:
                 notes.append((message.log_time, ros))
             elif channel.topic == "/render/camera/h264":
                 units.append(ros)
+            elif channel.topic == "/render/camera/image/h264":
+                images.append(ros)
     probe = json.loads(subprocess.run(
         ["ffprobe", "-v", "error", "-count_frames", "-select_streams", "v:0", "-show_entries",
          "stream=nb_read_frames,width,height", "-of", "json", video],
@@ -56,6 +60,17 @@ def main() -> int:
             problems.append(f"{len(units)} H.264 units for {frames} frames")
         if any(not bytes(u.data).startswith((b"\x00\x00\x00\x01", b"\x00\x00\x01")) or u.format != "h264" for u in units):
             problems.append("an H.264 unit does not start with an Annex B start code")
+    if images:
+        if len(images) != frames:
+            problems.append(f"{len(images)} H.264 CompressedImages for {frames} frames")
+        if units and any(
+            (bytes(i.data), i.format, i.header.frame_id, i.header.stamp.sec, i.header.stamp.nanosec)
+            != (bytes(u.data), u.format, u.frame_id, u.timestamp.sec, u.timestamp.nanosec)
+            for i, u in zip(images, units)
+        ):
+            problems.append("a CompressedImage is not the CompressedVideo unit of its frame")
+        if any(i.format != "h264" for i in images):
+            problems.append("a CompressedImage's format is not h264")
     for p in problems:
         print(f"FAIL {bag}: {p}")
     if not problems:
