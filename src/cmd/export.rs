@@ -80,7 +80,8 @@ pub struct Args {
     /// Replace output files that exist.
     #[arg(long)]
     pub force: bool,
-    /// List the bag's animations (track, variant, frames, duration, rate) and exit.
+    /// List the bag's animations (track, variant, frames, duration, rate) and exit; for a
+    /// capture bag one row per animation and scene (scene index and id, capture frames).
     #[arg(long, conflicts_with_all = ["format", "output", "print_onim_template"])]
     pub list: bool,
     /// Frame rate of the output, frames per second. Default: the rate the bag states (what

@@ -133,10 +133,23 @@ pub fn export(request: &ExportRequest) -> Result<ExportReport, ExportJobError> {
     let (available, listed_losses) = super::list(input, &readers)?;
     if request.list {
         let fps = request.fps.or_else(|| super::stated_frame_rate(&readers));
-        return Ok(ExportReport {
-            text: listing(&available, fps),
-            losses: Losses::from_animation(&listed_losses),
-        });
+        let scenes = crate::bags::capture::scene_starts(&readers);
+        let mut losses = Losses::from_animation(&listed_losses);
+        let text = if scenes.is_empty() {
+            listing(&available, fps)
+        } else {
+            // A capture bag: one row per animation and scene, as the export writes them.
+            let rig = Rig::standard();
+            let mut clips = Vec::new();
+            for a in &available {
+                let (read, lost) =
+                    super::read_clips(&rig, input, &readers, a.key, request.fps, &scenes)?;
+                clips.extend(read);
+                losses.merge(Losses::from_animation(&lost));
+            }
+            scene_listing(&clips)
+        };
+        return Ok(ExportReport { text, losses });
     }
     let (Some(format), Some(output)) = (request.format, request.output.as_deref()) else {
         return Err(ExportJobError::NoFormatOrOutput);
@@ -315,6 +328,47 @@ fn only_scene(input: &Path, clips: Vec<Clip>, scene: usize) -> Result<Vec<Clip>,
 /// `X.bvh` → `X.expected.json`.
 fn expected_path(path: &Path) -> PathBuf {
     path.with_extension("expected.json")
+}
+
+/// The `--list` table of a capture bag: a row per animation and scene (what a file holds).
+fn scene_listing(clips: &[Clip]) -> String {
+    let rows: Vec<Vec<String>> = clips
+        .iter()
+        .map(|c| {
+            let (index, id, first) = c.scene.as_ref().map_or_else(
+                || ("-".to_string(), "-".to_string(), 0),
+                |s| {
+                    (
+                        s.index.to_string(),
+                        s.scene_id.clone(),
+                        s.first_timeline_frame,
+                    )
+                },
+            );
+            let frames = u64::try_from(c.poses.len()).unwrap_or(u64::MAX);
+            vec![
+                c.key.track_id.to_string(),
+                c.key.variant.to_string(),
+                index,
+                format!("{first}..{}", first.saturating_add(frames)),
+                c.poses.len().to_string(),
+                format!("{:.2}", c.fps_hz),
+                id,
+            ]
+        })
+        .collect();
+    crate::table::table(
+        &[
+            "track",
+            "variant",
+            "scene",
+            "capture frames",
+            "frames",
+            "fps",
+            "scene id",
+        ],
+        &rows,
+    )
 }
 
 /// The `--list` table.

@@ -1162,6 +1162,52 @@ fn capture_exports_match_the_bag_on_every_frame_of_every_scene() {
         "every frame of the bag is exported"
     );
 
+    // --list shows what the export writes: a row per animation and scene.
+    let list = ok(&["export", arg(&bag), "--list"]);
+    assert!(list.contains("scene  capture frames"), "{list}");
+    for (scene, &start) in scene_starts.iter().enumerate() {
+        let first = stamps.partition_point(|&s| s < start);
+        let row = format!("0      {}        {scene}      {first}..", scene / 2);
+        assert!(list.contains(&row), "{row:?} in {list}");
+    }
+
+    // One scene to one file; a scene the bag does not have is an error naming those it has.
+    let one = dir.path().join("one.bvh");
+    let text = ok(&[
+        "export",
+        arg(&bag),
+        "--format",
+        "bvh",
+        "--scene",
+        "3",
+        "-o",
+        arg(&one),
+    ]);
+    assert!(
+        text.contains("variant 1, scene ") && text.contains("/v1/s1"),
+        "{text}"
+    );
+    assert_eq!(
+        std::fs::read(&one).unwrap(),
+        std::fs::read(
+            dir.path()
+                .join("bvh/t_gesture_wave_0000_track0_v1_scene3.bvh")
+        )
+        .unwrap()
+    );
+    let e = export_fails(&bag, "bvh", &["--scene", "3", "--variant", "0"], &one);
+    assert!(
+        e.contains("no scene 3") && e.contains("0 (") && e.contains("/v0/s1)"),
+        "{e}"
+    );
+    let e = export_fails(
+        &sample("bandai_wave.anim.mcap"),
+        "bvh",
+        &["--scene", "0"],
+        &one,
+    );
+    assert!(e.contains("not a capture bag"), "{e}");
+
     // The bodies differ: the first scene's body on a later scene's frames (what one animation per
     // variant on the first scene's body gave) is far off.
     let (_, first_body) = bag_poses(&rig, &bag, 0, 0);
