@@ -106,7 +106,8 @@ pub struct CameraPath {
 pub struct SceneContext {
     /// The capture's camera (none for a plain animation bag).
     pub camera: Option<CameraPath>,
-    /// The character's look (colours, build), from the clip's first scene.
+    /// The character's look (colours, build), from the scene of the clip's first frame (a
+    /// capture bag's clip holds one scene).
     pub look: Option<Look>,
     /// `scenes[0].extras.autoact`.
     pub extras: BTreeMap<String, Value>,
