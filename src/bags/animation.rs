@@ -373,10 +373,54 @@ pub fn read_animation_variant_with_losses(
     track: Option<u64>,
     variant: u32,
 ) -> Result<(ReadBack, AnimationLosses), ReadAnimationError> {
+    let (periods, losses) = read_animation_periods_with_losses(rig, readers, track, variant, &[])?;
+    let Some(PeriodAnimation {
+        frames, character, ..
+    }) = periods.into_iter().next()
+    else {
+        return Err(ReadAnimationError::NoFrames { track, variant });
+    };
+    let coverage = coverage_of(rig, &frames);
+    Ok(((frames, character, coverage), losses))
+}
+
+/// The frames of one animation that fall in one period of the bag's timeline, and the body the
+/// rest offsets of that period describe.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PeriodAnimation {
+    /// Index of the period: frames stamped from `starts[period]` (inclusive) to
+    /// `starts[period + 1]` (exclusive); period 0 also takes what comes before `starts[0]`.
+    pub period: usize,
+    /// The animation's frames in the period, in stamp order.
+    pub frames: Vec<crate::skeleton::convert::AnimationFrame>,
+    /// The body: the rest offsets the `/tf_static` and `/tf` transforms stamped in the period
+    /// carry (the standard rig's where they carry none).
+    pub character: Character,
+}
+
+/// As [`read_animation_variant_with_losses`], with the bag's timeline cut at `starts` (sorted
+/// stamps, ns; empty: one period): per period that holds frames of the animation, those frames
+/// and the body of that period. A capture bag draws a new character for every scene and
+/// publishes its rest on `/tf_static` at the scene's start, so with the scenes' starts each scene
+/// gets its own body; with no starts this is [`read_animation_variant_with_losses`]'s one body
+/// (the first offset seen of every bone).
+///
+/// # Errors
+/// [`ReadAnimationError`]: the bag has no such frames, or their bones are not the rig's.
+pub fn read_animation_periods_with_losses(
+    rig: &Rig,
+    readers: &[crate::mcap_io::BagReader],
+    track: Option<u64>,
+    variant: u32,
+    starts: &[u64],
+) -> Result<(Vec<PeriodAnimation>, AnimationLosses), ReadAnimationError> {
     use crate::ros::{RosMessage, cdr};
+    let period_of = |stamp: u64| starts.partition_point(|&s| s <= stamp).saturating_sub(1);
     let mut keys: Vec<crate::skeleton::convert::AnimationFrame> = Vec::new();
     let mut chosen = track;
-    let mut offsets = RestOffsets::new();
+    let mut offsets: Vec<RestOffsets> = (0..starts.len().max(1))
+        .map(|_| RestOffsets::new())
+        .collect();
     let mut f = BoneFrame::default();
     let mut losses = AnimationLosses::default();
     let mut skips = Vec::new();
@@ -419,7 +463,14 @@ pub fn read_animation_variant_with_losses(
                 && (m.channel.topic == TF_STATIC_TOPIC || m.channel.topic == TF_TOPIC) =>
             {
                 match cdr::decode::<TFMessage>(&m.data) {
-                    Ok(tf) => offsets.add(rig, &tf, variant),
+                    Ok(tf) => {
+                        let stamp = tf
+                            .transforms
+                            .first()
+                            .and_then(|t| t.header.stamp.to_nanos())
+                            .unwrap_or(m.log_time);
+                        offsets[period_of(stamp)].add(rig, &tf, variant);
+                    }
                     Err(e) => skips.push(skipped(
                         path,
                         &m,
@@ -434,8 +485,29 @@ pub fn read_animation_variant_with_losses(
     if keys.is_empty() {
         return Err(ReadAnimationError::NoFrames { track, variant });
     }
-    let character = offsets.character(rig, chosen);
-    let poses: Vec<BonePose> = keys.iter().map(|k| k.pose.clone()).collect();
+    let mut periods: Vec<PeriodAnimation> = Vec::new();
+    for key in keys {
+        let period = period_of(key.stamp_nanos);
+        match periods.last_mut() {
+            Some(last) if last.period == period => last.frames.push(key),
+            _ => periods.push(PeriodAnimation {
+                period,
+                frames: vec![key],
+                character: Character::standard(rig),
+            }),
+        }
+    }
+    for (p, o) in offsets.into_iter().enumerate() {
+        if let Some(at) = periods.iter_mut().find(|a| a.period == p) {
+            at.character = o.character(rig, chosen);
+        }
+    }
+    Ok((periods, losses))
+}
+
+/// As coverage, the bones that move in `frames` and those that do not.
+fn coverage_of(rig: &Rig, frames: &[crate::skeleton::convert::AnimationFrame]) -> Coverage {
+    let poses: Vec<BonePose> = frames.iter().map(|k| k.pose.clone()).collect();
     let moving = fk::moving_bones(&poses);
     let names = |wanted: bool| -> Vec<String> {
         rig.bones
@@ -445,12 +517,11 @@ pub fn read_animation_variant_with_losses(
             .map(|(b, _)| b.name.clone())
             .collect()
     };
-    let coverage = Coverage {
+    Coverage {
         driven: names(true),
         twist_unobserved: Vec::new(),
         at_rest: names(false),
-    };
-    Ok(((keys, character, coverage), losses))
+    }
 }
 
 /// Rest offsets seen on `/tf_static` and `/tf`, per (track prefix, variant, bone), for variant 0

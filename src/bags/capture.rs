@@ -349,6 +349,39 @@ pub enum TimelineError {
     },
 }
 
+/// Where a scene of a capture bag starts, as its `/scene` message says.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SceneStart {
+    /// The scene's start on the timeline (the message's header stamp), ns.
+    pub start_nanos: u64,
+    /// Its id in the recording hierarchy.
+    pub scene_id: String,
+}
+
+/// The scenes of a capture bag in time order, from its `/scene` messages alone (no camera or
+/// animation is read); empty for a bag without `/scene` (a plain animation bag). Messages that
+/// cannot be read are skipped: [`Capture::read`] and `autoact info` report them.
+#[must_use]
+pub fn scene_starts(readers: &[BagReader]) -> Vec<SceneStart> {
+    let mut out: Vec<SceneStart> = readers
+        .iter()
+        .flat_map(BagReader::messages)
+        .filter_map(Result::ok)
+        .filter(|m| {
+            m.channel.topic == SCENE_TOPIC && m.channel.schema_name() == SceneState::TYPE_NAME
+        })
+        .filter_map(|m| {
+            let s: SceneState = cdr::decode(&m.data).ok()?;
+            Some(SceneStart {
+                start_nanos: s.header.stamp.to_nanos().unwrap_or(m.log_time),
+                scene_id: s.scene_id,
+            })
+        })
+        .collect();
+    out.sort_by_key(|s| s.start_nanos);
+    out
+}
+
 /// One scene of the capture.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CaptureScene {

@@ -15,6 +15,14 @@ Output naming:
   Several: OUT is a folder (made if missing) holding <bag>_track<T>_v<V>.<ext> per animation.
   Nothing is replaced without --force; files are written whole or not at all.
 
+Capture bags (autoact convert --spec): every scene draws a new character (body proportions),
+  so an animation is exported as one file per scene, each with that scene's skeleton and its
+  frames, which put every joint where the bag's /tf and /tf_static do:
+  <bag>_track<T>_v<V>_scene<I>.<ext>, I = the scene's index on the capture's timeline. Each
+  file's frame 0 is the scene's first capture frame; the report line names the scene id and
+  the capture frames (first..end), and glTF extras carry scene_id, scene_index and
+  timeline_first_frame. --scene I exports one scene.
+
 BVH: joints named as `autoact rig` names the bones, offsets in centimetres, Y up, facing +Z
   (autoact's x, y, z written as -x, z, y); root: Xposition Yposition Zposition Zrotation
   Xrotation Yrotation, other joints: Zrotation Xrotation Yrotation, i.e. Euler order ZXY,
@@ -65,10 +73,15 @@ pub struct Args {
     /// Export only this variant (0 = as converted, 1.. = DSI variants). Default: all.
     #[arg(long, value_name = "K")]
     pub variant: Option<u32>,
+    /// Capture bags: export only scene I (0 = the first on the timeline; the files and the
+    /// report of a full export name each scene's index and id). Default: all.
+    #[arg(long, value_name = "I")]
+    pub scene: Option<usize>,
     /// Replace output files that exist.
     #[arg(long)]
     pub force: bool,
-    /// List the bag's animations (track, variant, frames, duration, rate) and exit.
+    /// List the bag's animations (track, variant, frames, duration, rate) and exit; for a
+    /// capture bag one row per animation and scene (scene index and id, capture frames).
     #[arg(long, conflicts_with_all = ["format", "output", "print_onim_template"])]
     pub list: bool,
     /// Frame rate of the output, frames per second. Default: the rate the bag states (what
@@ -103,6 +116,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         output: args.output,
         animation: args.animation,
         variant: args.variant,
+        scene: args.scene,
         force: args.force,
         list: args.list,
         fps: args.fps,

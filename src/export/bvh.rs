@@ -272,7 +272,9 @@ pub fn read_back(rig: &Rig, bvh: &Bvh) -> Result<Vec<BonePose>, MissingJoint> {
 
 /// What the interop check (`tools/interop/check_bvh.py`) compares a BVH with: the joint names in
 /// file order, frame count and time, units and axes, and per frame every joint's position as
-/// autoact's forward kinematics puts it (metres, autoact frame).
+/// autoact's forward kinematics puts it (metres, autoact frame); for a capture scene's clip also
+/// its scene id, first capture frame and frame stamps (`tools/interop/check_export_motion.py`
+/// compares the file with the bag's transforms at those stamps).
 #[must_use]
 pub fn expected_json(rig: &Rig, clip: &Clip) -> serde_json::Value {
     let order = joint_order(rig);
@@ -292,7 +294,7 @@ pub fn expected_json(rig: &Rig, clip: &Clip) -> serde_json::Value {
         })
         .collect();
     let rows: Vec<[f64; 3]> = (0..3).map(|r| [m[(r, 0)], m[(r, 1)], m[(r, 2)]]).collect();
-    serde_json::json!({
+    let mut json = serde_json::json!({
         "joints": order.iter().map(|&b| rig.bones[b].name.as_str()).collect::<Vec<_>>(),
         "frames": clip.poses.len(),
         "frame_time_secs": 1.0 / clip.fps_hz,
@@ -300,7 +302,15 @@ pub fn expected_json(rig: &Rig, clip: &Clip) -> serde_json::Value {
         "euler_order": EULER_ORDER,
         "bvh_from_autoact": rows,
         "positions_m": positions,
-    })
+    });
+    // A capture scene's clip: where its frames sit on the capture's timeline, so that a check can
+    // compare them with the bag's own transforms.
+    if let Some(scene) = &clip.scene {
+        json["scene_id"] = serde_json::json!(scene.scene_id);
+        json["timeline_first_frame"] = serde_json::json!(scene.first_timeline_frame);
+        json["stamps_ns"] = serde_json::json!(clip.stamps_nanos);
+    }
+    json
 }
 
 #[cfg(test)]

@@ -21,8 +21,11 @@
 //!   `/camera/pose` at every frame's stamp (the optical frame — z forward, x right, y down —
 //!   turned by 180° about x into glTF's camera frame: −z forward, y up).
 //! - `scenes[0].extras.autoact`: bag, track, variant, fps, frames, the label and seed where the
-//!   bag has them, its metadata records, and for a capture bag its clips (`/segments`, with
-//!   frame numbers) and scenes (`/scene`, with the lighting the embedded renderer derives).
+//!   bag has them, its metadata records, and for a capture bag the clip's scene (`scene_id`,
+//!   `scene_index`, and `timeline_first_frame`: the capture frame of the file's frame 0), its
+//!   clips (`/segments`, with frame numbers in the file) and the scene's `/scene` state, with the
+//!   lighting the embedded renderer derives. A capture bag's export is one file per scene, each
+//!   on that scene's character (see [`super::read_clips`]).
 //!
 //! **Axes.** glTF is +Y up. The scene's one root node `autoact_world` is turned by −90° about x
 //! ([`Y_UP_FROM_Z_UP`]), which maps autoact's Z-up `(x, y, z)` to glTF's `(x, z, −y)`; every
@@ -103,7 +106,8 @@ pub struct CameraPath {
 pub struct SceneContext {
     /// The capture's camera (none for a plain animation bag).
     pub camera: Option<CameraPath>,
-    /// The character's look (colours, build), from the clip's first scene.
+    /// The character's look (colours, build), from the scene of the clip's first frame (a
+    /// capture bag's clip holds one scene).
     pub look: Option<Look>,
     /// `scenes[0].extras.autoact`.
     pub extras: BTreeMap<String, Value>,
@@ -175,54 +179,7 @@ impl SceneContext {
             aspect_ratio: (f64::from(i.width_px) / i.fx_px) / (f64::from(i.height_px) / i.fy_px),
             world_from_optical,
         };
-        let frame_of = |stamp: u64| clip.stamps_nanos.partition_point(|&s| s < stamp);
-        let segments: Vec<Value> = capture
-            .segments
-            .iter()
-            .filter_map(|s| {
-                let (start, end) = (s.start.to_nanos()?, s.end.to_nanos()?);
-                let (first, last) = (*clip.stamps_nanos.first()?, *clip.stamps_nanos.last()?);
-                (start <= last && end > first).then(|| {
-                    json!({
-                        "id": s.id, "action": s.action, "label_id": s.label_id,
-                        "category": s.category, "animation": s.animation, "variant": s.variant,
-                        "scene_id": s.scene_id, "viewpoint": s.viewpoint,
-                        "start_frame": frame_of(start), "end_frame": frame_of(end),
-                    })
-                })
-            })
-            .collect();
-        let mut actions: Vec<&str> = segments
-            .iter()
-            .filter_map(|s| s["action"].as_str())
-            .collect();
-        actions.sort_unstable();
-        actions.dedup();
-        if let [only] = actions[..] {
-            extras.insert("label".into(), json!(only));
-        }
-        let scenes: Vec<Value> = capture
-            .scenes
-            .iter()
-            .map(|s| {
-                let env = Environment::from_scene(&s.scene, s.stream);
-                json!({
-                    "scene_id": s.scene_id,
-                    "stream": s.stream,
-                    "start_frame": frame_of(s.start_nanos),
-                    "lighting": {
-                        "key_dir_world": env.key_dir, "key_rgb_linear": env.key_rgb,
-                        "zenith_rgb_linear": env.zenith_rgb, "horizon_rgb_linear": env.horizon_rgb,
-                        "sky_ambient_rgb_linear": env.sky_ambient_rgb, "fog_per_m": env.fog_per_m,
-                        "indoor": env.indoor,
-                    },
-                    "scene": s.scene,
-                })
-            })
-            .collect();
-        extras.insert("session".into(), json!(capture.session));
-        extras.insert("segments".into(), Value::Array(segments));
-        extras.insert("scenes".into(), Value::Array(scenes));
+        capture_extras(&capture, clip, &mut extras);
         let first = clip.stamps_nanos.first().copied().unwrap_or(0);
         let look = capture
             .frames
@@ -235,6 +192,70 @@ impl SceneContext {
             extras,
         })
     }
+}
+
+/// The extras a capture bag adds around `clip`: its scene (id, index, first capture frame), the
+/// clips (`/segments`) it overlaps with frame numbers in the file (and the label when they share
+/// one), and the scene's state with the lighting the embedded renderer derives.
+fn capture_extras(capture: &Capture, clip: &Clip, extras: &mut BTreeMap<String, Value>) {
+    let frame_of = |stamp: u64| clip.stamps_nanos.partition_point(|&s| s < stamp);
+    let segments: Vec<Value> = capture
+        .segments
+        .iter()
+        .filter_map(|s| {
+            let (start, end) = (s.start.to_nanos()?, s.end.to_nanos()?);
+            let (first, last) = (*clip.stamps_nanos.first()?, *clip.stamps_nanos.last()?);
+            (start <= last && end > first).then(|| {
+                json!({
+                    "id": s.id, "action": s.action, "label_id": s.label_id,
+                    "category": s.category, "animation": s.animation, "variant": s.variant,
+                    "scene_id": s.scene_id, "viewpoint": s.viewpoint,
+                    "start_frame": frame_of(start), "end_frame": frame_of(end),
+                })
+            })
+        })
+        .collect();
+    let mut actions: Vec<&str> = segments
+        .iter()
+        .filter_map(|s| s["action"].as_str())
+        .collect();
+    actions.sort_unstable();
+    actions.dedup();
+    if let [only] = actions[..] {
+        extras.insert("label".into(), json!(only));
+    }
+    // A clip holds the frames of one scene: its extras describe that scene.
+    let scenes: Vec<Value> = capture
+        .scenes
+        .iter()
+        .filter(|s| clip.scene.as_ref().is_none_or(|c| c.scene_id == s.scene_id))
+        .map(|s| {
+            let env = Environment::from_scene(&s.scene, s.stream);
+            json!({
+                "scene_id": s.scene_id,
+                "stream": s.stream,
+                "start_frame": frame_of(s.start_nanos),
+                "lighting": {
+                    "key_dir_world": env.key_dir, "key_rgb_linear": env.key_rgb,
+                    "zenith_rgb_linear": env.zenith_rgb, "horizon_rgb_linear": env.horizon_rgb,
+                    "sky_ambient_rgb_linear": env.sky_ambient_rgb, "fog_per_m": env.fog_per_m,
+                    "indoor": env.indoor,
+                },
+                "scene": s.scene,
+            })
+        })
+        .collect();
+    if let Some(scene) = &clip.scene {
+        extras.insert("scene_id".into(), json!(scene.scene_id));
+        extras.insert("scene_index".into(), json!(scene.index));
+        extras.insert(
+            "timeline_first_frame".into(),
+            json!(scene.first_timeline_frame),
+        );
+    }
+    extras.insert("session".into(), json!(capture.session));
+    extras.insert("segments".into(), Value::Array(segments));
+    extras.insert("scenes".into(), Value::Array(scenes));
 }
 
 /// The extras every export has: bag, track, variant, fps, frames, first stamp.

@@ -3,10 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::{
-    AnimationKey, AnimationListing, EncodeOptions, ExportError, ExportFormat, bvh, gltf, onim,
-};
-use crate::bags::animation::AnimationLosses;
+use super::{AnimationListing, Clip, EncodeOptions, ExportError, ExportFormat, bvh, gltf, onim};
 use crate::loss::Losses;
 use crate::mcap_io::{BagReader, McapIoError};
 use crate::skeleton::rig::Rig;
@@ -24,6 +21,8 @@ pub struct ExportRequest {
     pub animation: Option<u64>,
     /// Only this variant.
     pub variant: Option<u32>,
+    /// Only this scene of a capture bag (its index on the timeline).
+    pub scene: Option<usize>,
     /// Replace output files that exist.
     pub force: bool,
     /// List the animations instead of exporting them.
@@ -52,18 +51,28 @@ pub enum ExportJobError {
     /// `--write-expected-json` with another format than BVH.
     #[error("--write-expected-json is for --format bvh only")]
     ExpectedJsonNotBvh,
-    /// Several animations selected but one file named.
+    /// Several files to write (animations, or scenes of a capture bag) but one file named.
     #[error(
-        "{count} animations are selected, and `{}` names one .{extension} file: give a folder for them, or pick one with `--animation` and `--variant` (`--list` shows them)",
+        "{count} animations are selected (an animation of a capture bag is one per scene), and `{}` names one .{extension} file: give a folder for them, or pick one with `--animation`, `--variant` and, for a capture bag, `--scene` (`--list` shows them)",
         output.display()
     )]
     OneFileForMany {
-        /// Animations selected.
+        /// Files to write: animations selected, times their scenes in a capture bag.
         count: usize,
         /// The output named.
         output: PathBuf,
         /// The format's extension.
         extension: &'static str,
+    },
+    /// `--scene` names no scene of the bag that holds frames of the selected animations.
+    #[error("{}: no scene {scene} among the selected animations' scenes: {available}", path.display())]
+    UnknownScene {
+        /// The bag.
+        path: PathBuf,
+        /// The scene asked for.
+        scene: usize,
+        /// The scenes there are (`<index> <scene id>`), or why there are none.
+        available: String,
     },
     /// The bag cannot be opened.
     #[error(transparent)]
@@ -124,10 +133,23 @@ pub fn export(request: &ExportRequest) -> Result<ExportReport, ExportJobError> {
     let (available, listed_losses) = super::list(input, &readers)?;
     if request.list {
         let fps = request.fps.or_else(|| super::stated_frame_rate(&readers));
-        return Ok(ExportReport {
-            text: listing(&available, fps),
-            losses: Losses::from_animation(&listed_losses),
-        });
+        let scenes = crate::bags::capture::scene_starts(&readers);
+        let mut losses = Losses::from_animation(&listed_losses);
+        let text = if scenes.is_empty() {
+            listing(&available, fps)
+        } else {
+            // A capture bag: one row per animation and scene, as the export writes them.
+            let rig = Rig::standard();
+            let mut clips = Vec::new();
+            for a in &available {
+                let (read, lost) =
+                    super::read_clips(&rig, input, &readers, a.key, request.fps, &scenes)?;
+                clips.extend(read);
+                losses.merge(Losses::from_animation(&lost));
+            }
+            scene_listing(&clips)
+        };
+        return Ok(ExportReport { text, losses });
     }
     let (Some(format), Some(output)) = (request.format, request.output.as_deref()) else {
         return Err(ExportJobError::NoFormatOrOutput);
@@ -148,7 +170,19 @@ pub fn export(request: &ExportRequest) -> Result<ExportReport, ExportJobError> {
         tracing::warn!("--onim-template is only used with --format onim");
     }
     let keys = super::select(input, &available, request.animation, request.variant)?;
-    let (targets, folder) = targets(input, output, &keys, format)?;
+    // A capture bag's scenes each have their own character: one clip per animation and scene.
+    let scenes = crate::bags::capture::scene_starts(&readers);
+    let mut clips = Vec::new();
+    let mut report = ExportReport::default();
+    for key in keys {
+        let (read, losses) = super::read_clips(&rig, input, &readers, key, request.fps, &scenes)?;
+        clips.extend(read);
+        report.losses.merge(Losses::from_animation(&losses));
+    }
+    if let Some(scene) = request.scene {
+        clips = only_scene(input, clips, scene)?;
+    }
+    let (targets, folder) = targets(input, output, &clips, format)?;
     // Every target is checked before anything is written, and the folder is made only when the
     // first file is ready, so a refused export writes nothing.
     for path in &targets {
@@ -166,11 +200,8 @@ pub fn export(request: &ExportRequest) -> Result<ExportReport, ExportJobError> {
         request,
     };
     let mut folder = folder;
-    let mut report = ExportReport::default();
-    for (key, path) in keys.iter().zip(&targets) {
-        let (line, losses) = job.write(*key, path, folder.take())?;
-        report.text.push_str(&line);
-        report.losses.merge(Losses::from_animation(&losses));
+    for (clip, path) in clips.iter().zip(&targets) {
+        report.text.push_str(&job.write(clip, path, folder.take())?);
     }
     Ok(report)
 }
@@ -186,25 +217,24 @@ struct Job<'a> {
 }
 
 impl Job<'_> {
-    /// Reads, encodes and writes one animation to `path` (making `folder` first, if given);
-    /// returns the line saying so, and what of the bag reading it lost.
+    /// Encodes and writes one clip to `path` (making `folder` first, if given); returns the line
+    /// saying so.
     fn write(
         &self,
-        key: AnimationKey,
+        clip: &Clip,
         path: &Path,
         folder: Option<&Path>,
-    ) -> Result<(String, AnimationLosses), ExportJobError> {
+    ) -> Result<String, ExportJobError> {
         let (rig, input, force) = (self.rig, self.input, self.request.force);
-        let (clip, losses) = super::read_clip(rig, input, self.readers, key, self.request.fps)?;
         let bytes = if matches!(self.format, ExportFormat::Gltf | ExportFormat::Glb) {
-            let scene = gltf::SceneContext::read(rig, input, self.readers, &clip)?;
+            let scene = gltf::SceneContext::read(rig, input, self.readers, clip)?;
             let options = EncodeOptions {
                 gltf_scene: Some(scene),
                 ..self.options.clone()
             };
-            super::encode(rig, &clip, self.format, &options)?
+            super::encode(rig, clip, self.format, &options)?
         } else {
-            super::encode(rig, &clip, self.format, self.options)?
+            super::encode(rig, clip, self.format, self.options)?
         };
         if let Some(folder) = folder {
             std::fs::create_dir_all(folder).map_err(|source| ExportJobError::CreateDir {
@@ -214,53 +244,131 @@ impl Job<'_> {
         }
         super::write_atomically(path, &bytes, force)?;
         if self.request.write_expected_json {
-            let json = serde_json::to_vec(&bvh::expected_json(rig, &clip))
+            let json = serde_json::to_vec(&bvh::expected_json(rig, clip))
                 .map_err(ExportJobError::ExpectedJson)?;
             super::write_atomically(&expected_path(path), &json, force)?;
         }
-        let line = format!(
-            "wrote {}: {key}, {} frames at {} fps\n",
+        let scene = clip.scene.as_ref().map_or_else(String::new, |s| {
+            format!(
+                ", scene {} (capture frames {}..{})",
+                s.scene_id,
+                s.first_timeline_frame,
+                s.first_timeline_frame
+                    .saturating_add(u64::try_from(clip.poses.len()).unwrap_or(u64::MAX))
+            )
+        });
+        Ok(format!(
+            "wrote {}: {}{scene}, {} frames at {} fps\n",
             path.display(),
+            clip.key,
             clip.poses.len(),
             clip.fps_hz
-        );
-        Ok((line, losses))
+        ))
     }
 }
 
-/// The file each animation goes to (see "Output naming" in `autoact export --help`), and the
-/// folder they go in when `output` names one (created only once every target is known to be
-/// writable).
+/// The file each clip goes to (see "Output naming" in `autoact export --help`), and the folder
+/// they go in when `output` names one (created only once every target is known to be writable).
 fn targets<'o>(
     input: &Path,
     output: &'o Path,
-    keys: &[AnimationKey],
+    clips: &[Clip],
     format: ExportFormat,
 ) -> Result<(Vec<PathBuf>, Option<&'o Path>), ExportJobError> {
-    if keys.len() == 1 && !output.is_dir() {
+    if clips.len() == 1 && !output.is_dir() {
         return Ok((vec![output.to_path_buf()], None));
     }
-    if keys.len() > 1
+    if clips.len() > 1
         && output
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case(format.extension()))
     {
         return Err(ExportJobError::OneFileForMany {
-            count: keys.len(),
+            count: clips.len(),
             output: output.to_path_buf(),
             extension: format.extension(),
         });
     }
-    let paths = keys
+    let paths = clips
         .iter()
-        .map(|k| output.join(super::output_name(input, *k, format)))
+        .map(|c| output.join(super::output_name(input, c.key, c.scene.as_ref(), format)))
         .collect();
     Ok((paths, Some(output)))
+}
+
+/// The clips of scene `scene` (its index on the capture's timeline).
+///
+/// # Errors
+/// [`ExportJobError::UnknownScene`] when none is, naming the scenes there are.
+fn only_scene(input: &Path, clips: Vec<Clip>, scene: usize) -> Result<Vec<Clip>, ExportJobError> {
+    let mut available: Vec<String> = clips
+        .iter()
+        .filter_map(|c| c.scene.as_ref())
+        .map(|s| format!("{} ({})", s.index, s.scene_id))
+        .collect();
+    available.dedup();
+    let chosen: Vec<Clip> = clips
+        .into_iter()
+        .filter(|c| c.scene.as_ref().is_some_and(|s| s.index == scene))
+        .collect();
+    if chosen.is_empty() {
+        return Err(ExportJobError::UnknownScene {
+            path: input.to_path_buf(),
+            scene,
+            available: if available.is_empty() {
+                "the bag has no /scene (not a capture bag)".to_string()
+            } else {
+                available.join(", ")
+            },
+        });
+    }
+    Ok(chosen)
 }
 
 /// `X.bvh` → `X.expected.json`.
 fn expected_path(path: &Path) -> PathBuf {
     path.with_extension("expected.json")
+}
+
+/// The `--list` table of a capture bag: a row per animation and scene (what a file holds).
+fn scene_listing(clips: &[Clip]) -> String {
+    let rows: Vec<Vec<String>> = clips
+        .iter()
+        .map(|c| {
+            let (index, id, first) = c.scene.as_ref().map_or_else(
+                || ("-".to_string(), "-".to_string(), 0),
+                |s| {
+                    (
+                        s.index.to_string(),
+                        s.scene_id.clone(),
+                        s.first_timeline_frame,
+                    )
+                },
+            );
+            let frames = u64::try_from(c.poses.len()).unwrap_or(u64::MAX);
+            vec![
+                c.key.track_id.to_string(),
+                c.key.variant.to_string(),
+                index,
+                format!("{first}..{}", first.saturating_add(frames)),
+                c.poses.len().to_string(),
+                format!("{:.2}", c.fps_hz),
+                id,
+            ]
+        })
+        .collect();
+    crate::table::table(
+        &[
+            "track",
+            "variant",
+            "scene",
+            "capture frames",
+            "frames",
+            "fps",
+            "scene id",
+        ],
+        &rows,
+    )
 }
 
 /// The `--list` table.

@@ -3,10 +3,12 @@
 //! **What is exported.** An *animation* is one `(track_id, variant)` pair of the bag's
 //! `/animation` frames ([`AnimationKey`]): a person, and either the animation as converted
 //! (variant 0) or one of its DSI variants. [`list`] names them all (`autoact export BAG --list`);
-//! [`read_clip`] reads one with the body its `/tf_static` rest offsets describe, at the bag's frame
-//! rate ([`frame_rate`]). A capture bag (`autoact convert --spec`) holds every clip of a session on
-//! one timeline: there a `(track, variant)` is every clip drawn with that variant, back to back,
-//! on the body of its first scene (a warning says when frames are not evenly spaced).
+//! [`read_clips`] reads one with the body its `/tf_static` rest offsets describe, at the bag's
+//! frame rate ([`frame_rate`]). A capture bag (`autoact convert --spec`) holds every clip of a
+//! session on one timeline, and draws a new character (body proportions) for every scene: there a
+//! `(track, variant)` is read as one [`Clip`] per scene, each on that scene's body, so that every
+//! exported frame puts the joints where the bag does (a warning says when frames are not evenly
+//! spaced).
 //!
 //! **Formats.** Each format is a module that turns a [`Clip`] into the bytes of one file and
 //! knows nothing of paths: [`bvh`] (Biovision Hierarchy, for Blender, MotionBuilder, Maya) and
@@ -16,8 +18,8 @@
 //!
 //! **Output files.** [`write_atomically`] writes through a hidden temporary file in the target folder
 //! and renames it into place, so an interrupted export never leaves a complete-looking file; an
-//! existing file is replaced only when asked. [`output_name`] names one file per animation when
-//! several are exported into a folder.
+//! existing file is replaced only when asked. [`output_name`] names one file per animation (and
+//! per scene, for a capture bag) when several are exported into a folder.
 
 pub mod bvh;
 pub mod gltf;
@@ -154,6 +156,22 @@ pub struct Clip {
     /// The bag's stamp of every frame (same length as `poses`), ns: what ties a frame to the
     /// rest of the bag (camera, scenes, segments).
     pub stamps_nanos: Vec<u64>,
+    /// For a capture bag, the one scene the clip's frames belong to (its character is that
+    /// scene's); `None` for a plain animation bag.
+    pub scene: Option<ClipScene>,
+}
+
+/// The scene of a capture bag a [`Clip`] holds the frames of.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ClipScene {
+    /// Its index among the bag's scenes, in time order (0 = the first).
+    pub index: usize,
+    /// Its id in the recording hierarchy (`SceneState.scene_id`).
+    pub scene_id: String,
+    /// The clip's first frame on the capture's timeline: frame `k` of the clip is frame
+    /// `first_timeline_frame + k` of the capture (the first scene's start is frame 0, and the
+    /// timeline runs at the clip's rate), the frame numbers `autoact render` and `trim` use.
+    pub first_timeline_frame: u64,
 }
 
 /// Every animation of the bag, ordered by track id, then variant, and what could not be read.
@@ -238,60 +256,100 @@ pub fn first_uneven_frame(stamps_nanos: &[u64], fps_hz: f64) -> Option<(usize, f
     })
 }
 
-/// Reads animation `key` of the bag as a [`Clip`] at `fps_hz` (`None`: [`stated_frame_rate`],
-/// else measured from the stamps), warning when its frames are not evenly spaced at that rate;
-/// with what of the bag could not be used.
+/// Reads animation `key` of the bag as [`Clip`]s at `fps_hz` (`None`: [`stated_frame_rate`],
+/// else measured from the stamps), warning when a clip's frames are not evenly spaced at that
+/// rate; with what of the bag could not be used. `scenes` are the scenes of a capture bag
+/// ([`crate::bags::capture::scene_starts`]): then there is one clip per scene that holds frames
+/// of the animation, each on the body that scene's `/tf_static` and `/tf` carry. Without scenes
+/// (a plain animation bag) there is one clip, on the bag's body.
 ///
 /// # Errors
 /// [`ExportError::BadAnimation`] for frames that do not fit the rig, [`ExportError::NoFrameRate`].
-pub fn read_clip(
+pub fn read_clips(
     rig: &Rig,
     path: &Path,
     readers: &[BagReader],
     key: AnimationKey,
     fps_hz: Option<f64>,
-) -> Result<(Clip, AnimationLosses), ExportError> {
-    let ((frames, character, _), losses) =
-        crate::bags::animation::read_animation_variant_with_losses(
-            rig,
-            readers,
-            Some(key.track_id),
-            key.variant,
-        )
-        .map_err(|source| ExportError::BadAnimation {
+    scenes: &[crate::bags::capture::SceneStart],
+) -> Result<(Vec<Clip>, AnimationLosses), ExportError> {
+    let starts: Vec<u64> = scenes.iter().map(|s| s.start_nanos).collect();
+    let (periods, losses) = crate::bags::animation::read_animation_periods_with_losses(
+        rig,
+        readers,
+        Some(key.track_id),
+        key.variant,
+        &starts,
+    )
+    .map_err(|source| ExportError::BadAnimation {
+        path: path.to_path_buf(),
+        key,
+        source: Box::new(source),
+    })?;
+    let all_stamps: Vec<u64> = periods
+        .iter()
+        .flat_map(|p| p.frames.iter().map(|f| f.stamp_nanos))
+        .collect();
+    let fps_hz = frame_rate(fps_hz.or_else(|| stated_frame_rate(readers)), &all_stamps)
+        .ok_or_else(|| ExportError::NoFrameRate {
             path: path.to_path_buf(),
             key,
-            source: Box::new(source),
         })?;
-    let stamps: Vec<u64> = frames.iter().map(|f| f.stamp_nanos).collect();
-    let fps_hz =
-        frame_rate(fps_hz.or_else(|| stated_frame_rate(readers)), &stamps).ok_or_else(|| {
-            ExportError::NoFrameRate {
-                path: path.to_path_buf(),
-                key,
-            }
-        })?;
-    if let Some((k, off)) = first_uneven_frame(&stamps, fps_hz) {
-        tracing::warn!(
-            "{}: {key}: frames are not evenly spaced at {fps_hz} fps (frame {k} is {off:+.3} s off); the export plays them back to back",
-            path.display()
-        );
+    let mut clips = Vec::with_capacity(periods.len());
+    for period in periods {
+        let stamps: Vec<u64> = period.frames.iter().map(|f| f.stamp_nanos).collect();
+        let scene = scenes.get(period.period).map(|s| ClipScene {
+            index: period.period,
+            scene_id: s.scene_id.clone(),
+            first_timeline_frame: timeline_frame(&starts, stamps[0], fps_hz),
+        });
+        if let Some((k, off)) = first_uneven_frame(&stamps, fps_hz) {
+            let within = scene
+                .as_ref()
+                .map_or_else(String::new, |s| format!(" in scene {}", s.scene_id));
+            tracing::warn!(
+                "{}: {key}{within}: frames are not evenly spaced at {fps_hz} fps (frame {k} is {off:+.3} s off); the export plays them back to back",
+                path.display()
+            );
+        }
+        clips.push(Clip {
+            key,
+            fps_hz,
+            character: period.character,
+            poses: period.frames.into_iter().map(|f| f.pose).collect(),
+            stamps_nanos: stamps,
+            scene,
+        });
     }
-    let clip = Clip {
-        key,
-        fps_hz,
-        character,
-        poses: frames.into_iter().map(|f| f.pose).collect(),
-        stamps_nanos: stamps,
-    };
-    Ok((clip, losses))
+    Ok((clips, losses))
+}
+
+/// The frame of the capture timeline stamped `stamp`: whole frames at `fps_hz` since the first
+/// scene's start (`starts[0]`).
+fn timeline_frame(starts: &[u64], stamp: u64, fps_hz: f64) -> u64 {
+    let since = nanos_to_secs(stamp.saturating_sub(starts.first().copied().unwrap_or(stamp)));
+    #[expect(
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        reason = "a non-negative frame count far below 2^52"
+    )]
+    let frame = (since * fps_hz).round() as u64;
+    frame
 }
 
 /// The file name of animation `key` of bag `bag` when several are exported into one folder:
-/// `<bag stem>_track<T>_v<V>.<ext>`, where the stem is the bag's file name without `.mcap` and
-/// `.anim` or `.capture`, with every character other than ASCII letters, digits, `-` and `_` replaced by `_`.
+/// `<bag stem>_track<T>_v<V>.<ext>`, and for the clip of one scene of a capture bag
+/// `<bag stem>_track<T>_v<V>_scene<I>.<ext>` (`I`: the scene's index on the capture's timeline,
+/// [`ClipScene::index`]; scene ids are long paths, the file's glTF extras and the export's report
+/// name them), where the stem is the bag's file name without `.mcap` and `.anim` or `.capture`,
+/// with every character other than ASCII letters, digits, `-` and `_` replaced by `_`.
 #[must_use]
-pub fn output_name(bag: &Path, key: AnimationKey, format: ExportFormat) -> String {
+pub fn output_name(
+    bag: &Path,
+    key: AnimationKey,
+    scene: Option<&ClipScene>,
+    format: ExportFormat,
+) -> String {
     let name = bag
         .file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
@@ -300,7 +358,7 @@ pub fn output_name(bag: &Path, key: AnimationKey, format: ExportFormat) -> Strin
         .strip_suffix(".anim")
         .or_else(|| stem.strip_suffix(".capture"))
         .unwrap_or(stem);
-    let mut safe: String = stem
+    let mut name: String = stem
         .chars()
         .map(|c| {
             if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
@@ -310,11 +368,12 @@ pub fn output_name(bag: &Path, key: AnimationKey, format: ExportFormat) -> Strin
             }
         })
         .collect();
-    if safe.is_empty() {
-        safe.push_str("animation");
+    if name.is_empty() {
+        name.push_str("animation");
     }
+    let scene = scene.map_or_else(String::new, |s| format!("_scene{}", s.index));
     format!(
-        "{safe}_track{}_v{}.{}",
+        "{name}_track{}_v{}{scene}.{}",
         key.track_id,
         key.variant,
         format.extension()

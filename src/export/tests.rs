@@ -37,6 +37,7 @@ pub(crate) fn moving_clip(rig: &Rig, frames: usize) -> Clip {
             .map(|k| 1_000 + k * 33_333_333)
             .collect(),
         poses,
+        scene: None,
     }
 }
 
@@ -81,7 +82,7 @@ fn output_names_are_safe_and_unique_per_animation() {
         track_id: 3,
         variant: 2,
     };
-    let name = |bag: &str, f| output_name(Path::new(bag), key, f);
+    let name = |bag: &str, f| output_name(Path::new(bag), key, None, f);
     assert_eq!(
         name("bags/bandai_wave.anim.mcap", ExportFormat::Bvh),
         "bandai_wave_track3_v2.bvh"
@@ -95,6 +96,21 @@ fn output_names_are_safe_and_unique_per_animation() {
         "run_anim_track3_v2.bvh"
     );
     assert_eq!(name("/", ExportFormat::Bvh), "animation_track3_v2.bvh");
+    // One file per scene of a capture bag, named by the scene's index on the timeline.
+    let scene = super::ClipScene {
+        index: 1,
+        scene_id: "gesture/wave/bandai_wave/v2/s1".into(),
+        first_timeline_frame: 651,
+    };
+    assert_eq!(
+        output_name(
+            Path::new("out/demo_gesture_wave_0000.capture.mcap"),
+            key,
+            Some(&scene),
+            ExportFormat::Glb
+        ),
+        "demo_gesture_wave_0000_track3_v2_scene1.glb"
+    );
 }
 
 #[test]

@@ -682,6 +682,7 @@ mod tests {
             character: Character::standard(&rig),
             stamps_nanos: vec![0, 1, 2],
             poses,
+            scene: None,
         };
         let bvh =
             super::super::bvh::parse(&crate::export::bvh::write(&rig, &clip), "own.bvh").unwrap();
