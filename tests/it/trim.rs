@@ -257,22 +257,30 @@ fn capture_bag(dir: &Path, wave_label: &str) -> PathBuf {
     capture_bag_of(dir, wave_label, "pose")
 }
 
-/// [`capture_bag`] with the sample bags of `kind` (`pose` or `anim`) as sources: the same
-/// classes, other clip ids.
-fn capture_bag_of(dir: &Path, wave_label: &str, kind: &str) -> PathBuf {
-    let spec = format!(
+/// A dataset spec of two classes, `wave_label` and `walk`, from the sample bags of `kind` (`pose`
+/// or `anim`): `name`, `seed`, `session` and `[variants, scenes, viewpoints]` as given.
+fn two_class_spec(
+    name: &str,
+    seed: u32,
+    session: &str,
+    counts: [u32; 3],
+    wave_label: &str,
+    kind: &str,
+) -> String {
+    let [variants, scenes, viewpoints] = counts;
+    format!(
         r#"[dataset]
-name = "t"
-seed = 5
+name = "{name}"
+seed = {seed}
 fps = 30.0
 resolution = [320, 240]
 lead_in_s = 0.1
 lead_out_s = 0.1
-session = "dataset"
+session = "{session}"
 [counts]
-variants = 3
-scenes = 1
-viewpoints = 2
+variants = {variants}
+scenes = {scenes}
+viewpoints = {viewpoints}
 [[class]]
 category = "gesture"
 action = {wave_label:?}
@@ -285,7 +293,13 @@ sources = ["{walk}"]
 "#,
         wave = common::repo(&format!("bags/bandai_wave.{kind}.mcap")),
         walk = common::repo(&format!("bags/bandai_walk.{kind}.mcap")),
-    );
+    )
+}
+
+/// [`capture_bag`] with the sample bags of `kind` (`pose` or `anim`) as sources: the same
+/// classes, other clip ids.
+fn capture_bag_of(dir: &Path, wave_label: &str, kind: &str) -> PathBuf {
+    let spec = two_class_spec("t", 5, "dataset", [3, 1, 2], wave_label, kind);
     common::capture_bag_from_spec(dir, &spec)
 }
 
@@ -936,32 +950,7 @@ fn two_trims_into_one_folder_take_turns_and_list_every_clip() {
 /// The demo's shape (`examples/dataset.toml`): two classes of one source animation each, 2
 /// variants × 2 scenes × 3 viewpoints, one session (capture bag) per animation.
 fn demo_like_bags(dir: &Path) -> Vec<PathBuf> {
-    let spec = format!(
-        r#"[dataset]
-name = "d"
-seed = 7
-fps = 30.0
-resolution = [320, 240]
-lead_in_s = 0.1
-lead_out_s = 0.1
-session = "animation"
-[counts]
-variants = 2
-scenes = 2
-viewpoints = 3
-[[class]]
-category = "gesture"
-action = "wave"
-sources = ["{wave}"]
-
-[[class]]
-category = "locomotion"
-action = "walk"
-sources = ["{walk}"]
-"#,
-        wave = common::repo("bags/bandai_wave.pose.mcap"),
-        walk = common::repo("bags/bandai_walk.pose.mcap"),
-    );
+    let spec = two_class_spec("d", 7, "animation", [2, 2, 3], "wave", "pose");
     common::capture_bags_from_spec(dir, &spec)
 }
 
