@@ -963,30 +963,44 @@ mod tests {
         assert_eq!(parse_frame_name("root"), (None, 0, "root"));
     }
 
-    #[test]
-    fn markers_in_the_bone_frames_draw_the_skeleton_where_forward_kinematics_puts_it() {
+    /// A bag of person `track`'s animation `variant` (tf frames prefixed as with several
+    /// people) on a body of `scale`: `frames` frames at `fps` in which every bone `layout` drives
+    /// turns and the root travels; with the rig, the body, the coverage and the poses written.
+    struct MovingTrack {
+        rig: Rig,
+        character: Character,
+        coverage: Coverage,
+        poses: Vec<BonePose>,
+        stamps: Vec<u64>,
+        path: std::path::PathBuf,
+        _dir: tempfile::TempDir,
+    }
+
+    fn moving_track(
+        layout: &str,
+        scale: f64,
+        (track_id, variant): (u64, u32),
+        fps: f64,
+        frames: usize,
+    ) -> MovingTrack {
         let rig = Rig::standard();
-        let coverage = crate::skeleton::layout::Layout::builtin("h36m-17")
+        let coverage = crate::skeleton::layout::Layout::builtin(layout)
             .unwrap()
             .bind(&rig)
             .unwrap()
             .coverage(&rig);
-        let character = Character::from_scales(&rig, vec![1.1; rig.bones.len()]);
-        let prefix = frame_prefix(3, 2, true);
-        let mut track = TrackWriter::new(&rig, &character, &coverage, 3, 2, &prefix);
+        let character = Character::from_scales(&rig, vec![scale; rig.bones.len()]);
+        let prefix = frame_prefix(track_id, variant, true);
+        let mut track = TrackWriter::new(&rig, &character, &coverage, track_id, variant, &prefix);
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("a.mcap");
         let mut w =
             crate::mcap_io::BagWriter::create(&path, crate::mcap_io::WriteConfig::default())
                 .unwrap();
-        w.write(
-            TF_STATIC_TOPIC,
-            0,
-            &TFMessage {
-                transforms: track.static_transforms(0),
-            },
-        )
-        .unwrap();
+        let statics = TFMessage {
+            transforms: track.static_transforms(0),
+        };
+        w.write(TF_STATIC_TOPIC, 0, &statics).unwrap();
         let pose_at = |k: usize| {
             let mut pose = BonePose::rest(&rig);
             #[expect(clippy::cast_precision_loss, reason = "small numbers")]
@@ -1009,15 +1023,37 @@ mod tests {
             pose.root_translation_m = nalgebra::Vector3::new(x, -0.5, 0.02);
             pose
         };
-        // 2.5 s at 30 fps.
-        let stamps: Vec<u64> = (0..75)
-            .map(|k| crate::skeleton::pose::stamp_nanos_at(k, 30.0))
+        let poses: Vec<BonePose> = (0..frames).map(pose_at).collect();
+        let stamps: Vec<u64> = (0..frames)
+            .map(|k| crate::skeleton::pose::stamp_nanos_at(k, fps))
             .collect();
-        for (k, &t) in stamps.iter().enumerate() {
-            track.write_frame(&mut w, t, &pose_at(k)).unwrap();
+        for (pose, &t) in poses.iter().zip(&stamps) {
+            track.write_frame(&mut w, t, pose).unwrap();
         }
         w.finish().unwrap();
+        MovingTrack {
+            rig,
+            character,
+            coverage,
+            poses,
+            stamps,
+            path,
+            _dir: dir,
+        }
+    }
 
+    #[test]
+    fn markers_in_the_bone_frames_draw_the_skeleton_where_forward_kinematics_puts_it() {
+        // 2.5 s at 30 fps.
+        let MovingTrack {
+            rig,
+            character,
+            coverage,
+            poses,
+            stamps,
+            path,
+            _dir,
+        } = moving_track("h36m-17", 1.1, (3, 2), 30.0, 75);
         // Replay the bag as a viewer does: tf as it arrives, the markers that were last sent.
         let mut tf_tree = TfTree::default();
         let mut markers: Option<MarkerArray> = None;
@@ -1039,7 +1075,7 @@ mod tests {
             if m.channel.topic != TF_TOPIC {
                 continue;
             }
-            let world = fk::forward(&rig, &character, &pose_at(frame), 1.0);
+            let world = fk::forward(&rig, &character, &poses[frame], 1.0);
             frame += 1;
             // The markers last sent (they never change); the first come after the first /tf.
             let Some(markers) = &markers else { continue };
@@ -1093,50 +1129,16 @@ mod tests {
     #[test]
     fn point_clouds_in_the_bone_frames_draw_the_segments_where_forward_kinematics_puts_them() {
         use crate::ros::RosMessage;
-        let rig = Rig::standard();
-        let coverage = crate::skeleton::layout::Layout::builtin("coco-17")
-            .unwrap()
-            .bind(&rig)
-            .unwrap()
-            .coverage(&rig);
-        let character = Character::from_scales(&rig, vec![0.9; rig.bones.len()]);
-        let prefix = frame_prefix(5, 0, true);
-        let mut track = TrackWriter::new(&rig, &character, &coverage, 5, 0, &prefix);
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("a.mcap");
-        let mut w =
-            crate::mcap_io::BagWriter::create(&path, crate::mcap_io::WriteConfig::default())
-                .unwrap();
-        let statics = TFMessage {
-            transforms: track.static_transforms(0),
-        };
-        w.write(TF_STATIC_TOPIC, 0, &statics).unwrap();
-        let pose_at = |k: usize| {
-            let mut pose = BonePose::rest(&rig);
-            #[expect(clippy::cast_precision_loss, reason = "small numbers")]
-            for (b, q) in pose.local_rotations.iter_mut().enumerate() {
-                if matches!(rig.bones[b].dof, Dof::Static)
-                    || coverage.at_rest.contains(&rig.bones[b].name)
-                {
-                    continue;
-                }
-                let angle = 0.03 * (k + 2 * b) as f64;
-                *q = nalgebra::UnitQuaternion::from_axis_angle(&nalgebra::Vector3::y_axis(), angle);
-            }
-            #[expect(clippy::cast_precision_loss, reason = "small numbers")]
-            let y = 0.02 * k as f64;
-            pose.root_translation_m = nalgebra::Vector3::new(0.3, y, 0.0);
-            pose
-        };
         // 1.5 s at 20 fps: the clouds go with the first frame and at 1 s.
-        let stamps: Vec<u64> = (0..30)
-            .map(|k| crate::skeleton::pose::stamp_nanos_at(k, 20.0))
-            .collect();
-        for (k, &t) in stamps.iter().enumerate() {
-            track.write_frame(&mut w, t, &pose_at(k)).unwrap();
-        }
-        w.finish().unwrap();
-
+        let MovingTrack {
+            rig,
+            character,
+            coverage: _,
+            poses,
+            stamps,
+            path,
+            _dir,
+        } = moving_track("coco-17", 0.9, (5, 0), 20.0, 30);
         // Replay as Rerun does: tf as it arrives, the latest cloud of each topic.
         let mut tf_tree = TfTree::default();
         let mut clouds = std::collections::BTreeMap::<String, PointCloud2>::new();
@@ -1165,7 +1167,7 @@ mod tests {
             if topic != TF_TOPIC {
                 continue;
             }
-            let world = fk::forward(&rig, &character, &pose_at(frame), 1.0);
+            let world = fk::forward(&rig, &character, &poses[frame], 1.0);
             frame += 1;
             // One cloud per marker, in the marker's frame; the first come after the first /tf.
             let Some(markers) = &markers else { continue };

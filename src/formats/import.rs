@@ -395,11 +395,12 @@ impl Imported {
             .collect();
         let layout = self.layout.clone();
         let mut written = 0;
+        // One frame reused for every message: `Vec::clone_from` keeps its allocations.
+        let mut stamped = PoseFrame::missing(0, 0);
         self.for_each_frame(|s, frame| {
-            let stamped = PoseFrame {
-                stamp_nanos: start_nanos.saturating_add(frame.stamp_nanos),
-                ..frame.clone()
-            };
+            stamped.positions_m.clone_from(&frame.positions_m);
+            stamped.confidence.clone_from(&frame.confidence);
+            stamped.stamp_nanos = start_nanos.saturating_add(frame.stamp_nanos);
             writer.write(
                 crate::bags::pose::SKELETON_TOPIC,
                 stamped.stamp_nanos,

@@ -155,11 +155,6 @@ const SCHEMAS: [(&str, &str); 30] = [
     ),
 ];
 
-const PRIMITIVES: [&str; 15] = [
-    "bool", "byte", "char", "float32", "float64", "int8", "uint8", "int16", "uint16", "int32",
-    "uint32", "int64", "uint64", "string", "wstring",
-];
-
 /// The `.msg` text of a type (`pkg/msg/Type` or `pkg/Type`), if autoact knows it.
 #[must_use]
 pub fn msg_text(type_name: &str) -> Option<&'static str> {
@@ -167,7 +162,8 @@ pub fn msg_text(type_name: &str) -> Option<&'static str> {
     SCHEMAS.iter().find(|(n, _)| *n == full).map(|(_, t)| *t)
 }
 
-/// `pkg/Type` or `pkg/msg/Type` → `pkg/msg/Type`; a bare `Type` is in `package`.
+/// `pkg/Type` or `pkg/msg/Type` → `pkg/msg/Type`; a bare `Type` is in `package`. The one place
+/// type names are made full, for schema texts and type hashes.
 fn full_name(name: &str, package: &str) -> String {
     let parts: Vec<&str> = name.split('/').collect();
     match parts.as_slice() {
@@ -175,38 +171,6 @@ fn full_name(name: &str, package: &str) -> String {
         [ty] => format!("{package}/msg/{ty}"),
         _ => name.to_string(),
     }
-}
-
-/// The non-primitive field types a `.msg` text uses, as full names, in order of first use.
-fn dependencies(text: &str, package: &str) -> Vec<String> {
-    let mut out: Vec<String> = Vec::new();
-    for line in text.lines() {
-        let line = line.split('#').next().unwrap_or("").trim();
-        let Some(ty) = line.split_whitespace().next() else {
-            continue;
-        };
-        if line
-            .split_whitespace()
-            .nth(1)
-            .is_some_and(|n| n.contains('='))
-            || line.contains(" = ")
-        {
-            // A constant (`int32 ARROW=0`): always primitive.
-            if PRIMITIVES.contains(&ty.split('<').next().unwrap_or(ty)) {
-                continue;
-            }
-        }
-        let base = ty.split('[').next().unwrap_or(ty);
-        let base = base.split("<=").next().unwrap_or(base);
-        if PRIMITIVES.contains(&base) {
-            continue;
-        }
-        let full = full_name(base, package);
-        if !out.contains(&full) {
-            out.push(full);
-        }
-    }
-    out
 }
 
 /// The full `ros2msg` definition of a type: its text, then every dependency (depth first, each
@@ -218,7 +182,7 @@ pub fn definition(type_name: &str) -> Option<String> {
     let mut out = msg_text(&root)?.to_string();
     let mut seen = vec![root.clone()];
     let mut stack: Vec<String> =
-        dependencies(msg_text(&root)?, root.split('/').next().unwrap_or(""));
+        type_hash::nested_types(msg_text(&root)?, root.split('/').next().unwrap_or(""))?;
     stack.reverse();
     while let Some(dep) = stack.pop() {
         if seen.contains(&dep) {
@@ -234,7 +198,7 @@ pub fn definition(type_name: &str) -> Option<String> {
         out.push('\n');
         out.push_str(text);
         let package = dep.split('/').next().unwrap_or("").to_string();
-        let mut inner = dependencies(text, &package);
+        let mut inner = type_hash::nested_types(text, &package)?;
         inner.reverse();
         stack.extend(inner);
         seen.push(dep);
@@ -557,10 +521,11 @@ mod tests {
 
     #[test]
     fn constants_are_not_dependencies() {
-        let deps = dependencies(
+        let deps = type_hash::nested_types(
             "int32 ARROW=0\nuint8 X = 3\nstring<=5 s\nfloat64[3] v\nfoo/Bar b\nBaz c\n",
             "p",
-        );
+        )
+        .unwrap();
         assert_eq!(deps, ["foo/msg/Bar", "p/msg/Baz"]);
     }
 }

@@ -32,9 +32,9 @@ struct FieldDef<'a> {
 /// schema records). `None` when the text does not parse or names a type it does not define.
 #[must_use]
 pub fn rihs01(type_name: &str, definition: &str) -> Option<String> {
-    let types = parse_definition(&normalize_type_name(type_name), definition)?;
+    let types = parse_definition(&super::full_name(type_name, ""), definition)?;
     let mut described: BTreeMap<String, String> = BTreeMap::new();
-    let root = normalize_type_name(type_name);
+    let root = super::full_name(type_name, "");
     describe(&root, &types, &mut described)?;
     let mut json = String::from("{\"type_description\": ");
     json.push_str(described.get(&root)?);
@@ -54,16 +54,6 @@ pub fn rihs01(type_name: &str, definition: &str) -> Option<String> {
     Some(out)
 }
 
-/// `pkg/Type` → `pkg/msg/Type` (a name with `msg` or `action` as its folder stays as it is).
-fn normalize_type_name(name: &str) -> String {
-    match name.rsplit_once('/') {
-        Some((parent, ty)) if !(parent.ends_with("/msg") || parent.ends_with("/action")) => {
-            format!("{parent}/msg/{ty}")
-        }
-        _ => name.to_string(),
-    }
-}
-
 /// The types of a full definition: root text, then `MSG: pkg/Type` blocks after separators.
 fn parse_definition<'a>(
     root: &str,
@@ -78,7 +68,7 @@ fn parse_definition<'a>(
         if line.trim_end() == separator {
             let name = lines.next()?.strip_prefix("MSG: ")?.trim();
             types.insert(
-                std::mem::replace(&mut current, normalize_type_name(name)),
+                std::mem::replace(&mut current, super::full_name(name, "")),
                 std::mem::take(&mut fields),
             );
             continue;
@@ -89,6 +79,21 @@ fn parse_definition<'a>(
     }
     types.insert(current, fields);
     Some(types)
+}
+
+/// The message types the fields of `.msg` text `text` (a type of `package`) use, as full names,
+/// in order of first use; `None` when a line does not parse.
+pub(super) fn nested_types(text: &str, package: &str) -> Option<Vec<String>> {
+    let mut out: Vec<String> = Vec::new();
+    for line in text.lines() {
+        if let Line::Field(field) = parse_line(line)?
+            && let Some(nested) = FieldType::parse(field.ty, package)?.nested
+            && !out.contains(&nested)
+        {
+            out.push(nested);
+        }
+    }
+    Some(out)
 }
 
 /// What a line of `.msg` text holds.
@@ -260,7 +265,7 @@ fn nested_name(base: &str, package: &str) -> Option<String> {
     }
     Some(match base {
         "Header" => "std_msgs/msg/Header".to_string(),
-        _ if base.contains('/') => normalize_type_name(base),
+        _ if base.contains('/') => super::full_name(base, ""),
         _ => format!("{package}/msg/{base}"),
     })
 }

@@ -138,8 +138,9 @@ impl Thresholds {
     }
 }
 
-/// Running measurements of one clip, frame by frame: nothing per frame is kept but the last
-/// frame's joints in the body frame.
+/// Running measurements of one clip, frame by frame: what is kept per frame is its box height
+/// (for the median); the joints of the last frame and of this one live in two buffers reused
+/// from frame to frame.
 #[derive(Debug, Clone, Default)]
 pub struct ClipMeter {
     frames: u64,
@@ -148,7 +149,10 @@ pub struct ClipMeter {
     box_heights: Vec<f64>,
     speed_sum_m: f64,
     speed_steps: u64,
-    last: Option<(u64, Vec<Vector3<f64>>)>,
+    /// Index of the last frame whose body frame was found, and its joints in it.
+    last_index: Option<u64>,
+    last: Vec<Vector3<f64>>,
+    now: Vec<Vector3<f64>>,
 }
 
 impl ClipMeter {
@@ -171,16 +175,21 @@ impl ClipMeter {
             self.box_heights
                 .push(f64::from(frame.bbox.height) / f64::from(image_height));
         }
-        let body = body_frame_joints(frame);
-        if let (Some((last_index, last)), Some(now)) = (&self.last, &body)
-            && frame.frame_index == last_index + 1
-            && last.len() == now.len()
+        if !body_frame_joints(frame, &mut self.now) {
+            self.last_index = None;
+            return;
+        }
+        if self.last_index == Some(frame.frame_index.wrapping_sub(1))
+            && self.last.len() == self.now.len()
         {
-            let moved: f64 = now.iter().zip(last).map(|(a, b)| (a - b).norm()).sum();
-            self.speed_sum_m += moved / now.len() as f64 * fps;
+            let moved: f64 = (self.now.iter().zip(&self.last))
+                .map(|(a, b)| (a - b).norm())
+                .sum();
+            self.speed_sum_m += moved / self.now.len() as f64 * fps;
             self.speed_steps += 1;
         }
-        self.last = body.map(|b| (frame.frame_index, b));
+        std::mem::swap(&mut self.last, &mut self.now);
+        self.last_index = Some(frame.frame_index);
     }
 
     /// The clip's measurements and flags.
@@ -213,9 +222,21 @@ impl ClipMeter {
 }
 
 /// The frame's 3D keypoints in the body's own frame (origin at the pelvis, x from the right hip
-/// to the left, z towards the neck), or `None` when the body frame's joints are missing or
-/// degenerate.
-fn body_frame_joints(frame: &FrameAnnotation) -> Option<Vec<Vector3<f64>>> {
+/// to the left, z towards the neck) into `out`; `false` when the body frame's joints are missing
+/// or degenerate.
+fn body_frame_joints(frame: &FrameAnnotation, out: &mut Vec<Vector3<f64>>) -> bool {
+    body_from_camera(frame).is_some_and(|(body_from_camera, pelvis)| {
+        out.clear();
+        out.extend(
+            (frame.keypoints_3d.iter())
+                .map(|p| body_from_camera * (Vector3::new(p.x, p.y, p.z) - pelvis)),
+        );
+        true
+    })
+}
+
+/// The rotation from the camera's frame into the body's, and the pelvis in the camera's frame.
+fn body_from_camera(frame: &FrameAnnotation) -> Option<(Matrix3<f64>, Vector3<f64>)> {
     let at = |name: &str| {
         let i = frame.keypoint_names.iter().position(|n| n == name)?;
         let p = frame.keypoints_3d.get(i)?;
@@ -229,13 +250,7 @@ fn body_frame_joints(frame: &FrameAnnotation) -> Option<Vec<Vector3<f64>>> {
     let z = (up - x * up.dot(&x)).try_normalize(1e-6)?;
     let body_from_camera =
         Matrix3::from_rows(&[x.transpose(), z.cross(&x).transpose(), z.transpose()]);
-    Some(
-        frame
-            .keypoints_3d
-            .iter()
-            .map(|p| body_from_camera * (Vector3::new(p.x, p.y, p.z) - pelvis))
-            .collect(),
-    )
+    Some((body_from_camera, pelvis))
 }
 
 /// Measures the clip of each of `ranges` (video frames) from the per-frame annotations of render
