@@ -15,14 +15,21 @@
 //! - `/skeleton/points/<frame>` — `sensor_msgs/msg/PointCloud2`: the same skeleton for Rerun, which
 //!   has no decoder for markers but applies `/tf` to a point cloud's `header.frame_id`: one cloud
 //!   per marker, in the same bone frame, of points along that bone's segments
-//!   ([`POINT_SPACING_M`] apart). One topic per bone frame (`<frame>` is its tf frame name), since
-//!   a viewer keeps only the latest message of a topic; sent with the markers, moved by `/tf`.
+//!   ([`POINT_SPACING_M`] apart). One topic per bone frame (`<frame>` is its tf frame name
+//!   without a scene prefix), since a viewer keeps only the latest message of a topic; sent with
+//!   the markers, moved by `/tf`.
 //!
 //! Bones that never move (static bones, and those the layout cannot drive) go once on
 //! `/tf_static`. With several people, frame names are prefixed `track<id>/`; with DSI variants,
 //! `v<k>/` (after the track's prefix). The markers' namespace is `skeleton` followed by that
 //! prefix (`skeleton/track3/v2`), their id the index of the bone whose frame they are in.
 //! Variant 0 of a single person, the animation as converted, has no prefix.
+//!
+//! A capture bag draws a new body at every scene, so its frames carry the scene's index first
+//! ([`scene_frame_prefix`], `scene2/pelvis`): every tf frame then has one rest offset for the
+//! whole bag, and no viewer that interpolates transforms over time (Foxglove's and Lichtblick's
+//! preloading, tf2's buffer) can blend one scene's body into the next. The markers' namespace and
+//! the point clouds' topics leave the scene out, so a new scene's skeleton replaces the last one.
 //!
 //! A [`TrackWriter`] keeps one message of each kind per person and updates it in place, so a
 //! frame costs no allocation however long the animation. [`TfTree`] composes the transforms
@@ -95,11 +102,33 @@ pub fn frame_prefix(track_id: u64, variant: u32, several_people: bool) -> String
     prefix
 }
 
-/// The inverse of [`frame_prefix`] + bone name: `(track, variant, bone name)` of a tf frame
-/// name written by a [`TrackWriter`] (`track` is `None` when the bag held one person).
+/// The tf frame prefix of the character of scene `scene_index` (its index on a capture bag's
+/// timeline, from 0): `scene<i>/`, before any [`frame_prefix`].
+#[must_use]
+pub fn scene_frame_prefix(scene_index: usize) -> String {
+    format!("scene{scene_index}/")
+}
+
+/// `prefix` without its leading [`scene_frame_prefix`], if any.
+fn without_scene(prefix: &str) -> &str {
+    match prefix.split_once('/') {
+        Some((head, tail))
+            if head
+                .strip_prefix("scene")
+                .is_some_and(|i| !i.is_empty() && i.bytes().all(|b| b.is_ascii_digit())) =>
+        {
+            tail
+        }
+        _ => prefix,
+    }
+}
+
+/// The inverse of [`scene_frame_prefix`] + [`frame_prefix`] + bone name: `(track, variant, bone
+/// name)` of a tf frame name written by a [`TrackWriter`] (`track` is `None` when the bag held
+/// one person); a scene prefix is skipped (the frame's stamps say which scene it belongs to).
 #[must_use]
 pub fn parse_frame_name(name: &str) -> (Option<u64>, u32, &str) {
-    let mut rest = name;
+    let mut rest = without_scene(name);
     let mut track = None;
     if let Some((head, tail)) = rest.split_once('/')
         && let Some(id) = head.strip_prefix("track").and_then(|t| t.parse().ok())
@@ -750,7 +779,7 @@ fn skeleton_markers(
                     stamp: Time::default(),
                     frame_id: frame_name(prefix, rig, p),
                 },
-                ns: marker_namespace(prefix),
+                ns: marker_namespace(without_scene(prefix)),
                 id: i32::try_from(p).expect("internal bug: a rig has fewer than 2^31 bones"),
                 type_: Marker::LINE_LIST,
                 action: Marker::ADD,
@@ -779,10 +808,14 @@ fn skeleton_markers(
 }
 
 /// The skeleton's point clouds, for viewers that draw no markers (Rerun): per marker of
-/// [`skeleton_markers`], a cloud in the same frame on `/skeleton/points/<frame>`, holding the
-/// frame's origin and points along each of its segments at most [`POINT_SPACING_M`] apart, each
-/// segment's far end included.
-fn skeleton_points(markers: &MarkerArray) -> Vec<(String, PointCloud2)> {
+/// [`skeleton_markers`], a cloud in the same frame on `/skeleton/points/<topic prefix><bone>`,
+/// holding the frame's origin and points along each of its segments at most [`POINT_SPACING_M`]
+/// apart, each segment's far end included.
+fn skeleton_points(
+    markers: &MarkerArray,
+    rig: &Rig,
+    topic_prefix: &str,
+) -> Vec<(String, PointCloud2)> {
     #[expect(
         clippy::cast_possible_truncation,
         reason = "metres on a body, well within f32"
@@ -806,8 +839,13 @@ fn skeleton_points(markers: &MarkerArray) -> Vec<(String, PointCloud2)> {
                     (1..=steps).map(|k| f32_point(a + (b - a) * (k as f64 / steps as f64))),
                 );
             }
+            let bone =
+                usize::try_from(marker.id).expect("internal bug: marker ids are bone indices");
             (
-                format!("{POINTS_TOPIC_PREFIX}{}", marker.header.frame_id),
+                format!(
+                    "{POINTS_TOPIC_PREFIX}{}",
+                    frame_name(topic_prefix, rig, bone)
+                ),
                 PointCloud2::xyz(marker.header.clone(), &points),
             )
         })
@@ -863,6 +901,7 @@ impl TrackWriter {
         let markers = skeleton_markers(rig, character, prefix, |p, c| {
             character.head_offset_m[c].norm() > 1e-6 && !at_rest(p)
         });
+        let points = skeleton_points(&markers, rig, without_scene(prefix));
         TrackWriter {
             bone_frame: BoneFrame {
                 header,
@@ -874,7 +913,7 @@ impl TrackWriter {
                 root_translation: Vector3::default(),
             },
             tf,
-            points: skeleton_points(&markers),
+            points,
             markers,
             markers_sent_nanos: None,
             moving,
@@ -961,6 +1000,16 @@ mod tests {
             );
         }
         assert_eq!(parse_frame_name("root"), (None, 0, "root"));
+        let scened = format!(
+            "{}{}l_hand",
+            scene_frame_prefix(12),
+            frame_prefix(4, 2, true)
+        );
+        assert_eq!(parse_frame_name(&scened), (Some(4), 2, "l_hand"));
+        assert_eq!(without_scene("scene3/v1/"), "v1/");
+        // Only `scene<digits>/` is a scene prefix.
+        assert_eq!(without_scene("scenery/"), "scenery/");
+        assert_eq!(without_scene("scene/"), "scene/");
     }
 
     /// A bag of person `track`'s animation `variant` (tf frames prefixed as with several

@@ -4,7 +4,8 @@
 //!
 //! - `/animation`, `/tf`, `/tf_static`, `/skeleton/markers`: the character, as
 //!   [`crate::bags::animation`] writes them; at each scene start `/tf_static` carries that scene's
-//!   character (its drawn body);
+//!   character (its drawn body), in tf frames of its own (`scene<i>/pelvis`, see
+//!   [`crate::bags::animation::scene_frame_prefix`]) so that no viewer blends two bodies;
 //! - `/camera/pose` (`geometry_msgs/PoseStamped`, the optical frame's pose in `world`), a
 //!   `world → camera` transform on `/tf` (`camera` is the ROS optical frame: z forward, x right,
 //!   y down) and `/camera/camera_info` (`sensor_msgs/CameraInfo`, frame `camera`), every frame;

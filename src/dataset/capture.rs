@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use super::plan::{Leaf, Plan, SceneNode, Session};
 use super::spec::Spec;
 use crate::bags;
-use crate::bags::animation::{TrackWriter, read_animation_variant_with_losses};
+use crate::bags::animation::{TrackWriter, read_animation_variant_with_losses, scene_frame_prefix};
 use crate::bags::capture::CaptureWriter;
 use crate::bags::pose::PoseBagError;
 use crate::camera::{CameraError, Intrinsics, Subject, Viewpoint, camera_at, framing_band};
@@ -289,13 +289,16 @@ struct Staged {
 }
 
 /// Retargets a scene's animation variant onto its drawn body (root translation scaled by the
-/// ratio of hip heights, starting at the location's origin) and measures it for the camera.
+/// ratio of hip heights, starting at the location's origin) and measures it for the camera. The
+/// body's tf frames carry `scene_index` (the scene's index on the session's timeline): each
+/// scene's body gets frames of its own.
 fn stage_scene(
     rig: &Rig,
     spec: &Spec,
     intrinsics: &Intrinsics,
     node: &SceneNode,
     conv: &Converted,
+    scene_index: usize,
 ) -> Result<Staged, CaptureError> {
     let character = node.drawn.look.character(rig);
     let scale = character.hip_height_m(rig) / conv.character.hip_height_m(rig);
@@ -325,7 +328,14 @@ fn stage_scene(
     )
     .map_err(framing)?;
     Ok(Staged {
-        writer: TrackWriter::new(rig, &character, &conv.coverage, 0, node.variant, ""),
+        writer: TrackWriter::new(
+            rig,
+            &character,
+            &conv.coverage,
+            0,
+            node.variant,
+            &scene_frame_prefix(scene_index),
+        ),
         content,
         subject,
         band,
@@ -399,6 +409,7 @@ impl Dataset<'_> {
         let mut w = CaptureWriter::create(&path, config, journal, meta, &self.intrinsics)?;
         // The scene staged last, by its index in the plan.
         let mut staged: Option<(usize, Staged)> = None;
+        let mut scenes_written = 0;
         let mut pushed_out = 0;
         for leaf in &self.plan.leaves[session.leaves.clone()] {
             let node = &self.plan.scenes[leaf.scene];
@@ -412,7 +423,9 @@ impl Dataset<'_> {
                         &self.intrinsics,
                         node,
                         &self.converted[node.animation],
+                        scenes_written,
                     )?;
+                    scenes_written += 1;
                     let state = scene_state(
                         self.spec,
                         self.plan,

@@ -4,7 +4,7 @@
 
 #![expect(clippy::unwrap_used, reason = "test helpers fail loudly")]
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use crate::common::{self, arg, autoact, stderr, stdout};
@@ -16,6 +16,7 @@ use autoact::ros::builtin_interfaces::Time;
 use autoact::ros::cdr;
 use autoact::ros::geometry_msgs::PoseStamped;
 use autoact::ros::sensor_msgs::CameraInfo;
+use autoact::ros::tf2_msgs::TFMessage;
 use autoact::ros::visualization_msgs::MarkerArray;
 use nalgebra::{Point3, UnitQuaternion};
 
@@ -188,6 +189,8 @@ fn capture_bags_are_deterministic_labelled_and_keep_the_character_in_frame() {
             frames += 1;
         };
         let mut instant = None;
+        // Every rest offset each tf frame of the body is given over the whole bag (bit patterns).
+        let mut offsets: BTreeMap<String, BTreeSet<[u64; 3]>> = BTreeMap::new();
         for m in BagReader::open(bag).unwrap().messages().map(Result::unwrap) {
             if instant.is_some_and(|t| t != m.log_time) && m.channel.topic != "/tf_static" {
                 check(&tf, &camera, &info, &markers, instant.unwrap());
@@ -197,16 +200,45 @@ fn capture_bags_are_deterministic_labelled_and_keep_the_character_in_frame() {
                 "/camera/pose" => camera = Some(cdr::decode(&m.data).unwrap()),
                 "/camera/camera_info" => info = Some(cdr::decode(&m.data).unwrap()),
                 "/skeleton/markers" => markers = Some(cdr::decode(&m.data).unwrap()),
-                "/tf_static" => tf.update(&cdr::decode(&m.data).unwrap()).unwrap(),
-                "/tf" => {
-                    tf.update(&cdr::decode(&m.data).unwrap()).unwrap();
-                    instant = Some(m.log_time);
+                topic @ ("/tf_static" | "/tf") => {
+                    let message: TFMessage = cdr::decode(&m.data).unwrap();
+                    for t in &message.transforms {
+                        let v = t.transform.translation;
+                        if !t.child_frame_id.ends_with("root") && t.child_frame_id != "camera" {
+                            offsets
+                                .entry(t.child_frame_id.clone())
+                                .or_default()
+                                .insert([v.x, v.y, v.z].map(f64::to_bits));
+                        }
+                    }
+                    tf.update(&message).unwrap();
+                    if topic == "/tf" {
+                        instant = Some(m.log_time);
+                    }
                 }
                 _ => {}
             }
         }
         check(&tf, &camera, &info, &markers, instant.unwrap());
         assert!(frames > 1000, "{frames} frames");
+        // Each scene draws a new body, in frames of its own (`scene<i>/`): no tf frame's offset
+        // ever changes, so a viewer interpolating over time cannot blend two scenes' bodies.
+        let changing: Vec<&String> = offsets
+            .iter()
+            .filter(|(_, o)| o.len() > 1)
+            .map(|(f, _)| f)
+            .collect();
+        assert!(
+            changing.is_empty(),
+            "{bag:?}: frames whose rest offset changes: {changing:?}"
+        );
+        for scene in 0..4 {
+            let prefix = format!("scene{scene}/");
+            assert!(
+                offsets.keys().any(|f| f.starts_with(&prefix)),
+                "{bag:?}: no frame of scene {scene}"
+            );
+        }
     }
 
     let info = autoact(&["info", arg(&bags[0])]);

@@ -1021,15 +1021,21 @@ fn bag_joint_positions(
             ("/tf" | "/tf_static", TFMessage::TYPE_NAME) => {
                 let tf: TFMessage = cdr::decode(&m.data).unwrap();
                 tree.update(&tf).unwrap();
-                // The character's /tf (not the camera's) is written after its /tf_static.
-                if m.channel.topic == "/tf"
-                    && tf.transforms.iter().any(|t| t.child_frame_id == "root")
-                {
+                // The character's /tf (not the camera's) is written after its /tf_static; its
+                // frames carry the scene's prefix (`scene1/root`).
+                let root = tf
+                    .transforms
+                    .iter()
+                    .find_map(|t| t.child_frame_id.strip_suffix("root"));
+                if let Some(prefix) = root.filter(|_| m.channel.topic == "/tf") {
                     let stamp = tf.transforms[0].header.stamp.to_nanos().unwrap();
                     let heads = rig
                         .bones
                         .iter()
-                        .map(|b| tree.world_from(&b.name).unwrap() * nalgebra::Point3::origin())
+                        .map(|b| {
+                            tree.world_from(&format!("{prefix}{}", b.name)).unwrap()
+                                * nalgebra::Point3::origin()
+                        })
                         .collect();
                     out.insert(stamp, heads);
                 }

@@ -4,7 +4,8 @@ every scene, with readers independent of autoact:
 
 - the bag: `/tf_static` and `/tf` read with the Python `mcap` reader and `mcap-ros2-support`,
   replayed in log-time order and composed as a tf viewer composes them; at every `/tf` message
-  of the character (the one with frame `root`) every bone frame's origin in `world` is the truth;
+  of the character (the one with frame `root`, in a capture bag `scene<i>/root`) every bone
+  frame's origin in `world` is the truth;
 - a BVH: parsed by PyPI `bvh`, joints placed by check_bvh.py's numpy forward kinematics, mapped
   back to autoact's axes and metres; its frames sit at the stamps its `X.expected.json` lists
   (`--write-expected-json`), which must be the bag's frames from `timeline_first_frame` on;
@@ -61,8 +62,12 @@ def bag_positions(path):
                     quat_matrix(r.x, r.y, r.z, r.w),
                     np.array([p.x, p.y, p.z]),
                 )
-            if channel.topic != "/tf" or not any(t.child_frame_id == "root" for t in msg.transforms):
+            # The character's /tf: its root frame is `root`, or in a capture bag `scene<i>/root`
+            # (each scene's body has frames of its own); joints are named without that prefix.
+            roots = [t.child_frame_id for t in msg.transforms if t.child_frame_id.split("/")[-1] == "root"]
+            if channel.topic != "/tf" or not roots:
                 continue
+            prefix = roots[0][: -len("root")]
             stamp = msg.transforms[0].header.stamp.sec * 1_000_000_000 + msg.transforms[0].header.stamp.nanosec
             world = {"world": (np.eye(3), np.zeros(3))}
 
@@ -73,7 +78,9 @@ def bag_positions(path):
                     world[frame] = (wr @ r, wp + wr @ p)
                 return world[frame]
 
-            out[stamp] = {name: place(name)[1] for name in parent if name != "camera"}
+            out[stamp] = {
+                name[len(prefix) :]: place(name)[1] for name in parent if name.startswith(prefix) and name != "camera"
+            }
     return sorted(out), out
 
 

@@ -5,7 +5,8 @@ produces are checked.
 
 - A bag with `/animation` (animation or capture bag): every skeleton marker has a point cloud
   entity `/skeleton/points/<frame>` holding `Points3D` positions and a `CoordinateFrame` naming
-  that frame (so the viewer places it by the transforms); every such frame reaches `world` through
+  that frame (so the viewer places it by the transforms; in a capture bag, each scene's
+  `scene<i>/<frame>` in turn); every such frame reaches `world` through
   the `Transform3D` parent/child frames Rerun decoded from `/tf` and `/tf_static`; and at least one
   of them turns over time (the figure moves).
 - A render bag (`/render/video`): `/render/camera/image/h264` is a `VideoStream` with one sample
@@ -46,6 +47,12 @@ def values(entity: dict[str, list], component: str) -> list:
     return [v for row in entity.get(component, []) if row for v in row]
 
 
+def without_scene(frame: str) -> str:
+    """A tf frame name without a capture bag's `scene<i>/` prefix."""
+    head, _, rest = frame.partition("/")
+    return rest if rest and head.startswith("scene") and head[5:].isdigit() else frame
+
+
 def check_skeleton(entities: dict[str, dict[str, list]]) -> str:
     marker_frames = {
         m["header"]["frame_id"]
@@ -55,7 +62,7 @@ def check_skeleton(entities: dict[str, dict[str, list]]) -> str:
     clouds = {e[len(POINTS_PREFIX) :]: c for e, c in entities.items() if e.startswith(POINTS_PREFIX)}
     if not marker_frames:
         raise AssertionError("no skeleton markers")
-    if set(clouds) != marker_frames:
+    if set(clouds) != {without_scene(f) for f in marker_frames}:
         raise AssertionError(
             f"point clouds {sorted(clouds)} are not the markers' frames {sorted(marker_frames)}"
         )
@@ -77,18 +84,20 @@ def check_skeleton(entities: dict[str, dict[str, list]]) -> str:
         if not positions:
             raise AssertionError(f"{POINTS_PREFIX}{frame}: no Points3D positions")
         points = max(points, len(positions))
+        # A capture bag's cloud moves to each new scene's body (`scene<i>/<frame>`).
         named = set(values(cloud, "CoordinateFrame:frame"))
-        if named != {frame}:
-            raise AssertionError(f"{POINTS_PREFIX}{frame}: coordinate frame {sorted(named)}")
-        at, hops = frame, 0
-        while at != "world":
-            if at not in parent or hops > len(parent):
-                raise AssertionError(f"frame {frame}: its chain stops at {at}, not world")
-            at, hops = parent[at], hops + 1
-    moving = [f for f in clouds if len(turns.get(f, ())) > 1]
+        if not named or any(without_scene(n) != frame or n not in marker_frames for n in named):
+            raise AssertionError(f"{POINTS_PREFIX}{frame}: coordinate frames {sorted(named)}")
+        for at in named:
+            start, hops = at, 0
+            while at != "world":
+                if at not in parent or hops > len(parent):
+                    raise AssertionError(f"frame {start}: its chain stops at {at}, not world")
+                at, hops = parent[at], hops + 1
+    moving = [f for f in marker_frames if len(turns.get(f, ())) > 1]
     if not moving:
         raise AssertionError("no point cloud frame turns over time")
-    return f"{len(clouds)} point clouds in tf frames that reach world, {len(moving)} turning"
+    return f"{len(clouds)} point clouds in {len(marker_frames)} tf frames that reach world, {len(moving)} turning"
 
 
 def check_render(entities: dict[str, dict[str, list]]) -> str:
