@@ -9,6 +9,8 @@ produces are checked.
   `scene<i>/<frame>` in turn); every such frame reaches `world` through
   the `Transform3D` parent/child frames Rerun decoded from `/tf` and `/tf_static`; and at least one
   of them turns over time (the figure moves).
+- A capture bag (`/camera/camera_info`): a `Pinhole` whose parent frame is `camera`, so the
+  camera's frustum follows `/tf`.
 - A render bag (`/render/video`): `/render/camera/image/h264` is a `VideoStream` with one sample
   per annotated frame, codec H.264 (render with `--embed-video=rerun` or `=both`).
 
@@ -100,6 +102,15 @@ def check_skeleton(entities: dict[str, dict[str, list]]) -> str:
     return f"{len(clouds)} point clouds in {len(marker_frames)} tf frames that reach world, {len(moving)} turning"
 
 
+def check_pinhole(entities: dict[str, dict[str, list]]) -> str:
+    info = entities["/camera/camera_info"]
+    k = values(info, "Pinhole:image_from_camera")
+    parents = set(values(info, "Pinhole:parent_frame"))
+    if not k or parents != {"camera"}:
+        raise AssertionError(f"/camera/camera_info: no Pinhole in frame camera (parents {sorted(parents)})")
+    return f"camera pinhole in frame camera ({len(k)} rows)"
+
+
 def check_render(entities: dict[str, dict[str, list]]) -> str:
     video = entities.get(VIDEO_ENTITY)
     if video is None:
@@ -126,6 +137,8 @@ def main(paths: list[str]) -> int:
             checks = []
             if "/animation" in entities:
                 checks.append(check_skeleton(entities))
+            if "/camera/camera_info" in entities:
+                checks.append(check_pinhole(entities))
             if "/render/video" in entities:
                 checks.append(check_render(entities))
             if not checks:
