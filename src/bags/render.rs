@@ -71,6 +71,20 @@ pub fn render_bag_beside(video: &Path) -> PathBuf {
     video.with_extension("render.mcap")
 }
 
+/// Where `autoact render --depth` puts the depth pass of `video` (one 16-bit PNG per frame,
+/// millimetres): the folder `<video stem>.depth` beside it. `autoact trim` looks there.
+#[must_use]
+pub fn depth_dir_beside(video: &Path) -> PathBuf {
+    video.with_extension("depth")
+}
+
+/// Where `autoact render --masks` puts the instance mask pass of `video` (one 8-bit PNG per
+/// frame): the folder `<video stem>.mask` beside it. `autoact trim` looks there.
+#[must_use]
+pub fn mask_dir_beside(video: &Path) -> PathBuf {
+    video.with_extension("mask")
+}
+
 /// Why a render bag could not be written or read.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]

@@ -54,6 +54,8 @@ pub struct Args {
     /// `-o` and `--frames-out`, only those frames are rendered.
     #[arg(long, value_name = "PNG")]
     pub preview: Option<PathBuf>,
+    #[command(flatten)]
+    pub passes: PassArgs,
     /// Render bag path (default: beside the video, `<video stem>.render.mcap`).
     #[arg(long, value_name = "MCAP")]
     pub render_bag: Option<PathBuf>,
@@ -84,6 +86,20 @@ pub struct Args {
     pub download_ffmpeg: bool,
 }
 
+/// The per-pixel label passes written beside the video (`autoact trim` gives every clip its
+/// frames of them).
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct PassArgs {
+    /// Also write the depth pass beside the video: `<video stem>.depth/frame_000000.png`, …,
+    /// 16-bit grey, millimetres along the optical axis, 0 for the sky. Needs `-o`.
+    #[arg(long, requires = "output")]
+    pub depth: bool,
+    /// Also write the instance mask pass beside the video: `<video stem>.mask/frame_000000.png`,
+    /// …, 8-bit grey, 0 background, 1 the person. Needs `-o`.
+    #[arg(long, requires = "output")]
+    pub masks: bool,
+}
+
 /// Runs `autoact render`.
 ///
 /// # Errors
@@ -95,6 +111,13 @@ pub fn run(args: Args) -> Result<Outcome> {
             .build_global()
             .context("cannot set the number of threads")?;
     }
+    let video = args.output.as_deref();
+    let depth_dir = video
+        .filter(|_| args.passes.depth)
+        .map(crate::bags::render::depth_dir_beside);
+    let mask_dir = video
+        .filter(|_| args.passes.masks)
+        .map(crate::bags::render::mask_dir_beside);
     let job = RenderJob {
         capture: args.capture,
         outputs: Outputs {
@@ -102,6 +125,8 @@ pub fn run(args: Args) -> Result<Outcome> {
             render_bag: args.render_bag,
             frames_dir: args.frames_out,
             preview: args.preview,
+            depth_dir,
+            mask_dir,
         },
         resolution: args.resolution,
         fps: args.fps,

@@ -25,6 +25,8 @@ Examples:
 Layout of DATASET_DIR (MMAction2's data_prefix; every path in the lists is relative to it):
   videos/<label>/<clip_id>.mp4            clips (label and id sanitised: letters, digits, - _ .)
   rawframes/<label>/<clip_id>/img_00001.jpg  with --rawframes
+  depth/<label>/<clip_id>/img_00001.png      when rendered with --depth (16-bit, mm)
+  masks/<label>/<clip_id>/img_00001.png      when rendered with --masks (0 background, 1 person)
   annotations/classes.txt, label_map.json  one sorted class list, ids 0-based, for every split
   annotations/kinetics_<split>.csv         label,youtube_id,time_start,time_end,split
   annotations/<split>_list_videos.txt      <path> <label_id>          (VideoDataset)

@@ -53,6 +53,10 @@ pub struct RenderReport {
     pub seconds: f64,
     /// The PNG frame folder, if asked for.
     pub frames_dir: Option<PathBuf>,
+    /// The depth pass's folder, if asked for.
+    pub depth_dir: Option<PathBuf>,
+    /// The mask pass's folder, if asked for.
+    pub mask_dir: Option<PathBuf>,
 }
 
 /// Why a render job failed.
@@ -68,6 +72,15 @@ pub enum RenderJobError {
     /// An output's folder could not be made.
     #[error("cannot create the folder `{}`", path.display())]
     CreateDir {
+        /// The folder.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A depth or mask folder of the video replaced could not be removed.
+    #[error("cannot remove `{}`, the passes of the video replaced", path.display())]
+    RemoveStale {
         /// The folder.
         path: PathBuf,
         /// The cause.
@@ -150,6 +163,7 @@ pub fn render_job(job: &RenderJob, stop: &AtomicBool) -> Result<RenderReport, Re
         path: job.capture.clone(),
         source: Box::new(source),
     })?;
+    remove_stale_passes(outputs)?;
     if !summary.unknown_prop_kinds.is_empty() {
         tracing::warn!(
             "prop kinds without a shape were drawn as boxes: {}",
@@ -163,7 +177,40 @@ pub fn render_job(job: &RenderJob, stop: &AtomicBool) -> Result<RenderReport, Re
         fps: settings.fps.unwrap_or(capture.fps),
         seconds: started.elapsed().as_secs_f64(),
         frames_dir: outputs.frames_dir.clone(),
+        depth_dir: outputs.depth_dir.clone(),
+        mask_dir: outputs.mask_dir.clone(),
     })
+}
+
+/// Removes the depth or mask folder beside a video just replaced when this render did not write
+/// it: it showed the old video's frames.
+fn remove_stale_passes(outputs: &Outputs) -> Result<(), RenderJobError> {
+    let Some(video) = &outputs.video else {
+        return Ok(());
+    };
+    let beside = [
+        (
+            crate::bags::render::depth_dir_beside(video),
+            &outputs.depth_dir,
+        ),
+        (
+            crate::bags::render::mask_dir_beside(video),
+            &outputs.mask_dir,
+        ),
+    ];
+    for (dir, written) in beside {
+        if written.is_none() && dir.is_dir() {
+            std::fs::remove_dir_all(&dir).map_err(|source| RenderJobError::RemoveStale {
+                path: dir.clone(),
+                source,
+            })?;
+            tracing::info!(
+                "removed {}: it belonged to the video replaced",
+                dir.display()
+            );
+        }
+    }
+    Ok(())
 }
 
 /// Refuses outputs that exist (unless `force`) and makes the folders outputs go in.
@@ -172,6 +219,8 @@ fn prepare_outputs(outputs: &Outputs, force: bool) -> Result<(), RenderJobError>
         outputs.video.clone(),
         outputs.render_bag_path(),
         outputs.preview.clone(),
+        outputs.depth_dir.clone(),
+        outputs.mask_dir.clone(),
     ]
     .into_iter()
     .flatten()
@@ -226,6 +275,11 @@ impl RenderReport {
         }
         if let Some(dir) = &self.frames_dir {
             text.push_str(&format!("  frames: {}\n", dir.display()));
+        }
+        for (what, dir) in [("depth", &self.depth_dir), ("masks", &self.mask_dir)] {
+            if let Some(dir) = dir {
+                text.push_str(&format!("  {what}: {}\n", dir.display()));
+            }
         }
         if let Some(p) = &summary.preview {
             text.push_str(&format!("  preview: {}\n", p.display()));

@@ -13,6 +13,7 @@
 pub mod annotate;
 pub mod cpu;
 pub mod job;
+pub mod passes;
 pub(crate) mod raster;
 pub mod session;
 pub mod world;

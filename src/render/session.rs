@@ -13,6 +13,7 @@ use rayon::prelude::*;
 
 use super::annotate::{Annotation, annotate};
 use super::cpu::CpuRenderer;
+use super::passes::{FramePasses, PassDirs};
 use super::{Camera, FrameInput, Image, Renderer, Stage};
 use crate::bags::capture::Capture;
 use crate::bags::{
@@ -129,6 +130,10 @@ pub struct Outputs {
     pub frames_dir: Option<PathBuf>,
     /// A contact sheet of sampled frames.
     pub preview: Option<PathBuf>,
+    /// A folder for the depth pass, one 16-bit PNG per frame ([`super::passes`]).
+    pub depth_dir: Option<PathBuf>,
+    /// A folder for the instance mask pass, one 8-bit PNG per frame ([`super::passes`]).
+    pub mask_dir: Option<PathBuf>,
 }
 
 impl Outputs {
@@ -309,7 +314,11 @@ pub fn render_capture(
         forced_keyframes: plan.keyframes.clone(),
         unknown_prop_kinds: scenes.unknown_prop_kinds(),
     };
-    if outputs.video.is_none() && outputs.frames_dir.is_none() {
+    if outputs.video.is_none()
+        && outputs.frames_dir.is_none()
+        && outputs.depth_dir.is_none()
+        && outputs.mask_dir.is_none()
+    {
         // A preview alone renders only the sampled frames.
         if let Some(path) = &outputs.preview {
             summary.frames = render_preview_only(&scenes, &plan, path, settings)?;
@@ -320,12 +329,14 @@ pub fn render_capture(
     let mut sinks = FrameSinks::open(&plan, outputs, settings, ffmpeg)?;
     let outcome = render_in_order(&scenes, &plan, &mut sinks, progress, stop);
     let encoder = sinks.encoder.take();
+    let passes = std::mem::take(&mut sinks.passes);
     if let Err(e) = outcome {
         if let Some(enc) = encoder {
             enc.abort();
         }
         return Err(e);
     }
+    passes.commit()?;
     summary.frames = sinks.annotations.len() as u64;
     let video = match encoder {
         Some(enc) => Some(enc.finish()?),
@@ -454,12 +465,12 @@ impl<'a> Scenes<'a> {
         annotate(&posed, &camera, image)
     }
 
-    /// Renders samples `picks` in parallel; each frame's `rgb24` and the value `keep` makes of it
-    /// and its labels, in order.
+    /// Renders samples `picks` in parallel; the value `keep` makes of each frame (its colour,
+    /// depth and surfaces) and its labels, in order.
     fn render_each<T: Send>(
         &self,
         picks: &[&Sample],
-        keep: impl Fn(&[u8], Annotation, &Sample) -> T + Sync,
+        keep: impl Fn(&Image, Annotation, &Sample) -> T + Sync,
     ) -> Vec<T> {
         picks
             .par_iter()
@@ -467,7 +478,7 @@ impl<'a> Scenes<'a> {
                 || (CpuRenderer::new(), Image::default()),
                 |(r, image), s| {
                     let a = self.render(r, image, s);
-                    keep(&image.rgb, a, s)
+                    keep(image, a, s)
                 },
             )
             .collect()
@@ -487,18 +498,19 @@ fn render_preview_only(
         .iter()
         .map(|&k| &plan.samples[k])
         .collect();
-    let tiles = scenes.render_each(&picks, |rgb, _, s| {
-        (rgb.to_vec(), preview_label(scenes.capture, s))
+    let tiles = scenes.render_each(&picks, |image, _, s| {
+        (image.rgb.clone(), preview_label(scenes.capture, s))
     });
     write_preview(path, &tiles, settings)?;
     Ok(tiles.len() as u64)
 }
 
-/// Where each rendered frame goes, in order: the encoder, the PNG frames folder, the preview's
-/// tiles and the annotations for the render bag.
+/// Where each rendered frame goes, in order: the encoder, the PNG frames folder, the depth and
+/// mask passes, the preview's tiles and the annotations for the render bag.
 struct FrameSinks<'a> {
     encoder: Option<VideoEncoder>,
     frames_dir: Option<&'a Path>,
+    passes: PassDirs,
     width: u32,
     height: u32,
     preview_tiles: Vec<(Vec<u8>, String)>,
@@ -529,9 +541,11 @@ impl<'a> FrameSinks<'a> {
             }
             _ => None,
         };
+        let passes = PassDirs::open(outputs.depth_dir.as_deref(), outputs.mask_dir.as_deref())?;
         Ok(FrameSinks {
             encoder,
             frames_dir: outputs.frames_dir.as_deref(),
+            passes,
             width: settings.width,
             height: settings.height,
             preview_tiles: Vec::new(),
@@ -543,14 +557,19 @@ impl<'a> FrameSinks<'a> {
     fn take(
         &mut self,
         k: usize,
-        rgb: Vec<u8>,
-        annotation: Annotation,
+        frame: RenderedImage,
         plan: &Plan,
         capture: &Capture,
     ) -> Result<(), RenderError> {
+        let RenderedImage {
+            rgb,
+            passes,
+            annotation,
+        } = frame;
         if let Some(enc) = self.encoder.as_mut() {
             enc.write_frame(&rgb)?;
         }
+        self.passes.write(k, self.width, self.height, &passes)?;
         if let Some(dir) = self.frames_dir {
             let path = dir.join(format!("frame_{k:06}.png"));
             crate::video::write_png(&path, self.width, self.height, &rgb)?;
@@ -581,6 +600,13 @@ fn start_encoder(
     Ok(VideoEncoder::start(ffmpeg, path, &enc)?)
 }
 
+/// One rendered frame on its way from the renderers to the sinks.
+struct RenderedImage {
+    rgb: Vec<u8>,
+    passes: FramePasses,
+    annotation: Annotation,
+}
+
 /// Renders every sample in parallel batches on a producer thread and hands the frames to
 /// `sinks` in order. Stops with [`RenderError::Interrupted`] when `stop` is set or fewer frames
 /// than planned came through.
@@ -592,7 +618,8 @@ fn render_in_order(
     stop: &AtomicBool,
 ) -> Result<(), RenderError> {
     let batch = 4 * rayon::current_num_threads().max(1);
-    let (sender, receiver) = std::sync::mpsc::sync_channel::<Vec<(Vec<u8>, Annotation)>>(2);
+    let wanted = sinks.passes.wanted();
+    let (sender, receiver) = std::sync::mpsc::sync_channel::<Vec<RenderedImage>>(2);
     std::thread::scope(|scope| {
         let producer = scope.spawn(|| {
             // Owned here, so the channel closes when rendering ends.
@@ -602,7 +629,11 @@ fn render_in_order(
                     break;
                 }
                 let chunk: Vec<&Sample> = chunk.iter().collect();
-                let frames = scenes.render_each(&chunk, |rgb, a, _| (rgb.to_vec(), a));
+                let frames = scenes.render_each(&chunk, |image, annotation, _| RenderedImage {
+                    rgb: image.rgb.clone(),
+                    passes: FramePasses::of(image, wanted),
+                    annotation,
+                });
                 if sender.send(frames).is_err() {
                     break;
                 }
@@ -611,11 +642,11 @@ fn render_in_order(
         let mut consume = || -> Result<(), RenderError> {
             let mut k = 0usize;
             for frames in &receiver {
-                for (rgb, annotation) in frames {
+                for frame in frames {
                     if stop.load(Ordering::Relaxed) {
                         return Err(RenderError::Interrupted);
                     }
-                    sinks.take(k, rgb, annotation, plan, scenes.capture)?;
+                    sinks.take(k, frame, plan, scenes.capture)?;
                     k += 1;
                     progress(k as u64);
                 }

@@ -8,6 +8,7 @@
 //!   decided over every clip of the dataset's plan ([`planned`]) when there is one.
 //! - [`manifest`]: the journal of complete clips (`manifest.jsonl`); re-runs skip what it
 //!   lists, and every list is written from it, so no list names a clip that is not on disk.
+//! - [`passes`]: the render's depth and mask frames, linked per clip.
 //! - [`qa`]: per-clip quality measurements from the render bag's annotations, and the report.
 //! - [`lists`]: `classes.txt`, `label_map.json`, Kinetics CSV, MMAction2 `VideoDataset` and
 //!   `RawframeDataset` lists, ActivityNet JSON and the per-clip metadata JSONL.
@@ -20,6 +21,8 @@
 //!   manifest.jsonl                      journal: one line per complete clip
 //!   videos/<label>/<clip_id>.mp4        every clip, whatever its split
 //!   rawframes/<label>/<clip_id>/img_00001.jpg …   with --rawframes
+//!   depth/<label>/<clip_id>/img_00001.png …       when the capture was rendered with --depth
+//!   masks/<label>/<clip_id>/img_00001.png …       when the capture was rendered with --masks
 //!   annotations/
 //!     classes.txt  label_map.json       one class list, 0-based, shared by all splits
 //!     kinetics_{train,val,test}.csv     label,youtube_id,time_start,time_end,split
@@ -36,6 +39,7 @@
 pub mod job;
 pub mod lists;
 pub mod manifest;
+pub mod passes;
 pub mod plan;
 pub mod planned;
 pub mod qa;
@@ -178,6 +182,19 @@ pub enum TrimError {
         /// What differs.
         why: String,
     },
+    /// A depth or mask folder beside the capture video does not hold one frame per video frame.
+    #[error(
+        "`{}` holds {frames} frames, the video {video_frames}: it is not this video's pass (render again with --force)",
+        dir.display()
+    )]
+    PassFrames {
+        /// The pass folder.
+        dir: PathBuf,
+        /// Frames in it.
+        frames: u64,
+        /// Frames of the video.
+        video_frames: u64,
+    },
     /// A record could not be encoded as JSON for a file.
     #[error("cannot encode JSON for `{path}`")]
     Json {
@@ -221,6 +238,14 @@ pub struct ClipRecord {
     /// Its frames, relative to the dataset folder, with `--rawframes`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rawframes: Option<String>,
+    /// Its depth frames (16-bit PNG, millimetres), relative to the dataset folder, when the
+    /// capture was rendered with `--depth` ([`passes`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub depth: Option<String>,
+    /// Its instance mask frames (8-bit PNG, 0 background, 1 the person), relative to the dataset
+    /// folder, when the capture was rendered with `--masks` ([`passes`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub masks: Option<String>,
     /// The class label as in the dataset spec (unsanitised).
     pub label: String,
     /// The class id: line index in `classes.txt`.

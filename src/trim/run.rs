@@ -7,6 +7,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::lists::{ListSummary, ensure_classes, write_lists};
 use super::manifest::Manifest;
+use super::passes::{ClipPasses, PassSources};
 use super::plan::{FrameRange, Truncated, VideoTiming, frame_ranges};
 use super::planned::scene_values;
 use super::qa::{ClipQa, QaSummary, Thresholds, measure_clips, write_qa_report};
@@ -114,9 +115,11 @@ pub fn trim_capture(
         truncated,
         ..TrimSummary::default()
     };
+    let passes = PassSources::beside(source.path, frame_count)?;
     let run = Run {
         ffmpeg,
         capture,
+        passes,
         video: source.path,
         fps: source.fps,
         keyframes,
@@ -260,6 +263,8 @@ fn rewrite_lists(
 struct Run<'a> {
     ffmpeg: &'a Ffmpeg,
     capture: &'a Capture,
+    /// The render's depth and mask frames beside the video.
+    passes: PassSources,
     video: &'a Path,
     fps: Rational,
     /// The video's keyframes (frame indices, sorted): where a stream copy can start.
@@ -314,12 +319,21 @@ impl Run<'_> {
                 continue;
             }
             let (method, rawframes) = self.cut_clip(&target, range)?;
+            let passes = self.passes.link_clip(
+                self.dir,
+                target.label_dir,
+                &target.clip_id,
+                range.start_frame,
+                range.frame_count,
+            )?;
             match method {
                 CutMethod::StreamCopy => summary.copied += 1,
                 CutMethod::Reencode => summary.reencoded += 1,
             }
             summary.frames_cut += range.frame_count;
             let mut record = self.record(target, range, method, rawframes);
+            record.depth = passes.depth;
+            record.masks = passes.masks;
             record.qa = qa.get(done).cloned().flatten();
             manifest.append(record)?;
         }
@@ -398,7 +412,11 @@ impl Run<'_> {
             && r.start_frame == range.start_frame
             && r.capture_video == self.capture_video
             && target.out.is_file()
-            && (!self.options.rawframes || r.rawframes.is_some()))
+            && (!self.options.rawframes || r.rawframes.is_some())
+            && self.passes.covered_by(&ClipPasses {
+                depth: r.depth.clone(),
+                masks: r.masks.clone(),
+            }))
     }
 
     /// One segment → one clip: by stream copy where its first frame is a keyframe (and
@@ -473,6 +491,8 @@ impl Run<'_> {
             clip_id: target.clip_id,
             video: target.video,
             rawframes,
+            depth: None,
+            masks: None,
             label: target.label.clone(),
             label_id: seg.label_id,
             label_dir: target.label_dir.clone(),

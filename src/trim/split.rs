@@ -483,6 +483,8 @@ pub(crate) mod tests {
             clip_id: clip_id.to_owned(),
             video: format!("videos/{label}/{clip_id}.mp4"),
             rawframes: None,
+            depth: None,
+            masks: None,
             label: label.to_owned(),
             label_id: 0,
             label_dir: label.to_owned(),

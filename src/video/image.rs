@@ -34,21 +34,56 @@ pub struct Tile<'a> {
     pub label: &'a str,
 }
 
+/// What one pixel of a PNG [`write_png_as`] writes is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PngPixels {
+    /// `rgb24`: 3 bytes per pixel.
+    Rgb8,
+    /// One grey byte per pixel (labels: instance masks).
+    Grey8,
+    /// One grey 16-bit value per pixel, 2 bytes big-endian as PNG stores them (depth).
+    Grey16,
+}
+
+impl PngPixels {
+    fn bytes_per_pixel(self) -> usize {
+        match self {
+            PngPixels::Rgb8 => 3,
+            PngPixels::Grey8 => 1,
+            PngPixels::Grey16 => 2,
+        }
+    }
+}
+
 /// Writes an `rgb24` image as an 8-bit RGB PNG.
 ///
 /// # Errors
-/// [`VideoError::FrameSize`] if `rgb24` is not `width × height × 3` bytes (or a side is 0),
-/// [`VideoError::Io`] / [`VideoError::Png`] if writing fails (nothing is left at `path` then).
+/// As [`write_png_as`].
 pub fn write_png(path: &Path, width: u32, height: u32, rgb24: &[u8]) -> Result<(), VideoError> {
-    let expected = width as usize * height as usize * 3;
-    if rgb24.len() != expected || expected == 0 {
+    write_png_as(path, width, height, PngPixels::Rgb8, rgb24)
+}
+
+/// Writes `bytes` (row-major from the top-left, `pixels` per pixel) as a PNG, atomically.
+///
+/// # Errors
+/// [`VideoError::FrameSize`] if `bytes` is not `width × height` pixels (or a side is 0),
+/// [`VideoError::Io`] / [`VideoError::Png`] if writing fails (nothing is left at `path` then).
+pub fn write_png_as(
+    path: &Path,
+    width: u32,
+    height: u32,
+    pixels: PngPixels,
+    bytes: &[u8],
+) -> Result<(), VideoError> {
+    let expected = width as usize * height as usize * pixels.bytes_per_pixel();
+    if bytes.len() != expected || expected == 0 {
         return Err(VideoError::FrameSize {
             path: path.to_path_buf(),
             frame: 0,
             width,
             height,
             expected,
-            got: rgb24.len(),
+            got: bytes.len(),
         });
     }
     let part =
@@ -56,7 +91,7 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgb24: &[u8]) -> Result<(
             path: path.to_path_buf(),
             reason: InvalidSetting::NotAFileName,
         })?;
-    let result = encode_png(&part, width, height, rgb24).and_then(|()| {
+    let result = encode_png(&part, width, height, pixels, bytes).and_then(|()| {
         crate::atomic_file::commit(&part, path)
             .map_err(VideoError::io("sync and rename into place", path))
     });
@@ -66,7 +101,13 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgb24: &[u8]) -> Result<(
     result
 }
 
-fn encode_png(part: &Path, width: u32, height: u32, rgb24: &[u8]) -> Result<(), VideoError> {
+fn encode_png(
+    part: &Path,
+    width: u32,
+    height: u32,
+    pixels: PngPixels,
+    bytes: &[u8],
+) -> Result<(), VideoError> {
     let io = |action: &'static str| {
         move |source| VideoError::Io {
             action,
@@ -88,10 +129,15 @@ fn encode_png(part: &Path, width: u32, height: u32, rgb24: &[u8]) -> Result<(), 
     let file = File::create(part).map_err(io("create"))?;
     let mut out = BufWriter::new(file);
     let mut encoder = png::Encoder::new(&mut out, width, height);
-    encoder.set_color(png::ColorType::Rgb);
-    encoder.set_depth(png::BitDepth::Eight);
+    let (color, depth) = match pixels {
+        PngPixels::Rgb8 => (png::ColorType::Rgb, png::BitDepth::Eight),
+        PngPixels::Grey8 => (png::ColorType::Grayscale, png::BitDepth::Eight),
+        PngPixels::Grey16 => (png::ColorType::Grayscale, png::BitDepth::Sixteen),
+    };
+    encoder.set_color(color);
+    encoder.set_depth(depth);
     let mut writer = encoder.write_header().map_err(png_error)?;
-    writer.write_image_data(rgb24).map_err(png_error)?;
+    writer.write_image_data(bytes).map_err(png_error)?;
     writer.finish().map_err(png_error)?;
     out.into_inner().map_err(|e| VideoError::Io {
         action: "write",

@@ -11,7 +11,7 @@
 //! - [`cut`] cuts a clip of whole frames, by stream copy or re-encoding, checked frame-exact.
 //! - [`probe`] and [`probe_packets`] read what a video file really holds, frame by frame.
 //! - [`annexb_access_units`] turns an encoded file into one Annex B access unit per frame.
-//! - [`write_png`], [`read_png`] and [`contact_sheet`] cover stills.
+//! - [`write_png`], [`write_png_as`] (grey 8- and 16-bit too), [`read_png`] and [`contact_sheet`] cover stills.
 //!
 //! ```no_run
 //! use autoact::video::{EncodeSettings, Ffmpeg, VideoEncoder};
@@ -56,7 +56,7 @@ pub use encode::{
     DEFAULT_CRF, DEFAULT_GOP_SECS, DEFAULT_PRESET, EncodeSettings, EncodedVideo, VideoEncoder,
     force_key_frames_arg,
 };
-pub use image::{Tile, contact_sheet, read_png, write_png};
+pub use image::{PngPixels, Tile, contact_sheet, read_png, write_png, write_png_as};
 pub use probe::{ProbedFrame, ProbedPacket, VideoProbe, probe, probe_packets, probe_size};
 pub use rational::Rational;
 pub use tools::{Ffmpeg, INSTALL_HINT, download_cache_dir};

@@ -426,3 +426,128 @@ fn a_full_disk_is_an_error_and_leaves_no_complete_looking_file() {
     // What the full folder holds afterwards: nothing.
     assert!(e.lines().any(|l| l.trim_end() == "left:"), "{e}");
 }
+
+/// A grey PNG's size and values (8- or 16-bit).
+fn read_grey(path: &Path) -> (u32, u32, Vec<u16>) {
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    assert_eq!(
+        info.color_type,
+        png::ColorType::Grayscale,
+        "{}",
+        path.display()
+    );
+    let values = match info.bit_depth {
+        png::BitDepth::Eight => buf[..info.buffer_size()]
+            .iter()
+            .map(|&v| u16::from(v))
+            .collect(),
+        png::BitDepth::Sixteen => buf[..info.buffer_size()]
+            .chunks_exact(2)
+            .map(|b| u16::from_be_bytes([b[0], b[1]]))
+            .collect(),
+        other => panic!("{}: {other:?}", path.display()),
+    };
+    (info.width, info.height, values)
+}
+
+#[test]
+fn depth_and_mask_passes_agree_with_the_video_and_the_annotations() {
+    if common::ffmpeg_or_skip("depth_and_mask_passes").is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let bag = capture(dir.path());
+    let video = dir.path().join("v.mp4");
+    let render = |extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            arg(&bag),
+            "-o",
+            arg(&video),
+            "--resolution",
+            "160x120",
+        ];
+        args.extend_from_slice(extra);
+        autoact(&args)
+    };
+    let o = render(&["--limit", "40", "--depth", "--masks"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("v.depth"), "{}", stdout(&o));
+    let annotations: Vec<FrameAnnotation> = BagReader::open(&dir.path().join("v.render.mcap"))
+        .unwrap()
+        .messages()
+        .map(Result::unwrap)
+        .filter(|m| m.channel.topic == "/render/annotations")
+        .map(|m| cdr::decode(&m.data).unwrap())
+        .collect();
+    assert_eq!(annotations.len(), 40);
+    for pass in ["v.depth", "v.mask"] {
+        assert_eq!(files_in(&dir.path().join(pass)).len(), 40, "{pass}");
+    }
+    let pelvis = Rig::standard().bone_index("pelvis").unwrap();
+    for (k, a) in annotations.iter().enumerate() {
+        let name = format!("frame_{k:06}.png");
+        let (w, h, mask) = read_grey(&dir.path().join("v.mask").join(&name));
+        let (_, _, depth) = read_grey(&dir.path().join("v.depth").join(&name));
+        assert_eq!((w, h), (160, 120));
+        // The mask is the silhouette the annotations measured: same pixel count, same box.
+        let person: Vec<usize> = (0..mask.len()).filter(|&i| mask[i] == 1).collect();
+        assert!(
+            mask.iter().all(|&v| v <= 1),
+            "frame {k}: ids other than 0 and 1"
+        );
+        assert_eq!(person.len(), a.silhouette_pixels as usize, "frame {k}");
+        let (xs, ys): (Vec<u32>, Vec<u32>) =
+            person.iter().map(|&i| (i as u32 % w, i as u32 / w)).unzip();
+        let bbox = (
+            *xs.iter().min().unwrap(),
+            *ys.iter().min().unwrap(),
+            xs.iter().max().unwrap() - xs.iter().min().unwrap() + 1,
+            ys.iter().max().unwrap() - ys.iter().min().unwrap() + 1,
+        );
+        assert_eq!(
+            bbox,
+            (
+                a.bbox.x_offset,
+                a.bbox.y_offset,
+                a.bbox.width,
+                a.bbox.height
+            ),
+            "frame {k}"
+        );
+        // Depth on the person is the body's distance along the optical axis: its median within
+        // 0.3 m of the pelvis joint's z.
+        let mut on_person: Vec<u16> = person.iter().map(|&i| depth[i]).collect();
+        on_person.sort_unstable();
+        let median_m = f64::from(on_person[on_person.len() / 2]) / 1000.0;
+        let pelvis_z = a.keypoints_3d[pelvis].z;
+        assert!(
+            (median_m - pelvis_z).abs() < 0.3,
+            "frame {k}: depth {median_m} m, pelvis at {pelvis_z} m"
+        );
+        assert!(
+            on_person.iter().all(|&d| d > 0),
+            "frame {k}: the person has no depth somewhere"
+        );
+    }
+    // Outputs that exist are not replaced without --force; with it they are.
+    let again = render(&["--limit", "40", "--depth"]);
+    assert!(
+        !again.status.success() && stderr(&again).contains("--force"),
+        "{}",
+        stderr(&again)
+    );
+    let forced = render(&["--limit", "20", "--depth", "--force"]);
+    assert!(forced.status.success(), "{}", stderr(&forced));
+    assert_eq!(files_in(&dir.path().join("v.depth")).len(), 20);
+    // The masks showed the video replaced: they are gone, not left stale.
+    assert!(!dir.path().join("v.mask").exists());
+    assert!(
+        !files_in(dir.path()).iter().any(|f| f.contains(".part")),
+        "{:?}",
+        files_in(dir.path())
+    );
+}

@@ -658,6 +658,64 @@ fn trim_extracts_each_clips_frames_for_rawframe_datasets() {
 }
 
 #[test]
+fn trim_gives_each_clip_its_own_depth_and_mask_frames() {
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
+    let s = setup("wave");
+    let video = s.coded_capture_video(&ffmpeg);
+    let frames = s.capture.frames.len();
+    // What `render --depth --masks` leaves beside the video; each file names its frame.
+    for pass in ["capture.depth", "capture.mask"] {
+        let dir = s.dir.path().join(pass);
+        std::fs::create_dir_all(&dir).unwrap();
+        for k in 0..frames {
+            std::fs::write(dir.join(format!("frame_{k:06}.png")), format!("{pass} {k}")).unwrap();
+        }
+    }
+    let out = s.dir.path().join("ds");
+    let o = run_trim(&s.bag, &video, &out, &["--video-start", "0"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let clips = read_jsonl(&out.join("annotations/clips.jsonl"));
+    let expected = segment_frames(&s.capture);
+    assert_eq!(clips.len(), expected.len());
+    for (id, start, end) in &expected {
+        let c = clips
+            .iter()
+            .find(|c| c["segment_id"] == id.as_str())
+            .unwrap();
+        for (key, pass) in [("depth", "capture.depth"), ("masks", "capture.mask")] {
+            let dir = out.join(c[key].as_str().unwrap());
+            let got: Vec<String> = (1..=end - start)
+                .map(|k| std::fs::read_to_string(dir.join(format!("img_{k:05}.png"))).unwrap())
+                .collect();
+            let want: Vec<String> = (*start..*end).map(|k| format!("{pass} {k}")).collect();
+            assert_eq!(got, want, "{id} {key}");
+            assert!(!dir.join(format!("img_{:05}.png", end - start + 1)).exists());
+        }
+    }
+    // A pass folder that is not this video's (a frame missing) is refused, naming it.
+    std::fs::remove_file(
+        s.dir
+            .path()
+            .join(format!("capture.mask/frame_{:06}.png", frames - 1)),
+    )
+    .unwrap();
+    let o = run_trim(
+        &s.bag,
+        &video,
+        &s.dir.path().join("ds2"),
+        &["--video-start", "0"],
+    );
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("capture.mask") && stderr(&o).contains("--force"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
 fn trim_same_seed_gives_identical_lists_in_another_folder() {
     let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
         return;

@@ -14,6 +14,8 @@
   a class with too few animations fell back to; held-out clips aside), or by the clips.jsonl
   field FIELD for all clips when `--split-key` is given;
   ActivityNet JSON segments match the clips.
+- Depth and mask frames (captures rendered with `--depth --masks`): one PNG per clip frame,
+  16-bit and 8-bit grey, mask ids 0/1 with the person present, depth on every person pixel.
 Exits non-zero with a message on the first failure.
 """
 
@@ -97,6 +99,52 @@ def check_qa(ann, meta):
         fail(f"qa.json flags {listed}, clips.jsonl's measurements give {expected}")
     print(f"ok qa.json: {len(checked)} clips checked, {len(listed)} flagged, "
           f"still classes {[c for c, s in qa['classes'].items() if s['still']]}")
+
+
+def png_header(path):
+    """(width, height, bit depth, colour type) from a PNG's IHDR."""
+    with open(path, "rb") as f:
+        head = f.read(33)
+    if head[:8] != b"\x89PNG\r\n\x1a\n" or head[12:16] != b"IHDR":
+        fail(f"{path}: not a PNG")
+    return int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big"), head[24], head[25]
+
+
+def decode_png(path):
+    with av.open(path) as c:
+        return next(c.decode(video=0)).to_ndarray()
+
+
+def check_passes(root, meta):
+    """Every clip with depth or mask frames has one per video frame, numbered from 1: depth
+    16-bit grey (millimetres, > 0 on the person), masks 8-bit grey with ids 0 and 1 only, the
+    person in its middle frame."""
+    with_passes = [m for m in meta.values() if "depth" in m or "masks" in m]
+    for m in with_passes:
+        middle = m["frame_count"] // 2 + 1
+        arrays = {}
+        for key, depth in (("depth", 16), ("masks", 8)):
+            if key not in m:
+                continue
+            d = os.path.join(root, m[key])
+            names = sorted(os.listdir(d))
+            want = [f"img_{k:05}.png" for k in range(1, m["frame_count"] + 1)]
+            if names != want:
+                fail(f"{m[key]}: {len(names)} files, expected img_00001.png … for {m['frame_count']} frames")
+            w, h, bits, colour = png_header(os.path.join(d, want[0]))
+            if (bits, colour) != (depth, 0):
+                fail(f"{m[key]}: {bits}-bit colour type {colour}, expected {depth}-bit grey")
+            if f"{w}x{h}" != m["capture_resolution"]:
+                fail(f"{m[key]}: {w}x{h}, the video is {m['capture_resolution']}")
+            arrays[key] = decode_png(os.path.join(d, f"img_{middle:05}.png"))
+        if "masks" in arrays:
+            ids = set(int(v) for v in set(arrays["masks"].flatten().tolist()))
+            if not ids <= {0, 1} or 1 not in ids:
+                fail(f"{m['masks']}: frame {middle} has ids {sorted(ids)}, expected 0 and 1")
+            if "depth" in arrays and (arrays["depth"][arrays["masks"] == 1] == 0).any():
+                fail(f"{m['depth']}: frame {middle} has no depth on some of the person's pixels")
+    if with_passes:
+        print(f"ok depth/masks: {len(with_passes)} clips, one PNG per frame, person in the mask with depth")
 
 
 def main():
@@ -208,6 +256,7 @@ def main():
     if n_anet != len(meta):
         fail(f"activitynet.json has {n_anet} segments, clips.jsonl {len(meta)}")
     check_qa(ann, meta)
+    check_passes(root, meta)
     counts = {s: sum(1 for v in seen.values() if v == s) for s in ["train", "val", "test"]}
     print(f"ok check_trim {root}: {decoded} clips decoded with PyAV {av.__version__}, {counts}, "
           f"{len(classes)} classes, no {a.split_key or 'split_by group'} in two splits")
