@@ -512,6 +512,7 @@ pub(crate) mod tests {
             camera: "viewpoint 0".into(),
             seed: Some(1),
             qa: None,
+            labels: None,
         }
     }
 
