@@ -536,3 +536,154 @@ fn coco_json<'a>(
         }],
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use std::collections::BTreeMap;
+
+    use super::{
+        ClipLabels, FrameLabels, LabelCollector, coco_file, layout_landmarks, sidecar_path,
+        write_label_files, write_sidecar,
+    };
+    use crate::ros::autoact_msgs::FrameAnnotation;
+    use crate::ros::geometry_msgs::Point;
+    use crate::skeleton::layout::Layout;
+    use crate::skeleton::rig::Rig;
+    use crate::trim::split::tests::record;
+    use crate::trim::split::{Assignment, Split};
+
+    #[test]
+    fn both_layouts_are_rig_landmarks_one_to_one_face_included() {
+        let rig = Rig::standard();
+        for (name, n) in [("coco-17", 17), ("ntu-25", 25)] {
+            let l = layout_landmarks(&Layout::builtin(name).unwrap());
+            assert_eq!(l.len(), n, "{name}");
+            let mut distinct = l.clone();
+            distinct.sort();
+            distinct.dedup();
+            assert_eq!(distinct.len(), n, "{name}: {l:?}");
+            assert!(
+                l.iter().all(|m| rig.landmark_index(m).is_some()),
+                "{name}: {l:?}"
+            );
+        }
+        let coco = layout_landmarks(&Layout::builtin("coco-17").unwrap());
+        assert_eq!(coco[..5], ["nose", "l_eye", "r_eye", "l_ear", "r_ear"]);
+        let ntu = layout_landmarks(&Layout::builtin("ntu-25").unwrap());
+        assert_eq!(
+            (ntu[21].as_str(), ntu[23].as_str()),
+            ("l_middle4", "r_middle4")
+        );
+    }
+
+    /// A frame whose landmark `i` (rig order) is at pixel `(i, 2i)` (OpenCV) and optical
+    /// `(i, 2i, 5)` metres, visible unless `i` is odd.
+    fn frame(k: u64) -> FrameAnnotation {
+        let rig = Rig::standard();
+        let n = rig.landmarks.len();
+        FrameAnnotation {
+            frame_index: k,
+            landmark_names: rig.landmarks.iter().map(|l| l.name.clone()).collect(),
+            landmarks_3d: (0..n)
+                .map(|i| Point {
+                    x: i as f64,
+                    y: 2.0 * i as f64,
+                    z: 5.0,
+                })
+                .collect(),
+            landmarks_2d: (0..n).flat_map(|i| [i as f32, 2.0 * i as f32]).collect(),
+            landmark_visibility: (0..n)
+                .map(|i| if i.is_multiple_of(2) { 2 } else { 1 })
+                .collect(),
+            silhouette_pixels: 10,
+            ..FrameAnnotation::default()
+        }
+    }
+
+    #[test]
+    fn collected_labels_are_the_layouts_landmarks_in_kinect_space() {
+        let rig = Rig::standard();
+        let mut c = LabelCollector::new([(10, 3), (20, 2)]);
+        c.push(0, &frame(11), [320, 240]);
+        c.push(1, &frame(25), [320, 240]); // past the clip: left out
+        let mut old = frame(12);
+        old.landmark_names.clear();
+        c.push(0, &old, [320, 240]);
+        assert_eq!(c.without_landmarks, 1);
+        let out = c.finish();
+        assert!(out[1].is_none(), "no frame of clip 1 was labelled");
+        let l = out[0].as_ref().unwrap();
+        assert_eq!((l.width, l.height, l.frames.len()), (320, 240, 3));
+        assert!(l.frames[0].is_none() && l.frames[2].is_none());
+        let f = l.frames[1].as_ref().unwrap();
+        let nose_index = rig.landmark_index("nose").unwrap();
+        let nose = nose_index as f32;
+        let v = if nose_index.is_multiple_of(2) {
+            2.0
+        } else {
+            1.0
+        };
+        assert_eq!(f.coco17[..3], [nose, 2.0 * nose, v]);
+        let base = rig.landmark_index("pelvis").unwrap() as f32;
+        assert_eq!(f.ntu25[..3], [-base, -2.0 * base, 5.0]);
+    }
+
+    #[test]
+    fn the_files_hold_every_labelled_clip_as_the_dataset_grows() {
+        let dir = tempfile::tempdir().unwrap();
+        let labels = |t: usize| ClipLabels {
+            width: 320,
+            height: 240,
+            frames: vec![
+                Some(FrameLabels {
+                    coco17: vec![1.0; 51],
+                    ntu25: vec![0.5; 75],
+                    bbox: Some([1, 2, 30, 40]),
+                    area: 900,
+                });
+                t
+            ],
+        };
+        let mut clips = BTreeMap::new();
+        let mut splits = Assignment::default();
+        let ann = dir.path().join("annotations");
+        for (round, (id, split)) in [("a", Split::Train), ("b", Split::Val), ("c", Split::Test)]
+            .into_iter()
+            .enumerate()
+        {
+            let mut r = record(id, "wave", id, "CLEAR");
+            let rel = sidecar_path("wave", id);
+            write_sidecar(dir.path(), &rel, &labels(3 + round)).unwrap();
+            r.labels = Some(rel);
+            clips.insert(id.to_owned(), r);
+            splits.splits.insert(id.to_owned(), split);
+            let s = write_label_files(dir.path(), &clips, &splits)
+                .unwrap()
+                .unwrap();
+            assert_eq!((s.clips, s.without), (round + 1, 0));
+            let pkl = std::fs::read(ann.join(super::SKELETON_2D_FILE)).unwrap();
+            for seen in clips.keys() {
+                // The clip id as a pickled str (BINUNICODE), in the split list and as frame_dir.
+                let needle = [&[b'X', 1, 0, 0, 0][..], seen.as_bytes()].concat();
+                let n = pkl.windows(needle.len()).filter(|w| *w == needle).count();
+                assert_eq!(n, 2, "clip {seen} in round {round}");
+            }
+            let coco: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(ann.join(coco_file(split))).unwrap())
+                    .unwrap();
+            assert_eq!(coco["images"].as_array().unwrap().len(), 3 + round);
+            assert_eq!(coco["annotations"][0]["num_keypoints"], 17);
+            assert_eq!(coco["annotations"][0]["area"], 900);
+        }
+        // Without labelled clips the files go.
+        for c in clips.values_mut() {
+            c.labels = None;
+        }
+        assert!(
+            write_label_files(dir.path(), &clips, &splits)
+                .unwrap()
+                .is_none()
+        );
+        assert!(!ann.join(super::SKELETON_3D_FILE).exists());
+    }
+}
