@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 use super::lists::{ANNOTATIONS_DIR, write_atomic};
 use super::plan::FrameRange;
 use super::{ClipRecord, TrimError};
-use crate::bags::render::{ANNOTATIONS_TOPIC, RenderBagError, VIDEO_TOPIC};
+use crate::bags::render::{ANNOTATIONS_TOPIC, RenderBagError, VIDEO_TOPIC, decode_annotation};
 use crate::mcap_io::BagReader;
 use crate::ros::autoact_msgs::{FrameAnnotation, VideoInfo};
 use crate::ros::{RosMessage, cdr};
@@ -289,7 +289,7 @@ pub fn measure_clips(
         {
             continue;
         }
-        if cdr::decode_in_place(&m.data, &mut annotation).is_err() {
+        if decode_annotation(&m.data, &mut annotation).is_err() {
             undecodable += 1;
             continue;
         }
