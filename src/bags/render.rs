@@ -145,6 +145,25 @@ pub enum RenderBagError {
     },
 }
 
+/// Decodes a `/render/annotations` message into `place`. A message from a render bag written
+/// before the landmark fields were added (its payload ends after `silhouette_pixels`) decodes
+/// too, with no landmarks: those four sequences are the message's last fields, so the old payload
+/// plus four zero lengths is the same message with them empty.
+///
+/// # Errors
+/// [`cdr::CdrError`] when the payload is neither.
+pub fn decode_annotation(payload: &[u8], place: &mut FrameAnnotation) -> Result<(), cdr::CdrError> {
+    match cdr::decode_in_place(payload, place) {
+        Ok(()) => Ok(()),
+        Err(e) => {
+            let mut padded = Vec::with_capacity(payload.len() + 16);
+            padded.extend_from_slice(payload);
+            padded.extend_from_slice(&[0; 16]);
+            cdr::decode_in_place(&padded, place).map_err(|_| e)
+        }
+    }
+}
+
 /// One video frame's messages.
 #[derive(Debug, Clone)]
 pub struct RenderedFrame {
@@ -287,6 +306,39 @@ impl RenderedVideo {
 mod tests {
     use super::*;
     use crate::ros::builtin_interfaces::Time;
+    use crate::ros::geometry_msgs::Point;
+
+    #[test]
+    fn an_annotation_from_before_the_landmarks_decodes_without_them() {
+        let a = FrameAnnotation {
+            frame_index: 7,
+            keypoint_names: vec!["pelvis".into()],
+            keypoints_3d: vec![Point {
+                x: 1.0,
+                y: 2.0,
+                z: 3.0,
+            }],
+            keypoints_2d: vec![4.0, 5.0],
+            visibility: vec![2],
+            silhouette_pixels: 99,
+            ..FrameAnnotation::default()
+        };
+        let bytes = cdr::encode(&a).unwrap();
+        // The old layout: the same bytes without the four empty landmark sequences.
+        let old = &bytes[..bytes.len() - 16];
+        let mut place = FrameAnnotation::default();
+        assert!(cdr::decode_in_place(old, &mut place).is_err());
+        decode_annotation(old, &mut place).unwrap();
+        assert_eq!(place, a);
+        let mut with = a.clone();
+        with.landmark_names = vec!["nose".into()];
+        with.landmarks_3d = a.keypoints_3d.clone();
+        with.landmarks_2d = vec![1.0, 2.0];
+        with.landmark_visibility = vec![1];
+        decode_annotation(&cdr::encode(&with).unwrap(), &mut place).unwrap();
+        assert_eq!(place, with);
+        assert!(decode_annotation(&bytes[..bytes.len() - 20], &mut place).is_err());
+    }
 
     #[test]
     fn the_video_goes_in_as_the_chosen_viewers_message() {

@@ -19,7 +19,8 @@ Examples:
 
 Outputs: the video; beside it `<video>.render.mcap` with /render/video (autoact_msgs/VideoInfo:
 frame k shows the timeline at its k-th frame stamp) and /render/annotations
-(autoact_msgs/FrameAnnotation: 2D/3D joints, visibility and the silhouette's box per frame);
+(autoact_msgs/FrameAnnotation: 2D/3D joints and landmarks, visibility and the silhouette's box
+per frame);
 with --embed-video also /render/camera/h264 (foxglove_msgs/CompressedVideo, which Foxglove plays),
 with --embed-video=rerun /render/camera/image/h264 instead (sensor_msgs/CompressedImage, format
 h264, which Rerun plays), with --embed-video=both the two. Every segment

@@ -38,6 +38,12 @@ Layout of DATASET_DIR (MMAction2's data_prefix; every path in the lists is relat
   annotations/qa.json                      quality report: clips whose character is hidden,
                                            occluded, tiny or still, and classes that barely
                                            move (from the render bag's annotations)
+  annotations/skeleton_2d_coco17.pkl       MMAction2/PYSKL PoseDataset: COCO-17 keypoints, px
+  annotations/skeleton_3d_ntu25.pkl        the same in NTU-25 joints, metres (Kinect space)
+  annotations/coco_keypoints_<split>.json  COCO person keypoints and boxes, an image per frame
+  labels/<label>/<clip_id>.json            per-clip labels the three files are rebuilt from
+                                           (all four from the render bag's landmarks; COCO
+                                           visibility: 0 out of the image, 1 hidden, 2 seen)
   manifest.jsonl                           journal of complete clips
 Splits are not in the paths: they are decided over every clip of the dataset's plan (plan.json,
 beside the capture bags), so a clip's split does not depend on which captures are trimmed yet or

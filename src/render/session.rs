@@ -11,7 +11,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use nalgebra::{Isometry3, Translation3};
 use rayon::prelude::*;
 
-use super::annotate::{Annotation, annotate};
+use super::annotate::{Annotation, SURFACE_LANDMARKS, annotate};
 use super::cpu::CpuRenderer;
 use super::passes::{FramePasses, PassDirs};
 use super::{Camera, FrameInput, Image, Renderer, Stage};
@@ -26,7 +26,7 @@ use crate::ros::builtin_interfaces::Time;
 use crate::ros::foxglove_msgs::CompressedVideo;
 use crate::ros::std_msgs::Header;
 use crate::skeleton::character::Character;
-use crate::skeleton::fk::{BonePose, forward};
+use crate::skeleton::fk::{BonePose, forward, landmark_position};
 use crate::skeleton::rig::Rig;
 use crate::video::{
     AccessUnit, EncodeSettings, EncodedVideo, Ffmpeg, Tile, VideoEncoder, VideoError,
@@ -411,6 +411,8 @@ struct Scenes<'a> {
     characters: Vec<Character>,
     /// The capture's camera at the output resolution.
     intrinsics: Intrinsics,
+    /// Per rig landmark, whether it is on the body's surface (the face).
+    surface_landmarks: Vec<bool>,
 }
 
 impl<'a> Scenes<'a> {
@@ -433,6 +435,11 @@ impl<'a> Scenes<'a> {
             stages,
             characters,
             intrinsics: capture.intrinsics.resized(settings.width, settings.height),
+            surface_landmarks: rig
+                .landmarks
+                .iter()
+                .map(|l| SURFACE_LANDMARKS.contains(&l.name.as_str()))
+                .collect(),
         }
     }
 
@@ -462,7 +469,11 @@ impl<'a> Scenes<'a> {
             time_s: crate::skeleton::pose::nanos_to_secs(s.stamp_nanos.saturating_sub(scene_start)),
         };
         renderer.render(&self.stages[s.scene], &input, image);
-        annotate(&posed, &camera, image)
+        let character = &self.characters[s.scene];
+        let landmarks: Vec<_> = (0..self.rig.landmarks.len())
+            .map(|l| landmark_position(self.rig, character, &posed, l))
+            .collect();
+        annotate(&posed, &landmarks, &self.surface_landmarks, &camera, image)
     }
 
     /// Renders samples `picks` in parallel; the value `keep` makes of each frame (its colour,
@@ -798,6 +809,7 @@ fn write_render_bag(
         .to_string(),
     };
     let names: Vec<String> = rig.bones.iter().map(|b| b.name.clone()).collect();
+    let landmark_names: Vec<String> = rig.landmarks.iter().map(|l| l.name.clone()).collect();
     let frames = samples
         .iter()
         .zip(annotations)
@@ -817,6 +829,10 @@ fn write_render_bag(
                 visibility: a.visibility.clone(),
                 bbox: a.roi(),
                 silhouette_pixels: a.silhouette_pixels,
+                landmark_names: landmark_names.clone(),
+                landmarks_3d: a.landmarks_3d.clone(),
+                landmarks_2d: a.landmarks_2d_ros(),
+                landmark_visibility: a.landmark_visibility.clone(),
             },
             video: units.and_then(|u| u.get(k)).map(|unit| CompressedVideo {
                 timestamp: Time::from_nanos(s.stamp_nanos),

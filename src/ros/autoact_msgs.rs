@@ -202,6 +202,14 @@ pub struct FrameAnnotation {
     pub bbox: crate::ros::sensor_msgs::RegionOfInterest,
     /// Pixels of the silhouette.
     pub silhouette_pixels: u32,
+    /// The rig's landmark names (face, feet, fingers, …), in the rig's order.
+    pub landmark_names: Vec<String>,
+    /// Landmarks in the optical frame, metres.
+    pub landmarks_3d: Vec<Point>,
+    /// Landmark pixel coordinates, interleaved x, y (OpenCV convention).
+    pub landmarks_2d: Vec<f32>,
+    /// COCO visibility per landmark (surface landmarks can be hidden by the body itself).
+    pub landmark_visibility: Vec<u8>,
 }
 
 impl RosMessage for FrameAnnotation {

@@ -321,6 +321,19 @@ impl TrimReport {
         if let Some(qa) = &summary.qa {
             text.push_str(&qa.to_string());
         }
+        if let Some(l) = &summary.labels {
+            text.push_str(&format!(
+                "  pose labels: {} clips in {} and {} (COCO-17 px, NTU-25 m), coco_keypoints_{{train,val,test}}.json{}\n",
+                l.clips,
+                super::labels::SKELETON_2D_FILE,
+                super::labels::SKELETON_3D_FILE,
+                if l.without > 0 {
+                    format!("; {} clips without (no render bag annotations)", l.without)
+                } else {
+                    String::new()
+                }
+            ));
+        }
         text
     }
 }

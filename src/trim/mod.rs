@@ -10,6 +10,9 @@
 //!   lists, and every list is written from it, so no list names a clip that is not on disk.
 //! - [`passes`]: the render's depth and mask frames, linked per clip.
 //! - [`qa`]: per-clip quality measurements from the render bag's annotations, and the report.
+//! - [`labels`]: per-clip pose and box labels from the render bag's landmarks (a sidecar per
+//!   clip), and the dataset's skeleton `.pkl` files (COCO-17 2-D, NTU-25 3-D, written by
+//!   [`pickle`]) and COCO keypoint JSON per split.
 //! - [`lists`]: `classes.txt`, `label_map.json`, Kinetics CSV, MMAction2 `VideoDataset` and
 //!   `RawframeDataset` lists, ActivityNet JSON and the per-clip metadata JSONL.
 //!
@@ -20,6 +23,7 @@
 //! DATASET_DIR/
 //!   manifest.jsonl                      journal: one line per complete clip
 //!   videos/<label>/<clip_id>.mp4        every clip, whatever its split
+//!   labels/<label>/<clip_id>.json       per-clip pose and box labels ([`labels`])
 //!   rawframes/<label>/<clip_id>/img_00001.jpg …   with --rawframes
 //!   depth/<label>/<clip_id>/img_00001.png …       when the capture was rendered with --depth
 //!   masks/<label>/<clip_id>/img_00001.png …       when the capture was rendered with --masks
@@ -31,15 +35,20 @@
 //!     activitynet.json                  the untrimmed captures with every segment
 //!     clips.jsonl                       per-clip metadata
 //!     qa.json                           quality report ([`qa`])
+//!     skeleton_2d_coco17.pkl            MMAction2/PYSKL PoseDataset, COCO-17, pixels
+//!     skeleton_3d_ntu25.pkl             MMAction2/PYSKL PoseDataset, NTU-25, metres
+//!     coco_keypoints_{train,val,test}.json  COCO person keypoints and boxes, one image per frame
 //! ```
 //! The split is not part of a clip's path: splits are drawn over every clip of the plan (else
 //! every clip in the manifest), so a dataset can grow capture by capture (or be re-split with
 //! other ratios) without moving files.
 
 pub mod job;
+pub mod labels;
 pub mod lists;
 pub mod manifest;
 pub mod passes;
+pub mod pickle;
 pub mod plan;
 pub mod planned;
 pub mod qa;
@@ -195,6 +204,21 @@ pub enum TrimError {
         /// Frames of the video.
         video_frames: u64,
     },
+    /// A clip's label sidecar is not one.
+    #[error("`{path}` is not a clip label file (the `labels/` sidecar `autoact trim` writes)")]
+    LabelsRead {
+        /// The file.
+        path: PathBuf,
+        /// Why it does not read.
+        #[source]
+        source: serde_json::Error,
+    },
+    /// A clip's label sidecar has frames of the wrong size.
+    #[error("`{path}`: a frame does not have 17 COCO and 25 NTU keypoints of 3 values each")]
+    LabelsShape {
+        /// The file.
+        path: PathBuf,
+    },
     /// A record could not be encoded as JSON for a file.
     #[error("cannot encode JSON for `{path}`")]
     Json {
@@ -306,6 +330,10 @@ pub struct ClipRecord {
     /// Quality measurements and flags ([`qa`]), when the render bag's annotations were read.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub qa: Option<qa::ClipQa>,
+    /// Its pose and box labels ([`labels`]), relative to the dataset folder, when the render
+    /// bag's annotations were read.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub labels: Option<String>,
 }
 
 /// The clip id of the segment `segment_id` (the file stem of its clip): the id with `/` as `-`,

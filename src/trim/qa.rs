@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 use super::lists::{ANNOTATIONS_DIR, write_atomic};
 use super::plan::FrameRange;
 use super::{ClipRecord, TrimError};
-use crate::bags::render::{ANNOTATIONS_TOPIC, RenderBagError, VIDEO_TOPIC};
+use crate::bags::render::{ANNOTATIONS_TOPIC, RenderBagError, VIDEO_TOPIC, decode_annotation};
 use crate::mcap_io::BagReader;
 use crate::ros::autoact_msgs::{FrameAnnotation, VideoInfo};
 use crate::ros::{RosMessage, cdr};
@@ -255,7 +255,9 @@ fn body_from_camera(frame: &FrameAnnotation) -> Option<(Matrix3<f64>, Vector3<f6
 
 /// Measures the clip of each of `ranges` (video frames) from the per-frame annotations of render
 /// bag `bag`, read once: `None` for a clip none of whose frames the bag annotates. An annotation
-/// that does not decode is left out (and counted in the second value).
+/// that does not decode is left out (and counted in the second value). Each annotation of a clip
+/// is also handed to `on_frame` (the clip's index in `ranges`, the annotation, the image's
+/// `[width, height]`), so other per-clip labels come from the same pass.
 ///
 /// # Errors
 /// [`RenderBagError`] when the bag cannot be opened or read.
@@ -263,12 +265,13 @@ pub fn measure_clips(
     bag: &Path,
     ranges: &[FrameRange],
     thresholds: &Thresholds,
+    on_frame: &mut dyn FnMut(usize, &FrameAnnotation, [u32; 2]),
 ) -> Result<(Vec<Option<ClipQa>>, u64), RenderBagError> {
     // Clips by first frame, to find the clip of a frame by bisection.
     let mut order: Vec<usize> = (0..ranges.len()).collect();
     order.sort_by_key(|&i| ranges[i].start_frame);
     let mut meters = vec![ClipMeter::default(); ranges.len()];
-    let (mut height, mut fps, mut undecodable) = (0, 0.0, 0u64);
+    let (mut width, mut height, mut fps, mut undecodable) = (0, 0, 0.0, 0u64);
     let mut annotation = FrameAnnotation::default();
     for m in BagReader::open_all(bag)?
         .iter()
@@ -277,7 +280,7 @@ pub fn measure_clips(
         let m = m?;
         if m.channel.topic == VIDEO_TOPIC && m.channel.schema_name() == VideoInfo::TYPE_NAME {
             if let Ok(info) = cdr::decode::<VideoInfo>(&m.data) {
-                (height, fps) = (info.height, info.fps);
+                (width, height, fps) = (info.width, info.height, info.fps);
             }
             continue;
         }
@@ -286,7 +289,7 @@ pub fn measure_clips(
         {
             continue;
         }
-        if cdr::decode_in_place(&m.data, &mut annotation).is_err() {
+        if decode_annotation(&m.data, &mut annotation).is_err() {
             undecodable += 1;
             continue;
         }
@@ -296,6 +299,7 @@ pub fn measure_clips(
             && k < ranges[i].start_frame + ranges[i].frame_count
         {
             meters[i].push(&annotation, height, fps);
+            on_frame(i, &annotation, [width, height]);
         }
     }
     let qas = meters

@@ -5,6 +5,9 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use super::labels::{
+    ClipLabels, LabelCollector, LabelSummary, sidecar_path, write_label_files, write_sidecar,
+};
 use super::lists::{ListSummary, ensure_classes, write_lists};
 use super::manifest::Manifest;
 use super::passes::{ClipPasses, PassSources};
@@ -76,6 +79,8 @@ pub struct TrimSummary {
     pub refined: Vec<Refined>,
     /// The quality report over the dataset's clips (`None`: none of them was checked).
     pub qa: Option<QaSummary>,
+    /// The pose and box label files (`None`: no clip has labels).
+    pub labels: Option<LabelSummary>,
 }
 
 /// Cuts every segment of `capture` out of `video` into `dir`, skipping clips the manifest
@@ -133,19 +138,39 @@ pub fn trim_capture(
             .map(|(w, h)| format!("{w}x{h}"))
             .unwrap_or_default(),
     };
-    let qa = source
+    let (qa, labels) = source
         .annotations
         .map(|bag| measure_run(bag, capture, &ranges, &options.qa))
         .unwrap_or_default();
-    let result = run.cut_all(&ranges, &qa, &mut manifest, &mut summary, progress, stop);
+    let measured = Measured {
+        qa: &qa,
+        labels: &labels,
+    };
+    let result = run.cut_all(
+        &ranges,
+        &measured,
+        &mut manifest,
+        &mut summary,
+        progress,
+        stop,
+    );
     progress(ranges.len(), ranges.len());
     // Lists from what is complete, whatever happened above.
     let lists = rewrite_lists(dir, &manifest, options);
     match (result, lists) {
-        (Ok(()), Ok((lists, refined, qa))) => {
+        (
+            Ok(()),
+            Ok(Rewritten {
+                lists,
+                refined,
+                qa,
+                labels,
+            }),
+        ) => {
             summary.lists = lists;
             summary.refined = refined;
             summary.qa = qa;
+            summary.labels = labels;
             Ok(summary)
         }
         (Ok(()), Err(e)) => Err(e.into()),
@@ -187,15 +212,33 @@ fn lock_dataset(dir: &Path) -> Result<std::fs::File, TrimError> {
 /// Flagged clips named one by one on stderr; past this many, only their count.
 const FLAGGED_CLIPS_NAMED: usize = 10;
 
-/// Each range's quality measurements from render bag `bag`, the flagged clips said on stderr
-/// (empty, also said, when the bag cannot be read: the clips are cut all the same).
+/// What the render bag says of each range's clip: its quality measurements and its labels.
+struct Measured<'a> {
+    qa: &'a [Option<ClipQa>],
+    labels: &'a [Option<ClipLabels>],
+}
+
+/// Each range's quality measurements and labels from render bag `bag`, the flagged clips said
+/// on stderr (empty, also said, when the bag cannot be read: the clips are cut all the same).
 fn measure_run(
     bag: &Path,
     capture: &Capture,
     ranges: &[FrameRange],
     thresholds: &Thresholds,
-) -> Vec<Option<ClipQa>> {
-    match measure_clips(bag, ranges, thresholds) {
+) -> (Vec<Option<ClipQa>>, Vec<Option<ClipLabels>>) {
+    let mut collector = LabelCollector::new(ranges.iter().map(|r| (r.start_frame, r.frame_count)));
+    let measured = measure_clips(bag, ranges, thresholds, &mut |i, a, size| {
+        collector.push(i, a, size);
+    });
+    if collector.without_landmarks > 0 {
+        tracing::warn!(
+            "render bag `{}`: {} frame annotations have no COCO-17/NTU-25 landmarks (a render from before they were annotated: render again for pose labels)",
+            bag.display(),
+            collector.without_landmarks
+        );
+    }
+    let labels = collector.finish();
+    match measured {
         Ok((qa, undecodable)) => {
             if undecodable > 0 {
                 tracing::warn!(
@@ -226,23 +269,31 @@ fn measure_run(
                     flagged.len() - FLAGGED_CLIPS_NAMED
                 );
             }
-            qa
+            (qa, labels)
         }
         Err(e) => {
-            tracing::warn!("no quality checks for this capture's clips: {e}");
-            Vec::new()
+            tracing::warn!("no quality checks or pose labels for this capture's clips: {e}");
+            (Vec::new(), Vec::new())
         }
     }
 }
 
+/// What [`rewrite_lists`] wrote.
+struct Rewritten {
+    lists: ListSummary,
+    refined: Vec<Refined>,
+    qa: Option<QaSummary>,
+    labels: Option<LabelSummary>,
+}
+
 /// Every list rewritten from the manifest's clips whose file is on disk, split anew (over the
 /// plan's clips when there is one), each class grouped more finely than asked said on stderr;
-/// then the quality report over those clips.
+/// then the quality report and the label files over those clips.
 fn rewrite_lists(
     dir: &Path,
     manifest: &Manifest,
     options: &TrimOptions,
-) -> Result<(ListSummary, Vec<Refined>, Option<QaSummary>), TrimError> {
+) -> Result<Rewritten, TrimError> {
     let complete: BTreeMap<String, ClipRecord> = manifest
         .records()
         .iter()
@@ -256,7 +307,13 @@ fn rewrite_lists(
     }
     let lists = write_lists(dir, &complete, &splits)?;
     let qa = write_qa_report(dir, &complete, &options.qa)?;
-    Ok((lists, splits.refined, qa))
+    let labels = write_label_files(dir, &complete, &splits)?;
+    Ok(Rewritten {
+        lists,
+        refined: splits.refined,
+        qa,
+        labels,
+    })
 }
 
 /// What every clip of one run shares: the capture, its video and the dataset folder.
@@ -301,7 +358,7 @@ impl Run<'_> {
     fn cut_all(
         &self,
         ranges: &[FrameRange],
-        qa: &[Option<ClipQa>],
+        measured: &Measured<'_>,
         manifest: &mut Manifest,
         summary: &mut TrimSummary,
         progress: &dyn Fn(usize, usize),
@@ -334,7 +391,12 @@ impl Run<'_> {
             let mut record = self.record(target, range, method, rawframes);
             record.depth = passes.depth;
             record.masks = passes.masks;
-            record.qa = qa.get(done).cloned().flatten();
+            record.qa = measured.qa.get(done).cloned().flatten();
+            if let Some(labels) = measured.labels.get(done).and_then(Option::as_ref) {
+                let rel = sidecar_path(&record.label_dir, &record.clip_id);
+                write_sidecar(self.dir, &rel, labels)?;
+                record.labels = Some(rel);
+            }
             manifest.append(record)?;
         }
         Ok(())
@@ -522,6 +584,7 @@ impl Run<'_> {
             camera: format!("{}/c{}", seg.scene_id, seg.viewpoint),
             seed: capture.seed,
             qa: None,
+            labels: None,
         }
     }
 }

@@ -514,6 +514,7 @@ pub(crate) mod tests {
             camera: "viewpoint 0".into(),
             seed: Some(1),
             qa: None,
+            labels: None,
         }
     }
 

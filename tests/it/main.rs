@@ -17,6 +17,7 @@ mod dsi_real_data;
 mod export;
 mod fuzzing;
 mod h36m_real_data;
+mod labels;
 mod outputs;
 mod readers_real_data;
 mod render;

@@ -12,7 +12,7 @@ use crate::common::{self, arg, autoact, stderr, stdout};
 
 use autoact::bags::capture::Capture;
 use autoact::mcap_io::BagReader;
-use autoact::render::annotate::{VISIBLE, annotate};
+use autoact::render::annotate::{OCCLUDED, SURFACE_LANDMARKS, VISIBLE, annotate};
 use autoact::render::cpu::CpuRenderer;
 use autoact::render::world::Surface;
 use autoact::render::{Camera, FrameInput, Image, Renderer, Stage};
@@ -247,7 +247,7 @@ fn projected_joints_lie_on_the_rendered_silhouette() {
             time_s: 0.0,
         };
         renderer.render(&stages[f.scene], &input, &mut image);
-        let a = annotate(&posed, &camera, &image);
+        let a = annotate(&posed, &[], &[], &camera, &image);
         let w = image.width as usize;
         for (p, &v) in a.keypoints_2d.iter().zip(&a.visibility) {
             if v != VISIBLE {
@@ -275,6 +275,103 @@ fn projected_joints_lie_on_the_rendered_silhouette() {
         share >= 0.95,
         "{on_silhouette}/{visible} = {share:.3} on the silhouette"
     );
+}
+
+/// Whether pixel `p` or one of its 8 neighbours shows the character.
+fn on_character(image: &Image, p: [f64; 2]) -> bool {
+    let w = image.width as usize;
+    let (x, y) = (p[0] as i64, p[1] as i64);
+    (-1..=1).any(|dy| {
+        (-1..=1).any(|dx| {
+            let (xx, yy) = (x + dx, y + dy);
+            xx >= 0
+                && yy >= 0
+                && (xx as usize) < w
+                && (yy as u32) < image.height
+                && image.surface[yy as usize * w + xx as usize] == Surface::Character as u8
+        })
+    })
+}
+
+#[test]
+fn face_landmarks_sit_on_the_rendered_head_and_hide_behind_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let bag = capture(dir.path());
+    let rig = Rig::standard();
+    let cap = Capture::read(&rig, &bag).unwrap();
+    let stages: Vec<Stage> = cap
+        .scenes
+        .iter()
+        .enumerate()
+        .map(|(i, s)| Stage::new(&rig, &s.scene, s.stream, i as u64))
+        .collect();
+    let face: Vec<usize> = SURFACE_LANDMARKS
+        .iter()
+        .map(|n| rig.landmark_index(n).unwrap())
+        .collect();
+    let surface: Vec<bool> = (0..rig.landmarks.len())
+        .map(|l| face.contains(&l))
+        .collect();
+    let (neck, crown) = (
+        rig.landmark_index("neck").unwrap(),
+        rig.landmark_index("head_top").unwrap(),
+    );
+    let centre = rig.landmark_index("head_center").unwrap();
+    let mut renderer = CpuRenderer::new();
+    let mut image = Image::default();
+    let (mut visible, mut on_head, mut hidden_by_body) = (0usize, 0usize, 0usize);
+    for f in cap.frames.iter().step_by(5) {
+        let character = cap.scenes[f.scene].scene.look.character(&rig);
+        let posed = fk::forward(&rig, &character, &f.pose, 1.0);
+        let landmarks: Vec<_> = (0..rig.landmarks.len())
+            .map(|l| fk::landmark_position(&rig, &character, &posed, l))
+            .collect();
+        let camera = Camera {
+            world_from_optical: f.world_from_optical,
+            intrinsics: cap.intrinsics,
+        };
+        let input = FrameInput {
+            camera,
+            pose: &posed,
+            time_s: 0.0,
+        };
+        renderer.render(&stages[f.scene], &input, &mut image);
+        let a = annotate(&posed, &landmarks, &surface, &camera, &image);
+        assert_eq!(a.landmarks_2d.len(), rig.landmarks.len());
+        // The head's size in pixels: neck to crown (21 cm on the default adult).
+        let px = |l: usize| {
+            let q = f.world_from_optical.inverse_transform_point(&landmarks[l]);
+            cap.intrinsics.project(q.coords)
+        };
+        let (Some(n), Some(t), Some(h0)) = (px(neck), px(crown), px(centre)) else {
+            continue;
+        };
+        let head_px = ((t[0] - n[0]).powi(2) + (t[1] - n[1]).powi(2)).sqrt();
+        for &l in &face {
+            match a.landmark_visibility[l] {
+                VISIBLE => {
+                    visible += 1;
+                    let p = a.landmarks_2d[l];
+                    let near_head = ((p[0] - h0[0]).powi(2) + (p[1] - h0[1]).powi(2)).sqrt()
+                        <= 0.75 * head_px + 1.5;
+                    on_head += usize::from(on_character(&image, p) && near_head);
+                }
+                OCCLUDED => {
+                    let p = a.landmarks_2d[l];
+                    hidden_by_body += usize::from(on_character(&image, p));
+                }
+                _ => {}
+            }
+        }
+    }
+    assert!(visible > 100, "{visible} visible face points");
+    let share = on_head as f64 / visible as f64;
+    assert!(
+        share >= 0.95,
+        "{on_head}/{visible} = {share:.3} visible face points on the rendered head"
+    );
+    // Seen from the side or behind, some face points are hidden by the head itself.
+    assert!(hidden_by_body > 0, "no face point hidden by the body");
 }
 
 #[test]

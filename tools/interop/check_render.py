@@ -55,6 +55,13 @@ def main() -> int:
         if len(n.keypoints_2d) != 2 * names or len(n.visibility) != names or len(n.keypoints_3d) != names:
             problems.append(f"annotation {k}: {names} names, {len(n.keypoints_2d)} coordinates")
             break
+        # The rig's landmarks (face, feet, hands), which trim's COCO-17 and NTU-25 labels read.
+        marks = list(n.landmark_names)
+        if (len(n.landmarks_2d) != 2 * len(marks) or len(n.landmark_visibility) != len(marks)
+                or len(n.landmarks_3d) != len(marks)
+                or not {"nose", "l_eye", "r_eye", "l_ear", "r_ear"} <= set(marks)):
+            problems.append(f"annotation {k}: landmarks {len(marks)} names, {len(n.landmarks_2d)} coordinates")
+            break
     if units:
         if len(units) != frames:
             problems.append(f"{len(units)} H.264 units for {frames} frames")
