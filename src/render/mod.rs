@@ -17,6 +17,9 @@ pub(crate) mod raster;
 pub mod session;
 pub mod world;
 
+#[cfg(test)]
+mod look_tests;
+
 use nalgebra::Isometry3;
 
 use crate::camera::Intrinsics;
