@@ -1089,9 +1089,13 @@ fn surround_ground(location: &LocationInstance) -> Ground {
     }
 }
 
-/// The water rectangle `[x0, y0, x1, y1]`: the sea beyond the floor's north edge (`half` is
-/// the floor's half size), or a pool.
+/// The water rectangle `[x0, y0, x1, y1]`: where staging put it ([`LocationInstance::stage`],
+/// clear of the character's path), or for a location never staged the sea beyond the floor's
+/// north edge (`half` is the floor's half size) or a pool north of the origin.
 fn water_rect(location: &LocationInstance, half: [f32; 2]) -> Option<[f32; 4]> {
+    if let Some(rect) = location.water_m {
+        return Some(rect.map(|v| v as f32));
+    }
     match (location.backdrop, location.has_water) {
         (Backdrop::Sea, _) => Some([-1e4, half[1], 1e4, 1e4]),
         (_, true) => Some([-4.0, 3.0, 4.0, half[1].max(8.0)]),
