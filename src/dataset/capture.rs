@@ -24,7 +24,6 @@ use crate::ros::builtin_interfaces::Time;
 use crate::ros::std_msgs::Header;
 use crate::scene::Scene;
 use crate::scene::location::Staging;
-use rand::SeedableRng;
 use crate::skeleton::character::Character;
 use crate::skeleton::convert::{AnimationFrame, ConvertError, ConvertOptions, convert_sequence};
 use crate::skeleton::fk::BonePose;
@@ -32,6 +31,7 @@ use crate::skeleton::frames::WORLD_FRAME;
 use crate::skeleton::layout::{Coverage, Layout, LayoutError};
 use crate::skeleton::pose::stamp_nanos_at;
 use crate::skeleton::rig::Rig;
+use rand::SeedableRng;
 
 /// What went wrong while capturing.
 #[derive(Debug, thiserror::Error)]
@@ -597,8 +597,7 @@ impl Dataset<'_> {
         scene: &mut Staged,
     ) -> Result<usize, CaptureError> {
         let node = &self.plan.scenes[leaf.scene];
-        let (cameras, pushed_out) =
-            clip_cameras(self.spec, node, leaf, &scene.subject, scene.band);
+        let (cameras, pushed_out) = clip_cameras(self.spec, node, leaf, &scene.subject, scene.band);
         for (f, (k, cam)) in (leaf.start_frame..leaf.end_frame).zip(cameras) {
             w.write_frame(self.nanos_at(f), &cam, &mut scene.writer, &scene.content[k])?;
         }

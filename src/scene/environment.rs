@@ -205,12 +205,17 @@ impl Environment {
                 (lamp_dir, lamp_rgb, on_ground(sun_rgb, sun_dir))
             };
         sky_ambient = add(sky_ambient, other);
-        let ground_irradiance =
-            luminance(on_ground(key_rgb, key_dir)) + luminance(sky_ambient);
+        let ground_irradiance = luminance(on_ground(key_rgb, key_dir)) + luminance(sky_ambient);
         let key_shadows = luminance(on_ground(key_rgb, key_dir)) > 0.05 * ground_irradiance;
         let ground_ambient = scale(add(sky_ambient, scale(key_rgb, 0.25)), 0.35);
         let sun_glow = if sun_up > 0.0 {
-            (sun_dir, scale(sun_colour, (0.95 * sun_up * w.direct_light_scale * 1.4) as f32))
+            (
+                sun_dir,
+                scale(
+                    sun_colour,
+                    (0.95 * sun_up * w.direct_light_scale * 1.4) as f32,
+                ),
+            )
         } else {
             (sun_dir, [0.0; 3])
         };
@@ -358,8 +363,8 @@ mod tests {
             for tenth in -300..=900 {
                 scene.sun.elevation_deg = f64::from(tenth) / 10.0;
                 let e = Environment::from_scene(&scene, 1);
-                let lit = luminance(e.key_rgb) * e.key_dir[2].max(0.0)
-                    + luminance(e.sky_ambient_rgb);
+                let lit =
+                    luminance(e.key_rgb) * e.key_dir[2].max(0.0) + luminance(e.sky_ambient_rgb);
                 assert!(
                     lit >= last * (1.0 - 1e-5),
                     "{weather} at {:.1}°: {lit} after {last}",

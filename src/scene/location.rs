@@ -261,9 +261,8 @@ impl LocationInstance {
             let r = 0.5 * prop.size_m[0].hypot(prop.size_m[1]);
             let here = [prop.position_m[0], prop.position_m[1]];
             let free = |c: [f64; 2], kept: &[(PlacedProp, f64)]| {
-                kept.iter().all(|(q, rq)| {
-                    (q.position_m[0] - c[0]).hypot(q.position_m[1] - c[1]) >= r + rq
-                })
+                kept.iter()
+                    .all(|(q, rq)| (q.position_m[0] - c[0]).hypot(q.position_m[1] - c[1]) >= r + rq)
             };
             if ok(&prop, here) && free(here, &kept) {
                 kept.push((prop, r));
@@ -814,13 +813,19 @@ mod tests {
                 // Every point of the path and every camera on the (grown) floor.
                 let half = [inst.size_m[0] / 2.0, inst.size_m[1] / 2.0];
                 for p in path.iter().chain(sight.iter().map(|l| &l[0])) {
-                    assert!(p[0].abs() <= half[0] && p[1].abs() <= half[1], "{name}: {p:?}");
+                    assert!(
+                        p[0].abs() <= half[0] && p[1].abs() <= half[1],
+                        "{name}: {p:?}"
+                    );
                 }
                 assert_eq!(inst.water_m.is_some(), loc.has_water, "{name}");
                 if let Some(w) = inst.water_m {
                     pools += usize::from(loc.backdrop != Backdrop::Sea);
                     for p in &path {
-                        assert!(distance_to_rect(*p, w) >= BODY_RADIUS_M, "{name}: {p:?} {w:?}");
+                        assert!(
+                            distance_to_rect(*p, w) >= BODY_RADIUS_M,
+                            "{name}: {p:?} {w:?}"
+                        );
                     }
                 }
                 for p in &inst.props {
@@ -834,7 +839,10 @@ mod tests {
                     }
                     for q in &path {
                         let d = (q[0] - c[0]).hypot(q[1] - c[1]);
-                        assert!(d >= r + inst.clear_radius_m - 1e-9, "{name}: {p:?} on the path");
+                        assert!(
+                            d >= r + inst.clear_radius_m - 1e-9,
+                            "{name}: {p:?} on the path"
+                        );
                     }
                     for [a, b] in &sight {
                         let d = distance_to_segment(c, *a, *b);
@@ -853,7 +861,10 @@ mod tests {
             }
         }
         // The property is not vacuous: staging had to move props and place pools.
-        assert!(moved > 50 && pools > 20, "{moved} scenes with props moved, {pools} pools");
+        assert!(
+            moved > 50 && pools > 20,
+            "{moved} scenes with props moved, {pools} pools"
+        );
     }
 
     #[test]
