@@ -191,3 +191,73 @@ fn snow_and_wet_ground_are_continuous_textures_without_blocks() {
         );
     }
 }
+
+#[test]
+fn the_face_shows_dark_eyes_where_cocos_eye_points_project() {
+    use crate::skeleton::fk;
+    let rig = Rig::standard();
+    let mut scene = scene_at("open_field", Weather::Clear, ClockTime::NOON, 2);
+    // A light skin and short hair, lit from the front, so the face is plain to see.
+    scene.look.skin_rgb = [0.86, 0.69, 0.58];
+    scene.sun.azimuth_deg = 20.0;
+    let character = scene.look.character(&rig);
+    let stage = Stage::new(&rig, &scene, 5, 0);
+    let point = |name: &str| {
+        let l = rig.landmark_index(name).expect("a face landmark");
+        fk::landmark_position(&rig, &character, &stage.rest_pose, l)
+    };
+    let nose = point("nose");
+    // A close-up from straight in front (the rest pose faces +y): the landmarks lie about a
+    // centimetre inside the head, on the rays through the drawn eyes, so seen from the front
+    // they project onto them.
+    let eye = nose + nalgebra::Vector3::new(0.0, 0.45, 0.03);
+    let (w, h) = (320u32, 240u32);
+    let camera = Camera {
+        world_from_optical: CameraPose::looking_at(eye, point("head_center"))
+            .isometry_world_from_optical(),
+        intrinsics: Intrinsics::from_horizontal_fov(w, h, 50.0).expect("a lens"),
+    };
+    let input = FrameInput {
+        camera,
+        pose: &stage.rest_pose,
+        time_s: 0.0,
+    };
+    let mut image = Image::default();
+    CpuRenderer::new().render(&stage, &input, &mut image);
+    if let Some(dir) = std::env::var_os("AUTOACT_LOOK_DUMP") {
+        let path = std::path::Path::new(&dir).join("face.png");
+        crate::video::write_png(&path, w, h, &image.rgb).expect("png");
+    }
+    let k = &camera.intrinsics;
+    let pixel = |p: Point3<f64>| {
+        let q = camera.world_from_optical.inverse_transform_point(&p);
+        let x = k.fx_px * q.x / q.z + k.cx_px;
+        let y = k.fy_px * q.y / q.z + k.cy_px;
+        (x as usize, y as usize)
+    };
+    let luma = |(x, y): (usize, usize)| {
+        let i = 3 * (y * w as usize + x);
+        let p = &image.rgb[i..i + 3];
+        (u32::from(p[0]) * 2 + u32::from(p[1]) * 5 + u32::from(p[2])) / 8
+    };
+    let character_at =
+        |(x, y): (usize, usize)| image.surface[y * w as usize + x] == Surface::Character as u8;
+    // The skin of the nose's tip, beside the eyes.
+    let nose_tip = pixel(nose);
+    assert!(character_at(nose_tip));
+    for name in ["l_eye", "r_eye"] {
+        let (x, y) = pixel(point(name));
+        // The darkest pixel within one of the eye point.
+        let darkest = (y - 1..=y + 1)
+            .flat_map(|yy| (x - 1..=x + 1).map(move |xx| (xx, yy)))
+            .map(luma)
+            .min()
+            .unwrap_or(255);
+        assert!(character_at((x, y)), "{name} is on the character");
+        assert!(
+            darkest * 2 < luma(nose_tip),
+            "{name}: {darkest} is not darker than the nose's {}",
+            luma(nose_tip)
+        );
+    }
+}
