@@ -261,3 +261,58 @@ fn the_face_shows_dark_eyes_where_cocos_eye_points_project() {
         );
     }
 }
+
+#[test]
+fn tops_come_plain_striped_or_two_tone_and_fabrics_have_grain() {
+    use crate::scene::body_mesh::Material;
+    let rig = Rig::standard();
+    let scene = scene_at("open_field", Weather::Clear, ClockTime::NOON, 2);
+    let mut seen = [0usize; 3];
+    for seed in 0..24 {
+        let stage = Stage::new(&rig, &scene, seed, 0);
+        let base = stage.body_albedo[Material::Top as usize];
+        // (height, whether the vertex has the contrasting shade) for every vertex of the top.
+        let mut top: Vec<(f32, bool)> = stage
+            .body
+            .materials
+            .iter()
+            .zip(&stage.body.rest_positions_m)
+            .zip(&stage.body_vertex_albedo)
+            .filter(|((m, _), _)| **m == Material::Top)
+            .map(|((_, p), c)| (p[2], (c[1] / base[1] - 1.0).abs() > 0.1))
+            .collect();
+        top.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let switches = top.windows(2).filter(|w| w[0].1 != w[1].1).count();
+        let contrasting = top.iter().filter(|v| v.1).count();
+        // Plain: none contrasting; two-tone: one switch up the body (a yoke); stripes: many.
+        let kind = match (contrasting, switches) {
+            (0, _) => 0,
+            (_, 1) => 1,
+            (_, s) if s >= 4 => 2,
+            other => panic!("seed {seed}: a top that is none of the patterns: {other:?}"),
+        };
+        seen[kind] += 1;
+        // Grain: the trousers' vertices are not all one colour, but within ±6 % of it.
+        let bottom = stage.body_albedo[Material::Bottom as usize];
+        let ratios: Vec<f32> = stage
+            .body
+            .materials
+            .iter()
+            .zip(&stage.body_vertex_albedo)
+            .filter(|(m, _)| **m == Material::Bottom)
+            .map(|(_, c)| c[1] / bottom[1])
+            .collect();
+        assert!(
+            ratios.iter().all(|r| (0.93..=1.07).contains(r)),
+            "seed {seed}"
+        );
+        assert!(
+            ratios.iter().any(|r| (r - ratios[0]).abs() > 0.02),
+            "seed {seed}"
+        );
+    }
+    assert!(
+        seen.iter().all(|&n| n >= 3),
+        "plain, two-tone, striped: {seen:?}"
+    );
+}
