@@ -11,7 +11,9 @@ use crate::bags;
 use crate::bags::animation::{TrackWriter, read_animation_variant_with_losses, scene_frame_prefix};
 use crate::bags::capture::CaptureWriter;
 use crate::bags::pose::PoseBagError;
-use crate::camera::{CameraError, Intrinsics, Subject, Viewpoint, camera_at, framing_band};
+use crate::camera::{
+    CameraError, CameraPose, Intrinsics, Subject, Viewpoint, camera_at, framing_band,
+};
 use crate::dsi::smoothing::Smoothing;
 use crate::dsi::{self, DsiError, DsiOptions, Pace};
 use crate::loss::Losses;
@@ -20,6 +22,8 @@ use crate::ros::RosMessage;
 use crate::ros::autoact_msgs::{BoneFrame, SceneState, Segment};
 use crate::ros::builtin_interfaces::Time;
 use crate::ros::std_msgs::Header;
+use crate::scene::Scene;
+use crate::scene::location::Staging;
 use crate::skeleton::character::Character;
 use crate::skeleton::convert::{AnimationFrame, ConvertError, ConvertOptions, convert_sequence};
 use crate::skeleton::fk::BonePose;
@@ -27,6 +31,7 @@ use crate::skeleton::frames::WORLD_FRAME;
 use crate::skeleton::layout::{Coverage, Layout, LayoutError};
 use crate::skeleton::pose::stamp_nanos_at;
 use crate::skeleton::rig::Rig;
+use rand::SeedableRng;
 
 /// What went wrong while capturing.
 #[derive(Debug, thiserror::Error)]
@@ -242,10 +247,11 @@ fn scene_state(
     spec: &Spec,
     plan: &Plan,
     node: &SceneNode,
+    staged: &Scene,
     session: &str,
     stamp: Time,
 ) -> SceneState {
-    let s = &node.drawn;
+    let s = staged;
     let p = &s.weather_params;
     SceneState {
         header: Header {
@@ -279,24 +285,30 @@ fn scene_state(
 }
 
 /// What every clip of one scene shares: the character's writer, the animation retargeted onto
-/// the scene's body (from the location's origin), how the camera must frame it.
+/// the scene's body (from the location's origin), how the camera must frame it, and the scene
+/// as staged around them (what the capture bag records and the renderer draws).
 struct Staged {
     writer: TrackWriter,
     content: Vec<BonePose>,
     subject: Subject,
     /// The framing band for this animation on this body.
     band: [f64; 2],
+    /// The drawn scene, its location staged ([`crate::scene::location::LocationInstance::stage`]).
+    scene: Scene,
 }
 
 /// Retargets a scene's animation variant onto its drawn body (root translation scaled by the
-/// ratio of hip heights, starting at the location's origin) and measures it for the camera. The
-/// body's tf frames carry `scene_index` (the scene's index on the session's timeline): each
-/// scene's body gets frames of its own.
+/// ratio of hip heights, starting at the location's origin), measures it for the camera, and
+/// stages the location around the character's path and the lines of sight of every camera of
+/// the scene's clips (`leaves`): no water under the path, no prop on it or between a camera and
+/// the character. The body's tf frames carry `scene_index` (the scene's index on the session's
+/// timeline): each scene's body gets frames of its own.
 fn stage_scene(
     rig: &Rig,
     spec: &Spec,
     intrinsics: &Intrinsics,
     node: &SceneNode,
+    leaves: &[&Leaf],
     conv: &Converted,
     scene_index: usize,
 ) -> Result<Staged, CaptureError> {
@@ -327,6 +339,26 @@ fn stage_scene(
         spec.file.camera.max_distance_m,
     )
     .map_err(framing)?;
+    let mut sight_lines_m = Vec::new();
+    for leaf in leaves {
+        let (cameras, _) = clip_cameras(spec, node, leaf, &subject, band);
+        sight_lines_m.extend(cameras.iter().map(|(k, cam)| {
+            let p = cam.position_m;
+            [[p.x, p.y], subject.ground_xy_m[*k]]
+        }));
+    }
+    let mut scene = node.drawn.clone();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(crate::hash::hash2(
+        spec.file.dataset.seed,
+        node.stream ^ STAGING_STREAM,
+    ));
+    scene.location.stage(
+        &Staging {
+            path_xy_m: &subject.ground_xy_m,
+            sight_lines_m: &sight_lines_m,
+        },
+        &mut rng,
+    );
     Ok(Staged {
         writer: TrackWriter::new(
             rig,
@@ -339,7 +371,63 @@ fn stage_scene(
         content,
         subject,
         band,
+        scene,
     })
+}
+
+/// Mixed into a scene's stream for its staging draws, so they never repeat the scene's own.
+const STAGING_STREAM: u64 = 0x57a6_e000_0000_0000;
+
+/// The camera of every frame of one clip, with the content frame it shows (the staged pose is
+/// held before and after the content), moving from the clip's viewpoint towards the next; and
+/// how many of the two viewpoints had to be pushed out to keep the animation in frame.
+fn clip_cameras(
+    spec: &Spec,
+    node: &SceneNode,
+    leaf: &Leaf,
+    subject: &Subject,
+    band: [f64; 2],
+) -> (Vec<(usize, CameraPose)>, usize) {
+    // The plan framed a standing body of the drawn height; an animation that reaches farther
+    // (a wide jump) pushes the camera out along its ray, never closer.
+    let mut pushed_out = 0;
+    let mut fit = |v: &Viewpoint| {
+        let mut v = *v;
+        if v.distance_m < band[0] {
+            v.distance_m = band[0];
+            pushed_out += 1;
+        }
+        v
+    };
+    let from = fit(&node.viewpoints[leaf.viewpoint as usize]);
+    let to = node
+        .viewpoints
+        .get(leaf.viewpoint as usize + 1)
+        .map(&mut fit);
+    let clip_frames = leaf.end_frame - leaf.start_frame;
+    let last = subject.centres_m.len() - 1;
+    let cameras = (leaf.start_frame..leaf.end_frame)
+        .map(|f| {
+            let k = usize::try_from(
+                f.saturating_sub(leaf.content_start_frame)
+                    .min(leaf.content_end_frame - leaf.content_start_frame - 1),
+            )
+            .unwrap_or(0)
+            .min(last);
+            #[expect(clippy::cast_precision_loss, reason = "frame counts far below 2^52")]
+            let s = (f - leaf.start_frame) as f64 / (clip_frames.max(2) - 1) as f64;
+            let cam = camera_at(
+                &from,
+                to.as_ref(),
+                spec.file.counts.shot,
+                s,
+                subject.ground_xy_m[k],
+                subject.centres_m[k],
+            );
+            (k, cam)
+        })
+        .collect();
+    (cameras, pushed_out)
 }
 
 /// Writes every session of `plan` into `out_dir` as `<session>.capture.mcap`, with the sources
@@ -417,11 +505,16 @@ impl Dataset<'_> {
             let scene = match staged.take() {
                 Some((index, s)) if index == leaf.scene => s,
                 _ => {
+                    let leaves: Vec<&Leaf> = self.plan.leaves[session.leaves.clone()]
+                        .iter()
+                        .filter(|l| l.scene == leaf.scene)
+                        .collect();
                     let s = stage_scene(
                         self.rig,
                         self.spec,
                         &self.intrinsics,
                         node,
+                        &leaves,
                         &self.converted[node.animation],
                         scenes_written,
                     )?;
@@ -430,6 +523,7 @@ impl Dataset<'_> {
                         self.spec,
                         self.plan,
                         node,
+                        &s.scene,
                         &session.name,
                         Time::from_nanos(start_nanos),
                     );
@@ -515,49 +609,9 @@ impl Dataset<'_> {
         scene: &mut Staged,
     ) -> Result<usize, CaptureError> {
         let node = &self.plan.scenes[leaf.scene];
-        let Staged {
-            writer,
-            content,
-            subject,
-            band,
-        } = scene;
-        // The plan framed a standing body of the drawn height; an animation that reaches
-        // farther (a wide jump) pushes the camera out along its ray, never closer.
-        let mut pushed_out = 0;
-        let mut fit = |v: &Viewpoint| {
-            let mut v = *v;
-            if v.distance_m < band[0] {
-                v.distance_m = band[0];
-                pushed_out += 1;
-            }
-            v
-        };
-        let from = fit(&node.viewpoints[leaf.viewpoint as usize]);
-        let to = node
-            .viewpoints
-            .get(leaf.viewpoint as usize + 1)
-            .map(&mut fit);
-        let clip_frames = leaf.end_frame - leaf.start_frame;
-        for f in leaf.start_frame..leaf.end_frame {
-            let k = usize::try_from(
-                f.saturating_sub(leaf.content_start_frame)
-                    .min(leaf.content_end_frame - leaf.content_start_frame - 1),
-            )
-            .unwrap_or(0)
-            .min(content.len() - 1);
-            let pose = &content[k];
-            let stamp = self.nanos_at(f);
-            #[expect(clippy::cast_precision_loss, reason = "frame counts far below 2^52")]
-            let s = (f - leaf.start_frame) as f64 / (clip_frames.max(2) - 1) as f64;
-            let cam = camera_at(
-                &from,
-                to.as_ref(),
-                self.spec.file.counts.shot,
-                s,
-                subject.ground_xy_m[k],
-                subject.centres_m[k],
-            );
-            w.write_frame(stamp, &cam, writer, pose)?;
+        let (cameras, pushed_out) = clip_cameras(self.spec, node, leaf, &scene.subject, scene.band);
+        for (f, (k, cam)) in (leaf.start_frame..leaf.end_frame).zip(cameras) {
+            w.write_frame(self.nanos_at(f), &cam, &mut scene.writer, &scene.content[k])?;
         }
         Ok(pushed_out)
     }

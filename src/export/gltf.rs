@@ -66,13 +66,14 @@ pub const Y_UP_FROM_Z_UP: [f32; 4] = [-FRAC_1_SQRT_2, 0.0, 0.0, FRAC_1_SQRT_2];
 pub const CAMERA_ZNEAR_M: f32 = 0.05;
 
 /// sRGB colours per [`Material`] (in [`Material::ALL`] order) when the bag has no [`Look`]:
-/// light skin, dark brown hair, a grey-blue shirt, dark trousers, near-black shoes.
-pub const DEFAULT_ALBEDO_SRGB: [[f32; 3]; 5] = [
+/// light skin, dark brown hair, a grey-blue shirt, dark trousers, near-black shoes, dark eyes.
+pub const DEFAULT_ALBEDO_SRGB: [[f32; 3]; 6] = [
     [0.86, 0.69, 0.58],
     [0.23, 0.16, 0.11],
     [0.38, 0.47, 0.60],
     [0.20, 0.22, 0.26],
     [0.08, 0.08, 0.08],
+    crate::scene::body_mesh::EYE_SRGB,
 ];
 
 /// Index of the joint node of bone `b`.

@@ -163,8 +163,8 @@ fn the_world_node_turns_z_up_to_y_up_and_the_mesh_has_a_primitive_per_material()
         .iter()
         .map(|m| m["name"].as_str().unwrap())
         .collect();
-    assert_eq!(names, ["skin", "hair", "top", "bottom", "shoes"]);
-    assert_eq!(json["meshes"][0]["primitives"].as_array().unwrap().len(), 5);
+    assert_eq!(names, ["skin", "hair", "top", "bottom", "shoes", "eye"]);
+    assert_eq!(json["meshes"][0]["primitives"].as_array().unwrap().len(), 6);
 }
 
 #[test]

@@ -384,7 +384,7 @@ impl Renderer for CpuRenderer {
         let character_offset = NORMAL_OFFSET_TEXELS / self.character_shadow.texels_per_m.max(1.0);
         let positions = std::mem::take(&mut self.skinned_positions);
         let normals = std::mem::take(&mut self.skinned_normals);
-        let body_albedo = |i: usize| stage.body_albedo[stage.body.materials[i] as usize];
+        let body_albedo = |i: usize| stage.body_vertex_albedo[i];
         self.prepare_vertices(
             env,
             &view,

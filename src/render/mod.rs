@@ -18,6 +18,9 @@ pub(crate) mod raster;
 pub mod session;
 pub mod world;
 
+#[cfg(test)]
+mod look_tests;
+
 use nalgebra::Isometry3;
 
 use crate::camera::Intrinsics;
@@ -50,6 +53,9 @@ pub struct Stage {
     pub body: BodyMesh,
     /// Linear albedo per body [`Material`] (indexed by `Material as usize`).
     pub body_albedo: Vec<Rgb>,
+    /// Linear albedo per body vertex: its material's, with the clothes' pattern (stripes, a
+    /// two-tone top, a fabric's grain) drawn from the stage's seed.
+    pub body_vertex_albedo: Vec<Rgb>,
     /// The rest pose the body mesh was built in.
     pub rest_pose: WorldPose,
 }
@@ -64,10 +70,11 @@ impl Stage {
         let environment = Environment::from_scene(scene, seed);
         let world = World::build(&scene.location, &environment, seed);
         let body = BodyMesh::build(rig, &character, &BodyShape::from_look(&scene.look));
-        let body_albedo = Material::ALL
+        let body_albedo: Vec<Rgb> = Material::ALL
             .iter()
             .map(|&m| linear_from_srgb(albedo_srgb(&scene.look, m)))
             .collect();
+        let body_vertex_albedo = clothes_pattern(&body, &body_albedo, seed);
         let rest_pose = forward(rig, &character, &BonePose::rest(rig), 1.0);
         Stage {
             id,
@@ -76,9 +83,72 @@ impl Stage {
             world,
             body,
             body_albedo,
+            body_vertex_albedo,
             rest_pose,
         }
     }
+}
+
+/// How a top is patterned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum TopPattern {
+    Plain,
+    Stripes,
+    TwoTone,
+}
+
+/// Per-vertex albedo of `body`: its material's (`albedo`, per material) with a pattern on the
+/// clothes chosen by `seed` — a top plain, striped (bands 7 cm high) or two-tone (a yoke over
+/// the shoulders), in a contrasting shade of its colour; and a fabric's grain (±6 % per vertex)
+/// on tops and trousers.
+fn clothes_pattern(body: &BodyMesh, albedo: &[Rgb], seed: u64) -> Vec<Rgb> {
+    use crate::hash::unit2;
+    let top = albedo[Material::Top as usize];
+    // Drawn from the seed and the top's colour, so two characters of one seed differ too.
+    let key = crate::hash::hash2(
+        seed ^ 0xc107,
+        u64::from(top[0].to_bits() ^ top[1].to_bits()),
+    );
+    let pattern = match key % 3 {
+        0 => TopPattern::Plain,
+        1 => TopPattern::Stripes,
+        _ => TopPattern::TwoTone,
+    };
+    let light = 0.2126 * top[0] + 0.7152 * top[1] + 0.0722 * top[2];
+    // The contrasting shade: darker for a light top, lighter for a dark one.
+    let contrast = if light > 0.25 {
+        top.map(|c| c * 0.45)
+    } else {
+        top.map(|c| c + (0.55 - c) * 0.6)
+    };
+    let stature = body
+        .rest_positions_m
+        .iter()
+        .map(|p| p[2])
+        .fold(0.0f32, f32::max)
+        .max(0.5);
+    body.materials
+        .iter()
+        .zip(&body.rest_positions_m)
+        .enumerate()
+        .map(|(i, (&m, p))| {
+            let base = albedo[m as usize];
+            let grain = 0.94 + 0.12 * unit2(seed ^ 0xfab, i as u64);
+            match m {
+                Material::Top => {
+                    let second = match pattern {
+                        TopPattern::Plain => false,
+                        TopPattern::Stripes => (p[2] / 0.07).floor() as i64 % 2 == 0,
+                        TopPattern::TwoTone => p[2] > 0.78 * stature,
+                    };
+                    let c = if second { contrast } else { base };
+                    c.map(|v| v * grain)
+                }
+                Material::Bottom => base.map(|v| v * grain),
+                _ => base,
+            }
+        })
+        .collect()
 }
 
 /// A camera for one frame: where it is and its lens, at the resolution to render.

@@ -817,6 +817,46 @@ fn add_prop(m: &mut Mesh, prop: &PlacedProp, kind: Option<PropKind>, variety: u6
     }
 }
 
+/// Smooth value noise over the ground tile, in [0, 1]: `cells` × `cells` random values at the
+/// lattice points, wrapping at the tile's edges (so tiles join seamlessly), blended with
+/// smoothstep weights — continuous, with no blocks.
+fn tile_noise(seed: u64, cells: usize, u: f32, v: f32) -> f32 {
+    let (x, y) = (u * cells as f32, v * cells as f32);
+    let (x0, y0) = (x.floor(), y.floor());
+    let smooth = |t: f32| t * t * (3.0 - 2.0 * t);
+    let (sx, sy) = (smooth(x - x0), smooth(y - y0));
+    let (i0, j0) = (x0 as usize % cells, y0 as usize % cells);
+    let (i1, j1) = ((i0 + 1) % cells, (j0 + 1) % cells);
+    let at = |i: usize, j: usize| unit2(seed, (j * cells + i) as u64);
+    let top = at(i0, j0) + (at(i1, j0) - at(i0, j0)) * sx;
+    let bottom = at(i0, j1) + (at(i1, j1) - at(i0, j1)) * sx;
+    top + (bottom - top) * sy
+}
+
+/// A ground texel of colour `c` at tile coordinates `(u, v)` under `env`'s weather: snow lies in
+/// soft-edged drifts (two octaves of [`tile_noise`]) covering about `snow_cover` of the ground,
+/// and wet ground darkens unevenly (damp patches and darker puddles), both continuous. `grain`
+/// is the texel's own random value (the snow's sparkle).
+fn weathered(c: Rgb, seed: u64, env: &Environment, u: f32, v: f32, grain: f32) -> Rgb {
+    let mut c = c;
+    if env.snow_cover > 0.0 {
+        let drift =
+            0.75 * tile_noise(seed ^ 0xa11, 3, u, v) + 0.25 * tile_noise(seed ^ 0xa12, 12, u, v);
+        // The level below which the noise is snow: none at cover 0, all of it at cover 1, with a
+        // soft edge (thin snow at the drifts' rims) 0.5 wide.
+        let level = -0.25 + 1.5 * env.snow_cover;
+        let t = ((level - drift) / 0.5 + 0.5).clamp(0.0, 1.0);
+        let amount = t * t * (3.0 - 2.0 * t);
+        let snow = scale(srgb([0.92, 0.93, 0.96]), 0.96 + 0.04 * grain);
+        c = mix(c, snow, 0.95 * amount);
+    }
+    if env.wetness > 0.0 {
+        let puddle = tile_noise(seed ^ 0x3e7, 8, u, v);
+        c = scale(c, 1.0 - env.wetness * (0.3 + 0.3 * puddle));
+    }
+    c
+}
+
 /// Side of the ground texture tile, texels.
 const TEXTURE_SIZE: usize = 128;
 
@@ -888,14 +928,8 @@ impl GroundTexture {
                     Ground::Dirt => 0.7 + 0.45 * r * coarse + 0.2 * coarse,
                     Ground::Water => 0.9 + 0.2 * coarse,
                 };
-                let mut c = scale(base, f);
-                // Snow lies in patches that grow with the cover; wet ground is darker.
-                let patch = unit2(seed ^ 0xa11, ((y / 16) * n + x / 16) as u64) * 0.6 + 0.4 * r;
-                if patch < env.snow_cover {
-                    c = mix(c, srgb([0.92, 0.93, 0.96]), 0.9);
-                }
-                c = scale(c, 1.0 - 0.45 * env.wetness);
-                texels[y * n + x] = c;
+                let c = scale(base, f);
+                texels[y * n + x] = weathered(c, seed, env, u, v, r);
             }
         }
         let mut levels = vec![texels];
@@ -1055,9 +1089,13 @@ fn surround_ground(location: &LocationInstance) -> Ground {
     }
 }
 
-/// The water rectangle `[x0, y0, x1, y1]`: the sea beyond the floor's north edge (`half` is
-/// the floor's half size), or a pool.
+/// The water rectangle `[x0, y0, x1, y1]`: where staging put it ([`LocationInstance::stage`],
+/// clear of the character's path), or for a location never staged the sea beyond the floor's
+/// north edge (`half` is the floor's half size) or a pool north of the origin.
 fn water_rect(location: &LocationInstance, half: [f32; 2]) -> Option<[f32; 4]> {
+    if let Some(rect) = location.water_m {
+        return Some(rect.map(|v| v as f32));
+    }
     match (location.backdrop, location.has_water) {
         (Backdrop::Sea, _) => Some([-1e4, half[1], 1e4, 1e4]),
         (_, true) => Some([-4.0, 3.0, 4.0, half[1].max(8.0)]),

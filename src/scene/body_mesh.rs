@@ -7,7 +7,10 @@
 //! - `torso`: one tube from the crotch over the pelvis and spine to the neck, wider at the hips
 //!   and chest than at the waist, ending inside the head;
 //! - `head`: an ellipsoid (scaled by the head bone's scale) with a nose, face skin and a hair
-//!   cap on the top and back; `hair`: a hair mass down the back, only for long hair;
+//!   cap on the top and back; `l_eye`, `r_eye` (dark) and `l_ear`, `r_ear` (skin): small
+//!   ellipsoids on the head where the rays from its centre through the rig's eye and ear
+//!   landmarks (COCO's face keypoints) meet it; `hair`: a hair mass down the back, only for
+//!   long hair;
 //! - `l_arm`, `r_arm`: one tube each from inside the chest along clavicle, upper arm, forearm
 //!   and hand, flattening into a mitten that ends at the middle fingertip; `l_thumb`, `r_thumb`;
 //! - `l_leg`, `r_leg`: one tube each from inside the pelvis along thigh and calf to the ankle;
@@ -20,7 +23,7 @@
 //! Lengths come from the character's rest skeleton; widths scale with its stature (the head
 //! with its head bone, hands and feet with theirs) and with [`BodyShape::girth_scale`].
 //!
-//! The standard adult has 2,648 triangles and 1,423 vertices; long hair adds 80 triangles.
+//! The standard adult has 2,904 triangles and 1,559 vertices; long hair adds 80 triangles.
 //! Every body stays under [`MAX_TRIANGLES`].
 //!
 //! # Conventions
@@ -79,19 +82,22 @@ pub enum Material {
     Bottom = 3,
     /// Shoes.
     Shoes = 4,
+    /// Eyes (iris and pupil, dark at this scale).
+    Eye = 5,
 }
 
 impl Material {
     /// Every material, in `repr` order.
-    pub const ALL: [Material; 5] = [
+    pub const ALL: [Material; 6] = [
         Material::Skin,
         Material::Hair,
         Material::Top,
         Material::Bottom,
         Material::Shoes,
+        Material::Eye,
     ];
 
-    /// Lower-case name: `skin`, `hair`, `top`, `bottom`, `shoes`.
+    /// Lower-case name: `skin`, `hair`, `top`, `bottom`, `shoes`, `eye`.
     #[must_use]
     pub fn name(self) -> &'static str {
         match self {
@@ -100,6 +106,7 @@ impl Material {
             Material::Top => "top",
             Material::Bottom => "bottom",
             Material::Shoes => "shoes",
+            Material::Eye => "eye",
         }
     }
 }
@@ -114,8 +121,12 @@ pub fn albedo_srgb(look: &Look, material: Material) -> [f32; 3] {
         Material::Top => look.clothing.top_rgb,
         Material::Bottom => look.clothing.bottom_rgb,
         Material::Shoes => look.clothing.shoes_rgb,
+        Material::Eye => EYE_SRGB,
     }
 }
+
+/// sRGB of the eyes: a dark iris and pupil (the white is too small to show at video sizes).
+pub const EYE_SRGB: [f32; 3] = [0.09, 0.065, 0.05];
 
 /// Body shape beyond the skeleton: build and sex-based tweaks. Lengths never change here.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -201,8 +212,8 @@ pub enum BodyMeshError {
 /// One closed surface of the body: a contiguous run of vertices and triangles.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct BodyPart {
-    /// `torso`, `head`, `hair`, `l_arm`, `r_arm`, `l_thumb`, `r_thumb`, `l_leg`, `r_leg`,
-    /// `l_shoe`, `r_shoe`.
+    /// `torso`, `head`, `l_eye`, `r_eye`, `l_ear`, `r_ear`, `hair`, `l_arm`, `r_arm`,
+    /// `l_thumb`, `r_thumb`, `l_leg`, `r_leg`, `l_shoe`, `r_shoe`.
     pub name: &'static str,
     /// Its vertices (indices into the per-vertex arrays).
     pub vertices: Range<usize>,
@@ -333,6 +344,7 @@ impl BodyMesh {
             torso(&skeleton, &dims, shape)?,
             head(&skeleton, &dims, shape)?,
         ];
+        parts.extend(face_features(&skeleton, &dims)?);
         if shape.hair_length_m > 0.03 {
             parts.push(long_hair(&skeleton, &dims, shape)?);
         }
@@ -1102,6 +1114,92 @@ fn head(sk: &Skeleton<'_>, dims: &Dims, shape: &BodyShape) -> Result<PartBuilder
     Ok(part)
 }
 
+/// The eyes and ears, small closed ellipsoids on the head's surface moving with the head bone,
+/// each where the ray from the head's centre through the rig's landmark (`l_eye`, `r_eye`,
+/// `l_ear`, `r_ear`, the points COCO's face keypoints are read from) meets the head: eyes
+/// [`Material::Eye`], ears skin. A rig without those landmarks gets none.
+fn face_features(sk: &Skeleton<'_>, dims: &Dims) -> Result<Vec<PartBuilder>, BodyMeshError> {
+    let hs = dims.head;
+    let [ax, af, ab, az] = HEAD_SEMI_M.map(|s| s * hs);
+    let centre = head_centre(sk, dims);
+    let head_bone = sk.index("head")?;
+    let features: [(&'static str, &str, [f64; 3], f64, Material); 4] = [
+        ("l_eye", "l_eye", [0.013, 0.008, 0.009], 0.4, Material::Eye),
+        ("r_eye", "r_eye", [0.013, 0.008, 0.009], 0.4, Material::Eye),
+        ("l_ear", "l_ear", [0.012, 0.022, 0.032], 0.2, Material::Skin),
+        ("r_ear", "r_ear", [0.012, 0.022, 0.032], 0.2, Material::Skin),
+    ];
+    let mut parts = Vec::new();
+    for (name, landmark, semi, out, material) in features {
+        let Some(l) = sk.rig.landmark_index(landmark) else {
+            continue;
+        };
+        if l >= sk.character.landmark_offset_m.len() {
+            continue;
+        }
+        let at = fk::landmark_position(sk.rig, sk.character, &sk.rest, l).coords;
+        let d = at - centre;
+        let front = if d.y >= 0.0 { af } else { ab };
+        let q = Vector3::new(d.x / ax, d.y / front, d.z / az);
+        let Some(q) = q.try_normalize(1e-12) else {
+            continue;
+        };
+        let surface = centre + Vector3::new(q.x * ax, q.y * front, q.z * az);
+        // Outward along the surface normal, so the feature sits partly out of the head.
+        let normal = Vector3::new(q.x / ax, q.y / front, q.z / az).normalize();
+        let semi = semi.map(|v| v * hs);
+        let mid = surface + normal * (out * semi[0]);
+        parts.push(blob(name, mid, semi, head_bone, material));
+    }
+    Ok(parts)
+}
+
+/// A small closed ellipsoid named `name` centred at `centre` with semi-axes `semi` (x, y, z),
+/// all on `bone`, of one `material`.
+fn blob(
+    name: &'static str,
+    centre: Vector3<f64>,
+    semi: [f64; 3],
+    bone: usize,
+    material: Material,
+) -> PartBuilder {
+    const RINGS: usize = 5;
+    let chain = Chain::new(
+        vec![
+            centre - Vector3::z() * semi[2],
+            centre + Vector3::z() * semi[2],
+        ],
+        vec![Influences::single(bone)],
+        None,
+        None,
+    );
+    let stations: Vec<Station> = (1..RINGS)
+        .map(|k| {
+            #[expect(clippy::cast_precision_loss, reason = "small counts")]
+            let phi = std::f64::consts::PI * k as f64 / RINGS as f64;
+            let (s, c) = phi.sin_cos();
+            Station {
+                c: 0.5 * (1.0 - c),
+                half_width_m: semi[0] * s,
+                front_m: semi[1] * s,
+                back_m: semi[1] * s,
+                offset_m: Vector3::zeros(),
+                weight_shift: 0.0,
+            }
+        })
+        .collect();
+    let mut part = PartBuilder::new(name);
+    part.tube(
+        &chain,
+        &Vector3::y(),
+        &ellipse(8),
+        &stations,
+        [Pole::at(0.0), Pole::at(1.0)],
+        &|_, _| material,
+    );
+    part
+}
+
 /// The hairline on the unit head: hair where `z > hairline(y)` (y forward, z up, unit sphere
 /// directions). `extra` lowers the back and sides (long hair), in units of the head's height.
 fn hairline(extra: f64) -> impl Fn(f64) -> f64 {
@@ -1455,7 +1553,8 @@ fn assemble(parts: &[PartBuilder]) -> BodyMesh {
             }
         }
         // One output vertex per (position, material).
-        let mut out: Vec<[u32; 5]> = vec![[u32::MAX; 5]; part.positions.len()];
+        let mut out: Vec<[u32; Material::ALL.len()]> =
+            vec![[u32::MAX; Material::ALL.len()]; part.positions.len()];
         for (f, material) in &part.faces {
             for &i in f {
                 let slot = &mut out[i as usize][*material as usize];

@@ -11,9 +11,9 @@ use crate::scene::cast::Population;
 use crate::skeleton::rig::Dof;
 
 /// The triangle count the module docs state for the standard adult.
-const STANDARD_TRIANGLES: usize = 2_648;
+const STANDARD_TRIANGLES: usize = 2_904;
 /// The vertex count the module docs state for the standard adult.
-const STANDARD_VERTICES: usize = 1_423;
+const STANDARD_VERTICES: usize = 1_559;
 
 struct Body {
     label: String,
@@ -594,7 +594,7 @@ fn shapes_follow_the_look_and_colours_come_from_it() {
         assert_eq!(albedo_srgb(woman, mat), want, "{}", mat.name());
     }
     let names: Vec<&str> = Material::ALL.iter().map(|m| m.name()).collect();
-    assert_eq!(names, ["skin", "hair", "top", "bottom", "shoes"]);
+    assert_eq!(names, ["skin", "hair", "top", "bottom", "shoes", "eye"]);
 }
 
 #[test]
@@ -762,5 +762,48 @@ fn limb_joints_blend_half_and_half_fading_over_a_quarter_bone() {
             samples.iter().any(|&(s, _)| s.abs() < 1e-4),
             "{limb}: no joint ring"
         );
+    }
+}
+
+#[test]
+fn eyes_and_ears_sit_on_the_head_at_cocos_face_points() {
+    let rig = Rig::standard();
+    for b in bodies(&rig) {
+        let rest = crate::skeleton::fk::forward(&rig, &b.character, &BonePose::rest(&rig), 1.0);
+        let head = rig.bone_index("head").unwrap();
+        for (name, material) in [
+            ("l_eye", Material::Eye),
+            ("r_eye", Material::Eye),
+            ("l_ear", Material::Skin),
+            ("r_ear", Material::Skin),
+        ] {
+            let part = b.mesh.parts.iter().find(|p| p.name == name).unwrap();
+            let n = part.vertices.len() as f64;
+            let centroid = part
+                .vertices
+                .clone()
+                .map(|i| v3(&b.mesh.rest_positions_m[i]))
+                .sum::<Vector3<f64>>()
+                / n;
+            let l = rig.landmark_index(name).unwrap();
+            let want = crate::skeleton::fk::landmark_position(&rig, &b.character, &rest, l).coords;
+            let off = (centroid - want).norm();
+            assert!(
+                off < 0.03,
+                "{}: {name} {off:.3} m from its landmark",
+                b.label
+            );
+            for i in part.vertices.clone() {
+                assert_eq!(b.mesh.materials[i], material, "{}: {name}", b.label);
+                assert_eq!(b.mesh.joints[i][0] as usize, head, "{}: {name}", b.label);
+                assert_eq!(b.mesh.weights[i][0], 1.0, "{}: {name}", b.label);
+            }
+        }
+        // Left is −x (the body's right is +x), and the eyes are in front of the ears.
+        let x = |name: &str| {
+            let p = b.mesh.parts.iter().find(|p| p.name == name).unwrap();
+            f64::from(b.mesh.rest_positions_m[p.vertices.start][0])
+        };
+        assert!(x("l_eye") < 0.0 && x("r_eye") > 0.0 && x("l_ear") < x("l_eye"));
     }
 }

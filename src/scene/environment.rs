@@ -7,9 +7,12 @@
 //! The world frame is east-north-up (x east, y north, z up), the frame
 //! [`crate::scene::SunPosition::direction_enu`] is given in.
 //!
-//! Night (the sun more than a few degrees below the horizon) is lit artificially: outdoors a
-//! warm street-lamp key from high up, indoors a ceiling key; daylight fades into it through
-//! twilight, so every time of day gives a readable image.
+//! Night (the sun more than a few degrees below the horizon) is lit dimly: outdoors a warm
+//! street-lamp key from high up and a faint sky glow, indoors a ceiling key; daylight fades into
+//! it through twilight. Outdoors the ground's light never falls as the sun rises, whatever the
+//! weather (the night's floor is below the darkest weather's daylight, a noon thunderstorm), and
+//! a camera exposure makes up part of a dark scene's shortfall (brightness goes as the light to
+//! the power 0.5), so darker scenes stay darker but readable.
 
 use super::color::{Rgb, add, mix, scale};
 use crate::scene::weather::Precipitation;
@@ -102,6 +105,65 @@ fn direction(azimuth_deg: f64, elevation_deg: f64) -> [f64; 3] {
     [az.sin() * el.cos(), az.cos() * el.cos(), el.sin()]
 }
 
+/// The night's key light at full darkness (a street lamp or the moon high up), linear RGB: dim
+/// enough that, with [`NIGHT_AMBIENT`], it lights the ground less than the darkest weather's
+/// daylight (a noon thunderstorm), so light never falls as the sun rises.
+const NIGHT_LAMP: Rgb = [0.036, 0.028, 0.019];
+/// The night's ambient at full darkness (sky glow, moonlight), linear RGB.
+const NIGHT_AMBIENT: Rgb = [0.009, 0.0099, 0.0135];
+/// Irradiance luminance on the ground under a clear noon sun, the exposure's reference.
+const REFERENCE_IRRADIANCE: f32 = 1.1;
+/// How much of a darker scene's shortfall the camera's exposure makes up (0 none, 1 all): the
+/// picture's brightness goes as the light's to the power `1 − EXPOSURE_COMPENSATION`, so darker
+/// scenes stay darker (the order of brightness is kept) yet readable.
+const EXPOSURE_COMPENSATION: f32 = 0.5;
+
+/// Rec. 709 luminance of a linear colour.
+#[inline]
+#[must_use]
+pub fn luminance(c: Rgb) -> f32 {
+    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+}
+
+/// The exposure gain for a scene whose ground receives `irradiance` (luminance): 1 at or
+/// above a clear noon's, `(reference / irradiance)^EXPOSURE_COMPENSATION` below it — a
+/// monotone map, so a darker scene never renders brighter.
+fn exposure(irradiance: f32) -> f32 {
+    (REFERENCE_IRRADIANCE / irradiance.max(1e-4))
+        .max(1.0)
+        .powf(EXPOSURE_COMPENSATION)
+}
+
+/// The sky's zenith and horizon colours (before exposure) for daylight factor `d`: day, dusk
+/// and night blended, greyed by cloud, tinted by smog and pulled to the horizon by fog.
+fn sky_colours(scene: &Scene, d: f32) -> (Rgb, Rgb) {
+    let w = &scene.weather_params;
+    let el = scene.sun.elevation_deg;
+    let day_zenith = rgb([0.16, 0.32, 0.72]);
+    let day_horizon = rgb([0.62, 0.72, 0.88]);
+    let dusk = 1.0 - smoothstep(-4.0, 14.0, el) as f32;
+    let zenith = mix(day_zenith, rgb([0.12, 0.16, 0.38]), dusk);
+    let horizon = mix(day_horizon, rgb([0.98, 0.55, 0.32]), dusk);
+    let night = rgb([0.002, 0.003, 0.008]);
+    let night_horizon = rgb([0.008, 0.009, 0.014]);
+    let mut zenith = mix(night, zenith, d);
+    let mut horizon = mix(night_horizon, horizon, d);
+    let cloud = w.cloud_cover as f32;
+    let grey = scale(
+        [0.55, 0.57, 0.6],
+        (0.02 + 0.98 * d) * w.ambient_light_scale as f32,
+    );
+    zenith = mix(zenith, scale(grey, 0.85), cloud * cloud);
+    horizon = mix(horizon, grey, cloud * 0.8);
+    if scene.weather == Weather::Smog {
+        horizon = mix(horizon, scale([0.72, 0.62, 0.45], d), 0.6);
+        zenith = mix(zenith, horizon, 0.4);
+    }
+    // Fog thick enough to matter pulls the whole sky to its colour.
+    let haze = (w.fog_density_per_m as f32 * 60.0).min(1.0);
+    (mix(zenith, horizon, haze), horizon)
+}
+
 impl Environment {
     /// The environment of a drawn scene. `layout_seed` (the scene's stream) places the night
     /// lamp so scenes differ.
@@ -114,71 +176,64 @@ impl Environment {
         let w = &scene.weather_params;
         let el = scene.sun.elevation_deg;
         let daylight = ambient_from_sun(el);
+        let d = daylight as f32;
+        let (zenith, horizon) = sky_colours(scene, d);
         // Sun: warm and weak near the horizon, white high up; scaled by the weather.
         let sun_up = smoothstep(SUN_SET_DEG, SUN_UP_DEG, el);
         let warm = smoothstep(0.0, 30.0, el);
         let sun_colour = mix(rgb([1.0, 0.52, 0.28]), rgb([1.0, 0.96, 0.9]), warm as f32);
-        let sun_strength = 0.95 * sun_up * w.direct_light_scale;
-        // Sky colours by day, at sunset and at night, greyed by cloud.
-        let day_zenith = rgb([0.16, 0.32, 0.72]);
-        let day_horizon = rgb([0.62, 0.72, 0.88]);
-        let dusk = 1.0 - smoothstep(-4.0, 14.0, el) as f32;
-        let zenith = mix(day_zenith, rgb([0.12, 0.16, 0.38]), dusk);
-        let horizon = mix(day_horizon, rgb([0.98, 0.55, 0.32]), dusk);
-        let night = rgb([0.006, 0.009, 0.022]);
-        let night_horizon = rgb([0.03, 0.032, 0.045]);
-        let d = daylight as f32;
-        let mut zenith = mix(night, zenith, d);
-        let mut horizon = mix(night_horizon, horizon, d);
-        let cloud = w.cloud_cover as f32;
-        let grey = scale(
-            [0.55, 0.57, 0.6],
-            (0.15 + 0.85 * d) * w.ambient_light_scale as f32,
-        );
-        zenith = mix(zenith, scale(grey, 0.85), cloud * cloud);
-        horizon = mix(horizon, grey, cloud * 0.8);
-        if scene.weather == Weather::Smog {
-            horizon = mix(horizon, scale([0.72, 0.62, 0.45], d), 0.6);
-            zenith = mix(zenith, horizon, 0.4);
-        }
-        // Fog thick enough to matter pulls the whole sky to its colour.
-        let fog_per_m = w.fog_density_per_m as f32;
-        let haze = (fog_per_m * 60.0).min(1.0);
-        zenith = mix(zenith, horizon, haze);
-        // Ambient: the sky's light by day (weather-scaled), and an artificial floor at night.
+        let sun_rgb = scale(sun_colour, (0.95 * sun_up * w.direct_light_scale) as f32);
+        // Ambient: the sky's light by day (weather-scaled), and the night's dim floor (moon,
+        // street lamps) fading out through twilight.
+        let artificial = 1.0 - d;
         let sky_day = scale(
             [0.30, 0.36, 0.46],
             (daylight * w.ambient_light_scale) as f32,
         );
-        let artificial = 1.0 - d;
-        let lamp_rgb = scale([1.0, 0.78, 0.52], 0.62 * artificial);
-        let sky_ambient = add(sky_day, scale([0.05, 0.055, 0.075], artificial));
-        // Key light: the sun while it gives more than the night lamp would.
+        let mut sky_ambient = add(sky_day, scale(NIGHT_AMBIENT, artificial));
+        let lamp_rgb = scale(NIGHT_LAMP, artificial);
+        // Key light: of the sun and the night lamp, the one that lights the ground more; the
+        // other's light on the ground joins the ambient, so the ground's irradiance is their
+        // sum at every sun elevation (no jump where the key changes).
         let sun_dir = unit(scene.sun.direction_enu());
         let lamp_dir = unit(direction(lamp_azimuth, 62.0));
-        let (key_dir, key_rgb) = if sun_strength >= 0.62 * f64::from(artificial) {
-            (sun_dir, scale(sun_colour, sun_strength as f32))
-        } else {
-            (lamp_dir, lamp_rgb)
-        };
-        let key_shadows = key_rgb.iter().sum::<f32>() > 0.15;
+        let on_ground = |c: Rgb, dir: [f32; 3]| scale(c, dir[2].max(0.0));
+        let (key_dir, key_rgb, other) =
+            if luminance(on_ground(sun_rgb, sun_dir)) >= luminance(on_ground(lamp_rgb, lamp_dir)) {
+                (sun_dir, sun_rgb, on_ground(lamp_rgb, lamp_dir))
+            } else {
+                (lamp_dir, lamp_rgb, on_ground(sun_rgb, sun_dir))
+            };
+        sky_ambient = add(sky_ambient, other);
+        let ground_irradiance = luminance(on_ground(key_rgb, key_dir)) + luminance(sky_ambient);
+        let key_shadows = luminance(on_ground(key_rgb, key_dir)) > 0.05 * ground_irradiance;
         let ground_ambient = scale(add(sky_ambient, scale(key_rgb, 0.25)), 0.35);
         let sun_glow = if sun_up > 0.0 {
-            (sun_dir, scale(sun_colour, (sun_strength * 1.4) as f32))
+            (
+                sun_dir,
+                scale(
+                    sun_colour,
+                    (0.95 * sun_up * w.direct_light_scale * 1.4) as f32,
+                ),
+            )
         } else {
             (sun_dir, [0.0; 3])
         };
+        // The camera's exposure, part of the way towards a clear noon's, on what the light
+        // falls on; the sky (and the fog, its colour) keeps its own radiance, which already
+        // grows with the sun.
+        let e = exposure(ground_irradiance);
         Environment {
             key_dir,
-            key_rgb,
+            key_rgb: scale(key_rgb, e),
             key_shadows,
-            sky_ambient_rgb: sky_ambient,
-            ground_ambient_rgb: ground_ambient,
+            sky_ambient_rgb: scale(sky_ambient, e),
+            ground_ambient_rgb: scale(ground_ambient, e),
             zenith_rgb: zenith,
             horizon_rgb: horizon,
             sun_glow,
-            fog_per_m,
-            cloud_cover: cloud,
+            fog_per_m: w.fog_density_per_m as f32,
+            cloud_cover: w.cloud_cover as f32,
             precipitation: (w.precipitation, w.precipitation_rate_mm_per_h as f32),
             wind_m_per_s: w.wind_speed_m_per_s as f32,
             wetness: w.ground_wetness as f32,
@@ -276,24 +331,48 @@ mod tests {
     use crate::scene::sky::ClockTime;
     use crate::scene::tests::test_scene;
 
-    fn luminance(c: Rgb) -> f32 {
-        0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
-    }
-
     #[test]
-    fn noon_is_brighter_than_dusk_and_night_still_has_light() {
+    fn noon_is_brighter_than_dusk_and_night_is_dark_but_lit() {
         let noon = Environment::from_scene(&test_scene(Weather::Clear, ClockTime::NOON), 1);
         let dusk = Environment::from_scene(&test_scene(Weather::Clear, ClockTime::EVENING), 1);
         let night = Environment::from_scene(&test_scene(Weather::Clear, ClockTime::MIDNIGHT), 1);
-        let lit = |e: &Environment| luminance(add(e.key_rgb, e.sky_ambient_rgb));
+        let storm = Environment::from_scene(&test_scene(Weather::Thunder, ClockTime::NOON), 1);
+        let lit = |e: &Environment| {
+            luminance(e.key_rgb) * e.key_dir[2].max(0.0) + luminance(e.sky_ambient_rgb)
+        };
         assert!(lit(&noon) > lit(&dusk), "{noon:?} {dusk:?}");
-        assert!(lit(&dusk) > lit(&night) * 0.5);
-        assert!(lit(&night) > 0.2, "night must stay readable: {night:?}");
+        // 20:00 in June at 34° N is past civil twilight: as dark as midnight, never darker.
+        assert!(lit(&dusk) >= lit(&night), "{dusk:?} {night:?}");
+        assert!(lit(&storm) > lit(&night), "{storm:?} {night:?}");
+        assert!(lit(&night) < 0.3 * lit(&noon), "night is dark: {night:?}");
+        assert!(lit(&night) > 0.05, "but lit: {night:?}");
         assert!(luminance(night.zenith_rgb) < 0.05);
         // The night key is the lamp, warm: more red than blue.
         assert!(night.key_rgb[0] > night.key_rgb[2]);
         // Noon's key is the sun, high up.
         assert!(noon.key_dir[2] > 0.8);
+    }
+
+    #[test]
+    fn the_grounds_light_never_falls_as_the_sun_rises_in_any_weather() {
+        let mut scene = test_scene(Weather::Clear, ClockTime::NOON);
+        for weather in Weather::ALL {
+            scene.weather = weather;
+            scene.weather_params = weather.params();
+            let mut last = 0.0f32;
+            for tenth in -300..=900 {
+                scene.sun.elevation_deg = f64::from(tenth) / 10.0;
+                let e = Environment::from_scene(&scene, 1);
+                let lit =
+                    luminance(e.key_rgb) * e.key_dir[2].max(0.0) + luminance(e.sky_ambient_rgb);
+                assert!(
+                    lit >= last * (1.0 - 1e-5),
+                    "{weather} at {:.1}°: {lit} after {last}",
+                    scene.sun.elevation_deg
+                );
+                last = lit;
+            }
+        }
     }
 
     #[test]

@@ -149,6 +149,168 @@ pub struct LocationInstance {
     pub props_not_placed: u32,
     /// The radius kept free around the character, metres.
     pub clear_radius_m: f64,
+    /// The water's rectangle `[x0, y0, x1, y1]`, metres, once staged
+    /// ([`LocationInstance::stage`]): the sea beyond the floor's north edge or a pool, always
+    /// clear of the character's path; `None` for a location without water, or one not staged
+    /// (a renderer then puts a pool north of the origin, or the sea beyond the floor).
+    #[serde(default)]
+    pub water_m: Option<[f64; 4]>,
+}
+
+/// A staged character's body radius on the ground, metres: the water keeps this far from every
+/// point of its path.
+pub const BODY_RADIUS_M: f64 = 0.6;
+/// Half width of the corridor from a camera to the character that props keep out of, metres.
+pub const SIGHT_RADIUS_M: f64 = 0.6;
+/// Props no higher than this (towels, mats) neither block a view nor a walk, metres.
+pub const FLAT_PROP_M: f64 = 0.05;
+/// A staged pool's size `[x, y]`, metres.
+pub const POOL_SIZE_M: [f64; 2] = [8.0, 5.0];
+
+/// Distance from `p` to the segment `a`–`b` (2-D).
+#[must_use]
+pub fn distance_to_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let e = [b[0] - a[0], b[1] - a[1]];
+    let len2 = e[0] * e[0] + e[1] * e[1];
+    let t = if len2 > 0.0 {
+        (((p[0] - a[0]) * e[0] + (p[1] - a[1]) * e[1]) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p[0] - a[0] - t * e[0]).hypot(p[1] - a[1] - t * e[1])
+}
+
+/// Distance from `p` to the rectangle `[x0, y0, x1, y1]` (0 inside).
+#[must_use]
+pub fn distance_to_rect(p: [f64; 2], r: [f64; 4]) -> f64 {
+    let dx = (r[0] - p[0]).max(p[0] - r[2]).max(0.0);
+    let dy = (r[1] - p[1]).max(p[1] - r[3]).max(0.0);
+    dx.hypot(dy)
+}
+
+/// What a staged scene must keep clear: the character's ground path and the lines from the
+/// cameras to it, metres, world frame.
+#[derive(Debug, Clone, Copy)]
+pub struct Staging<'a> {
+    /// The character's ground point, frame by frame.
+    pub path_xy_m: &'a [[f64; 2]],
+    /// Per camera frame: the camera's ground point and the character's at that frame.
+    pub sight_lines_m: &'a [[[f64; 2]; 2]],
+}
+
+impl Staging<'_> {
+    /// Whether a prop's footprint circle (centre `c`, radius `r`) stays `clear` from the path
+    /// and [`SIGHT_RADIUS_M`] from every line of sight.
+    #[must_use]
+    pub fn prop_is_clear(&self, c: [f64; 2], r: f64, clear: f64) -> bool {
+        self.path_xy_m
+            .iter()
+            .all(|p| (p[0] - c[0]).hypot(p[1] - c[1]) >= r + clear)
+            && self
+                .sight_lines_m
+                .iter()
+                .all(|[a, b]| distance_to_segment(c, *a, *b) >= r + SIGHT_RADIUS_M)
+    }
+
+    /// Whether the rectangle `rect` stays [`BODY_RADIUS_M`] from every point of the path.
+    #[must_use]
+    pub fn water_is_clear(&self, rect: [f64; 4]) -> bool {
+        self.path_xy_m
+            .iter()
+            .all(|&p| distance_to_rect(p, rect) >= BODY_RADIUS_M)
+    }
+}
+
+impl LocationInstance {
+    /// Stages the drawn location around what the character and the cameras do: the floor grows
+    /// to hold the path and every camera (so walls and backdrops stay behind them), the water
+    /// (the sea's shore or a [`POOL_SIZE_M`] pool) is placed clear of the path, and every prop
+    /// whose footprint circle comes within the clear radius of the path, within
+    /// [`SIGHT_RADIUS_M`] of a line from a camera to the character, or over the water is moved
+    /// to a spot clear of all of them (or left out and counted in `props_not_placed` after
+    /// [`PLACEMENT_ATTEMPTS`] tries). Flat props (≤ [`FLAT_PROP_M`]) stay where they are unless
+    /// over the water. `rng` draws the new spots.
+    pub fn stage(&mut self, staging: &Staging<'_>, rng: &mut (impl Rng + ?Sized)) {
+        if !self.size_m.iter().all(|s| s.is_finite() && *s > 0.0) {
+            return;
+        }
+        let mut half = [self.size_m[0] / 2.0, self.size_m[1] / 2.0];
+        let cameras = staging.sight_lines_m.iter().map(|l| (l[0], 1.0));
+        let path = staging.path_xy_m.iter().map(|&p| (p, BODY_RADIUS_M + 1.0));
+        for (p, margin) in path.chain(cameras) {
+            if p.iter().all(|v| v.is_finite()) {
+                half[0] = half[0].max(p[0].abs() + margin);
+                half[1] = half[1].max(p[1].abs() + margin);
+            }
+        }
+        self.size_m = [2.0 * half[0], 2.0 * half[1]];
+        self.water_m = match (self.backdrop, self.has_water) {
+            (Backdrop::Sea, _) => Some([-1e4, half[1], 1e4, 1e4]),
+            (_, true) => Some(place_pool(staging, half, rng)),
+            _ => None,
+        };
+        let clear = self.clear_radius_m;
+        let water = self.water_m;
+        let dry = |c: [f64; 2], r: f64| water.is_none_or(|w| distance_to_rect(c, w) >= r);
+        let ok = |p: &PlacedProp, c: [f64; 2]| {
+            let r = 0.5 * p.size_m[0].hypot(p.size_m[1]);
+            dry(c, r) && (p.size_m[2] <= FLAT_PROP_M || staging.prop_is_clear(c, r, clear))
+        };
+        let mut kept: Vec<(PlacedProp, f64)> = Vec::new();
+        for prop in std::mem::take(&mut self.props) {
+            let r = 0.5 * prop.size_m[0].hypot(prop.size_m[1]);
+            let here = [prop.position_m[0], prop.position_m[1]];
+            let free = |c: [f64; 2], kept: &[(PlacedProp, f64)]| {
+                kept.iter()
+                    .all(|(q, rq)| (q.position_m[0] - c[0]).hypot(q.position_m[1] - c[1]) >= r + rq)
+            };
+            if ok(&prop, here) && free(here, &kept) {
+                kept.push((prop, r));
+                continue;
+            }
+            let spot = (0..PLACEMENT_ATTEMPTS).find_map(|_| {
+                try_spot(rng, prop.size_m, half, r, clear, &kept)
+                    .filter(|(c, _)| ok(&prop, [c[0], c[1]]))
+            });
+            match spot {
+                Some((position_m, yaw_deg)) => kept.push((
+                    PlacedProp {
+                        position_m,
+                        yaw_deg,
+                        ..prop
+                    },
+                    r,
+                )),
+                None => self.props_not_placed = self.props_not_placed.saturating_add(1),
+            }
+        }
+        self.props = kept.into_iter().map(|(p, _)| p).collect();
+    }
+}
+
+/// A pool's rectangle on a floor of half size `half`, clear of the path: a random spot on the
+/// floor where it fits, or else just north of the path's farthest point north.
+fn place_pool(staging: &Staging<'_>, half: [f64; 2], rng: &mut (impl Rng + ?Sized)) -> [f64; 4] {
+    let [w, h] = POOL_SIZE_M;
+    let room = [half[0] - w / 2.0, half[1] - h / 2.0];
+    if room[0] >= 0.0 && room[1] >= 0.0 {
+        for _ in 0..PLACEMENT_ATTEMPTS {
+            let x = rng.random_range(-room[0]..=room[0]);
+            let y = rng.random_range(-room[1]..=room[1]);
+            let rect = [x - w / 2.0, y - h / 2.0, x + w / 2.0, y + h / 2.0];
+            if staging.water_is_clear(rect) {
+                return rect;
+            }
+        }
+    }
+    let north = staging
+        .path_xy_m
+        .iter()
+        .map(|p| p[1])
+        .filter(|y| y.is_finite())
+        .fold(0.0, f64::max);
+    let y0 = north + BODY_RADIUS_M + 0.5;
+    [-w / 2.0, y0, w / 2.0, y0 + h]
 }
 
 /// Tries per prop before it is left out (rejection sampling never loops forever).
@@ -283,6 +445,7 @@ impl Location {
             props_requested: requested,
             props_not_placed: not_placed,
             clear_radius_m: clear,
+            water_m: None,
         }
     }
 
@@ -593,6 +756,126 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A random path (a straight walk, a circle or standing still) from the origin, and for
+    /// every point a camera 2–9 m away at a drifting azimuth, as sight lines.
+    fn random_staging(rng: &mut ChaCha8Rng) -> (Vec<[f64; 2]>, Vec<[[f64; 2]; 2]>) {
+        let n = 120;
+        let kind = rng.random_range(0..3);
+        let heading: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+        let length: f64 = rng.random_range(0.0..14.0);
+        let path: Vec<[f64; 2]> = (0..n)
+            .map(|i| {
+                let t = f64::from(i) / f64::from(n - 1);
+                match kind {
+                    0 => [length * t * heading.cos(), length * t * heading.sin()],
+                    1 => {
+                        let r = 0.2 * length;
+                        let a = heading + std::f64::consts::TAU * t;
+                        [r * (a.cos() - heading.cos()), r * (a.sin() - heading.sin())]
+                    }
+                    _ => [0.0, 0.0],
+                }
+            })
+            .collect();
+        let distance = rng.random_range(2.0..9.0);
+        let (a0, turn) = (
+            rng.random_range(0.0..std::f64::consts::TAU),
+            rng.random_range(-1.5..1.5),
+        );
+        let sight = path
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let a = a0 + turn * f64::from(i as u32) / f64::from(n);
+                [[p[0] + distance * a.cos(), p[1] + distance * a.sin()], *p]
+            })
+            .collect();
+        (path, sight)
+    }
+
+    #[test]
+    fn staging_keeps_water_and_props_off_the_path_and_out_of_every_line_of_sight() {
+        let mut rng = ChaCha8Rng::seed_from_u64(21);
+        let (mut moved, mut pools) = (0, 0);
+        for loc in Location::builtin_pool() {
+            for _ in 0..40 {
+                let drawn = loc.draw(&mut rng, 2.5);
+                let (path, sight) = random_staging(&mut rng);
+                let staging = Staging {
+                    path_xy_m: &path,
+                    sight_lines_m: &sight,
+                };
+                let mut inst = drawn.clone();
+                inst.stage(&staging, &mut rng);
+                let name = &loc.name;
+                // Every point of the path and every camera on the (grown) floor.
+                let half = [inst.size_m[0] / 2.0, inst.size_m[1] / 2.0];
+                for p in path.iter().chain(sight.iter().map(|l| &l[0])) {
+                    assert!(
+                        p[0].abs() <= half[0] && p[1].abs() <= half[1],
+                        "{name}: {p:?}"
+                    );
+                }
+                assert_eq!(inst.water_m.is_some(), loc.has_water, "{name}");
+                if let Some(w) = inst.water_m {
+                    pools += usize::from(loc.backdrop != Backdrop::Sea);
+                    for p in &path {
+                        assert!(
+                            distance_to_rect(*p, w) >= BODY_RADIUS_M,
+                            "{name}: {p:?} {w:?}"
+                        );
+                    }
+                }
+                for p in &inst.props {
+                    let c = [p.position_m[0], p.position_m[1]];
+                    let r = 0.5 * p.size_m[0].hypot(p.size_m[1]);
+                    if let Some(w) = inst.water_m {
+                        assert!(distance_to_rect(c, w) >= r, "{name}: {p:?} in the water");
+                    }
+                    if p.size_m[2] <= FLAT_PROP_M {
+                        continue;
+                    }
+                    for q in &path {
+                        let d = (q[0] - c[0]).hypot(q[1] - c[1]);
+                        assert!(
+                            d >= r + inst.clear_radius_m - 1e-9,
+                            "{name}: {p:?} on the path"
+                        );
+                    }
+                    for [a, b] in &sight {
+                        let d = distance_to_segment(c, *a, *b);
+                        assert!(d >= r + SIGHT_RADIUS_M - 1e-9, "{name}: {p:?} blocks {a:?}");
+                    }
+                }
+                check_instance(
+                    &Location {
+                        size_m: inst.size_m,
+                        ..loc.clone()
+                    },
+                    &inst,
+                    inst.clear_radius_m,
+                );
+                moved += usize::from(inst.props != drawn.props);
+            }
+        }
+        // The property is not vacuous: staging had to move props and place pools.
+        assert!(
+            moved > 50 && pools > 20,
+            "{moved} scenes with props moved, {pools} pools"
+        );
+    }
+
+    #[test]
+    fn segment_and_rectangle_distances() {
+        assert!((distance_to_segment([0.0, 1.0], [-1.0, 0.0], [1.0, 0.0]) - 1.0).abs() < 1e-12);
+        assert!((distance_to_segment([3.0, 4.0], [0.0, 0.0], [0.0, 0.0]) - 5.0).abs() < 1e-12);
+        assert!((distance_to_segment([2.0, 0.0], [-1.0, 0.0], [1.0, 0.0]) - 1.0).abs() < 1e-12);
+        let r = [0.0, 0.0, 2.0, 1.0];
+        assert_eq!(distance_to_rect([1.0, 0.5], r), 0.0);
+        assert!((distance_to_rect([5.0, 5.0], r) - 5.0).abs() < 1e-12);
+        assert!((distance_to_rect([1.0, -2.0], r) - 2.0).abs() < 1e-12);
     }
 
     #[test]

@@ -648,3 +648,71 @@ fn depth_and_mask_passes_agree_with_the_video_and_the_annotations() {
         files_in(dir.path())
     );
 }
+
+#[test]
+fn a_walk_at_the_pool_never_crosses_water_and_no_prop_hides_the_walker() {
+    use autoact::scene::location::{
+        BODY_RADIUS_M, FLAT_PROP_M, SIGHT_RADIUS_M, distance_to_rect, distance_to_segment,
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let bag = common::capture_bag_from_spec(
+        dir.path(),
+        &format!(
+            r#"[dataset]
+name = "pool"
+seed = 8
+fps = 30.0
+resolution = [320, 240]
+session = "dataset"
+[counts]
+variants = 1
+scenes = 4
+viewpoints = 2
+[[class]]
+category = "daily"
+action = "walk"
+sources = ["{}"]
+requires = ["pool"]
+"#,
+            common::repo("bags/bandai_walk.pose.mcap")
+        ),
+    );
+    let rig = Rig::standard();
+    let cap = Capture::read(&rig, &bag).unwrap();
+    let mut frames_checked = 0;
+    let mut farthest_m = 0.0f64;
+    for f in &cap.frames {
+        let scene = &cap.scenes[f.scene];
+        assert_eq!(scene.scene.location.name, "swimming_pool");
+        let stage = Stage::new(&rig, &scene.scene, scene.stream, 0);
+        let water = stage.world.ground.water.expect("the pool is drawn");
+        let posed = fk::forward(&rig, &scene.scene.look.character(&rig), &f.pose, 1.0);
+        let root = posed.heads_m[0];
+        let ground = [root.x, root.y];
+        farthest_m = farthest_m.max(root.x.hypot(root.y));
+        let rect = water.map(f64::from);
+        assert!(
+            distance_to_rect(ground, rect) >= BODY_RADIUS_M - 1e-3,
+            "{}: the walker at {ground:?} is over the water {rect:?}",
+            scene.scene_id
+        );
+        let eye = f.world_from_optical.translation.vector;
+        for p in &scene.scene.location.props {
+            if p.size_m[2] <= FLAT_PROP_M {
+                continue;
+            }
+            let c = [p.position_m[0], p.position_m[1]];
+            let r = 0.5 * p.size_m[0].hypot(p.size_m[1]);
+            let d = distance_to_segment(c, [eye.x, eye.y], ground);
+            assert!(
+                d >= r + SIGHT_RADIUS_M - 1e-3,
+                "{}: a {} at {c:?} stands between the camera and the walker",
+                scene.scene_id,
+                p.kind
+            );
+        }
+        frames_checked += 1;
+    }
+    assert!(frames_checked > 100, "{frames_checked} frames");
+    assert!(farthest_m > 3.0, "the walk goes somewhere: {farthest_m} m");
+}

@@ -1,0 +1,318 @@
+//! The embedded renderer's look, measured on rendered frames: the picture's brightness follows
+//! the sun and the weather, and snow and wet ground are continuous textures.
+
+use nalgebra::Point3;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use super::cpu::CpuRenderer;
+use super::world::Surface;
+use super::{Camera, FrameInput, Image, Renderer, Stage};
+use crate::camera::{CameraPose, Intrinsics};
+use crate::scene::color::srgb_to_linear;
+use crate::scene::location::Location;
+use crate::scene::sky::{ClockTime, sun_position};
+use crate::scene::weather::{Precipitation, Weather};
+use crate::scene::{Scene, SceneConfig};
+use crate::skeleton::rig::Rig;
+
+/// A scene at the built-in `location` (its props drawn from `seed`) with `weather` at `clock`.
+fn scene_at(location: &str, weather: Weather, clock: ClockTime, seed: u64) -> Scene {
+    let config = SceneConfig {
+        weather_weights: [(weather, 1.0)].into_iter().collect(),
+        clock_weights: [(clock, 1.0)].into_iter().collect(),
+        locations: Location::builtin_pool()
+            .into_iter()
+            .filter(|l| l.name == location)
+            .collect(),
+        ..SceneConfig::default()
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut scene = config.draw(&mut rng, &[]).expect("a valid config draws");
+    scene.sun = sun_position(clock, config.latitude_deg, config.day_of_year);
+    scene
+}
+
+/// Renders `scene`'s character at rest, seen from `eye` looking at its chest, at `w`×`h`, at a
+/// moment without lightning.
+fn render(rig: &Rig, scene: &Scene, eye: Point3<f64>, w: u32, h: u32) -> Image {
+    let stage = Stage::new(rig, scene, 5, 0);
+    let time_s = (0..1000)
+        .map(|k| f64::from(k) * 0.1)
+        .find(|&t| stage.environment.lightning_flash(t, stage.seed) == 0.0)
+        .unwrap_or(0.0);
+    let target = Point3::new(0.0, 0.0, 0.5 * scene.look.height_m);
+    let camera = Camera {
+        world_from_optical: CameraPose::looking_at(eye, target).isometry_world_from_optical(),
+        intrinsics: Intrinsics::from_horizontal_fov(w, h, 60.0).expect("a valid lens"),
+    };
+    let input = FrameInput {
+        camera,
+        pose: &stage.rest_pose,
+        time_s,
+    };
+    let mut image = Image::default();
+    CpuRenderer::new().render(&stage, &input, &mut image);
+    image
+}
+
+/// Mean luminance of a frame, in linear light.
+fn mean_luminance(image: &Image) -> f64 {
+    let lin = |b: u8| f64::from(srgb_to_linear(f32::from(b) / 255.0));
+    let total: f64 = image
+        .rgb
+        .chunks_exact(3)
+        .map(|p| 0.2126 * lin(p[0]) + 0.7152 * lin(p[1]) + 0.0722 * lin(p[2]))
+        .sum();
+    total / (image.rgb.len() / 3) as f64
+}
+
+#[test]
+fn frame_brightness_follows_the_sun_over_the_clock_in_every_weather() {
+    let rig = Rig::standard();
+    let eye = Point3::new(-2.5, -3.5, 1.6);
+    for weather in Weather::ALL {
+        // (sun elevation, mean luminance) every hour, morning and afternoon apart: the sun
+        // rises through the first and sets through the second.
+        let mut halves = [Vec::new(), Vec::new()];
+        let mut midnight = 0.0;
+        let mut noon = 0.0;
+        for hour in 0..24u16 {
+            let clock = ClockTime::new(hour, 0).expect("a clock");
+            let scene = scene_at("beach", weather, clock, 3);
+            let lum = mean_luminance(&render(&rig, &scene, eye, 64, 48));
+            halves[usize::from(hour >= 12)].push((scene.sun.elevation_deg, lum));
+            if hour == 0 {
+                midnight = lum;
+            }
+            if hour == 12 {
+                noon = lum;
+            }
+        }
+        for half in &mut halves {
+            half.sort_by(|a, b| a.0.total_cmp(&b.0));
+            for pair in half.windows(2) {
+                let ((el0, l0), (el1, l1)) = (pair[0], pair[1]);
+                assert!(
+                    l1 >= l0 * 0.995,
+                    "{weather}: the frame darkens from {l0:.4} to {l1:.4} as the sun rises from \
+                     {el0:.1}° to {el1:.1}°"
+                );
+            }
+        }
+        assert!(
+            noon > 1.5 * midnight,
+            "{weather}: noon {noon:.4} vs midnight {midnight:.4}"
+        );
+    }
+}
+
+#[test]
+fn night_is_darker_than_day_outdoors_and_a_noon_storm_is_not_darker_than_midnight() {
+    let rig = Rig::standard();
+    let eye = Point3::new(-2.5, -3.5, 1.6);
+    for location in Location::builtin_pool().iter().filter(|l| !l.indoor) {
+        let lum = |weather, clock| {
+            mean_luminance(&render(
+                &rig,
+                &scene_at(&location.name, weather, clock, 4),
+                eye,
+                64,
+                48,
+            ))
+        };
+        let clear_midnight = lum(Weather::Clear, ClockTime::MIDNIGHT);
+        let clear_noon = lum(Weather::Clear, ClockTime::NOON);
+        let storm_noon = lum(Weather::Thunder, ClockTime::NOON);
+        let storm_midnight = lum(Weather::Thunder, ClockTime::MIDNIGHT);
+        let name = &location.name;
+        assert!(
+            clear_noon > 2.0 * clear_midnight,
+            "{name}: {clear_noon} vs {clear_midnight}"
+        );
+        assert!(
+            storm_noon >= clear_midnight && storm_noon > storm_midnight,
+            "{name}: a noon storm {storm_noon} vs midnights {clear_midnight}, {storm_midnight}"
+        );
+    }
+}
+
+/// Of the horizontally adjacent pairs of ground pixels (both inside the ground, away from any
+/// other surface), the fraction whose luma differs by more than `step` of 255.
+fn ground_edge_fraction(image: &Image, step: i32) -> f64 {
+    let (w, h) = (image.width as usize, image.height as usize);
+    let ground = Surface::Ground as u8;
+    let luma = |i: usize| {
+        let p = &image.rgb[3 * i..3 * i + 3];
+        (i32::from(p[0]) * 2 + i32::from(p[1]) * 5 + i32::from(p[2])) / 8
+    };
+    let (mut pairs, mut edges) = (0usize, 0usize);
+    for y in 1..h - 1 {
+        for x in 1..w - 2 {
+            let i = y * w + x;
+            let around = [i - 1, i, i + 1, i + 2, i - w, i + w, i + 1 - w, i + 1 + w];
+            if around.iter().any(|&k| image.surface[k] != ground) {
+                continue;
+            }
+            pairs += 1;
+            edges += usize::from((luma(i) - luma(i + 1)).abs() > step);
+        }
+    }
+    assert!(pairs > 1000, "{pairs} ground pairs");
+    edges as f64 / pairs as f64
+}
+
+#[test]
+fn snow_and_wet_ground_are_continuous_textures_without_blocks() {
+    let rig = Rig::standard();
+    // Looking down at the ground from standing height.
+    let eye = Point3::new(-1.5, -2.5, 1.7);
+    for (weather, location) in [
+        (Weather::SnowLight, "parking_lot"),
+        (Weather::Snow, "parking_lot"),
+        (Weather::Xmas, "open_field"),
+        (Weather::Rain, "street"),
+        (Weather::Thunder, "tennis_court"),
+    ] {
+        let mut scene = scene_at(location, weather, ClockTime::NOON, 6);
+        // Only the ground: no props to cast shadow edges, no falling snow or rain drawn over it.
+        scene.location.props.clear();
+        scene.weather_params.precipitation = Precipitation::None;
+        let image = render(&rig, &scene, eye, 320, 240);
+        let edges = ground_edge_fraction(&image, 40);
+        if let Some(dir) = std::env::var_os("AUTOACT_LOOK_DUMP") {
+            let path = std::path::Path::new(&dir).join(format!("{weather}-{location}.png"));
+            crate::video::write_png(&path, image.width, image.height, &image.rgb).expect("png");
+        }
+        assert!(
+            edges < 0.01,
+            "{weather} on {location}: {:.2} % of neighbouring ground pixels jump by > 40 levels",
+            100.0 * edges
+        );
+    }
+}
+
+#[test]
+fn the_face_shows_dark_eyes_where_cocos_eye_points_project() {
+    use crate::skeleton::fk;
+    let rig = Rig::standard();
+    let mut scene = scene_at("open_field", Weather::Clear, ClockTime::NOON, 2);
+    // A light skin and short hair, lit from the front, so the face is plain to see.
+    scene.look.skin_rgb = [0.86, 0.69, 0.58];
+    scene.sun.azimuth_deg = 20.0;
+    let character = scene.look.character(&rig);
+    let stage = Stage::new(&rig, &scene, 5, 0);
+    let point = |name: &str| {
+        let l = rig.landmark_index(name).expect("a face landmark");
+        fk::landmark_position(&rig, &character, &stage.rest_pose, l)
+    };
+    let nose = point("nose");
+    // A close-up from straight in front (the rest pose faces +y): the landmarks lie about a
+    // centimetre inside the head, on the rays through the drawn eyes, so seen from the front
+    // they project onto them.
+    let eye = nose + nalgebra::Vector3::new(0.0, 0.45, 0.03);
+    let (w, h) = (320u32, 240u32);
+    let camera = Camera {
+        world_from_optical: CameraPose::looking_at(eye, point("head_center"))
+            .isometry_world_from_optical(),
+        intrinsics: Intrinsics::from_horizontal_fov(w, h, 50.0).expect("a lens"),
+    };
+    let input = FrameInput {
+        camera,
+        pose: &stage.rest_pose,
+        time_s: 0.0,
+    };
+    let mut image = Image::default();
+    CpuRenderer::new().render(&stage, &input, &mut image);
+    if let Some(dir) = std::env::var_os("AUTOACT_LOOK_DUMP") {
+        let path = std::path::Path::new(&dir).join("face.png");
+        crate::video::write_png(&path, w, h, &image.rgb).expect("png");
+    }
+    let k = &camera.intrinsics;
+    let pixel = |p: Point3<f64>| {
+        let q = camera.world_from_optical.inverse_transform_point(&p);
+        let x = k.fx_px * q.x / q.z + k.cx_px;
+        let y = k.fy_px * q.y / q.z + k.cy_px;
+        (x as usize, y as usize)
+    };
+    let luma = |(x, y): (usize, usize)| {
+        let i = 3 * (y * w as usize + x);
+        let p = &image.rgb[i..i + 3];
+        (u32::from(p[0]) * 2 + u32::from(p[1]) * 5 + u32::from(p[2])) / 8
+    };
+    let character_at =
+        |(x, y): (usize, usize)| image.surface[y * w as usize + x] == Surface::Character as u8;
+    // The skin of the nose's tip, beside the eyes.
+    let nose_tip = pixel(nose);
+    assert!(character_at(nose_tip));
+    for name in ["l_eye", "r_eye"] {
+        let (x, y) = pixel(point(name));
+        // The darkest pixel within one of the eye point.
+        let darkest = (y - 1..=y + 1)
+            .flat_map(|yy| (x - 1..=x + 1).map(move |xx| (xx, yy)))
+            .map(luma)
+            .min()
+            .unwrap_or(255);
+        assert!(character_at((x, y)), "{name} is on the character");
+        assert!(
+            darkest * 2 < luma(nose_tip),
+            "{name}: {darkest} is not darker than the nose's {}",
+            luma(nose_tip)
+        );
+    }
+}
+
+#[test]
+fn tops_come_plain_striped_or_two_tone_and_fabrics_have_grain() {
+    use crate::scene::body_mesh::Material;
+    let rig = Rig::standard();
+    let scene = scene_at("open_field", Weather::Clear, ClockTime::NOON, 2);
+    let mut seen = [0usize; 3];
+    for seed in 0..24 {
+        let stage = Stage::new(&rig, &scene, seed, 0);
+        let base = stage.body_albedo[Material::Top as usize];
+        // (height, whether the vertex has the contrasting shade) for every vertex of the top.
+        let mut top: Vec<(f32, bool)> = stage
+            .body
+            .materials
+            .iter()
+            .zip(&stage.body.rest_positions_m)
+            .zip(&stage.body_vertex_albedo)
+            .filter(|((m, _), _)| **m == Material::Top)
+            .map(|((_, p), c)| (p[2], (c[1] / base[1] - 1.0).abs() > 0.1))
+            .collect();
+        top.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let switches = top.windows(2).filter(|w| w[0].1 != w[1].1).count();
+        let contrasting = top.iter().filter(|v| v.1).count();
+        // Plain: none contrasting; two-tone: one switch up the body (a yoke); stripes: many.
+        let kind = match (contrasting, switches) {
+            (0, _) => 0,
+            (_, 1) => 1,
+            (_, s) if s >= 4 => 2,
+            other => panic!("seed {seed}: a top that is none of the patterns: {other:?}"),
+        };
+        seen[kind] += 1;
+        // Grain: the trousers' vertices are not all one colour, but within ±6 % of it.
+        let bottom = stage.body_albedo[Material::Bottom as usize];
+        let ratios: Vec<f32> = stage
+            .body
+            .materials
+            .iter()
+            .zip(&stage.body_vertex_albedo)
+            .filter(|(m, _)| **m == Material::Bottom)
+            .map(|(_, c)| c[1] / bottom[1])
+            .collect();
+        assert!(
+            ratios.iter().all(|r| (0.93..=1.07).contains(r)),
+            "seed {seed}"
+        );
+        assert!(
+            ratios.iter().any(|r| (r - ratios[0]).abs() > 0.02),
+            "seed {seed}"
+        );
+    }
+    assert!(
+        seen.iter().all(|&n| n >= 3),
+        "plain, two-tone, striped: {seen:?}"
+    );
+}
