@@ -164,7 +164,7 @@ impl Command {
             Command::Render(args) => cmd::render::run(args),
             Command::Trim(args) => cmd::trim::run(args),
             Command::Generate(args) => cmd::generate::run(args),
-            Command::Merge(args) => cmd::generate::merge(args),
+            Command::Merge(args) => cmd::generate::merge(&args),
         }
     }
 }

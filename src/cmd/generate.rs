@@ -135,7 +135,7 @@ pub fn run(args: Args) -> Result<Outcome> {
 ///
 /// # Errors
 /// Parts that are not every shard of one run, finished; unwritable output.
-pub fn merge(args: MergeArgs) -> Result<Outcome> {
+pub fn merge(args: &MergeArgs) -> Result<Outcome> {
     let summary = merge_parts(&args.parts, &args.output, args.force)?;
     super::print_stdout(&summary.to_string()).context("writing to stdout")?;
     Ok(Outcome::Success)

@@ -364,7 +364,6 @@ impl AbortHook {
         if let Some(n) = self.after
             && self.events.fetch_add(1, Ordering::Relaxed) + 1 >= n
         {
-            #[expect(clippy::exit, reason = "the test hook stands for `kill -9`")]
             std::process::exit(ABORT_HOOK_EXIT);
         }
     }
@@ -405,15 +404,12 @@ pub fn generate(job: &GenerateJob, stop: &AtomicBool) -> Result<GenerateSummary,
         .map(|s| s.name.clone())
         .collect();
     let fresh = Journal::new(job.settings(&spec_text), job.shard, names);
-    let mut journal = match Journal::read(dir)? {
-        Some(j) => {
-            j.check_same_job(dir, &fresh)?;
-            j
-        }
-        None => {
-            fresh.write(dir)?;
-            fresh
-        }
+    let mut journal = if let Some(j) = Journal::read(dir)? {
+        j.check_same_job(dir, &fresh)?;
+        j
+    } else {
+        fresh.write(dir)?;
+        fresh
     };
     let mut seconds = StageSeconds::default();
     let converted = if journal.unfinished().is_empty() {
@@ -646,8 +642,8 @@ impl Run<'_> {
                 source: Box::new(source),
             },
         })?;
-        self.progress.rendered(summary.frames as u64);
-        Ok(summary.frames as u64)
+        self.progress.rendered(summary.frames);
+        Ok(summary.frames)
     }
 
     /// Cuts `capture`'s clips out of its video into the dataset.
