@@ -468,11 +468,13 @@ pub fn generate(job: &GenerateJob, stop: &AtomicBool) -> Result<GenerateSummary,
         lists: None,
         truncated: 0,
     };
+    run.remove_run_dirs(false)?;
     let result = mine
         .into_iter()
         .try_for_each(|i| run.session(i, &mut journal, &mut summary));
     run.progress.finish();
     result?;
+    run.remove_run_dirs(true)?;
     summary.total_seconds = started.elapsed().as_secs_f64();
     Ok(summary)
 }
@@ -611,16 +613,22 @@ impl Run<'_> {
             gop_frames: r.gop_frames,
             embed_video: None,
         };
+        // Written into this run's own folder and moved into place when both are complete: an
+        // encoder left running by a killed run finishes its file in that run's folder, never
+        // in this run's video.
+        let run_dir = self.run_dir();
+        let staged = |final_path: &Path| run_dir.join(final_path.file_name().unwrap_or_default());
         let outputs = Outputs {
-            video: Some(paths.video.clone()),
-            render_bag: Some(paths.render_bag.clone()),
+            video: Some(staged(&paths.video)),
+            render_bag: Some(staged(&paths.render_bag)),
             frames_dir: None,
             preview: self.job.previews.then(|| paths.preview.clone()),
         };
-        for path in [&paths.video, &paths.preview] {
-            if let Some(d) = path.parent() {
-                std::fs::create_dir_all(d).map_err(GenerateError::io("creating", d))?;
-            }
+        for d in [Some(run_dir.as_path()), paths.preview.parent()]
+            .into_iter()
+            .flatten()
+        {
+            std::fs::create_dir_all(d).map_err(GenerateError::io("creating", d))?;
         }
         let progress = |k: u64| {
             self.progress.rendering(k);
@@ -642,8 +650,38 @@ impl Run<'_> {
                 source: Box::new(source),
             },
         })?;
+        for path in [&paths.video, &paths.render_bag] {
+            std::fs::rename(staged(path), path)
+                .map_err(GenerateError::io("moving into place", path))?;
+        }
         self.progress.rendered(summary.frames);
         Ok(summary.frames)
+    }
+
+    /// This run's folder for renders in progress: `renders/.run-<process id>`.
+    fn run_dir(&self) -> PathBuf {
+        self.job
+            .output
+            .join(RENDERS_DIR)
+            .join(format!(".run-{}", std::process::id()))
+    }
+
+    /// Removes the render folders of earlier runs (what a killed run's renders left) and, when
+    /// `ours` too, this run's.
+    fn remove_run_dirs(&self, ours: bool) -> Result<(), GenerateError> {
+        let renders = self.job.output.join(RENDERS_DIR);
+        let Ok(entries) = std::fs::read_dir(&renders) else {
+            return Ok(());
+        };
+        let mine = self.run_dir();
+        for entry in entries.flatten() {
+            let path = entry.path();
+            let stale = entry.file_name().to_string_lossy().starts_with(".run-");
+            if stale && (ours || path != mine) {
+                std::fs::remove_dir_all(&path).map_err(GenerateError::io("removing", &path))?;
+            }
+        }
+        Ok(())
     }
 
     /// Cuts `capture`'s clips out of its video into the dataset.

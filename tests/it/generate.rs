@@ -1,6 +1,8 @@
 //! `autoact generate` and `autoact merge` through the binary: a sharded run merged equals one
 //! run byte for byte, and a run killed at many points then re-run equals an uninterrupted one.
 
+#![expect(clippy::unwrap_used, reason = "test helpers fail loudly")]
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -213,7 +215,7 @@ fn a_run_killed_at_many_points_then_rerun_equals_an_uninterrupted_one() {
         "-o",
         arg(&out),
         "--resolution",
-        "64x48",
+        "96x72",
     ]);
     assert!(!o.status.success(), "{}", stdout(&o));
     assert!(stderr(&o).contains("resolution"), "{}", stderr(&o));
