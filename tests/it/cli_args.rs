@@ -75,8 +75,8 @@ fn path(p: &str) -> PathBuf {
 #[test]
 fn every_subcommand_has_a_parsing_test_here() {
     let tested = [
-        "convert", "export", "import", "info", "layouts", "plan", "record", "recover", "render",
-        "rig", "trim",
+        "convert", "export", "generate", "import", "info", "layouts", "merge", "plan", "record",
+        "recover", "render", "rig", "trim",
     ];
     let mut names: Vec<String> = Cli::command()
         .get_subcommands()
@@ -1159,5 +1159,68 @@ fn export_formats_selection_listing_and_the_onim_template() {
             "two"
         ),
         ErrorKind::ValueValidation
+    );
+}
+
+#[test]
+fn generate_takes_render_and_trim_options_and_a_shard() {
+    let args = args_of!(Generate, &["generate", "d.toml", "-o", "out"]);
+    assert_eq!((args.spec, args.output), (path("d.toml"), path("out")));
+    assert_eq!(args.shard, None);
+    assert_eq!(args.engine.resolution, None);
+    assert_eq!(args.engine.crf, autoact::video::DEFAULT_CRF);
+    assert_eq!(args.split.split_by, Key::Animation);
+    assert!(!args.cut.reencode && !args.cut.rawframes);
+    assert!(!args.previews && !args.keep_intermediates && args.abort_after.is_none());
+    let args = args_of!(
+        Generate,
+        &[
+            "generate",
+            "d.toml",
+            "-o",
+            "out",
+            "--shard",
+            "2/4",
+            "--resolution",
+            "320x240",
+            "--threads",
+            "2",
+            "--split-by",
+            "scene",
+            "--seed",
+            "5",
+            "--hold-out",
+            "weather=RAIN",
+            "--rawframes",
+            "--previews",
+            "--keep-intermediates",
+        ]
+    );
+    let shard = args.shard.unwrap();
+    assert_eq!((shard.index, shard.count), (2, 4));
+    assert_eq!(args.engine.resolution, Some((320, 240)));
+    assert_eq!(args.engine.threads, Some(2));
+    assert_eq!(args.split.split_by, Key::Scene);
+    assert_eq!(args.split.seed, Some(5));
+    assert_eq!(args.split.hold_out, [(Key::Weather, "RAIN".to_owned())]);
+    assert!(args.cut.rawframes && args.previews && args.keep_intermediates);
+    for bad in ["4/4", "1", "x/2", "0/0"] {
+        refused_kind(
+            &["generate", "d.toml", "-o", "o", "--shard", bad],
+            "--shard",
+        );
+    }
+    refused_kind(&["generate", "d.toml"], "--output");
+}
+
+#[test]
+fn merge_takes_parts_and_an_output() {
+    let args = args_of!(Merge, &["merge", "p/0", "p/1", "-o", "out", "--force"]);
+    assert_eq!(args.parts, [path("p/0"), path("p/1")]);
+    assert_eq!(args.output, path("out"));
+    assert!(args.force);
+    assert_eq!(
+        refused_kind(&["merge", "-o", "out"], "<PART>"),
+        ErrorKind::MissingRequiredArgument
     );
 }
