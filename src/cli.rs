@@ -113,6 +113,18 @@ pub enum Command {
     /// from other engines or screen recorders, placed with `--video-start`). Re-runs resume.
     /// Exit code 3 when segments were left out because the video does not cover them.
     Trim(crate::cmd::trim::Args),
+    /// Build a whole dataset from a spec in one command: plan → capture → render → clips, one
+    /// capture session at a time, resumable after a crash, `kill -9` or Ctrl-C.
+    ///
+    /// Runs the stages of `convert --spec`, `render` and `trim` in-process with their options.
+    /// Every output appears only when complete and a journal (`DIR/generate.json`) names each
+    /// finished unit (a session's capture, its render, its clips), so running the same command
+    /// again continues where the last run stopped. `--shard K/N` makes one machine's share of
+    /// the sessions; `autoact merge` joins the parts into the dataset one machine would make.
+    Generate(crate::cmd::generate::Args),
+    /// Join the parts of `generate --shard K/N` into one dataset, byte-identical in its lists,
+    /// splits, label ids and annotation files to what one `generate` would have made.
+    Merge(crate::cmd::generate::MergeArgs),
     /// Describe an MCAP file: channels, schemas, counts, time range, rate, layouts, labels, and
     /// whether ROS 2 tools and autoact can read all of it.
     ///
@@ -151,6 +163,8 @@ impl Command {
             Command::Export(args) => cmd::export::run(args),
             Command::Render(args) => cmd::render::run(args),
             Command::Trim(args) => cmd::trim::run(args),
+            Command::Generate(args) => cmd::generate::run(args),
+            Command::Merge(args) => cmd::generate::merge(&args),
         }
     }
 }

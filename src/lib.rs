@@ -21,6 +21,7 @@ pub mod dsi;
 pub mod export;
 pub mod formats;
 pub mod fuzz;
+pub mod generate;
 pub mod hash;
 pub mod inspect;
 pub mod instant;

@@ -1,23 +1,18 @@
 #!/usr/bin/env bash
-# The whole chain on the checked-in samples, for a new user: the example dataset spec (waving
-# and walking, Bandai-Namco mocap) → capture bags (`convert --spec`) → rendered H.264 captures
-# with render bags and contact sheets (`render`) → a trimmed action-recognition dataset with
-# Kinetics, MMAction2 and ActivityNet annotations (`trim`). Prints where everything is and what
-# the dataset holds. Usage: tools/demo.sh [OUT_DIR] (default: out). Re-running resumes.
+# The whole chain on the checked-in samples, for a new user, as one `autoact generate`: the
+# example dataset spec (waving and walking, Bandai-Namco mocap) → capture bags → rendered H.264
+# captures with render bags and contact sheets → a trimmed action-recognition dataset with
+# Kinetics, MMAction2 and ActivityNet annotations. Prints where everything is and what the
+# dataset holds. Usage: tools/demo.sh [OUT_DIR] (default: out). Re-running resumes (and does
+# nothing once the dataset is complete).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out="${1:-out}"
 cargo build --release --quiet
 autoact=target/release/autoact
-"$autoact" convert --spec examples/dataset.toml -o "$out/captures" --force
-for bag in "$out"/captures/*.capture.mcap; do
-    name=$(basename "$bag" .capture.mcap)
-    "$autoact" render "$bag" -o "$out/videos/$name.mp4" --resolution 320x240 \
-        --preview "$out/videos/$name.png" --force
-    "$autoact" trim "$bag" "$out/videos/$name.mp4" -o "$out/dataset"
-done
+"$autoact" generate examples/dataset.toml -o "$out" --resolution 320x240 --previews --keep-intermediates
 echo
-echo "captures: $out/captures   videos and contact sheets: $out/videos   dataset: $out/dataset"
+echo "captures: $out/captures   videos: $out/renders   contact sheets: $out/previews   dataset: $out/dataset"
 echo "clips per class and split (MMAction2 lists in $out/dataset/annotations):"
 ann="$out/dataset/annotations"
 printf '  %-12s %6s %6s %6s\n' class train val test

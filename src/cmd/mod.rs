@@ -4,6 +4,7 @@
 
 pub mod convert;
 pub mod export;
+pub mod generate;
 pub mod import;
 pub mod info;
 pub mod layouts;

@@ -32,22 +32,9 @@ pub struct Args {
     /// Output video (.mp4, .mov or .mkv).
     #[arg(short, long, value_name = "VIDEO")]
     pub output: Option<PathBuf>,
-    /// Output size WIDTHxHEIGHT (even numbers); default: the capture's camera resolution. The
-    /// horizontal field of view is kept.
-    #[arg(long, value_name = "WxH", value_parser = parse_resolution)]
-    pub resolution: Option<(u32, u32)>,
-    /// Output frame rate; default: the capture's. Other rates interpolate poses and cameras.
-    #[arg(long)]
-    pub fps: Option<f64>,
-    /// x264 constant rate factor: 0 lossless … 51 worst.
-    #[arg(long, default_value_t = crate::video::DEFAULT_CRF, value_parser = clap::value_parser!(u8).range(0..=51))]
-    pub crf: u8,
-    /// x264 preset (ultrafast … veryslow): speed against file size.
-    #[arg(long, default_value = crate::video::DEFAULT_PRESET)]
-    pub preset: String,
-    /// Longest keyframe interval, frames (segment boundaries are always keyframes).
-    #[arg(long, value_name = "FRAMES")]
-    pub gop: Option<u32>,
+    /// How frames are rendered and encoded.
+    #[command(flatten)]
+    pub engine: EngineArgs,
     /// Also write every frame as PNG into this folder (frame_000000.png, …).
     #[arg(long, value_name = "DIR")]
     pub frames_out: Option<PathBuf>,
@@ -75,16 +62,53 @@ pub struct Args {
     /// Render only the first N frames (a quick look; the video then covers only those).
     #[arg(long, value_name = "N")]
     pub limit: Option<usize>,
-    /// Rendering threads (default: all cores).
-    #[arg(long, value_name = "N")]
-    pub threads: Option<usize>,
     /// Replace outputs that exist.
     #[arg(long)]
     pub force: bool,
+}
+
+/// The renderer's and encoder's options, shared by `render` and `generate`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct EngineArgs {
+    /// Output size WIDTHxHEIGHT (even numbers); default: the capture's camera resolution. The
+    /// horizontal field of view is kept.
+    #[arg(long, value_name = "WxH", value_parser = parse_resolution)]
+    pub resolution: Option<(u32, u32)>,
+    /// Output frame rate; default: the capture's. Other rates interpolate poses and cameras.
+    #[arg(long)]
+    pub fps: Option<f64>,
+    /// x264 constant rate factor: 0 lossless … 51 worst.
+    #[arg(long, default_value_t = crate::video::DEFAULT_CRF, value_parser = clap::value_parser!(u8).range(0..=51))]
+    pub crf: u8,
+    /// x264 preset (ultrafast … veryslow): speed against file size.
+    #[arg(long, default_value = crate::video::DEFAULT_PRESET)]
+    pub preset: String,
+    /// Longest keyframe interval, frames (segment boundaries are always keyframes).
+    #[arg(long, value_name = "FRAMES")]
+    pub gop: Option<u32>,
+    /// Rendering threads (default: all cores).
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
     /// If ffmpeg is not installed, download a static build into the user cache (needs the
     /// `download-ffmpeg` build feature and network access).
     #[arg(long)]
     pub download_ffmpeg: bool,
+}
+
+impl EngineArgs {
+    /// Sets the number of rendering threads, if asked.
+    ///
+    /// # Errors
+    /// When the thread pool cannot be built.
+    pub fn set_threads(&self) -> Result<()> {
+        if let Some(n) = self.threads {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(n.max(1))
+                .build_global()
+                .context("cannot set the number of threads")?;
+        }
+        Ok(())
+    }
 }
 
 /// The per-pixel label passes written beside the video (`autoact trim` gives every clip its
@@ -101,17 +125,24 @@ pub struct PassArgs {
     pub masks: bool,
 }
 
+impl PassArgs {
+    /// The passes asked for.
+    #[must_use]
+    pub fn wanted(self) -> crate::render::passes::Wanted {
+        crate::render::passes::Wanted {
+            depth: self.depth,
+            mask: self.masks,
+        }
+    }
+}
+
 /// Runs `autoact render`.
 ///
 /// # Errors
 /// Unreadable or incomplete capture bags, ffmpeg missing or failing, unwritable outputs.
 pub fn run(args: Args) -> Result<Outcome> {
-    if let Some(n) = args.threads {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(n.max(1))
-            .build_global()
-            .context("cannot set the number of threads")?;
-    }
+    args.engine.set_threads()?;
+    let engine = args.engine;
     let video = args.output.as_deref();
     let depth_dir = video
         .filter(|_| args.passes.depth)
@@ -129,15 +160,15 @@ pub fn run(args: Args) -> Result<Outcome> {
             depth_dir,
             mask_dir,
         },
-        resolution: args.resolution,
-        fps: args.fps,
+        resolution: engine.resolution,
+        fps: engine.fps,
         limit: args.limit,
-        crf: args.crf,
-        preset: args.preset,
-        gop_frames: args.gop,
+        crf: engine.crf,
+        preset: engine.preset,
+        gop_frames: engine.gop,
         embed_video: args.embed_video,
         force: args.force,
-        download_ffmpeg: args.download_ffmpeg,
+        download_ffmpeg: engine.download_ffmpeg,
     };
     let report = render_job(&job, crate::interrupt::Interrupt::install()?.flag())?;
     super::print_stdout(&report.report()).context("writing to stdout")?;

@@ -76,6 +76,31 @@ pub struct Args {
     /// 0 on the capture's timeline. It must be a render of the capture bag's session.
     #[arg(long, value_name = "MCAP")]
     pub render_bag: Option<PathBuf>,
+    /// How clips are split.
+    #[command(flatten)]
+    pub split: SplitArgs,
+    /// The dataset's plan, to decide the splits over (default: `plan.json` beside the capture
+    /// bag, as `convert --spec` writes it, when it is this capture's).
+    #[arg(long, value_name = "PLAN_JSON")]
+    pub plan: Option<PathBuf>,
+    /// How clips are cut.
+    #[command(flatten)]
+    pub cut: CutArgs,
+    /// x264 preset for re-encoded clips.
+    #[arg(long, default_value = "veryfast")]
+    pub preset: String,
+    /// x264 constant rate factor for re-encoded clips.
+    #[arg(long, default_value_t = 18, value_parser = clap::value_parser!(u8).range(0..=51))]
+    pub crf: u8,
+    /// If ffmpeg is not installed, download a static build into the user cache (needs the
+    /// `download-ffmpeg` build feature and network access).
+    #[arg(long)]
+    pub download_ffmpeg: bool,
+}
+
+/// How clips are split, shared by `trim` and `generate`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SplitArgs {
     /// What clips of one split share: no value of it appears in two splits. A class with too few
     /// groups to fill every split is grouped by the next finer level (variant, scene, clip).
     #[arg(long, value_enum, default_value_t = Key::Animation)]
@@ -83,10 +108,6 @@ pub struct Args {
     /// Train, val and test fractions.
     #[arg(long, value_name = "TRAIN,VAL,TEST", default_value = "0.7,0.15,0.15", value_parser = parse_ratios)]
     pub split_ratios: [f64; 3],
-    /// The dataset's plan, to decide the splits over (default: `plan.json` beside the capture
-    /// bag, as `convert --spec` writes it, when it is this capture's).
-    #[arg(long, value_name = "PLAN_JSON")]
-    pub plan: Option<PathBuf>,
     /// Seed of the split (default: the dataset's seed).
     #[arg(long)]
     pub seed: Option<u64>,
@@ -94,22 +115,17 @@ pub struct Args {
     /// `time=23:00`, `character=<id from clips.jsonl>` (repeatable).
     #[arg(long, value_name = "KEY=VALUE", value_parser = parse_hold_out)]
     pub hold_out: Vec<(Key, String)>,
+}
+
+/// How clips are cut, shared by `trim` and `generate`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct CutArgs {
     /// Re-encode every clip, even where stream copy is exact.
     #[arg(long)]
     pub reencode: bool,
-    /// x264 preset for re-encoded clips.
-    #[arg(long, default_value = "veryfast")]
-    pub preset: String,
-    /// x264 constant rate factor for re-encoded clips.
-    #[arg(long, default_value_t = 18, value_parser = clap::value_parser!(u8).range(0..=51))]
-    pub crf: u8,
     /// Also extract every clip's frames (`img_00001.jpg` …) and write RawframeDataset lists.
     #[arg(long)]
     pub rawframes: bool,
-    /// If ffmpeg is not installed, download a static build into the user cache (needs the
-    /// `download-ffmpeg` build feature and network access).
-    #[arg(long)]
-    pub download_ffmpeg: bool,
 }
 
 /// Runs `autoact trim`.
@@ -125,17 +141,17 @@ pub fn run(args: Args) -> Result<Outcome> {
         video_start_s: args.video_start,
         video_fps: args.video_fps,
         render_bag: args.render_bag,
-        split_by: args.split_by,
-        split_ratios: args.split_ratios,
-        seed: args.seed,
-        hold_out: args.hold_out,
+        split_by: args.split.split_by,
+        split_ratios: args.split.split_ratios,
+        seed: args.split.seed,
+        hold_out: args.split.hold_out,
         plan: args.plan,
-        force_reencode: args.reencode,
+        force_reencode: args.cut.reencode,
         reencode: ReencodeSettings {
             preset: args.preset,
             crf: args.crf,
         },
-        rawframes: args.rawframes,
+        rawframes: args.cut.rawframes,
         download_ffmpeg: args.download_ffmpeg,
     };
     let report = trim_job(&job, crate::interrupt::Interrupt::install()?.flag())?;

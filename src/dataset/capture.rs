@@ -462,6 +462,37 @@ pub fn write_sessions(
         .collect()
 }
 
+/// Writes session `index` of `plan` alone into `out_dir`, as [`write_sessions`] writes each (the
+/// same bytes): what `autoact generate` captures one unit of work at a time with.
+///
+/// # Errors
+/// [`CaptureError`] for a write failure or a character the camera cannot frame.
+///
+/// # Panics
+/// If `index` is not a session of `plan`.
+pub fn write_session(
+    rig: &Rig,
+    spec: &Spec,
+    plan: &Plan,
+    converted: &[Converted],
+    index: usize,
+    out_dir: &Path,
+    config: WriteConfig,
+) -> Result<SessionWritten, CaptureError> {
+    let d = &spec.file.dataset;
+    let intrinsics = Intrinsics::from_horizontal_fov(d.resolution[0], d.resolution[1], d.fov_deg)
+        .map_err(CaptureError::Camera)?;
+    let dataset = Dataset {
+        rig,
+        spec,
+        plan,
+        converted,
+        intrinsics,
+        fps: d.fps,
+    };
+    dataset.write_session(&plan.sessions[index], out_dir, config, false)
+}
+
 /// What every session of one dataset is written from.
 struct Dataset<'a> {
     rig: &'a Rig,

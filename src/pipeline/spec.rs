@@ -71,9 +71,7 @@ impl std::fmt::Display for SpecSummary {
 /// [`PipelineError`]: a spec that cannot be loaded or planned, a source that cannot be
 /// converted, or an output that cannot be written.
 pub fn convert_spec(rig: &Rig, job: &SpecJob) -> Result<SpecSummary, PipelineError> {
-    let spec = Spec::load(&job.spec)?;
-    let estimated = crate::dataset::estimated_frames(&spec)?;
-    let mut plan = Plan::build(&spec, &|class, source| estimated[class][source])?;
+    let (spec, mut plan) = estimated_plan(&job.spec)?;
     let dir = &job.output.path;
     if !job.output.force {
         refuse_existing(dir, &plan)?;
@@ -120,9 +118,25 @@ pub fn convert_spec(rig: &Rig, job: &SpecJob) -> Result<SpecSummary, PipelineErr
     })
 }
 
+/// The spec at `path`, loaded, and its plan with the lengths estimated from the sources'
+/// headers (the sessions, clips and draws are those of the exact plan; only frame counts and
+/// timeline places change once [`convert_sources`] sets the exact lengths).
+///
+/// # Errors
+/// [`PipelineError`]: a spec that cannot be loaded or planned.
+pub fn estimated_plan(path: &Path) -> Result<(Spec, Plan), PipelineError> {
+    let spec = Spec::load(path)?;
+    let estimated = crate::dataset::estimated_frames(&spec)?;
+    let plan = Plan::build(&spec, &|class, source| estimated[class][source])?;
+    Ok((spec, plan))
+}
+
 /// Converts every animation of the plan from its source, logging what each source lost, and
 /// sets each variant's exact length in the plan.
-fn convert_sources(
+///
+/// # Errors
+/// [`PipelineError`]: a source that cannot be converted.
+pub fn convert_sources(
     rig: &Rig,
     spec: &Spec,
     plan: &mut Plan,
@@ -163,7 +177,10 @@ fn refuse_existing(dir: &Path, plan: &Plan) -> Result<(), PipelineError> {
 }
 
 /// Writes the plan, with its exact lengths, as JSON (complete or not at all).
-fn write_plan(path: &Path, plan: &Plan) -> Result<(), PipelineError> {
+///
+/// # Errors
+/// [`PipelineError::Io`].
+pub fn write_plan(path: &Path, plan: &Plan) -> Result<(), PipelineError> {
     let text =
         serde_json::to_string_pretty(&serde_json::json!({"estimated": false, "plan": plan}))?;
     crate::atomic_file::write(path, text.as_bytes()).map_err(|source| PipelineError::Io {

@@ -72,7 +72,7 @@ pub struct FramePasses {
 }
 
 /// Which passes a render writes.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Wanted {
     /// The depth pass.
     pub depth: bool,

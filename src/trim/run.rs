@@ -183,6 +183,24 @@ pub fn trim_capture(
     }
 }
 
+/// Every list of the dataset folder `dir` rewritten from its manifest, under the dataset's lock,
+/// `labels` being its class list: what `autoact merge` does once the clips and manifest lines of
+/// every part are in one folder (the lists are those one run over every capture would write).
+///
+/// # Errors
+/// [`TrimError`] for the dataset folder, its manifest or its lists.
+pub fn relist(
+    dir: &Path,
+    labels: &[String],
+    options: &TrimOptions,
+) -> Result<ListSummary, TrimError> {
+    std::fs::create_dir_all(dir).map_err(TrimError::io("create", dir))?;
+    let _lock = lock_dataset(dir)?;
+    ensure_classes(dir, labels)?;
+    let manifest = Manifest::open(dir)?;
+    Ok(rewrite_lists(dir, &manifest, options)?.lists)
+}
+
 /// The dataset folder, held for one run: a second `trim` into the same folder waits until the
 /// first is done (saying so), so that neither reads the manifest while the other appends to it
 /// and the lists written last name every clip. The lock is the kernel's (`flock`) on

@@ -75,8 +75,8 @@ fn path(p: &str) -> PathBuf {
 #[test]
 fn every_subcommand_has_a_parsing_test_here() {
     let tested = [
-        "convert", "export", "import", "info", "layouts", "plan", "record", "recover", "render",
-        "rig", "trim",
+        "convert", "export", "generate", "import", "info", "layouts", "merge", "plan", "record",
+        "recover", "render", "rig", "trim",
     ];
     let mut names: Vec<String> = Cli::command()
         .get_subcommands()
@@ -807,17 +807,17 @@ fn render_resolution_encoder_and_outputs() {
     let args = args_of!(Render, &["render", "session.capture.mcap"]);
     assert_eq!(args.capture, Path::new("session.capture.mcap"));
     assert_eq!(args.output, None);
-    assert_eq!(args.resolution, None);
-    assert_eq!(args.fps, None);
-    assert_eq!(args.crf, autoact::video::DEFAULT_CRF);
-    assert_eq!(args.preset, autoact::video::DEFAULT_PRESET);
-    assert_eq!(args.gop, None);
+    assert_eq!(args.engine.resolution, None);
+    assert_eq!(args.engine.fps, None);
+    assert_eq!(args.engine.crf, autoact::video::DEFAULT_CRF);
+    assert_eq!(args.engine.preset, autoact::video::DEFAULT_PRESET);
+    assert_eq!(args.engine.gop, None);
     assert_eq!(
         (args.frames_out, args.preview, args.render_bag),
         (None, None, None)
     );
-    assert_eq!((args.limit, args.threads), (None, None));
-    assert!(args.embed_video.is_none() && !args.force && !args.download_ffmpeg);
+    assert_eq!((args.limit, args.engine.threads), (None, None));
+    assert!(args.embed_video.is_none() && !args.force && !args.engine.download_ffmpeg);
 
     let args = args_of!(
         Render,
@@ -852,17 +852,17 @@ fn render_resolution_encoder_and_outputs() {
         ]
     );
     assert_eq!(args.output, Some(path("c.mp4")));
-    assert_eq!(args.resolution, Some((640, 360)));
-    assert_eq!(args.fps, Some(25.0));
-    assert_eq!(args.crf, 0);
-    assert_eq!(args.preset, "veryslow");
-    assert_eq!(args.gop, Some(60));
+    assert_eq!(args.engine.resolution, Some((640, 360)));
+    assert_eq!(args.engine.fps, Some(25.0));
+    assert_eq!(args.engine.crf, 0);
+    assert_eq!(args.engine.preset, "veryslow");
+    assert_eq!(args.engine.gop, Some(60));
     assert_eq!(args.frames_out, Some(path("frames")));
     assert_eq!(args.preview, Some(path("sheet.png")));
     assert_eq!(args.render_bag, Some(path("r.mcap")));
-    assert_eq!((args.limit, args.threads), (Some(10), Some(2)));
+    assert_eq!((args.limit, args.engine.threads), (Some(10), Some(2)));
     assert_eq!(args.embed_video, Some(EmbedVideo::Foxglove));
-    assert!(args.force && args.download_ffmpeg);
+    assert!(args.force && args.engine.download_ffmpeg);
     // A viewer's name only after `=`: `--embed-video c.mcap` keeps the capture positional.
     for (flag, embed) in [
         ("--embed-video=foxglove", EmbedVideo::Foxglove),
@@ -885,8 +885,8 @@ fn render_resolution_encoder_and_outputs() {
         Render,
         &["render", "c", "--resolution", "1280X720", "--crf", "51"]
     );
-    assert_eq!(args.resolution, Some((1280, 720)));
-    assert_eq!(args.crf, 51);
+    assert_eq!(args.engine.resolution, Some((1280, 720)));
+    assert_eq!(args.engine.crf, 51);
 
     for bad in ["640", "640x", "x360", "wide", "640x-360", "640.5x360"] {
         assert_eq!(
@@ -916,11 +916,11 @@ fn trim_splits_hold_outs_and_encoding() {
     assert_eq!(args.output, Path::new("ds"));
     assert_eq!((args.video_start, args.video_fps), (None, None));
     assert_eq!(args.render_bag, None);
-    assert_eq!(args.split_by, Key::Animation);
-    assert_eq!(args.split_ratios, [0.7, 0.15, 0.15]);
-    assert_eq!(args.seed, None);
-    assert!(args.hold_out.is_empty());
-    assert!(!args.reencode && !args.rawframes && !args.download_ffmpeg);
+    assert_eq!(args.split.split_by, Key::Animation);
+    assert_eq!(args.split.split_ratios, [0.7, 0.15, 0.15]);
+    assert_eq!(args.split.seed, None);
+    assert!(args.split.hold_out.is_empty());
+    assert!(!args.cut.reencode && !args.cut.rawframes && !args.download_ffmpeg);
     assert_eq!(args.preset, "veryfast");
     assert_eq!(args.crf, 18);
 
@@ -962,18 +962,18 @@ fn trim_splits_hold_outs_and_encoding() {
     assert_eq!(args.video_start, Some(-1.5));
     assert_eq!(args.video_fps, Some(29.97));
     assert_eq!(args.render_bag, Some(path("v.render.mcap")));
-    assert_eq!(args.split_by, Key::Clip);
-    assert_eq!(args.split_ratios, [0.8, 0.1, 0.1]);
-    assert_eq!(args.seed, Some(9));
+    assert_eq!(args.split.split_by, Key::Clip);
+    assert_eq!(args.split.split_ratios, [0.8, 0.1, 0.1]);
+    assert_eq!(args.split.seed, Some(9));
     assert_eq!(
-        args.hold_out,
+        args.split.hold_out,
         [
             (Key::Weather, "RAIN".to_owned()),
             (Key::Time, "23:00".to_owned()),
             (Key::Location, "street=2".to_owned()),
         ]
     );
-    assert!(args.reencode && args.rawframes && args.download_ffmpeg);
+    assert!(args.cut.reencode && args.cut.rawframes && args.download_ffmpeg);
     assert_eq!(args.preset, "medium");
     assert_eq!(args.crf, 23);
     // Fractions need not sum to 1; a zero split is allowed.
@@ -981,12 +981,12 @@ fn trim_splits_hold_outs_and_encoding() {
         Trim,
         &["trim", "c", "v", "-o", "d", "--split-ratios", "2,1,0"]
     );
-    assert_eq!(args.split_ratios, [2.0, 1.0, 0.0]);
+    assert_eq!(args.split.split_ratios, [2.0, 1.0, 0.0]);
     let args = args_of!(
         Trim,
         &["trim", "c", "v", "-o", "d", "--hold-out", "character=a1b2"]
     );
-    assert_eq!(args.hold_out, [(Key::Character, "a1b2".to_owned())]);
+    assert_eq!(args.split.hold_out, [(Key::Character, "a1b2".to_owned())]);
 }
 
 #[test]
@@ -1159,5 +1159,68 @@ fn export_formats_selection_listing_and_the_onim_template() {
             "two"
         ),
         ErrorKind::ValueValidation
+    );
+}
+
+#[test]
+fn generate_takes_render_and_trim_options_and_a_shard() {
+    let args = args_of!(Generate, &["generate", "d.toml", "-o", "out"]);
+    assert_eq!((args.spec, args.output), (path("d.toml"), path("out")));
+    assert_eq!(args.shard, None);
+    assert_eq!(args.engine.resolution, None);
+    assert_eq!(args.engine.crf, autoact::video::DEFAULT_CRF);
+    assert_eq!(args.split.split_by, Key::Animation);
+    assert!(!args.cut.reencode && !args.cut.rawframes);
+    assert!(!args.previews && !args.keep_intermediates && args.abort_after.is_none());
+    let args = args_of!(
+        Generate,
+        &[
+            "generate",
+            "d.toml",
+            "-o",
+            "out",
+            "--shard",
+            "2/4",
+            "--resolution",
+            "320x240",
+            "--threads",
+            "2",
+            "--split-by",
+            "scene",
+            "--seed",
+            "5",
+            "--hold-out",
+            "weather=RAIN",
+            "--rawframes",
+            "--previews",
+            "--keep-intermediates",
+        ]
+    );
+    let shard = args.shard.unwrap();
+    assert_eq!((shard.index, shard.count), (2, 4));
+    assert_eq!(args.engine.resolution, Some((320, 240)));
+    assert_eq!(args.engine.threads, Some(2));
+    assert_eq!(args.split.split_by, Key::Scene);
+    assert_eq!(args.split.seed, Some(5));
+    assert_eq!(args.split.hold_out, [(Key::Weather, "RAIN".to_owned())]);
+    assert!(args.cut.rawframes && args.previews && args.keep_intermediates);
+    for bad in ["4/4", "1", "x/2", "0/0"] {
+        refused_kind(
+            &["generate", "d.toml", "-o", "o", "--shard", bad],
+            "--shard",
+        );
+    }
+    refused_kind(&["generate", "d.toml"], "--output");
+}
+
+#[test]
+fn merge_takes_parts_and_an_output() {
+    let args = args_of!(Merge, &["merge", "p/0", "p/1", "-o", "out", "--force"]);
+    assert_eq!(args.parts, [path("p/0"), path("p/1")]);
+    assert_eq!(args.output, path("out"));
+    assert!(args.force);
+    assert_eq!(
+        refused_kind(&["merge", "-o", "out"], "<PART>"),
+        ErrorKind::MissingRequiredArgument
     );
 }

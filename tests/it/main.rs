@@ -16,6 +16,7 @@ mod dataset;
 mod dsi_real_data;
 mod export;
 mod fuzzing;
+mod generate;
 mod h36m_real_data;
 mod labels;
 mod outputs;

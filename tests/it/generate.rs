@@ -1,0 +1,222 @@
+//! `autoact generate` and `autoact merge` through the binary: a sharded run merged equals one
+//! run byte for byte, and a run killed at many points then re-run equals an uninterrupted one.
+
+#![expect(clippy::unwrap_used, reason = "test helpers fail loudly")]
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use crate::common::{self, arg, autoact, stderr, stdout};
+
+/// Four sessions (one per source animation), two clips each, at 8 fps.
+fn spec_toml() -> String {
+    let wave = common::repo("bags/bandai_wave.pose.mcap");
+    let walk = common::repo("bags/bandai_walk.pose.mcap");
+    format!(
+        r#"[dataset]
+name = "g"
+seed = 3
+fps = 8.0
+resolution = [320, 240]
+lead_in_s = 0.1
+lead_out_s = 0.1
+session = "animation"
+[counts]
+variants = 1
+scenes = 2
+viewpoints = 1
+[[class]]
+category = "gesture"
+action = "wave"
+sources = ["{wave}", "{walk}"]
+[[class]]
+category = "locomotion"
+action = "walk"
+sources = ["{walk}", "{wave}"]
+"#
+    )
+}
+
+/// Options every run here shares (small, fast frames).
+const OPTIONS: [&str; 2] = ["--resolution", "64x48"];
+
+/// Runs `generate` on `spec` into `out` with `extra` options.
+fn generate(spec: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec!["generate", arg(spec), "-o", arg(out)];
+    args.extend(OPTIONS);
+    args.extend(extra);
+    autoact(&args)
+}
+
+/// Every file under `dir` (relative path → bytes), lock files aside.
+fn tree(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
+    fn walk(root: &Path, dir: &Path, out: &mut BTreeMap<PathBuf, Vec<u8>>) {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let path = e.unwrap().path();
+            if path.is_dir() {
+                walk(root, &path, out);
+            } else if !path.to_string_lossy().ends_with(".lock") {
+                let rel = path.strip_prefix(root).unwrap().to_path_buf();
+                out.insert(rel, std::fs::read(&path).unwrap());
+            }
+        }
+    }
+    let mut out = BTreeMap::new();
+    walk(dir, dir, &mut out);
+    out
+}
+
+/// The files of `a` and `b` are the same, byte for byte.
+fn assert_same_tree(a: &Path, b: &Path) {
+    let (ta, tb) = (tree(a), tree(b));
+    let names = |t: &BTreeMap<PathBuf, Vec<u8>>| t.keys().cloned().collect::<Vec<_>>();
+    assert_eq!(names(&ta), names(&tb), "{} vs {}", a.display(), b.display());
+    for (name, bytes) in &ta {
+        assert!(
+            *bytes == tb[name],
+            "{} differs between {} and {}",
+            name.display(),
+            a.display(),
+            b.display()
+        );
+    }
+}
+
+/// One uninterrupted run with intermediates kept, made once for every test here; `None` (a loud
+/// skip) without ffmpeg.
+fn reference() -> Option<&'static (tempfile::TempDir, PathBuf, PathBuf)> {
+    static REFERENCE: OnceLock<Option<(tempfile::TempDir, PathBuf, PathBuf)>> = OnceLock::new();
+    REFERENCE
+        .get_or_init(|| {
+            common::ffmpeg_or_skip(module_path!())?;
+            let dir = tempfile::tempdir().unwrap();
+            let spec = dir.path().join("spec.toml");
+            std::fs::write(&spec, spec_toml()).unwrap();
+            let out = dir.path().join("single");
+            let o = generate(&spec, &out, &["--keep-intermediates"]);
+            assert!(o.status.success(), "{}", stderr(&o));
+            Some((dir, spec, out))
+        })
+        .as_ref()
+}
+
+#[test]
+fn three_shards_merged_equal_one_run_byte_for_byte() {
+    let Some((_keep, spec, single)) = reference() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let parts: Vec<PathBuf> = (0..3)
+        .map(|k| dir.path().join(format!("part{k}")))
+        .collect();
+    // Shards in reverse order: they do not talk, so order cannot matter.
+    for (k, part) in parts.iter().enumerate().rev() {
+        let shard = format!("{k}/3");
+        let o = generate(spec, part, &["--shard", &shard, "--keep-intermediates"]);
+        assert!(o.status.success(), "shard {shard}: {}", stderr(&o));
+    }
+    // Each part holds a share of the sessions, none of them all.
+    let clips: Vec<usize> = parts
+        .iter()
+        .map(|p| {
+            std::fs::read_to_string(p.join("dataset/manifest.jsonl"))
+                .map_or(0, |m| m.lines().count())
+        })
+        .collect();
+    assert_eq!(clips.iter().sum::<usize>(), 8, "{clips:?}");
+    assert!(clips.iter().all(|&c| c < 8), "{clips:?}");
+    let merged = dir.path().join("merged");
+    let mut args = vec!["merge"];
+    args.extend(parts.iter().rev().map(|p| arg(p)));
+    args.extend(["-o", arg(&merged)]);
+    let o = autoact(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("8 clips"), "{}", stdout(&o));
+    // Every file: lists, splits, label ids, manifests, annotations, clips, and the intermediates.
+    assert_same_tree(single, &merged);
+    assert!(
+        single
+            .join("dataset/annotations/train_list_videos.txt")
+            .is_file()
+    );
+    // Merging twice into the same folder is refused; a missing shard is named.
+    let o = autoact(&args);
+    assert!(
+        !o.status.success() && stderr(&o).contains("exists"),
+        "{}",
+        stderr(&o)
+    );
+    let o = autoact(&[
+        "merge",
+        arg(&parts[0]),
+        arg(&parts[2]),
+        "-o",
+        arg(&dir.path().join("m2")),
+    ]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("1/3"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn a_run_killed_at_many_points_then_rerun_equals_an_uninterrupted_one() {
+    let Some((_keep, spec, single)) = reference() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("resumed");
+    // Events are frames rendered, clips cut and units recorded (about 450 in this dataset);
+    // each run resumes the one before and is killed (exit 86, no clean-up) at its N-th event:
+    // after the first capture, inside renders, inside trims, between units.
+    let mut killed = 0;
+    for n in [1, 2, 3, 30, 7, 150, 80, 9, 250, 2, 350] {
+        let o = generate(spec, &out, &["--abort-after", &n.to_string()]);
+        match o.status.code() {
+            Some(86) => killed += 1,
+            Some(0) => break,
+            other => panic!("--abort-after {n}: exit {other:?}: {}", stderr(&o)),
+        }
+    }
+    assert!(killed >= 6, "only {killed} runs were killed");
+    let o = generate(spec, &out, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_same_tree(&single.join("dataset"), &out.join("dataset"));
+    for file in ["plan.json", "generate.json"] {
+        let (a, b) = (single.join(file), out.join(file));
+        assert_eq!(
+            std::fs::read(a).unwrap(),
+            std::fs::read(b).unwrap(),
+            "{file}"
+        );
+    }
+    // Without --keep-intermediates nothing of the captures and renders is left.
+    for sub in ["captures", "renders"] {
+        let left: Vec<_> = std::fs::read_dir(out.join(sub))
+            .map(|d| d.map(|e| e.unwrap().path()).collect())
+            .unwrap_or_default();
+        assert!(left.is_empty(), "{sub}: {left:?}");
+    }
+    // A finished folder: a re-run renders nothing and cuts nothing.
+    let o = generate(spec, &out, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("4 sessions (4 finished before)")
+            && stdout(&o).contains("0 frames rendered"),
+        "{}",
+        stdout(&o)
+    );
+    // Other settings in the same folder are refused, naming what differs.
+    let o = autoact(&[
+        "generate",
+        arg(spec),
+        "-o",
+        arg(&out),
+        "--resolution",
+        "96x72",
+    ]);
+    assert!(!o.status.success(), "{}", stdout(&o));
+    assert!(stderr(&o).contains("resolution"), "{}", stderr(&o));
+}
