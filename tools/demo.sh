@@ -2,7 +2,8 @@
 # The whole chain on the checked-in samples, for a new user, as one `autoact generate`: the
 # example dataset spec (waving and walking, Bandai-Namco mocap) → capture bags → rendered H.264
 # captures with render bags and contact sheets → a trimmed action-recognition dataset with
-# Kinetics, MMAction2 and ActivityNet annotations. Prints where everything is and what the
+# Kinetics, MMAction2 and ActivityNet annotations, skeleton .pkl and COCO keypoint labels, and
+# each clip's depth and mask frames. Prints where everything is and what the
 # dataset holds. Usage: tools/demo.sh [OUT_DIR] (default: out). Re-running resumes (and does
 # nothing once the dataset is complete).
 set -euo pipefail
@@ -10,7 +11,8 @@ cd "$(dirname "$0")/.."
 out="${1:-out}"
 cargo build --release --quiet
 autoact=target/release/autoact
-"$autoact" generate examples/dataset.toml -o "$out" --resolution 320x240 --previews --keep-intermediates
+"$autoact" generate examples/dataset.toml -o "$out" --resolution 320x240 --previews --keep-intermediates \
+    --depth --masks
 echo
 echo "captures: $out/captures   videos: $out/renders   contact sheets: $out/previews   dataset: $out/dataset"
 echo "clips per class and split (MMAction2 lists in $out/dataset/annotations):"
