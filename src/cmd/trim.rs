@@ -6,11 +6,13 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 
 use super::Outcome;
+use crate::dataset::clips::{ClipMode, ClipsSection, Tail};
 use crate::trim::job::{TrimJob, parse_hold_out, parse_ratios, trim_job};
 use crate::trim::split::Key;
 use crate::video::ReencodeSettings;
 
-/// Cut a rendered capture into one clip per leaf segment and write the annotation lists.
+/// Cut a rendered capture into clips (by default one per leaf segment's animation) and write the
+/// annotation lists.
 #[derive(Debug, clap::Args)]
 #[command(after_help = "\
 Examples:
@@ -98,6 +100,33 @@ pub struct Args {
     /// Also extract every clip's frames (`img_00001.jpg` …) and write RawframeDataset lists.
     #[arg(long)]
     pub rawframes: bool,
+    /// Clip policy for every class, over the plan's (`[clips]` in the spec; default `whole`):
+    /// `whole` (the animation), `windows` (fixed length and stride), `instances` (one clip per
+    /// burst of motion).
+    #[arg(long, value_enum, value_name = "POLICY")]
+    pub clips: Option<ClipMode>,
+    /// Include the still lead-in and lead-out in the clips (default: the plan's, else not).
+    #[arg(long)]
+    pub include_lead: bool,
+    /// `windows`: frames per window.
+    #[arg(long, value_name = "FRAMES")]
+    pub window_frames: Option<u64>,
+    /// `windows`: frames from one window's start to the next's.
+    #[arg(long, value_name = "FRAMES")]
+    pub stride_frames: Option<u64>,
+    /// `windows`: the frames after the last full window: `shift` (one more window ending on the
+    /// last frame), `drop`, or `keep` (a shorter window).
+    #[arg(long, value_enum)]
+    pub tail: Option<Tail>,
+    /// `instances`: the shortest instance kept, frames.
+    #[arg(long, value_name = "FRAMES")]
+    pub min_frames: Option<u64>,
+    /// `instances`: the longest clip, frames (longer bursts are cut into equal parts).
+    #[arg(long, value_name = "FRAMES")]
+    pub max_frames: Option<u64>,
+    /// `instances`: frames of context before and after each instance.
+    #[arg(long, value_name = "FRAMES")]
+    pub pad_frames: Option<u64>,
     /// If ffmpeg is not installed, download a static build into the user cache (needs the
     /// `download-ffmpeg` build feature and network access).
     #[arg(long)]
@@ -129,6 +158,17 @@ pub fn run(args: Args) -> Result<Outcome> {
         },
         rawframes: args.rawframes,
         download_ffmpeg: args.download_ffmpeg,
+        clips: ClipsSection {
+            policy: args.clips,
+            include_lead: args.include_lead.then_some(true),
+            length_frames: args.window_frames,
+            stride_frames: args.stride_frames,
+            tail: args.tail,
+            min_frames: args.min_frames,
+            max_frames: args.max_frames,
+            pad_frames: args.pad_frames,
+            min_rest_frames: None,
+        },
     };
     let report = trim_job(&job, crate::interrupt::Interrupt::install()?.flag())?;
     super::warn_list("truncated segments", &report.summary.truncated, 20);

@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use super::clips::{ClipPolicy, ClipsSection};
 use crate::camera::{CameraError, RcmRanges, Shot};
 use crate::dsi::plan::{Threshold, ThresholdError};
 use crate::dsi::variants::{VariationBounds, VariationBoundsError};
@@ -324,6 +325,9 @@ pub struct ClassSpec {
     /// Location requirements (`water`, `indoor`, `outdoor`, or a location tag).
     #[serde(default)]
     pub requires: Vec<String>,
+    /// This class's clip policy: keys that override the dataset's `[clips]`.
+    #[serde(default, skip_serializing_if = "ClipsSection::is_empty")]
+    pub clips: ClipsSection,
 }
 
 /// A dataset spec as written.
@@ -344,6 +348,9 @@ pub struct SpecFile {
     /// Camera.
     #[serde(default)]
     pub camera: CameraSection,
+    /// How `trim` cuts segments into clips (see [`crate::dataset::clips`]).
+    #[serde(default)]
+    pub clips: ClipsSection,
     /// The classes.
     #[serde(rename = "class")]
     pub classes: Vec<ClassSpec>,
@@ -377,6 +384,8 @@ pub struct Spec {
     pub labels: Vec<String>,
     /// When every capture timeline starts (`[dataset] start_time`), nanoseconds since the epoch.
     pub start_nanos: u64,
+    /// Per class (spec order), its clip policy: `[clips]` with the class's own keys over it.
+    pub clip_policies: Vec<ClipPolicy>,
 }
 
 impl Spec {
@@ -419,6 +428,7 @@ impl Spec {
         labels.sort();
         labels.dedup();
         check.class_identities(&file.classes)?;
+        let clip_policies = check.clip_policies(&file)?;
         Ok(Spec {
             path: path.to_path_buf(),
             file,
@@ -427,6 +437,7 @@ impl Spec {
             variation,
             labels,
             start_nanos,
+            clip_policies,
         })
     }
 }
@@ -618,6 +629,24 @@ impl Checker<'_> {
             });
         }
         Ok(list)
+    }
+
+    /// `[clips]` over the defaults, then each class's `clips` over that, each checked.
+    fn clip_policies(&self, file: &SpecFile) -> Result<Vec<ClipPolicy>, SpecError> {
+        let base = file.clips.over(&ClipPolicy::default());
+        base.validate()
+            .map_err(|e| self.invalid(&format!("clips.{}", e.key), e.message))?;
+        file.classes
+            .iter()
+            .enumerate()
+            .map(|(k, class)| {
+                let policy = class.clips.over(&base);
+                policy
+                    .validate()
+                    .map_err(|e| self.invalid(&format!("class[{k}].clips.{}", e.key), e.message))?;
+                Ok(policy)
+            })
+            .collect()
     }
 
     /// Each category/action once, and each action in one category.
