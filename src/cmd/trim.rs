@@ -100,6 +100,18 @@ pub struct Args {
     /// Also extract every clip's frames (`img_00001.jpg` …) and write RawframeDataset lists.
     #[arg(long)]
     pub rawframes: bool,
+    /// How segments are cut into clips.
+    #[command(flatten)]
+    pub clips: ClipArgs,
+    /// If ffmpeg is not installed, download a static build into the user cache (needs the
+    /// `download-ffmpeg` build feature and network access).
+    #[arg(long)]
+    pub download_ffmpeg: bool,
+}
+
+/// `trim`'s clip policy options: each overrides the plan's value for every class.
+#[derive(Debug, clap::Args)]
+pub struct ClipArgs {
     /// Clip policy for every class, over the plan's (`[clips]` in the spec; default `whole`):
     /// `whole` (the animation), `windows` (fixed length and stride), `instances` (one clip per
     /// burst of motion).
@@ -127,10 +139,23 @@ pub struct Args {
     /// `instances`: frames of context before and after each instance.
     #[arg(long, value_name = "FRAMES")]
     pub pad_frames: Option<u64>,
-    /// If ffmpeg is not installed, download a static build into the user cache (needs the
-    /// `download-ffmpeg` build feature and network access).
-    #[arg(long)]
-    pub download_ffmpeg: bool,
+}
+
+impl ClipArgs {
+    /// The keys given.
+    fn section(&self) -> ClipsSection {
+        ClipsSection {
+            policy: self.clips,
+            include_lead: self.include_lead.then_some(true),
+            length_frames: self.window_frames,
+            stride_frames: self.stride_frames,
+            tail: self.tail,
+            min_frames: self.min_frames,
+            max_frames: self.max_frames,
+            pad_frames: self.pad_frames,
+            min_rest_frames: None,
+        }
+    }
 }
 
 /// Runs `autoact trim`.
@@ -158,17 +183,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         },
         rawframes: args.rawframes,
         download_ffmpeg: args.download_ffmpeg,
-        clips: ClipsSection {
-            policy: args.clips,
-            include_lead: args.include_lead.then_some(true),
-            length_frames: args.window_frames,
-            stride_frames: args.stride_frames,
-            tail: args.tail,
-            min_frames: args.min_frames,
-            max_frames: args.max_frames,
-            pad_frames: args.pad_frames,
-            min_rest_frames: None,
-        },
+        clips: args.clips.section(),
     };
     let report = trim_job(&job, crate::interrupt::Interrupt::install()?.flag())?;
     super::warn_list("truncated segments", &report.summary.truncated, 20);

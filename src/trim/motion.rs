@@ -150,10 +150,10 @@ pub fn video_frame_speeds(
         out.push(meter.push(rig, body, &frame.pose, fps).unwrap_or(f64::NAN));
     }
     // The first frame has no speed of its own: its neighbour's.
-    if let (Some(first), Some(&second)) = (out.first().copied(), out.get(1)) {
-        if first.is_nan() {
-            out[0] = second;
-        }
+    if let (Some(first), Some(&second)) = (out.first().copied(), out.get(1))
+        && first.is_nan()
+    {
+        out[0] = second;
     }
     for v in &mut out {
         if v.is_nan() {
