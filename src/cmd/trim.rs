@@ -1,4 +1,4 @@
-//! `autoact trim`: a capture bag and its video → one clip per leaf segment, with Kinetics,
+//! `autoact trim`: a capture bag and its video → clips by the clip policy, with Kinetics,
 //! MMAction2 and ActivityNet annotations.
 
 use std::path::PathBuf;

@@ -1,8 +1,11 @@
-//! Trimming a rendered capture into a clip dataset: one clip per leaf segment of the recording
-//! hierarchy, frame-exact, with the annotation lists action-recognition codebases read.
+//! Trimming a rendered capture into a clip dataset: clips cut from each leaf segment of the
+//! recording hierarchy by the clip policy ([`crate::dataset::clips`]), frame-exact, each with its
+//! action span, with the annotation lists action-recognition codebases read.
 //!
 //! - [`plan`]: segments (timeline stamps) → video frame ranges, given when video frame 0 is on
-//!   the timeline; clips the video does not fully cover are reported, never cut.
+//!   the timeline; segments the video does not fully cover are reported, never cut.
+//! - [`policy`]: a segment's frames → its clips (the animation, windows, or action instances
+//!   found by [`motion`], the body-frame joint speeds).
 //! - [`split`]: train/val/test by a hierarchy level (default: source animation), seeded,
 //!   stratified by class, with whole weathers, locations or characters held out on request;
 //!   decided over every clip of the dataset's plan ([`planned`]) when there is one.
