@@ -1476,3 +1476,67 @@ fn trim_cuts_windows_and_instances_by_the_spec_and_its_options_and_splits_by_seg
         assert_eq!(c["action_span"]["end_frame"].as_u64(), Some(cb - a), "{c}");
     }
 }
+
+/// The instances a `[clips] policy = "instances"` capture of the real clip `rel` (under
+/// `../shared/data`, one segment) gives: the animation's frames and each instance's clip and span.
+fn real_instances(rel: &str) -> ((u64, u64), Vec<(u64, u64, std::ops::Range<u64>)>) {
+    use autoact::dataset::clips::{ClipMode, ClipPolicy};
+    use autoact::trim::motion::video_frame_speeds;
+    use autoact::trim::plan::{VideoTiming, frame_ranges};
+    use autoact::trim::policy::clips_of;
+    let source = common::repo(&format!("../shared/data/{rel}"));
+    let dir = tempfile::tempdir().unwrap();
+    let spec = format!(
+        "[dataset]\nname = \"r\"\nseed = 1\nfps = 30.0\n[counts]\nvariants = 1\nscenes = 1\nviewpoints = 1\n[dsi]\nthreshold = \"off\"\n[clips]\npolicy = \"instances\"\n[[class]]\ncategory = \"c\"\naction = \"a\"\nsources = [\"{source}\"]\n"
+    );
+    let bag = common::capture_bag_from_spec(dir.path(), &spec);
+    let capture = Capture::read(&Rig::standard(), &bag).unwrap();
+    let timing = VideoTiming {
+        frame0_nanos: i128::from(capture.frames[0].stamp_nanos),
+        fps: autoact::video::Rational::new(30, 1).unwrap(),
+        frame_count: capture.frames.len() as u64,
+    };
+    let (segments, truncated) = frame_ranges(&capture.segments, &timing);
+    assert!(truncated.is_empty());
+    assert_eq!(segments.len(), 1);
+    let seg = &segments[0];
+    let speeds = video_frame_speeds(&Rig::standard(), &capture, &timing, seg.action.clone());
+    let policy = ClipPolicy {
+        policy: ClipMode::Instances,
+        ..ClipPolicy::default()
+    };
+    let clips = clips_of(seg, &policy, Some(&speeds));
+    eprintln!(
+        "{rel}: animation {:?}, instances {:?}",
+        seg.action,
+        clips
+            .iter()
+            .map(|c| (c.start_frame, c.end_frame(), c.action.clone()))
+            .collect::<Vec<_>>()
+    );
+    (
+        (seg.action.start, seg.action.end),
+        clips
+            .iter()
+            .map(|c| (c.start_frame, c.end_frame(), c.action.clone()))
+            .collect(),
+    )
+}
+
+#[test]
+#[ignore = "needs ../shared/data (Bandai-Namco punches, CC BY-NC 4.0)"]
+fn real_punches_are_cut_into_one_clip_per_punch() {
+    let ((a, b), clips) = real_instances("bvh/bandai_namco/dataset-1_punch_normal_001.bvh");
+    // The file's five punches: the bursts of its arm joints' rotation channels (summed change
+    // per frame, read from the BVH text independently) peak at source frames 24, 66, 108, 150
+    // and 192 (30 fps, like the capture), with rests of ≈ 0.5 s between them.
+    assert_eq!(clips.len(), 5, "{clips:?}");
+    for ((start, end, span), peak) in clips.iter().zip([24, 66, 108, 150, 192]) {
+        assert!(a <= *start && *start <= span.start && span.end <= *end && *end <= b);
+        assert!(
+            (span.start - a..span.end - a).contains(&peak),
+            "{span:?} (animation from {a}) misses the punch at {peak}"
+        );
+        assert!(span.end - span.start <= 40, "{span:?} is one punch");
+    }
+}
