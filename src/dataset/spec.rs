@@ -762,6 +762,42 @@ mod tests {
     }
 
     #[test]
+    fn clip_policies_take_the_class_keys_over_the_dataset_table_and_bad_ones_name_their_key() {
+        use crate::dataset::clips::{ClipMode, Tail};
+        let bag = concat!(env!("CARGO_MANIFEST_DIR"), "/bags/bandai_wave.pose.mcap");
+        let text = |class_clips: &str| {
+            format!(
+                "[dataset]\nname = \"t\"\nseed = 1\n[clips]\npolicy = \"windows\"\nlength_frames = 20\n[[class]]\ncategory = \"g\"\naction = \"wave\"\nsources = [\"{bag}\"]\n{class_clips}\n[[class]]\ncategory = \"g\"\naction = \"bow\"\nsources = [\"{bag}\"]\n"
+            )
+        };
+        let spec =
+            Spec::parse(Path::new("spec.toml"), &text("clips = { tail = \"drop\" }")).unwrap();
+        let [wave, bow] = [&spec.clip_policies[0], &spec.clip_policies[1]];
+        assert_eq!(
+            (wave.policy, wave.length_frames, wave.tail),
+            (ClipMode::Windows, 20, Tail::Drop)
+        );
+        assert_eq!(
+            (bow.policy, bow.length_frames, bow.tail),
+            (ClipMode::Windows, 20, Tail::Shift)
+        );
+        let err = Spec::parse(
+            Path::new("spec.toml"),
+            &text("clips = { stride_frames = 0 }"),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("class[0].clips.stride_frames"), "{err}");
+        let err = Spec::parse(
+            Path::new("spec.toml"),
+            &text("clips = { polcy = \"whole\" }"),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("polcy"), "{err}");
+    }
+
+    #[test]
     fn a_start_time_that_is_no_instant_is_refused_by_key() {
         for bad in [
             "start_time = 2024-05-01T09:00:00",
