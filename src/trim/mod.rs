@@ -229,7 +229,8 @@ impl TrimError {
 /// `annotations/clips.jsonl`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ClipRecord {
-    /// Unique clip id (file stem; the Kinetics `youtube_id` column): the sanitised segment id.
+    /// Unique clip id (file stem; the Kinetics `youtube_id` column): the sanitised segment id,
+    /// with `-w<k>` or `-i<k>` for a segment's windows or instances ([`part_clip_id`]).
     pub clip_id: String,
     /// The clip, relative to the dataset folder (`videos/<label_dir>/<clip_id>.mp4`).
     pub video: String,
