@@ -865,6 +865,40 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn every_clip_cut_from_a_segment_takes_the_segments_split_from_the_plan() {
+        let plan = demo_class("wave", 1);
+        let planned = items(&plan);
+        // Each planned segment cut into three windows.
+        let windows: Vec<ClipRecord> = plan
+            .iter()
+            .flat_map(|seg| {
+                (0..3).map(move |k| {
+                    let mut c = seg.clone();
+                    c.clip_id = format!("{}-w{k:03}", seg.clip_id);
+                    c
+                })
+            })
+            .collect();
+        let cfg = SplitConfig {
+            by: Key::Clip,
+            ..SplitConfig::default()
+        };
+        let whole = assign_clips(Some(&planned), &plan, &cfg).unwrap();
+        let cut = assign_clips(Some(&planned), &windows, &cfg).unwrap();
+        assert_eq!(cut.splits.len(), windows.len());
+        for c in &windows {
+            assert_eq!(
+                cut.splits[&c.clip_id], whole.splits[&c.segment_id],
+                "{}",
+                c.clip_id
+            );
+        }
+        // Without a plan too: the 12 segments, not the 36 windows, are split (8/2/2 segments).
+        let alone = assign_clips(None, &windows, &cfg).unwrap();
+        assert_eq!(per_split(&windows, &alone.splits, "wave"), [24, 6, 6]);
+    }
+
+    #[test]
     fn given_the_plan_any_subset_of_captures_gets_the_same_splits() {
         // Captures of one animation each (`session = "animation"`): wave 1, walk 3, run 2.
         let mut plan = demo_class("wave", 1);
