@@ -1477,9 +1477,12 @@ fn trim_cuts_windows_and_instances_by_the_spec_and_its_options_and_splits_by_seg
     }
 }
 
+/// An instance clip's first and end frame, and its action span (video frames).
+type InstanceClip = (u64, u64, std::ops::Range<u64>);
+
 /// The instances a `[clips] policy = "instances"` capture of the real clip `rel` (under
 /// `../shared/data`, one segment) gives: the animation's frames and each instance's clip and span.
-fn real_instances(rel: &str) -> ((u64, u64), Vec<(u64, u64, std::ops::Range<u64>)>) {
+fn real_instances(rel: &str) -> ((u64, u64), Vec<InstanceClip>) {
     use autoact::dataset::clips::{ClipMode, ClipPolicy};
     use autoact::trim::motion::video_frame_speeds;
     use autoact::trim::plan::{VideoTiming, frame_ranges};
@@ -1506,14 +1509,6 @@ fn real_instances(rel: &str) -> ((u64, u64), Vec<(u64, u64, std::ops::Range<u64>
         ..ClipPolicy::default()
     };
     let clips = clips_of(seg, &policy, Some(&speeds));
-    eprintln!(
-        "{rel}: animation {:?}, instances {:?}",
-        seg.action,
-        clips
-            .iter()
-            .map(|c| (c.start_frame, c.end_frame(), c.action.clone()))
-            .collect::<Vec<_>>()
-    );
     (
         (seg.action.start, seg.action.end),
         clips
