@@ -68,6 +68,7 @@ fn main() -> Result<()> {
         rawframes: false,
         planned: None,
         qa: autoact::trim::qa::Thresholds::default(),
+        clips: autoact::trim::policy::ClipPolicies::default(),
     };
     let reencode_all = TrimOptions {
         force_reencode: true,

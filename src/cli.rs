@@ -103,9 +103,15 @@ pub enum Command {
     /// backdrop surround it. Frames render in parallel and are encoded in order through
     /// ffmpeg (`apt-get install ffmpeg`).
     Render(crate::cmd::render::Args),
-    /// Cut a rendered capture into one clip per leaf segment (frame-exact), with the
-    /// annotation lists action-recognition code reads: Kinetics CSV, MMAction2 video and
-    /// rawframe lists, ActivityNet JSON, per-clip metadata, one shared class list.
+    /// Cut a rendered capture into clips (frame-exact) by the dataset's clip policy, each with
+    /// its action span, with the annotation lists action-recognition code reads: Kinetics CSV,
+    /// MMAction2 video and rawframe lists, ActivityNet JSON, per-clip metadata, one shared class
+    /// list.
+    ///
+    /// The policy (the spec's `[clips]`, from `plan.json`; `--clips` overrides it) makes one
+    /// clip of each segment's animation (`whole`, default; the still lead-in and lead-out only
+    /// with `--include-lead`), fixed-length `windows`, or one clip per action `instances` found
+    /// from the body's motion.
     ///
     /// Clips go to `DATASET_DIR/videos/<label>/<clip_id>.mp4`; splits (train/val/test) are drawn
     /// by source animation (`--split-by`), seeded and stratified by class, so no motion is in

@@ -15,8 +15,10 @@ autoact=target/release/autoact
     --depth --masks
 echo
 echo "captures: $out/captures   videos: $out/renders   contact sheets: $out/previews   dataset: $out/dataset"
-echo "clips per class and split (MMAction2 lists in $out/dataset/annotations):"
 ann="$out/dataset/annotations"
+policies=$(grep -o '"policy":"[a-z]*"' "$ann/clips.jsonl" | sort -u | cut -d'"' -f4 | paste -sd, -)
+echo "clip policy: $policies (the spec's [clips]; each clip's action span is in clips.jsonl and activitynet.json)"
+echo "clips per class and split (MMAction2 lists in $out/dataset/annotations):"
 printf '  %-12s %6s %6s %6s\n' class train val test
 id=0
 while IFS= read -r class; do
@@ -27,3 +29,4 @@ while IFS= read -r class; do
     printf '  %-12s %6s %6s %6s\n' "$class" "${counts[@]}"
     id=$((id + 1))
 done < "$ann/classes.txt"
+echo "other clip policies: autoact trim BAG VIDEO -o DIR --clips windows|instances (docs/trim.md)"

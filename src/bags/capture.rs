@@ -498,14 +498,15 @@ impl Capture {
         })
     }
 
-    /// Indices of the frames where a clip starts or ends (the keyframes cuts need), sorted,
-    /// without duplicates, within the timeline.
+    /// Indices of the frames where a segment or its animation starts or ends (the keyframes
+    /// cuts need: `trim`'s clips start on one or the other unless their policy cuts windows or
+    /// instances), sorted, without duplicates, within the timeline.
     #[must_use]
     pub fn boundary_frames(&self) -> Vec<u64> {
         let mut out: Vec<u64> = self
             .segments
             .iter()
-            .flat_map(|s| [s.start, s.end])
+            .flat_map(|s| [s.start, s.content_start, s.content_end, s.end])
             .filter_map(crate::ros::builtin_interfaces::Time::to_nanos)
             .filter_map(|t| self.frames.binary_search_by_key(&t, |f| f.stamp_nanos).ok())
             .map(|i| i as u64)

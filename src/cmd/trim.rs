@@ -1,4 +1,4 @@
-//! `autoact trim`: a capture bag and its video → one clip per leaf segment, with Kinetics,
+//! `autoact trim`: a capture bag and its video → clips by the clip policy, with Kinetics,
 //! MMAction2 and ActivityNet annotations.
 
 use std::path::PathBuf;
@@ -6,11 +6,13 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 
 use super::Outcome;
+use crate::dataset::clips::{ClipMode, ClipsSection, Tail};
 use crate::trim::job::{TrimJob, parse_hold_out, parse_ratios, trim_job};
 use crate::trim::split::Key;
 use crate::video::ReencodeSettings;
 
-/// Cut a rendered capture into one clip per leaf segment and write the annotation lists.
+/// Cut a rendered capture into clips (by default one per leaf segment's animation) and write the
+/// annotation lists.
 #[derive(Debug, clap::Args)]
 #[command(after_help = "\
 Examples:
@@ -92,6 +94,9 @@ pub struct Args {
     /// x264 constant rate factor for re-encoded clips.
     #[arg(long, default_value_t = 18, value_parser = clap::value_parser!(u8).range(0..=51))]
     pub crf: u8,
+    /// How segments are cut into clips.
+    #[command(flatten)]
+    pub clips: ClipArgs,
     /// If ffmpeg is not installed, download a static build into the user cache (needs the
     /// `download-ffmpeg` build feature and network access).
     #[arg(long)]
@@ -128,6 +133,55 @@ pub struct CutArgs {
     pub rawframes: bool,
 }
 
+/// `trim`'s clip policy options: each overrides the plan's value for every class.
+#[derive(Debug, clap::Args)]
+pub struct ClipArgs {
+    /// Clip policy for every class, over the plan's (`[clips]` in the spec; default `whole`):
+    /// `whole` (the animation), `windows` (fixed length and stride), `instances` (one clip per
+    /// burst of motion).
+    #[arg(long, value_enum, value_name = "POLICY")]
+    pub clips: Option<ClipMode>,
+    /// Include the still lead-in and lead-out in the clips (default: the plan's, else not).
+    #[arg(long)]
+    pub include_lead: bool,
+    /// `windows`: frames per window.
+    #[arg(long, value_name = "FRAMES")]
+    pub window_frames: Option<u64>,
+    /// `windows`: frames from one window's start to the next's.
+    #[arg(long, value_name = "FRAMES")]
+    pub stride_frames: Option<u64>,
+    /// `windows`: the frames after the last full window: `shift` (one more window ending on the
+    /// last frame), `drop`, or `keep` (a shorter window).
+    #[arg(long, value_enum)]
+    pub tail: Option<Tail>,
+    /// `instances`: the shortest instance kept, frames.
+    #[arg(long, value_name = "FRAMES")]
+    pub min_frames: Option<u64>,
+    /// `instances`: the longest clip, frames (longer bursts are cut into equal parts).
+    #[arg(long, value_name = "FRAMES")]
+    pub max_frames: Option<u64>,
+    /// `instances`: frames of context before and after each instance.
+    #[arg(long, value_name = "FRAMES")]
+    pub pad_frames: Option<u64>,
+}
+
+impl ClipArgs {
+    /// The keys given.
+    fn section(&self) -> ClipsSection {
+        ClipsSection {
+            policy: self.clips,
+            include_lead: self.include_lead.then_some(true),
+            length_frames: self.window_frames,
+            stride_frames: self.stride_frames,
+            tail: self.tail,
+            min_frames: self.min_frames,
+            max_frames: self.max_frames,
+            pad_frames: self.pad_frames,
+            min_rest_frames: None,
+        }
+    }
+}
+
 /// Runs `autoact trim`.
 ///
 /// # Errors
@@ -153,6 +207,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         },
         rawframes: args.cut.rawframes,
         download_ffmpeg: args.download_ffmpeg,
+        clips: args.clips.section(),
     };
     let report = trim_job(&job, crate::interrupt::Interrupt::install()?.flag())?;
     super::warn_list("truncated segments", &report.summary.truncated, 20);

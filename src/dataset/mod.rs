@@ -2,6 +2,7 @@
 //! placed, every clip on a timeline), and the capture bags `convert --spec` writes from it.
 
 pub mod capture;
+pub mod clips;
 pub mod plan;
 pub mod plan_report;
 pub mod spec;

@@ -14,12 +14,14 @@
 //! animations' lengths from their bags' time ranges (DSI's transition frames are not known
 //! before conversion); `convert --spec` fills in the exact ones — the draws are the same.
 
+use std::collections::BTreeMap;
 use std::ops::Range;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
+use super::clips::ClipPolicy;
 use super::spec::{SessionBy, Spec};
 use crate::camera::{
     CameraError, Intrinsics, Shot, Subject, Viewpoint, framing_band, random_viewpoints,
@@ -161,6 +163,9 @@ pub struct Plan {
     pub leaves: Vec<Leaf>,
     /// Sessions.
     pub sessions: Vec<Session>,
+    /// Per label, how `trim` cuts its segments into clips (the spec's `[clips]` and the class's
+    /// own keys).
+    pub clips: BTreeMap<String, ClipPolicy>,
 }
 
 /// FNV-1a, 64 bits: a stable stream number for a scene id.
@@ -282,6 +287,12 @@ impl Plan {
             scenes,
             leaves: Vec::new(),
             sessions: Vec::new(),
+            clips: file
+                .classes
+                .iter()
+                .zip(&spec.clip_policies)
+                .map(|(c, p)| (c.action.clone(), *p))
+                .collect(),
         };
         plan.lay_out(spec);
         Ok(plan)

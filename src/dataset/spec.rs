@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use super::clips::{ClipPolicy, ClipsSection};
 use crate::camera::{CameraError, RcmRanges, Shot};
 use crate::dsi::plan::{Threshold, ThresholdError};
 use crate::dsi::variants::{VariationBounds, VariationBoundsError};
@@ -324,6 +325,9 @@ pub struct ClassSpec {
     /// Location requirements (`water`, `indoor`, `outdoor`, or a location tag).
     #[serde(default)]
     pub requires: Vec<String>,
+    /// This class's clip policy: keys that override the dataset's `[clips]`.
+    #[serde(default, skip_serializing_if = "ClipsSection::is_empty")]
+    pub clips: ClipsSection,
 }
 
 /// A dataset spec as written.
@@ -344,6 +348,9 @@ pub struct SpecFile {
     /// Camera.
     #[serde(default)]
     pub camera: CameraSection,
+    /// How `trim` cuts segments into clips (see [`crate::dataset::clips`]).
+    #[serde(default)]
+    pub clips: ClipsSection,
     /// The classes.
     #[serde(rename = "class")]
     pub classes: Vec<ClassSpec>,
@@ -377,6 +384,8 @@ pub struct Spec {
     pub labels: Vec<String>,
     /// When every capture timeline starts (`[dataset] start_time`), nanoseconds since the epoch.
     pub start_nanos: u64,
+    /// Per class (spec order), its clip policy: `[clips]` with the class's own keys over it.
+    pub clip_policies: Vec<ClipPolicy>,
 }
 
 impl Spec {
@@ -419,6 +428,7 @@ impl Spec {
         labels.sort();
         labels.dedup();
         check.class_identities(&file.classes)?;
+        let clip_policies = check.clip_policies(&file)?;
         Ok(Spec {
             path: path.to_path_buf(),
             file,
@@ -427,6 +437,7 @@ impl Spec {
             variation,
             labels,
             start_nanos,
+            clip_policies,
         })
     }
 }
@@ -620,6 +631,24 @@ impl Checker<'_> {
         Ok(list)
     }
 
+    /// `[clips]` over the defaults, then each class's `clips` over that, each checked.
+    fn clip_policies(&self, file: &SpecFile) -> Result<Vec<ClipPolicy>, SpecError> {
+        let base = file.clips.over(&ClipPolicy::default());
+        base.validate()
+            .map_err(|e| self.invalid(&format!("clips.{}", e.key), e.message))?;
+        file.classes
+            .iter()
+            .enumerate()
+            .map(|(k, class)| {
+                let policy = class.clips.over(&base);
+                policy
+                    .validate()
+                    .map_err(|e| self.invalid(&format!("class[{k}].clips.{}", e.key), e.message))?;
+                Ok(policy)
+            })
+            .collect()
+    }
+
     /// Each category/action once, and each action in one category.
     fn class_identities(&self, classes: &[ClassSpec]) -> Result<(), SpecError> {
         let mut seen = BTreeMap::new();
@@ -730,6 +759,42 @@ mod tests {
         assert_eq!(iso_8601(toml.start_nanos), "2024-05-01T09:00:00.250Z");
         let text = parse("start_time = \"2024-05-01T11:00:00.25+02:00\"").unwrap();
         assert_eq!(text.start_nanos, toml.start_nanos);
+    }
+
+    #[test]
+    fn clip_policies_take_the_class_keys_over_the_dataset_table_and_bad_ones_name_their_key() {
+        use crate::dataset::clips::{ClipMode, Tail};
+        let bag = concat!(env!("CARGO_MANIFEST_DIR"), "/bags/bandai_wave.pose.mcap");
+        let text = |class_clips: &str| {
+            format!(
+                "[dataset]\nname = \"t\"\nseed = 1\n[clips]\npolicy = \"windows\"\nlength_frames = 20\n[[class]]\ncategory = \"g\"\naction = \"wave\"\nsources = [\"{bag}\"]\n{class_clips}\n[[class]]\ncategory = \"g\"\naction = \"bow\"\nsources = [\"{bag}\"]\n"
+            )
+        };
+        let spec =
+            Spec::parse(Path::new("spec.toml"), &text("clips = { tail = \"drop\" }")).unwrap();
+        let [wave, bow] = [&spec.clip_policies[0], &spec.clip_policies[1]];
+        assert_eq!(
+            (wave.policy, wave.length_frames, wave.tail),
+            (ClipMode::Windows, 20, Tail::Drop)
+        );
+        assert_eq!(
+            (bow.policy, bow.length_frames, bow.tail),
+            (ClipMode::Windows, 20, Tail::Shift)
+        );
+        let err = Spec::parse(
+            Path::new("spec.toml"),
+            &text("clips = { stride_frames = 0 }"),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("class[0].clips.stride_frames"), "{err}");
+        let err = Spec::parse(
+            Path::new("spec.toml"),
+            &text("clips = { polcy = \"whole\" }"),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("polcy"), "{err}");
     }
 
     #[test]

@@ -315,6 +315,11 @@ pub(crate) fn trim_options(choice: &ClipChoice, planned: &PlannedClips) -> TrimO
         rawframes: choice.rawframes,
         planned: Some(planned.items.clone()),
         qa: Thresholds::default(),
+        // Each class's clip policy as the spec (through the plan) gives it.
+        clips: crate::trim::policy::ClipPolicies {
+            by_label: planned.clips.clone(),
+            overrides: crate::dataset::clips::ClipsSection::default(),
+        },
     }
 }
 

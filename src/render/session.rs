@@ -267,11 +267,13 @@ fn samples(capture: &Capture, fps: Option<f64>, limit: Option<usize>) -> Vec<Sam
     out
 }
 
-/// Output frames where a clip starts or ends: the first frame at or after each boundary.
+/// Output frames where a segment or its animation starts or ends (where `trim`'s `whole` clips
+/// start, with or without the leads): the first frame at or after each boundary.
 fn keyframes(capture: &Capture, samples: &[Sample]) -> Vec<u64> {
     let mut out = vec![0u64];
     for s in &capture.segments {
-        for t in [s.start, s.end].into_iter().filter_map(Time::to_nanos) {
+        let boundaries = [s.start, s.content_start, s.content_end, s.end];
+        for t in boundaries.into_iter().filter_map(Time::to_nanos) {
             let k = samples.partition_point(|f| f.stamp_nanos < t);
             if k < samples.len() {
                 out.push(k as u64);

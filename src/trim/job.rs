@@ -8,11 +8,13 @@ use std::time::Instant;
 
 use super::TrimError;
 use super::planned::PlannedClips;
+use super::policy::ClipPolicies;
 use super::qa::Thresholds;
 use super::run::{RunError, TrimOptions, TrimSummary, VideoSource, trim_capture};
 use super::split::{Key, Split, SplitConfig};
 use crate::bags::capture::{Capture, TimelineError};
 use crate::bags::render::{RenderBagError, RenderedVideo, render_bag_beside};
+use crate::dataset::clips::ClipsSection;
 use crate::progress::Progress;
 use crate::skeleton::rig::Rig;
 use crate::video::{Ffmpeg, Rational, ReencodeSettings, VideoError};
@@ -52,6 +54,8 @@ pub struct TrimJob {
     pub rawframes: bool,
     /// Download ffmpeg when it is not installed.
     pub download_ffmpeg: bool,
+    /// Clip policy keys that override the plan's for every class.
+    pub clips: ClipsSection,
 }
 
 /// What a trim job did, for the summary it prints.
@@ -149,6 +153,10 @@ pub fn trim_job(job: &TrimJob, stop: &AtomicBool) -> Result<TrimReport, TrimJobE
         rawframes: job.rawframes,
         planned: plan.as_ref().map(|p| p.items.clone()),
         qa: Thresholds::default(),
+        clips: ClipPolicies {
+            by_label: plan.as_ref().map(|p| p.clips.clone()).unwrap_or_default(),
+            overrides: job.clips,
+        },
     };
     // The quality checks read the render bag's annotations, when there is one (a video placed
     // by `--video-start` may have none).
@@ -291,6 +299,12 @@ impl TrimReport {
             text.push_str(&format!(" ({realtime:.0}x real time)"));
         }
         text.push('\n');
+        if summary.segments_without_clips > 0 {
+            text.push_str(&format!(
+                "  {} segments gave no clip under their clip policy (see the warnings)\n",
+                summary.segments_without_clips
+            ));
+        }
         if !summary.truncated.is_empty() {
             text.push_str(&format!(
                 "  {} segments left out: the video does not cover them\n",

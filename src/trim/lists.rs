@@ -16,11 +16,13 @@
 //! - `<split>_list_rawframes.txt`: MMAction2 `RawframeDataset` lines
 //!   `<dir> <total_frames> <label_id>`, frames `img_00001.jpg` … (1-based).
 //! - `activitynet.json`: ActivityNet 1.3's ground-truth shape, one entry per capture video with
-//!   every trimmed segment, keyed by the video's stem (by `<bag>/<video>` where two captures'
-//!   videos share a stem); `subset` is the split when all its segments share one, else `mixed`
-//!   (each annotation also carries its own `subset`).
+//!   one annotation per clip, keyed by the video's stem (by `<bag>/<video>` where two captures'
+//!   videos share a stem); an annotation's `segment` is the clip's action span in the capture
+//!   video (seconds), `clip_segment` the clip itself, `action_span` the span in every frame of
+//!   reference ([`super::ActionSpan`]); `subset` is the split when all its clips share one, else
+//!   `mixed` (each annotation also carries its own `subset`).
 //! - `clips.jsonl`: every clip's record (source animation, variant, weather, time, location,
-//!   character, camera, seed, …) plus its `split` and `split_by`, what it shares its split with
+//!   character, camera, seed, clip policy, part, action span, …) plus its `split` and `split_by`, what it shares its split with
 //!   (`animation`, or the finer `variant`, `scene`, `clip` its class fell back to, …, or
 //!   `held-out`).
 
@@ -256,11 +258,18 @@ fn activitynet_json(clips: &[Assigned<'_>], ann: &Path) -> Result<String, TrimEr
         let entry = database
             .entry((c.capture_video.as_str(), c.capture_bag.as_str()))
             .or_insert_with(|| (Vec::new(), Vec::new(), *c));
+        // The action where the clip says it is (older records: the whole clip).
+        let segment = c
+            .action_span
+            .as_ref()
+            .map_or([c.start_s, c.end_s], |a| [a.video_start_s, a.video_end_s]);
         entry.0.push(json!({
-            "segment": [c.start_s, c.end_s],
+            "segment": segment,
             "label": c.label,
             "label_id": c.label_id,
             "clip_id": c.clip_id,
+            "clip_segment": [c.start_s, c.end_s],
+            "action_span": c.action_span,
             "subset": split.activitynet_subset(),
         }));
         entry.1.push(*split);

@@ -74,6 +74,29 @@ impl Manifest {
         &self.records
     }
 
+    /// Removes the clips `ids` from the journal: the file is rewritten with the others (atomic:
+    /// the old journal or the new one, never half), then appended to as before.
+    ///
+    /// # Errors
+    /// [`TrimError::Io`], [`TrimError::Json`].
+    pub fn forget<'a>(&mut self, ids: impl IntoIterator<Item = &'a str>) -> Result<(), TrimError> {
+        for id in ids {
+            self.records.remove(id);
+        }
+        let mut text = Vec::new();
+        for r in self.records.values() {
+            text.extend(serde_json::to_vec(r).map_err(TrimError::json(&self.path))?);
+            text.push(b'\n');
+        }
+        crate::atomic_file::write(&self.path, &text)
+            .map_err(TrimError::io("rewrite", &self.path))?;
+        self.file = OpenOptions::new()
+            .append(true)
+            .open(&self.path)
+            .map_err(TrimError::io("open", &self.path))?;
+        Ok(())
+    }
+
     /// Appends `record` as one line, synced to disk before returning.
     ///
     /// # Errors

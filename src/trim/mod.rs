@@ -1,8 +1,11 @@
-//! Trimming a rendered capture into a clip dataset: one clip per leaf segment of the recording
-//! hierarchy, frame-exact, with the annotation lists action-recognition codebases read.
+//! Trimming a rendered capture into a clip dataset: clips cut from each leaf segment of the
+//! recording hierarchy by the clip policy ([`crate::dataset::clips`]), frame-exact, each with its
+//! action span, with the annotation lists action-recognition codebases read.
 //!
 //! - [`plan`]: segments (timeline stamps) → video frame ranges, given when video frame 0 is on
-//!   the timeline; clips the video does not fully cover are reported, never cut.
+//!   the timeline; segments the video does not fully cover are reported, never cut.
+//! - [`policy`]: a segment's frames → its clips (the animation, windows, or action instances
+//!   found by [`motion`], the body-frame joint speeds).
 //! - [`split`]: train/val/test by a hierarchy level (default: source animation), seeded,
 //!   stratified by class, with whole weathers, locations or characters held out on request;
 //!   decided over every clip of the dataset's plan ([`planned`]) when there is one.
@@ -47,10 +50,12 @@ pub mod job;
 pub mod labels;
 pub mod lists;
 pub mod manifest;
+pub mod motion;
 pub mod passes;
 pub mod pickle;
 pub mod plan;
 pub mod planned;
+pub mod policy;
 pub mod qa;
 pub mod run;
 pub mod split;
@@ -59,6 +64,7 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
+use crate::dataset::clips::{ClipMode, ClipPolicyError};
 use crate::video::CutMethod;
 
 /// Why trimming failed.
@@ -219,6 +225,15 @@ pub enum TrimError {
         /// The file.
         path: PathBuf,
     },
+    /// The clip policy, with `trim`'s options over the plan's, cannot cut clips.
+    #[error("the clip policy of class `{label}`: {source}")]
+    ClipPolicy {
+        /// The class.
+        label: String,
+        /// The bad key.
+        #[source]
+        source: ClipPolicyError,
+    },
     /// A record could not be encoded as JSON for a file.
     #[error("cannot encode JSON for `{path}`")]
     Json {
@@ -255,7 +270,8 @@ impl TrimError {
 /// `annotations/clips.jsonl`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ClipRecord {
-    /// Unique clip id (file stem; the Kinetics `youtube_id` column): the sanitised segment id.
+    /// Unique clip id (file stem; the Kinetics `youtube_id` column): the sanitised segment id,
+    /// with `-w<k>` or `-i<k>` for a segment's windows or instances ([`part_clip_id`]).
     pub clip_id: String,
     /// The clip, relative to the dataset folder (`videos/<label_dir>/<clip_id>.mp4`).
     pub video: String,
@@ -327,6 +343,16 @@ pub struct ClipRecord {
     pub camera: String,
     /// The dataset seed.
     pub seed: Option<u64>,
+    /// The clip policy it was cut by.
+    #[serde(default)]
+    pub policy: ClipMode,
+    /// Its index among its segment's clips (`windows`, `instances`); absent for `whole`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub part: Option<u32>,
+    /// Where the action is in the clip, in the source animation and in the capture video
+    /// (absent only in records of autoact versions before clip policies).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub action_span: Option<ActionSpan>,
     /// Quality measurements and flags ([`qa`]), when the render bag's annotations were read.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub qa: Option<qa::ClipQa>,
@@ -334,6 +360,76 @@ pub struct ClipRecord {
     /// bag's annotations were read.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub labels: Option<String>,
+}
+
+/// Where a clip's action is: frames (end exclusive) and seconds, relative to the clip, to the
+/// source animation (its first frame at the output rate is 0) and to the capture video.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ActionSpan {
+    /// First frame of the action in the clip (0: the clip's first frame).
+    pub start_frame: u64,
+    /// One past its last frame in the clip.
+    pub end_frame: u64,
+    /// Its start in the clip, seconds.
+    pub start_s: f64,
+    /// Its end in the clip, seconds.
+    pub end_s: f64,
+    /// First frame of the action in the source animation (0: the animation's first frame).
+    pub animation_start_frame: u64,
+    /// One past its last frame in the source animation.
+    pub animation_end_frame: u64,
+    /// Its start in the source animation, seconds.
+    pub animation_start_s: f64,
+    /// Its end in the source animation, seconds.
+    pub animation_end_s: f64,
+    /// Its start in the capture video, seconds.
+    pub video_start_s: f64,
+    /// Its end in the capture video, seconds.
+    pub video_end_s: f64,
+}
+
+impl ActionSpan {
+    /// The span of clip `range` (video frames) at `fps`.
+    #[must_use]
+    #[expect(
+        clippy::cast_precision_loss,
+        reason = "frame counts are far below 2^52"
+    )]
+    pub fn of(range: &plan::FrameRange, fps: f64) -> ActionSpan {
+        let s = |frames: u64| frames as f64 / fps;
+        let a = &range.action;
+        let in_clip = (a.start - range.start_frame)..(a.end - range.start_frame);
+        let in_animation = a.start.saturating_sub(range.animation_start_frame)
+            ..a.end.saturating_sub(range.animation_start_frame);
+        ActionSpan {
+            start_frame: in_clip.start,
+            end_frame: in_clip.end,
+            start_s: s(in_clip.start),
+            end_s: s(in_clip.end),
+            animation_start_frame: in_animation.start,
+            animation_end_frame: in_animation.end,
+            animation_start_s: s(in_animation.start),
+            animation_end_s: s(in_animation.end),
+            video_start_s: s(a.start),
+            video_end_s: s(a.end),
+        }
+    }
+}
+
+/// The clip id of part `part` of the segment `segment_id` cut by `policy`: the segment's clip id
+/// ([`clip_id`]) for its one clip, else with `-w<k>` (windows) or `-i<k>` (instances) added,
+/// `k` 0-based, three digits at least.
+#[must_use]
+pub fn part_clip_id(segment_id: &str, policy: ClipMode, part: Option<u32>) -> String {
+    let base = clip_id(segment_id);
+    let suffix = match (part, policy) {
+        (None, _) | (_, ClipMode::Whole) => return base,
+        (Some(k), ClipMode::Windows) => format!("-w{k:03}"),
+        (Some(k), ClipMode::Instances) => format!("-i{k:03}"),
+    };
+    // The suffix survives sanitize_name's length limit.
+    let kept: String = base.chars().take(120 - suffix.len()).collect();
+    kept + &suffix
 }
 
 /// The clip id of the segment `segment_id` (the file stem of its clip): the id with `/` as `-`,

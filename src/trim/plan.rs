@@ -5,6 +5,8 @@
 //! `round((end − frame0) · fps)` (exclusive). A clip that starts before frame 0 or ends after the
 //! video's last frame is *truncated*: reported, never cut, never listed.
 
+use std::ops::Range;
+
 use crate::ros::autoact_msgs::Segment;
 use crate::video::Rational;
 
@@ -31,15 +33,29 @@ impl VideoTiming {
     }
 }
 
-/// A segment's frames in the video.
+/// A clip's frames in the video (or, from [`frame_ranges`], a whole segment's).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct FrameRange {
     /// Index into the segment list.
     pub segment: usize,
+    /// The clip's index among its segment's clips; `None`: the segment's one clip (`whole`).
+    pub part: Option<u32>,
     /// First frame.
     pub start_frame: u64,
     /// Frames.
     pub frame_count: u64,
+    /// The action's frames in the video (within the clip): for a segment, its animation.
+    pub action: Range<u64>,
+    /// The video frame of the animation's first instant (the segment's `content_start`).
+    pub animation_start_frame: u64,
+}
+
+impl FrameRange {
+    /// One past the last frame.
+    #[must_use]
+    pub fn end_frame(&self) -> u64 {
+        self.start_frame + self.frame_count
+    }
 }
 
 /// A segment the video does not fully hold.
@@ -77,11 +93,17 @@ pub fn frame_ranges(
         let start = timing.frame_at(s.start.to_nanos().unwrap_or(0));
         let end = timing.frame_at(s.end.to_nanos().unwrap_or(0));
         match (u64::try_from(start), u64::try_from(end)) {
-            (Ok(a), Ok(b)) if a < b && b <= timing.frame_count => ranges.push(FrameRange {
-                segment: i,
-                start_frame: a,
-                frame_count: b - a,
-            }),
+            (Ok(a), Ok(b)) if a < b && b <= timing.frame_count => {
+                let action = content_frames(s, timing, a..b);
+                ranges.push(FrameRange {
+                    segment: i,
+                    part: None,
+                    start_frame: a,
+                    frame_count: b - a,
+                    animation_start_frame: action.start,
+                    action,
+                });
+            }
             _ => truncated.push(Truncated {
                 segment_id: s.id.clone(),
                 start_frame: start,
@@ -91,6 +113,24 @@ pub fn frame_ranges(
         }
     }
     (ranges, truncated)
+}
+
+/// The video frames of segment `s`'s animation (`[content_start, content_end)`), within its
+/// frames `within`; the whole segment when it states no animation times.
+fn content_frames(s: &Segment, timing: &VideoTiming, within: Range<u64>) -> Range<u64> {
+    let (Some(a), Some(b)) = (s.content_start.to_nanos(), s.content_end.to_nanos()) else {
+        return within;
+    };
+    if b <= a {
+        return within;
+    }
+    let clamp = |f: i128| {
+        u64::try_from(f.max(0))
+            .unwrap_or(u64::MAX)
+            .clamp(within.start, within.end)
+    };
+    let (start, end) = (clamp(timing.frame_at(a)), clamp(timing.frame_at(b)));
+    if start < end { start..end } else { within }
 }
 
 #[cfg(test)]

@@ -15,6 +15,7 @@ use serde::Deserialize;
 use super::split::{SplitItem, fnv1a};
 use super::{TrimError, clip_id};
 use crate::bags::capture::Capture;
+use crate::dataset::clips::ClipPolicy;
 use crate::scene::Scene;
 
 /// The file name `convert --spec` gives the plan, beside the capture bags.
@@ -63,6 +64,9 @@ struct PlanView {
     animations: Vec<AnimationView>,
     scenes: Vec<SceneView>,
     leaves: Vec<LeafView>,
+    /// Absent in plans written before clip policies: every class `whole`.
+    #[serde(default)]
+    clips: BTreeMap<String, ClipPolicy>,
 }
 
 #[derive(Deserialize)]
@@ -96,6 +100,8 @@ pub struct PlannedClips {
     pub labels: Vec<String>,
     /// Every clip of the dataset, as splitting sees it.
     pub items: Vec<SplitItem>,
+    /// Per label, how its segments are cut into clips.
+    pub clips: BTreeMap<String, ClipPolicy>,
     /// Every clip's segment id and label id.
     segments: BTreeMap<String, u32>,
 }
@@ -159,6 +165,7 @@ impl PlannedClips {
             seed: plan.seed,
             labels: plan.labels,
             items,
+            clips: plan.clips,
             segments,
         })
     }

@@ -24,6 +24,7 @@ use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::lists::{ANNOTATIONS_DIR, write_atomic};
+use super::motion::{BODY_FRAME_JOINTS, STILL_M_PER_S, body_frame};
 use super::plan::FrameRange;
 use super::{ClipRecord, TrimError};
 use crate::bags::render::{ANNOTATIONS_TOPIC, RenderBagError, VIDEO_TOPIC, decode_annotation};
@@ -33,9 +34,6 @@ use crate::ros::{RosMessage, cdr};
 
 /// COCO visibility of a keypoint seen in the image.
 const VISIBLE: u8 = 2;
-
-/// The keypoints the body frame is built from: the pelvis, both hips and the neck.
-const BODY_FRAME_JOINTS: [&str; 4] = ["pelvis", "l_thigh", "r_thigh", "neck"];
 
 /// What a clip is flagged for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
@@ -102,7 +100,7 @@ impl Default for Thresholds {
             min_visible_fraction: 0.5,
             max_hidden_fraction: 0.05,
             min_box_height_fraction: 0.1,
-            min_motion_m_per_s: 0.05,
+            min_motion_m_per_s: STILL_M_PER_S,
         }
     }
 }
@@ -235,7 +233,8 @@ fn body_frame_joints(frame: &FrameAnnotation, out: &mut Vec<Vector3<f64>>) -> bo
     })
 }
 
-/// The rotation from the camera's frame into the body's, and the pelvis in the camera's frame.
+/// The rotation from the camera's frame into the body's, and the pelvis in the camera's frame
+/// ([`body_frame`]).
 fn body_from_camera(frame: &FrameAnnotation) -> Option<(Matrix3<f64>, Vector3<f64>)> {
     let at = |name: &str| {
         let i = frame.keypoint_names.iter().position(|n| n == name)?;
@@ -244,13 +243,7 @@ fn body_from_camera(frame: &FrameAnnotation) -> Option<(Matrix3<f64>, Vector3<f6
         v.iter().all(|c| c.is_finite()).then_some(v)
     };
     let [pelvis, left, right, neck] = BODY_FRAME_JOINTS.map(at);
-    let (pelvis, left, right, neck) = (pelvis?, left?, right?, neck?);
-    let x = (left - right).try_normalize(1e-6)?;
-    let up = neck - pelvis;
-    let z = (up - x * up.dot(&x)).try_normalize(1e-6)?;
-    let body_from_camera =
-        Matrix3::from_rows(&[x.transpose(), z.cross(&x).transpose(), z.transpose()]);
-    Some((body_from_camera, pelvis))
+    body_frame(pelvis?, left?, right?, neck?)
 }
 
 /// Measures the clip of each of `ranges` (video frames) from the per-frame annotations of render
@@ -267,9 +260,17 @@ pub fn measure_clips(
     thresholds: &Thresholds,
     on_frame: &mut dyn FnMut(usize, &FrameAnnotation, [u32; 2]),
 ) -> Result<(Vec<Option<ClipQa>>, u64), RenderBagError> {
-    // Clips by first frame, to find the clip of a frame by bisection.
+    // Clips by first frame, to find the clips of a frame by bisection; clips may overlap
+    // (windows), so `reach[j]` is the furthest end of the first `j + 1` clips in that order.
     let mut order: Vec<usize> = (0..ranges.len()).collect();
     order.sort_by_key(|&i| ranges[i].start_frame);
+    let reach: Vec<u64> = order
+        .iter()
+        .scan(0, |far, &i| {
+            *far = (*far).max(ranges[i].start_frame + ranges[i].frame_count);
+            Some(*far)
+        })
+        .collect();
     let mut meters = vec![ClipMeter::default(); ranges.len()];
     let (mut width, mut height, mut fps, mut undecodable) = (0, 0, 0.0, 0u64);
     let mut annotation = FrameAnnotation::default();
@@ -295,11 +296,12 @@ pub fn measure_clips(
         }
         let k = annotation.frame_index;
         let at = order.partition_point(|&i| ranges[i].start_frame <= k);
-        if let Some(&i) = at.checked_sub(1).and_then(|a| order.get(a))
-            && k < ranges[i].start_frame + ranges[i].frame_count
-        {
-            meters[i].push(&annotation, height, fps);
-            on_frame(i, &annotation, [width, height]);
+        for j in (0..at).rev().take_while(|&j| reach[j] > k) {
+            let i = order[j];
+            if k < ranges[i].start_frame + ranges[i].frame_count {
+                meters[i].push(&annotation, height, fps);
+                on_frame(i, &annotation, [width, height]);
+            }
         }
     }
     let qas = meters

@@ -10,12 +10,16 @@ use super::labels::{
 };
 use super::lists::{ListSummary, ensure_classes, write_lists};
 use super::manifest::Manifest;
+use super::motion::video_frame_speeds;
 use super::passes::{ClipPasses, PassSources};
 use super::plan::{FrameRange, Truncated, VideoTiming, frame_ranges};
 use super::planned::scene_values;
+use super::policy::{ClipPolicies, clips_of};
 use super::qa::{ClipQa, QaSummary, Thresholds, measure_clips, write_qa_report};
 use super::split::{Refined, SplitConfig, SplitItem, assign_clips};
-use super::{ClipRecord, TrimError, clip_id, label_dirs};
+use super::{ActionSpan, ClipRecord, TrimError, label_dirs, part_clip_id};
+use crate::dataset::clips::ClipMode;
+use crate::skeleton::rig::Rig;
 
 use crate::bags::capture::Capture;
 use crate::ros::autoact_msgs::Segment;
@@ -45,6 +49,8 @@ pub struct TrimOptions {
     pub planned: Option<Vec<SplitItem>>,
     /// Where a clip is flagged by the quality checks.
     pub qa: Thresholds,
+    /// How each class's segments are cut into clips.
+    pub clips: ClipPolicies,
 }
 
 /// The capture video and where it sits on the capture's timeline.
@@ -71,6 +77,8 @@ pub struct TrimSummary {
     pub skipped: usize,
     /// Segments the video does not fully hold (left out of every list).
     pub truncated: Vec<Truncated>,
+    /// Segments the clip policy found no clip in (no motion, or shorter than a window).
+    pub segments_without_clips: usize,
     /// Clips in the dataset (all runs), and the list files written.
     pub lists: ListSummary,
     /// Frames cut in this run.
@@ -115,9 +123,19 @@ pub fn trim_capture(
     let _lock = lock_dataset(dir)?;
     ensure_classes(dir, &capture.labels)?;
     let mut manifest = Manifest::open(dir)?;
-    let (ranges, truncated) = frame_ranges(&capture.segments, &timing);
+    let (segments, truncated) = frame_ranges(&capture.segments, &timing);
+    let clips = clip_ranges(capture, &timing, &segments, &options.clips)?;
+    let ranges: Vec<FrameRange> = clips.iter().map(|(r, _)| r.clone()).collect();
+    let ids: Vec<String> = clips.iter().map(|(_, id)| id.clone()).collect();
+    forget_stale_clips(dir, &mut manifest, capture, &ids)?;
     let mut summary = TrimSummary {
         truncated,
+        segments_without_clips: segments.len()
+            - ranges
+                .iter()
+                .map(|r| r.segment)
+                .collect::<BTreeSet<_>>()
+                .len(),
         ..TrimSummary::default()
     };
     let passes = PassSources::beside(source.path, frame_count)?;
@@ -140,14 +158,14 @@ pub fn trim_capture(
     };
     let (qa, labels) = source
         .annotations
-        .map(|bag| measure_run(bag, capture, &ranges, &options.qa))
+        .map(|bag| measure_run(bag, &ids, &ranges, &options.qa))
         .unwrap_or_default();
     let measured = Measured {
         qa: &qa,
         labels: &labels,
     };
     let result = run.cut_all(
-        &ranges,
+        &clips,
         &measured,
         &mut manifest,
         &mut summary,
@@ -201,6 +219,108 @@ pub fn relist(
     Ok(rewrite_lists(dir, &manifest, options)?.lists)
 }
 
+/// Every clip of the segments the video holds (`segments`, video frames), by each class's clip
+/// policy, with its clip id; `instances` reads the motion of the segment's animation from the
+/// capture's poses. A segment the policy gives no clip (no motion found, or shorter than a
+/// window with `tail = "drop"`) is said on stderr.
+///
+/// # Errors
+/// [`TrimError::ClipPolicy`] for a policy `trim`'s options made unusable;
+/// [`TrimError::LabelIdOutOfRange`].
+fn clip_ranges(
+    capture: &Capture,
+    timing: &VideoTiming,
+    segments: &[FrameRange],
+    policies: &ClipPolicies,
+) -> Result<Vec<(FrameRange, String)>, TrimError> {
+    let rig = Rig::standard();
+    let mut out = Vec::new();
+    for range in segments {
+        let segment = &capture.segments[range.segment];
+        let label = capture
+            .labels
+            .get(segment.label_id as usize)
+            .ok_or_else(|| TrimError::LabelIdOutOfRange {
+                bag: capture.path.clone(),
+                segment: segment.id.clone(),
+                label_id: segment.label_id,
+                labels: capture.labels.len(),
+            })?;
+        let policy = policies.of(label)?;
+        let speeds = (policy.policy == ClipMode::Instances)
+            .then(|| video_frame_speeds(&rig, capture, timing, range.action.clone()));
+        let clips = clips_of(range, &policy, speeds.as_deref());
+        if clips.is_empty() {
+            tracing::warn!(
+                "segment `{}`: the `{}` clip policy finds no clip in it{}",
+                segment.id,
+                policy.policy.name(),
+                match policy.policy {
+                    ClipMode::Instances => " (no burst of motion long enough)",
+                    _ => " (shorter than a window)",
+                }
+            );
+        }
+        out.extend(clips.into_iter().map(|c| {
+            let id = part_clip_id(&segment.id, policy.policy, c.part);
+            (c, id)
+        }));
+    }
+    Ok(out)
+}
+
+/// Drops from the manifest (and the disk) the clips of this capture's segments that this run
+/// does not make — cut by an earlier run under another clip policy — so no list names them.
+fn forget_stale_clips(
+    dir: &Path,
+    manifest: &mut Manifest,
+    capture: &Capture,
+    ids: &[String],
+) -> Result<(), TrimError> {
+    let bag = crate::file_name(&capture.path);
+    let keep: BTreeSet<&str> = ids.iter().map(String::as_str).collect();
+    let segments: BTreeSet<&str> = capture.segments.iter().map(|s| s.id.as_str()).collect();
+    let stale: Vec<ClipRecord> = manifest
+        .records()
+        .values()
+        .filter(|r| {
+            r.capture_bag == bag
+                && r.session == capture.session
+                && segments.contains(r.segment_id.as_str())
+                && !keep.contains(r.clip_id.as_str())
+        })
+        .cloned()
+        .collect();
+    if stale.is_empty() {
+        return Ok(());
+    }
+    tracing::warn!(
+        "{} clips of this capture from an earlier run (another clip policy, e.g. `{}`) are removed",
+        stale.len(),
+        stale[0].clip_id
+    );
+    manifest.forget(stale.iter().map(|r| r.clip_id.as_str()))?;
+    for r in &stale {
+        let path = dir.join(&r.video);
+        match std::fs::remove_file(&path) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                return Err(TrimError::io("remove", &path)(e));
+            }
+            _ => {}
+        }
+        if let Some(frames) = &r.rawframes {
+            let path = dir.join(frames);
+            match std::fs::remove_dir_all(&path) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                    return Err(TrimError::io("remove", &path)(e));
+                }
+                _ => {}
+            }
+        }
+    }
+    Ok(())
+}
+
 /// The dataset folder, held for one run: a second `trim` into the same folder waits until the
 /// first is done (saying so), so that neither reads the manifest while the other appends to it
 /// and the lists written last name every clip. The lock is the kernel's (`flock`) on
@@ -240,7 +360,7 @@ struct Measured<'a> {
 /// on stderr (empty, also said, when the bag cannot be read: the clips are cut all the same).
 fn measure_run(
     bag: &Path,
-    capture: &Capture,
+    ids: &[String],
     ranges: &[FrameRange],
     thresholds: &Thresholds,
 ) -> (Vec<Option<ClipQa>>, Vec<Option<ClipLabels>>) {
@@ -273,7 +393,7 @@ fn measure_run(
                 let why: Vec<&str> = q.flags.iter().map(|f| f.describe()).collect();
                 tracing::warn!(
                     "clip {}: {} (visible joints {:.0} %, out of sight in {} of {} frames, motion {:.3} m/s)",
-                    clip_id(&capture.segments[ranges[*i].segment].id),
+                    ids[*i],
                     why.join(", "),
                     100.0 * q.visible_joint_fraction,
                     q.hidden_frames,
@@ -361,6 +481,8 @@ struct Run<'a> {
 /// Where one segment's clip goes.
 struct ClipTarget<'a> {
     segment: &'a Segment,
+    /// The clip policy it is cut by.
+    policy: ClipMode,
     label: &'a String,
     label_dir: &'a String,
     clip_id: String,
@@ -375,7 +497,7 @@ impl Run<'_> {
     /// stops at the first error, or when `stop` is set.
     fn cut_all(
         &self,
-        ranges: &[FrameRange],
+        ranges: &[(FrameRange, String)],
         measured: &Measured<'_>,
         manifest: &mut Manifest,
         summary: &mut TrimSummary,
@@ -383,12 +505,12 @@ impl Run<'_> {
         stop: &AtomicBool,
     ) -> Result<(), RunError> {
         let mut seen = BTreeSet::new();
-        for (done, range) in ranges.iter().enumerate() {
+        for (done, (range, clip_id)) in ranges.iter().enumerate() {
             progress(done, ranges.len());
             if stop.load(Ordering::Relaxed) {
                 return Err(RunError::Interrupted);
             }
-            let target = self.target(range, &mut seen)?;
+            let target = self.target(range, clip_id, &mut seen)?;
             if self.is_complete(manifest, &target, range)? {
                 summary.skipped += 1;
                 continue;
@@ -425,6 +547,7 @@ impl Run<'_> {
     fn target(
         &self,
         range: &FrameRange,
+        clip_id: &str,
         seen: &mut BTreeSet<String>,
     ) -> Result<ClipTarget<'_>, TrimError> {
         let capture = self.capture;
@@ -447,7 +570,7 @@ impl Run<'_> {
                 segment.action
             );
         }
-        let clip_id = clip_id(&segment.id);
+        let clip_id = clip_id.to_owned();
         if !seen.insert(clip_id.clone()) {
             return Err(TrimError::DuplicateClipId {
                 bag: capture.path.clone(),
@@ -455,8 +578,10 @@ impl Run<'_> {
             });
         }
         let video = format!("{VIDEOS_DIR}/{label_dir}/{clip_id}.mp4");
+        let policy = self.options.clips.of(label)?.policy;
         Ok(ClipTarget {
             segment,
+            policy,
             label,
             label_dir,
             out: self.dir.join(&video),
@@ -488,6 +613,8 @@ impl Run<'_> {
             });
         }
         Ok(r.video == target.video
+            && r.policy == target.policy
+            && r.action_span.as_ref() == Some(&ActionSpan::of(range, self.fps.as_f64()))
             && r.frame_count == range.frame_count
             && r.start_frame == range.start_frame
             && r.capture_video == self.capture_video
@@ -601,6 +728,9 @@ impl Run<'_> {
             character_look: values.look,
             camera: format!("{}/c{}", seg.scene_id, seg.viewpoint),
             seed: capture.seed,
+            policy: target.policy,
+            part: range.part,
+            action_span: Some(ActionSpan::of(range, fps_f)),
             qa: None,
             labels: None,
         }

@@ -189,9 +189,11 @@ pub struct SplitItem {
 }
 
 impl From<&ClipRecord> for SplitItem {
+    /// The item of the segment `c` was cut from (its clip id the segment's, as in the plan: all
+    /// clips of one segment are one item).
     fn from(c: &ClipRecord) -> SplitItem {
         SplitItem {
-            clip_id: c.clip_id.clone(),
+            clip_id: super::clip_id(&c.segment_id),
             label: c.label.clone(),
             animation: c.animation.clone(),
             variant: c.variant,
@@ -451,22 +453,36 @@ pub fn assign_clips(
 ) -> Result<Assignment, TrimError> {
     let mut items: Vec<SplitItem> = plan.map(<[SplitItem]>::to_vec).unwrap_or_default();
     let planned: BTreeSet<String> = items.iter().map(|i| i.clip_id.clone()).collect();
-    let unplanned: Vec<&ClipRecord> = clips
+    // The segments (items) of the clips, each once.
+    let of_clips: Vec<SplitItem> = clips.iter().map(SplitItem::from).collect();
+    let unplanned: BTreeMap<String, SplitItem> = of_clips
         .iter()
-        .filter(|c| !planned.contains(&c.clip_id))
+        .filter(|i| !planned.contains(&i.clip_id))
+        .map(|i| (i.clip_id.clone(), i.clone()))
         .collect();
-    if plan.is_some() && !unplanned.is_empty() {
+    if plan.is_some()
+        && let Some(first) = unplanned.keys().next()
+    {
         tracing::warn!(
-            "{} clips in the dataset folder are not in the plan (e.g. `{}`): their splits may change as other captures are trimmed",
+            "{} segments of clips in the dataset folder are not in the plan (e.g. `{first}`): their splits may change as other captures are trimmed",
             unplanned.len(),
-            unplanned[0].clip_id
         );
     }
-    items.extend(unplanned.into_iter().map(SplitItem::from));
-    let mut out = assign(&items, config)?;
-    let wanted: BTreeSet<&str> = clips.iter().map(|c| c.clip_id.as_str()).collect();
-    out.splits.retain(|id, _| wanted.contains(id.as_str()));
-    out.grouped_by.retain(|id, _| wanted.contains(id.as_str()));
+    items.extend(unplanned.into_values());
+    let by_segment = assign(&items, config)?;
+    // Every clip takes its segment's split.
+    let mut out = Assignment {
+        refined: by_segment.refined,
+        ..Assignment::default()
+    };
+    for (c, item) in clips.iter().zip(&of_clips) {
+        if let Some(split) = by_segment.splits.get(&item.clip_id) {
+            out.splits.insert(c.clip_id.clone(), *split);
+        }
+        if let Some(g) = by_segment.grouped_by.get(&item.clip_id) {
+            out.grouped_by.insert(c.clip_id.clone(), *g);
+        }
+    }
     Ok(out)
 }
 
@@ -513,6 +529,9 @@ pub(crate) mod tests {
             character_look: serde_json::Value::Null,
             camera: "viewpoint 0".into(),
             seed: Some(1),
+            policy: crate::dataset::clips::ClipMode::Whole,
+            part: None,
+            action_span: None,
             qa: None,
             labels: None,
         }
@@ -846,6 +865,40 @@ pub(crate) mod tests {
             }
         }
         out
+    }
+
+    #[test]
+    fn every_clip_cut_from_a_segment_takes_the_segments_split_from_the_plan() {
+        let plan = demo_class("wave", 1);
+        let planned = items(&plan);
+        // Each planned segment cut into three windows.
+        let windows: Vec<ClipRecord> = plan
+            .iter()
+            .flat_map(|seg| {
+                (0..3).map(move |k| {
+                    let mut c = seg.clone();
+                    c.clip_id = format!("{}-w{k:03}", seg.clip_id);
+                    c
+                })
+            })
+            .collect();
+        let cfg = SplitConfig {
+            by: Key::Clip,
+            ..SplitConfig::default()
+        };
+        let whole = assign_clips(Some(&planned), &plan, &cfg).unwrap();
+        let cut = assign_clips(Some(&planned), &windows, &cfg).unwrap();
+        assert_eq!(cut.splits.len(), windows.len());
+        for c in &windows {
+            assert_eq!(
+                cut.splits[&c.clip_id], whole.splits[&c.segment_id],
+                "{}",
+                c.clip_id
+            );
+        }
+        // Without a plan too: the 12 segments, not the 36 windows, are split (8/2/2 segments).
+        let alone = assign_clips(None, &windows, &cfg).unwrap();
+        assert_eq!(per_split(&windows, &alone.splits, "wave"), [24, 6, 6]);
     }
 
     #[test]

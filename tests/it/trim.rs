@@ -324,6 +324,28 @@ fn segment_frames(capture: &Capture) -> Vec<(String, u64, u64)> {
         .collect()
 }
 
+/// The capture's frame index for every segment's animation, which the default clip policy
+/// (`whole`, leads excluded) cuts: (segment id, first frame, end frame).
+fn animation_frames(capture: &Capture) -> Vec<(String, u64, u64)> {
+    let index = |ns: u64| {
+        capture
+            .frames
+            .binary_search_by_key(&ns, |f| f.stamp_nanos)
+            .map_or_else(|i| i as u64, |i| i as u64)
+    };
+    capture
+        .segments
+        .iter()
+        .map(|s| {
+            (
+                s.id.clone(),
+                index(s.content_start.to_nanos().unwrap()),
+                index(s.content_end.to_nanos().unwrap()),
+            )
+        })
+        .collect()
+}
+
 struct Setup {
     dir: tempfile::TempDir,
     bag: PathBuf,
@@ -427,7 +449,7 @@ fn trim_cuts_every_segment_frame_exact_by_stream_copy() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stdout(&o).contains("by stream copy"), "{}", stdout(&o));
     let clips = read_jsonl(&out.join("annotations/clips.jsonl"));
-    let expected = segment_frames(&s.capture);
+    let expected = animation_frames(&s.capture);
     assert_eq!(clips.len(), expected.len());
     for (id, start, end) in &expected {
         let c = clips
@@ -436,6 +458,14 @@ fn trim_cuts_every_segment_frame_exact_by_stream_copy() {
             .unwrap();
         assert_eq!(c["method"], "stream_copy", "{c}");
         assert_eq!(c["frame_count"], end - start);
+        // `whole`: the animation, leads excluded; the action is the whole clip.
+        assert_eq!(c["policy"], "whole");
+        let span = &c["action_span"];
+        assert_eq!(span["start_frame"], 0, "{c}");
+        assert_eq!(span["end_frame"], end - start);
+        assert_eq!(span["animation_start_frame"], 0);
+        assert_eq!(span["animation_end_frame"], end - start);
+        assert!((span["video_start_s"].as_f64().unwrap() - *start as f64 / 30.0).abs() < 1e-9);
         let path = out.join(c["video"].as_str().unwrap());
         assert_eq!(
             decoded_indices(&ffmpeg, &path),
@@ -511,7 +541,7 @@ fn trim_reencodes_a_foreign_video_placed_with_video_start() {
     enc.finish().unwrap();
     let out = s.dir.path().join("ds");
     let o = run_trim(&s.bag, &video, &out, &["--video-start", "0.3333333333"]);
-    let expected = segment_frames(&s.capture);
+    let expected = animation_frames(&s.capture);
     let lost = expected.iter().filter(|(_, a, _)| *a < 10).count();
     assert!(
         lost > 0,
@@ -614,7 +644,7 @@ fn trim_extracts_each_clips_frames_for_rawframe_datasets() {
     assert!(o.status.success(), "{}", stderr(&o));
 
     let clips = read_jsonl(&out.join("annotations/clips.jsonl"));
-    let expected = segment_frames(&s.capture);
+    let expected = animation_frames(&s.capture);
     assert_eq!(clips.len(), expected.len());
     let mut listed = BTreeSet::new();
     for split in ["train", "val", "test"] {
@@ -1306,5 +1336,260 @@ fn trim_flags_a_hidden_clip_and_a_class_that_does_not_move() {
             assert!(motion > 0.1, "{id}: {motion}");
             assert_eq!(flagged.contains_key(id), id == hidden, "{id}");
         }
+    }
+}
+
+/// A spec of the two sample classes with `clips` as its `[clips]` table (and the wave class's own
+/// `[class.clips]` keys `wave_clips`), its capture, and that capture's index-coded video.
+fn policy_setup(ffmpeg: &Ffmpeg, clips: &str, wave_clips: &str) -> (Setup, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut spec = two_class_spec("t", 5, "dataset", [1, 1, 2], "wave", "pose");
+    spec = spec.replacen(
+        "[[class]]\ncategory = \"locomotion\"",
+        &format!("[class.clips]\n{wave_clips}\n\n[[class]]\ncategory = \"locomotion\""),
+        1,
+    );
+    spec.push_str(&format!("\n[clips]\n{clips}\n"));
+    let bag = common::capture_bag_from_spec(dir.path(), &spec);
+    let capture = Capture::read(&Rig::standard(), &bag).unwrap();
+    let s = Setup { dir, bag, capture };
+    let video = s.coded_capture_video(ffmpeg);
+    (s, video)
+}
+
+/// Every clip of `out` decodes to the capture frames its record says, and its action span lies
+/// within it and within its segment's animation (`animations`: segment id → frames).
+fn check_clips_and_spans(
+    ffmpeg: &Ffmpeg,
+    out: &Path,
+    animations: &[(String, u64, u64)],
+) -> Vec<serde_json::Value> {
+    let clips = read_jsonl(&out.join("annotations/clips.jsonl"));
+    for c in &clips {
+        let (_, a, b) = animations
+            .iter()
+            .find(|(id, ..)| c["segment_id"] == id.as_str())
+            .unwrap();
+        let start = c["start_frame"].as_u64().unwrap();
+        let n = c["frame_count"].as_u64().unwrap();
+        assert_eq!(
+            decoded_indices(ffmpeg, &out.join(c["video"].as_str().unwrap())),
+            (start..start + n).collect::<Vec<_>>(),
+            "{c}"
+        );
+        let span = &c["action_span"];
+        let (s0, s1) = (
+            span["start_frame"].as_u64().unwrap(),
+            span["end_frame"].as_u64().unwrap(),
+        );
+        assert!(s0 < s1 && s1 <= n, "{c}");
+        // The same span, seen from the animation.
+        assert_eq!(
+            span["animation_start_frame"].as_u64().unwrap(),
+            start + s0 - a
+        );
+        assert!(start + s1 <= *b, "{c}");
+    }
+    clips
+}
+
+#[test]
+fn trim_cuts_windows_and_instances_by_the_spec_and_its_options_and_splits_by_segment() {
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
+    // The spec: windows of 20 frames every 15 (tail dropped) for walk; the wave class's own
+    // keys make it windows of 16 every 16 with the shifted tail.
+    let (s, video) = policy_setup(
+        &ffmpeg,
+        "policy = \"windows\"\nlength_frames = 20\nstride_frames = 15\ntail = \"drop\"",
+        "length_frames = 16\nstride_frames = 16\ntail = \"shift\"",
+    );
+    let animations = animation_frames(&s.capture);
+    let out = s.dir.path().join("ds");
+    let o = run_trim(&s.bag, &video, &out, &["--video-start", "0"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let clips = check_clips_and_spans(&ffmpeg, &out, &animations);
+    let mut expected = 0;
+    for (id, a, b) in &animations {
+        let n = b - a;
+        let ours: Vec<&serde_json::Value> = clips
+            .iter()
+            .filter(|c| c["segment_id"] == id.as_str())
+            .collect();
+        let (len, stride, count) = if id.contains("/wave/") {
+            (16, 16, n.div_ceil(16))
+        } else {
+            (20, 15, (n - 20) / 15 + 1)
+        };
+        assert_eq!(ours.len() as u64, count, "{id}: {n} frames");
+        expected += ours.len();
+        for (k, c) in ours.iter().enumerate() {
+            assert_eq!(c["policy"], "windows");
+            assert_eq!(c["part"], k);
+            assert_eq!(c["frame_count"], len, "{c}");
+            let start = c["start_frame"].as_u64().unwrap();
+            let k = k as u64;
+            if id.contains("/wave/") && k + 1 == count && n % 16 != 0 {
+                assert_eq!(
+                    start + len,
+                    *b,
+                    "the shifted tail ends on the animation's end"
+                );
+            } else {
+                assert_eq!(start, a + k * stride);
+            }
+            assert!(
+                c["clip_id"]
+                    .as_str()
+                    .unwrap()
+                    .ends_with(&format!("-w{k:03}"))
+            );
+        }
+    }
+    assert_eq!(clips.len(), expected);
+    // Clips of one segment share its split (`--split-by clip` groups by segment).
+    let o = run_trim(
+        &s.bag,
+        &video,
+        &out,
+        &["--video-start", "0", "--split-by", "clip"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let clips = read_jsonl(&out.join("annotations/clips.jsonl"));
+    let mut by_segment: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for c in &clips {
+        by_segment
+            .entry(c["segment_id"].as_str().unwrap().to_owned())
+            .or_default()
+            .insert(c["split"].as_str().unwrap().to_owned());
+    }
+    assert!(by_segment.values().all(|s| s.len() == 1), "{by_segment:?}");
+
+    // `--clips instances` overrides the spec: the windows' clips leave the folder and its lists.
+    let o = run_trim(
+        &s.bag,
+        &video,
+        &out,
+        &["--video-start", "0", "--clips", "instances"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("removed"), "{}", stderr(&o));
+    let clips = check_clips_and_spans(&ffmpeg, &out, &animations);
+    assert!(!clips.is_empty());
+    for c in &clips {
+        assert_eq!(c["policy"], "instances", "{c}");
+        let n = c["frame_count"].as_u64().unwrap();
+        assert!((10..=300 + 10).contains(&n), "{c}");
+    }
+    let listed: usize = check_lists(&out).values().map(Vec::len).sum();
+    assert_eq!(listed, clips.len());
+    assert!(
+        !std::fs::read_dir(out.join("videos/walk"))
+            .unwrap()
+            .any(|e| e.unwrap().file_name().to_string_lossy().contains("-w0"))
+    );
+    let anet: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("annotations/activitynet.json")).unwrap(),
+    )
+    .unwrap();
+    for a in anet["database"]["capture"]["annotations"]
+        .as_array()
+        .unwrap()
+    {
+        let (seg, clip) = (&a["segment"], &a["clip_segment"]);
+        assert!(
+            seg[0].as_f64() >= clip[0].as_f64() && seg[1].as_f64() <= clip[1].as_f64(),
+            "{a}"
+        );
+        assert_eq!(a["action_span"]["video_start_s"], seg[0]);
+    }
+
+    // `--include-lead` with `whole`: the segments as before clip policies.
+    let segments = segment_frames(&s.capture);
+    let o = run_trim(
+        &s.bag,
+        &video,
+        &out,
+        &["--video-start", "0", "--clips", "whole", "--include-lead"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let clips = read_jsonl(&out.join("annotations/clips.jsonl"));
+    assert_eq!(clips.len(), segments.len());
+    for (id, a, b) in &segments {
+        let c = clips
+            .iter()
+            .find(|c| c["segment_id"] == id.as_str())
+            .unwrap();
+        assert_eq!(
+            (c["start_frame"].as_u64(), c["frame_count"].as_u64()),
+            (Some(*a), Some(b - a))
+        );
+        let (_, ca, cb) = animations.iter().find(|(i, ..)| i == id).unwrap();
+        assert_eq!(
+            c["action_span"]["start_frame"].as_u64(),
+            Some(ca - a),
+            "{c}"
+        );
+        assert_eq!(c["action_span"]["end_frame"].as_u64(), Some(cb - a), "{c}");
+    }
+}
+
+/// An instance clip's first and end frame, and its action span (video frames).
+type InstanceClip = (u64, u64, std::ops::Range<u64>);
+
+/// The instances a `[clips] policy = "instances"` capture of the real clip `rel` (under
+/// `../shared/data`, one segment) gives: the animation's frames and each instance's clip and span.
+fn real_instances(rel: &str) -> ((u64, u64), Vec<InstanceClip>) {
+    use autoact::dataset::clips::{ClipMode, ClipPolicy};
+    use autoact::trim::motion::video_frame_speeds;
+    use autoact::trim::plan::{VideoTiming, frame_ranges};
+    use autoact::trim::policy::clips_of;
+    let source = common::repo(&format!("../shared/data/{rel}"));
+    let dir = tempfile::tempdir().unwrap();
+    let spec = format!(
+        "[dataset]\nname = \"r\"\nseed = 1\nfps = 30.0\n[counts]\nvariants = 1\nscenes = 1\nviewpoints = 1\n[dsi]\nthreshold = \"off\"\n[clips]\npolicy = \"instances\"\n[[class]]\ncategory = \"c\"\naction = \"a\"\nsources = [\"{source}\"]\n"
+    );
+    let bag = common::capture_bag_from_spec(dir.path(), &spec);
+    let capture = Capture::read(&Rig::standard(), &bag).unwrap();
+    let timing = VideoTiming {
+        frame0_nanos: i128::from(capture.frames[0].stamp_nanos),
+        fps: autoact::video::Rational::new(30, 1).unwrap(),
+        frame_count: capture.frames.len() as u64,
+    };
+    let (segments, truncated) = frame_ranges(&capture.segments, &timing);
+    assert!(truncated.is_empty());
+    assert_eq!(segments.len(), 1);
+    let seg = &segments[0];
+    let speeds = video_frame_speeds(&Rig::standard(), &capture, &timing, seg.action.clone());
+    let policy = ClipPolicy {
+        policy: ClipMode::Instances,
+        ..ClipPolicy::default()
+    };
+    let clips = clips_of(seg, &policy, Some(&speeds));
+    (
+        (seg.action.start, seg.action.end),
+        clips
+            .iter()
+            .map(|c| (c.start_frame, c.end_frame(), c.action.clone()))
+            .collect(),
+    )
+}
+
+#[test]
+#[ignore = "needs ../shared/data (Bandai-Namco punches, CC BY-NC 4.0)"]
+fn real_punches_are_cut_into_one_clip_per_punch() {
+    let ((a, b), clips) = real_instances("bvh/bandai_namco/dataset-1_punch_normal_001.bvh");
+    // The file's five punches: the bursts of its arm joints' rotation channels (summed change
+    // per frame, read from the BVH text independently) peak at source frames 24, 66, 108, 150
+    // and 192 (30 fps, like the capture), with rests of ≈ 0.5 s between them.
+    assert_eq!(clips.len(), 5, "{clips:?}");
+    for ((start, end, span), peak) in clips.iter().zip([24, 66, 108, 150, 192]) {
+        assert!(a <= *start && *start <= span.start && span.end <= *end && *end <= b);
+        assert!(
+            (span.start - a..span.end - a).contains(&peak),
+            "{span:?} (animation from {a}) misses the punch at {peak}"
+        );
+        assert!(span.end - span.start <= 40, "{span:?} is one punch");
     }
 }

@@ -16,6 +16,11 @@
   ActivityNet JSON segments match the clips.
 - Depth and mask frames (captures rendered with `--depth --masks`): one PNG per clip frame,
   16-bit and 8-bit grey, mask ids 0/1 with the person present, depth on every person pixel.
+- Action spans: every clip's `action_span` (clips.jsonl) lies inside the clip (frames and seconds
+  agree at the clip's rate), its animation frames are the clip frames shifted by one offset per
+  segment, its capture-video seconds are the clip's start plus the span; windows and instances
+  have `part` 0, 1, … in order per segment; the ActivityNet annotation of each clip has the span's
+  video seconds as `segment` and the clip as `clip_segment`.
 Exits non-zero with a message on the first failure.
 """
 
@@ -46,7 +51,7 @@ GROUP_FIELDS = {
     "animation": ("animation",),
     "variant": ("animation", "variant"),
     "scene": ("animation", "variant", "scene"),
-    "clip": ("clip_id",),
+    "clip": ("segment_id",),
     "weather": ("weather",),
     "location": ("location",),
     "character": ("character",),
@@ -64,6 +69,61 @@ def group_of(m, split_key):
     if by not in GROUP_FIELDS:
         fail(f"{m['clip_id']}: unknown split_by {by!r}")
     return (by,) + tuple(m[f] for f in GROUP_FIELDS[by])
+
+
+def check_spans(meta, anet):
+    """Each clip's action span agrees with the clip, the animation and the capture video, and
+    with its ActivityNet annotation."""
+    eps = 1e-6
+    offsets = {}
+    parts = {}
+    for m in meta.values():
+        s = m.get("action_span")
+        if s is None:
+            fail(f"{m['clip_id']}: no action_span in clips.jsonl")
+        fps, n = m["fps"], m["frame_count"]
+        if not 0 <= s["start_frame"] < s["end_frame"] <= n:
+            fail(f"{m['clip_id']}: action span frames {s['start_frame']}..{s['end_frame']} outside the clip's {n}")
+        for f, sec in [("start_frame", "start_s"), ("end_frame", "end_s"),
+                       ("animation_start_frame", "animation_start_s"), ("animation_end_frame", "animation_end_s")]:
+            if abs(s[f] / fps - s[sec]) > eps:
+                fail(f"{m['clip_id']}: {sec} {s[sec]} is not {f} {s[f]} at {fps} fps")
+        if s["animation_end_frame"] - s["animation_start_frame"] != s["end_frame"] - s["start_frame"]:
+            fail(f"{m['clip_id']}: the span is {s['end_frame'] - s['start_frame']} frames in the clip, "
+                  f"{s['animation_end_frame'] - s['animation_start_frame']} in the animation")
+        # One offset per segment between the video and the animation's frames.
+        offset = m["start_frame"] + s["start_frame"] - s["animation_start_frame"]
+        if offsets.setdefault(m["segment_id"], offset) != offset:
+            fail(f"{m['clip_id']}: its animation starts at video frame {offset}, "
+                  f"another clip of {m['segment_id']} says {offsets[m['segment_id']]}")
+        if abs(m["start_s"] + s["start_s"] - s["video_start_s"]) > eps or \
+                abs(m["start_s"] + s["end_s"] - s["video_end_s"]) > eps:
+            fail(f"{m['clip_id']}: the span's video seconds disagree with the clip's start")
+        if m.get("policy", "whole") == "whole":
+            if "part" in m:
+                fail(f"{m['clip_id']}: a whole clip with a part")
+        else:
+            parts.setdefault(m["segment_id"], []).append((m["start_frame"], m["part"]))
+    for seg, ps in parts.items():
+        ps.sort()
+        if [p for _, p in ps] != list(range(len(ps))):
+            fail(f"{seg}: parts {[p for _, p in ps]} are not 0, 1, … in frame order")
+    by_clip = {}
+    for v in anet["database"].values():
+        for a in v["annotations"]:
+            by_clip[a["clip_id"]] = a
+    for m in meta.values():
+        a = by_clip.get(m["clip_id"])
+        if a is None:
+            fail(f"{m['clip_id']}: not in activitynet.json")
+        s = m["action_span"]
+        if abs(a["segment"][0] - s["video_start_s"]) > eps or abs(a["segment"][1] - s["video_end_s"]) > eps:
+            fail(f"activitynet {m['clip_id']}: segment {a['segment']} is not the action span")
+        if abs(a["clip_segment"][0] - m["start_s"]) > eps or abs(a["clip_segment"][1] - m["end_s"]) > eps:
+            fail(f"activitynet {m['clip_id']}: clip_segment {a['clip_segment']} is not the clip")
+    policies = sorted({m.get("policy", "whole") for m in meta.values()})
+    print(f"ok action spans: {len(meta)} clips ({', '.join(policies)}), "
+          f"{len(offsets)} segments, ActivityNet segments are the spans")
 
 
 def check_qa(ann, meta):
@@ -255,6 +315,7 @@ def main():
                 fail(f"activitynet {vid}: label {s['label']!r} not in classes.txt")
     if n_anet != len(meta):
         fail(f"activitynet.json has {n_anet} segments, clips.jsonl {len(meta)}")
+    check_spans(meta, anet)
     check_qa(ann, meta)
     check_passes(root, meta)
     counts = {s: sum(1 for v in seen.values() if v == s) for s in ["train", "val", "test"]}
