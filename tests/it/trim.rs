@@ -707,7 +707,7 @@ fn trim_gives_each_clip_its_own_depth_and_mask_frames() {
     let o = run_trim(&s.bag, &video, &out, &["--video-start", "0"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let clips = read_jsonl(&out.join("annotations/clips.jsonl"));
-    let expected = segment_frames(&s.capture);
+    let expected = animation_frames(&s.capture);
     assert_eq!(clips.len(), expected.len());
     for (id, start, end) in &expected {
         let c = clips
