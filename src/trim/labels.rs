@@ -453,12 +453,22 @@ fn skeleton_annotation(c: &ClipRecord, l: &ClipLabels, which: Skeleton) -> Py {
     ]);
     let frames = i64::try_from(t).unwrap_or(i64::MAX);
     let dims = |d: &[usize]| [&[1, t][..], d].concat();
+    // Where the action is in the clip, frames `[start, end)` (the whole clip when unknown);
+    // PoseDataset and PYSKL pass keys they do not use through untouched.
+    let span = c.action_span.as_ref().map_or((0, frames), |a| {
+        let at = |f: u64| i64::try_from(f).unwrap_or(i64::MAX);
+        (at(a.start_frame), at(a.end_frame))
+    });
     Py::Dict(vec![
         (Py::str("frame_dir"), Py::str(&c.clip_id)),
         (Py::str("label"), Py::Int(i64::from(c.label_id))),
         (Py::str("img_shape"), shape.clone()),
         (Py::str("original_shape"), shape),
         (Py::str("total_frames"), Py::Int(frames)),
+        (
+            Py::str("action_span"),
+            Py::Tuple(vec![Py::Int(span.0), Py::Int(span.1)]),
+        ),
         (
             Py::str("keypoint"),
             Py::F32Array {

@@ -77,6 +77,10 @@ def check_pickle(path, clips, sidecars, joints, channels):
                 fail(f"{path}: {c['clip_id']}: {key} {a[key]!r}, not {(h, w)}")
         if a["total_frames"] != t:
             fail(f"{path}: {c['clip_id']}: total_frames {a['total_frames']}, clip has {t}")
+        span = c.get("action_span")
+        want_span = (span["start_frame"], span["end_frame"]) if span else (0, t)
+        if a.get("action_span") != want_span:
+            fail(f"{path}: {c['clip_id']}: action_span {a.get('action_span')!r}, clips.jsonl {want_span}")
         kp, score = a["keypoint"], a["keypoint_score"]
         for name, arr, shape in (("keypoint", kp, (1, t, joints, channels)),
                                  ("keypoint_score", score, (1, t, joints))):
