@@ -445,17 +445,7 @@ pub fn write_sessions(
     config: WriteConfig,
     journal: bool,
 ) -> Result<Vec<SessionWritten>, CaptureError> {
-    let d = &spec.file.dataset;
-    let intrinsics = Intrinsics::from_horizontal_fov(d.resolution[0], d.resolution[1], d.fov_deg)
-        .map_err(CaptureError::Camera)?;
-    let dataset = Dataset {
-        rig,
-        spec,
-        plan,
-        converted,
-        intrinsics,
-        fps: d.fps,
-    };
+    let dataset = Dataset::new(rig, spec, plan, converted)?;
     plan.sessions
         .iter()
         .map(|session| dataset.write_session(session, out_dir, config, journal))
@@ -479,17 +469,7 @@ pub fn write_session(
     out_dir: &Path,
     config: WriteConfig,
 ) -> Result<SessionWritten, CaptureError> {
-    let d = &spec.file.dataset;
-    let intrinsics = Intrinsics::from_horizontal_fov(d.resolution[0], d.resolution[1], d.fov_deg)
-        .map_err(CaptureError::Camera)?;
-    let dataset = Dataset {
-        rig,
-        spec,
-        plan,
-        converted,
-        intrinsics,
-        fps: d.fps,
-    };
+    let dataset = Dataset::new(rig, spec, plan, converted)?;
     dataset.write_session(&plan.sessions[index], out_dir, config, false)
 }
 
@@ -503,7 +483,28 @@ struct Dataset<'a> {
     fps: f64,
 }
 
-impl Dataset<'_> {
+impl<'a> Dataset<'a> {
+    /// The dataset of `plan`, its camera's lens from the spec.
+    fn new(
+        rig: &'a Rig,
+        spec: &'a Spec,
+        plan: &'a Plan,
+        converted: &'a [Converted],
+    ) -> Result<Dataset<'a>, CaptureError> {
+        let d = &spec.file.dataset;
+        let intrinsics =
+            Intrinsics::from_horizontal_fov(d.resolution[0], d.resolution[1], d.fov_deg)
+                .map_err(CaptureError::Camera)?;
+        Ok(Dataset {
+            rig,
+            spec,
+            plan,
+            converted,
+            intrinsics,
+            fps: d.fps,
+        })
+    }
+
     /// Nanoseconds of frame `frame` on a session timeline (`[dataset] start_time` + frame time).
     fn nanos_at(&self, frame: u64) -> u64 {
         let k = usize::try_from(frame).unwrap_or(usize::MAX);

@@ -311,16 +311,6 @@ fn link_tree(from: &Path, to: &Path) -> Result<(), GenerateError> {
 
 impl std::fmt::Display for MergeSummary {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let counts: Vec<String> = crate::trim::split::Split::ALL
-            .iter()
-            .map(|sp| {
-                format!(
-                    "{} {}",
-                    sp.name(),
-                    self.lists.clips.get(sp).copied().unwrap_or(0)
-                )
-            })
-            .collect();
         writeln!(
             f,
             "merged {} parts into {}: {} sessions, {} clips ({})",
@@ -328,7 +318,7 @@ impl std::fmt::Display for MergeSummary {
             self.dir.display(),
             self.sessions,
             self.clips,
-            counts.join(", ")
+            self.lists.split_counts()
         )
     }
 }

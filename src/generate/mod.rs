@@ -786,21 +786,11 @@ impl std::fmt::Display for GenerateSummary {
             s.convert, s.capture, s.render, s.trim
         )?;
         if let Some(lists) = &self.lists {
-            let counts: Vec<String> = crate::trim::split::Split::ALL
-                .iter()
-                .map(|sp| {
-                    format!(
-                        "{} {}",
-                        sp.name(),
-                        lists.clips.get(sp).copied().unwrap_or(0)
-                    )
-                })
-                .collect();
             writeln!(
                 f,
                 "  dataset {}: {}",
                 self.dir.join(DATASET_DIR).display(),
-                counts.join(", ")
+                lists.split_counts()
             )?;
         }
         if self.truncated > 0 {

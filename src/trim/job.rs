@@ -11,7 +11,7 @@ use super::planned::PlannedClips;
 use super::policy::ClipPolicies;
 use super::qa::Thresholds;
 use super::run::{RunError, TrimOptions, TrimSummary, VideoSource, trim_capture};
-use super::split::{Key, Split, SplitConfig};
+use super::split::{Key, SplitConfig};
 use crate::bags::capture::{Capture, TimelineError};
 use crate::bags::render::{RenderBagError, RenderedVideo, render_bag_beside};
 use crate::dataset::clips::ClipsSection;
@@ -311,13 +311,6 @@ impl TrimReport {
                 summary.truncated.len()
             ));
         }
-        let counts: Vec<String> = Split::ALL
-            .iter()
-            .map(|s| {
-                let clips = summary.lists.clips.get(s).copied().unwrap_or(0);
-                format!("{} {clips}", s.name())
-            })
-            .collect();
         let over = match &self.plan {
             Some((path, clips)) => format!("over the {clips} clips of {}", path.display()),
             None => "over the clips trimmed so far: no plan".to_owned(),
@@ -325,7 +318,7 @@ impl TrimReport {
         text.push_str(&format!(
             "  dataset {}: {} (split by {}, seed {}, {over})\n",
             self.output.display(),
-            counts.join(", "),
+            summary.lists.split_counts(),
             self.split.by.name(),
             self.split.seed
         ));

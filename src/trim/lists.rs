@@ -119,6 +119,18 @@ pub struct ListSummary {
     pub files: Vec<PathBuf>,
 }
 
+impl ListSummary {
+    /// Clips per split, for people: `train 6, val 3, test 3`.
+    #[must_use]
+    pub fn split_counts(&self) -> String {
+        Split::ALL
+            .iter()
+            .map(|s| format!("{} {}", s.name(), self.clips.get(s).copied().unwrap_or(0)))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
 /// Writes every list into `dir/annotations` from `clips` (complete clips, by id) and their
 /// splits (and how each was grouped). Lists for a split without clips are written empty, so
 /// stale ones never survive.

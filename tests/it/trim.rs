@@ -248,6 +248,7 @@ use std::path::PathBuf;
 
 use crate::common::{self, autoact, stderr, stdout};
 use autoact::bags::capture::Capture;
+use autoact::ros::builtin_interfaces::Time;
 use autoact::skeleton::rig::Rig;
 use autoact::trim::planned::PlannedClips;
 use autoact::trim::split::SplitItem;
@@ -305,29 +306,22 @@ fn capture_bag_of(dir: &Path, wave_label: &str, kind: &str) -> PathBuf {
 
 /// The capture's frame index for every segment: (segment id, start frame, end frame).
 fn segment_frames(capture: &Capture) -> Vec<(String, u64, u64)> {
-    let index = |ns: u64| {
-        capture
-            .frames
-            .binary_search_by_key(&ns, |f| f.stamp_nanos)
-            .map_or_else(|i| i as u64, |i| i as u64)
-    };
-    capture
-        .segments
-        .iter()
-        .map(|s| {
-            (
-                s.id.clone(),
-                index(s.start.to_nanos().unwrap()),
-                index(s.end.to_nanos().unwrap()),
-            )
-        })
-        .collect()
+    frames_of(capture, |s| (s.start, s.end))
 }
 
 /// The capture's frame index for every segment's animation, which the default clip policy
 /// (`whole`, leads excluded) cuts: (segment id, first frame, end frame).
 fn animation_frames(capture: &Capture) -> Vec<(String, u64, u64)> {
-    let index = |ns: u64| {
+    frames_of(capture, |s| (s.content_start, s.content_end))
+}
+
+/// The capture's frame indices of the times `span` picks from each segment.
+fn frames_of(
+    capture: &Capture,
+    span: impl Fn(&autoact::ros::autoact_msgs::Segment) -> (Time, Time),
+) -> Vec<(String, u64, u64)> {
+    let index = |t: Time| {
+        let ns = t.to_nanos().unwrap();
         capture
             .frames
             .binary_search_by_key(&ns, |f| f.stamp_nanos)
@@ -337,11 +331,8 @@ fn animation_frames(capture: &Capture) -> Vec<(String, u64, u64)> {
         .segments
         .iter()
         .map(|s| {
-            (
-                s.id.clone(),
-                index(s.content_start.to_nanos().unwrap()),
-                index(s.content_end.to_nanos().unwrap()),
-            )
+            let (a, b) = span(s);
+            (s.id.clone(), index(a), index(b))
         })
         .collect()
 }
