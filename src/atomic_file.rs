@@ -193,6 +193,18 @@ pub fn commit_folder(part: &Path, path: &Path) -> std::io::Result<()> {
     std::fs::rename(part, path)
 }
 
+/// Gives `to` the contents of `from` by a hard link, or by a copy where a link cannot be made
+/// (another file system): what the dataset's per-clip files of one render or one part are.
+///
+/// # Errors
+/// The I/O error of the copy.
+pub fn link_or_copy(from: &Path, to: &Path) -> std::io::Result<()> {
+    if std::fs::hard_link(from, to).is_err() {
+        std::fs::copy(from, to)?;
+    }
+    Ok(())
+}
+
 /// Writes `bytes` to `path` through its [`temporary_sibling`], synced, then renamed over `path`
 /// (a device or a pipe, see [`is_special`], is written in place).
 ///

@@ -85,6 +85,13 @@ pub fn mask_dir_beside(video: &Path) -> PathBuf {
     video.with_extension("mask")
 }
 
+/// The file of video frame `k` in a folder of one image per frame (`--frames-out`, the depth
+/// and mask passes): `frame_000000.png`, ….
+#[must_use]
+pub fn frame_file(dir: &Path, k: u64) -> PathBuf {
+    dir.join(format!("frame_{k:06}.png"))
+}
+
 /// Why a render bag could not be written or read.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]

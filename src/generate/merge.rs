@@ -302,9 +302,7 @@ fn link_tree(from: &Path, to: &Path) -> Result<(), GenerateError> {
                 src.display()
             )));
         }
-        if std::fs::hard_link(&src, &dst).is_err() {
-            std::fs::copy(&src, &dst).map_err(GenerateError::io("copying", &src))?;
-        }
+        crate::atomic_file::link_or_copy(&src, &dst).map_err(GenerateError::io("copying", &src))?;
     }
     Ok(())
 }

@@ -584,7 +584,7 @@ impl<'a> FrameSinks<'a> {
         }
         self.passes.write(k, self.width, self.height, &passes)?;
         if let Some(dir) = self.frames_dir {
-            let path = dir.join(format!("frame_{k:06}.png"));
+            let path = crate::bags::render::frame_file(dir, k as u64);
             crate::video::write_png(&path, self.width, self.height, &rgb)?;
         }
         if plan.preview_picks.contains(&k) {

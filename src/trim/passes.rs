@@ -30,11 +30,6 @@ pub struct ClipPasses {
     pub masks: Option<String>,
 }
 
-/// The file of frame `k` in a render's pass folder.
-fn source_frame(dir: &Path, k: u64) -> PathBuf {
-    dir.join(format!("frame_{k:06}.png"))
-}
-
 impl PassSources {
     /// The pass folders beside `video`, each checked to hold one frame per video frame.
     ///
@@ -55,7 +50,8 @@ impl PassSources {
                 })
                 .count() as u64;
             let complete = frames == video_frames
-                && (video_frames == 0 || source_frame(&dir, video_frames - 1).is_file());
+                && (video_frames == 0
+                    || crate::bags::render::frame_file(&dir, video_frames - 1).is_file());
             if !complete {
                 return Err(TrimError::PassFrames {
                     dir,
@@ -108,11 +104,10 @@ impl PassSources {
             }
             std::fs::create_dir_all(&out).map_err(TrimError::io("create", &out))?;
             for i in 0..count {
-                let from = source_frame(source, start + i);
+                let from = crate::bags::render::frame_file(source, start + i);
                 let to = out.join(format!("img_{:05}.png", i + 1));
-                if std::fs::hard_link(&from, &to).is_err() {
-                    std::fs::copy(&from, &to).map_err(TrimError::io("copy", &from))?;
-                }
+                crate::atomic_file::link_or_copy(&from, &to)
+                    .map_err(TrimError::io("copy", &from))?;
             }
             Ok(Some(rel))
         };
@@ -131,7 +126,11 @@ mod tests {
         let d = dir.join(name);
         std::fs::create_dir_all(&d).unwrap();
         for k in 0..frames {
-            std::fs::write(source_frame(&d, k), format!("{name} {k}")).unwrap();
+            std::fs::write(
+                crate::bags::render::frame_file(&d, k),
+                format!("{name} {k}"),
+            )
+            .unwrap();
         }
     }
 
