@@ -219,24 +219,29 @@ fn two_renders_of_one_bag_are_identical_frame_for_frame() {
     }
 }
 
-#[test]
-fn projected_joints_lie_on_the_rendered_silhouette() {
-    let dir = tempfile::tempdir().unwrap();
-    let bag = capture(dir.path());
-    let rig = Rig::standard();
-    let cap = Capture::read(&rig, &bag).unwrap();
+/// One frame of a capture rendered by [`render_every`].
+struct RenderedFrame<'a> {
+    frame: &'a autoact::bags::capture::CaptureFrame,
+    character: &'a autoact::skeleton::character::Character,
+    posed: &'a fk::WorldPose,
+    camera: &'a Camera,
+    image: &'a Image,
+}
+
+/// Renders every `step`-th frame of `cap` with the embedded renderer, its scene's stage and
+/// character, and hands each to `each`.
+fn render_every(rig: &Rig, cap: &Capture, step: usize, mut each: impl FnMut(RenderedFrame<'_>)) {
     let stages: Vec<Stage> = cap
         .scenes
         .iter()
         .enumerate()
-        .map(|(i, s)| Stage::new(&rig, &s.scene, s.stream, i as u64))
+        .map(|(i, s)| Stage::new(rig, &s.scene, s.stream, i as u64))
         .collect();
     let mut renderer = CpuRenderer::new();
     let mut image = Image::default();
-    let (mut visible, mut on_silhouette) = (0usize, 0usize);
-    for f in cap.frames.iter().step_by(7) {
-        let scene = &cap.scenes[f.scene];
-        let posed = fk::forward(&rig, &scene.scene.look.character(&rig), &f.pose, 1.0);
+    for f in cap.frames.iter().step_by(step) {
+        let character = cap.scenes[f.scene].scene.look.character(rig);
+        let posed = fk::forward(rig, &character, &f.pose, 1.0);
         let camera = Camera {
             world_from_optical: f.world_from_optical,
             intrinsics: cap.intrinsics,
@@ -247,7 +252,31 @@ fn projected_joints_lie_on_the_rendered_silhouette() {
             time_s: 0.0,
         };
         renderer.render(&stages[f.scene], &input, &mut image);
-        let a = annotate(&posed, &[], &[], &camera, &image);
+        each(RenderedFrame {
+            frame: f,
+            character: &character,
+            posed: &posed,
+            camera: &camera,
+            image: &image,
+        });
+    }
+}
+
+#[test]
+fn projected_joints_lie_on_the_rendered_silhouette() {
+    let dir = tempfile::tempdir().unwrap();
+    let bag = capture(dir.path());
+    let rig = Rig::standard();
+    let cap = Capture::read(&rig, &bag).unwrap();
+    let (mut visible, mut on_silhouette) = (0usize, 0usize);
+    render_every(&rig, &cap, 7, |frame| {
+        let RenderedFrame {
+            posed,
+            camera,
+            image,
+            ..
+        } = frame;
+        let a = annotate(posed, &[], &[], camera, image);
         let w = image.width as usize;
         for (p, &v) in a.keypoints_2d.iter().zip(&a.visibility) {
             if v != VISIBLE {
@@ -268,7 +297,7 @@ fn projected_joints_lie_on_the_rendered_silhouette() {
             });
             on_silhouette += usize::from(hit);
         }
-    }
+    });
     assert!(visible > 1000, "{visible} visible joints");
     let share = on_silhouette as f64 / visible as f64;
     assert!(
@@ -299,12 +328,6 @@ fn face_landmarks_sit_on_the_rendered_head_and_hide_behind_it() {
     let bag = capture(dir.path());
     let rig = Rig::standard();
     let cap = Capture::read(&rig, &bag).unwrap();
-    let stages: Vec<Stage> = cap
-        .scenes
-        .iter()
-        .enumerate()
-        .map(|(i, s)| Stage::new(&rig, &s.scene, s.stream, i as u64))
-        .collect();
     let face: Vec<usize> = SURFACE_LANDMARKS
         .iter()
         .map(|n| rig.landmark_index(n).unwrap())
@@ -317,26 +340,19 @@ fn face_landmarks_sit_on_the_rendered_head_and_hide_behind_it() {
         rig.landmark_index("head_top").unwrap(),
     );
     let centre = rig.landmark_index("head_center").unwrap();
-    let mut renderer = CpuRenderer::new();
-    let mut image = Image::default();
     let (mut visible, mut on_head, mut hidden_by_body) = (0usize, 0usize, 0usize);
-    for f in cap.frames.iter().step_by(5) {
-        let character = cap.scenes[f.scene].scene.look.character(&rig);
-        let posed = fk::forward(&rig, &character, &f.pose, 1.0);
-        let landmarks: Vec<_> = (0..rig.landmarks.len())
-            .map(|l| fk::landmark_position(&rig, &character, &posed, l))
-            .collect();
-        let camera = Camera {
-            world_from_optical: f.world_from_optical,
-            intrinsics: cap.intrinsics,
-        };
-        let input = FrameInput {
+    render_every(&rig, &cap, 5, |frame| {
+        let RenderedFrame {
+            frame: f,
+            character,
+            posed,
             camera,
-            pose: &posed,
-            time_s: 0.0,
-        };
-        renderer.render(&stages[f.scene], &input, &mut image);
-        let a = annotate(&posed, &landmarks, &surface, &camera, &image);
+            image,
+        } = frame;
+        let landmarks: Vec<_> = (0..rig.landmarks.len())
+            .map(|l| fk::landmark_position(&rig, character, posed, l))
+            .collect();
+        let a = annotate(posed, &landmarks, &surface, camera, image);
         assert_eq!(a.landmarks_2d.len(), rig.landmarks.len());
         // The head's size in pixels: neck to crown (21 cm on the default adult).
         let px = |l: usize| {
@@ -344,7 +360,7 @@ fn face_landmarks_sit_on_the_rendered_head_and_hide_behind_it() {
             cap.intrinsics.project(q.coords)
         };
         let (Some(n), Some(t), Some(h0)) = (px(neck), px(crown), px(centre)) else {
-            continue;
+            return;
         };
         let head_px = ((t[0] - n[0]).powi(2) + (t[1] - n[1]).powi(2)).sqrt();
         for &l in &face {
@@ -354,16 +370,16 @@ fn face_landmarks_sit_on_the_rendered_head_and_hide_behind_it() {
                     let p = a.landmarks_2d[l];
                     let near_head = ((p[0] - h0[0]).powi(2) + (p[1] - h0[1]).powi(2)).sqrt()
                         <= 0.75 * head_px + 1.5;
-                    on_head += usize::from(on_character(&image, p) && near_head);
+                    on_head += usize::from(on_character(image, p) && near_head);
                 }
                 OCCLUDED => {
                     let p = a.landmarks_2d[l];
-                    hidden_by_body += usize::from(on_character(&image, p));
+                    hidden_by_body += usize::from(on_character(image, p));
                 }
                 _ => {}
             }
         }
-    }
+    });
     assert!(visible > 100, "{visible} visible face points");
     let share = on_head as f64 / visible as f64;
     assert!(
