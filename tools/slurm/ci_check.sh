@@ -45,13 +45,18 @@ teardown() {
             for _ in $(seq 50); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
         fi
         kill "$pid" 2>/dev/null || true
+        # Wait for the exit: a daemon still writing its seed file or removing its
+        # socket makes the folder's removal below fail ("Directory not empty").
+        for _ in $(seq 100); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
     done
     if [ "$status" -ne 0 ]; then
         for log in "$tmp"/slurmctld.log "$tmp"/slurmd.log "$tmp"/out/logs/*; do
             [ -f "$log" ] && { echo "--- $log (last lines)"; tail -n 20 "$log"; }
         done
     fi
-    rm -rf "$tmp"
+    # The check's verdict is $status; a leftover temporary folder is only reported.
+    rm -rf "$tmp" 2>/dev/null || { sleep 1; rm -rf "$tmp" 2>/dev/null; } \
+        || echo "warning: could not remove $tmp" >&2
     exit "$status"
 }
 trap teardown EXIT
