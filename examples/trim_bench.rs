@@ -69,6 +69,8 @@ fn main() -> Result<()> {
         planned: None,
         qa: autoact::trim::qa::Thresholds::default(),
         clips: autoact::trim::policy::ClipPolicies::default(),
+        // The cut alone is measured.
+        contact_sheets: false,
     };
     let reencode_all = TrimOptions {
         force_reencode: true,

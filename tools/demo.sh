@@ -15,6 +15,7 @@ autoact=target/release/autoact
     --depth --masks
 echo
 echo "captures: $out/captures   videos: $out/renders   contact sheets: $out/previews   dataset: $out/dataset"
+echo "each class's clips at a glance (flagged ones first, framed in red): $out/dataset/annotations/contact_sheets/"
 ann="$out/dataset/annotations"
 policies=$(grep -o '"policy":"[a-z]*"' "$ann/clips.jsonl" | sort -u | cut -d'"' -f4 | paste -sd, -)
 echo "clip policy: $policies (the spec's [clips]; each clip's action span is in clips.jsonl and activitynet.json)"

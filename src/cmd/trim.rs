@@ -40,6 +40,9 @@ Layout of DATASET_DIR (MMAction2's data_prefix; every path in the lists is relat
   annotations/qa.json                      quality report: clips whose character is hidden,
                                            occluded, tiny or still, and classes that barely
                                            move (from the render bag's annotations)
+  annotations/contact_sheets/<label>.png   a tile per clip (up to 24) at its action's middle,
+                                           flagged clips first, framed in red; <label>.json
+                                           says which clip and frame each tile is
   annotations/skeleton_2d_coco17.pkl       MMAction2/PYSKL PoseDataset: COCO-17 keypoints, px
   annotations/skeleton_3d_ntu25.pkl        the same in NTU-25 joints, metres (Kinect space)
   annotations/coco_keypoints_<split>.json  COCO person keypoints and boxes, an image per frame

@@ -320,6 +320,8 @@ pub(crate) fn trim_options(choice: &ClipChoice, planned: &PlannedClips) -> TrimO
             by_label: planned.clips.clone(),
             overrides: crate::dataset::clips::ClipsSection::default(),
         },
+        // Drawn once over every clip at the end ([`Run::finish_dataset`]), not per capture.
+        contact_sheets: false,
     }
 }
 
@@ -494,6 +496,7 @@ pub fn generate(job: &GenerateJob, stop: &AtomicBool) -> Result<GenerateSummary,
         .try_for_each(|i| run.session(i, &mut journal, &mut summary));
     run.progress.finish();
     result?;
+    run.finish_dataset()?;
     run.remove_run_dirs(true)?;
     summary.total_seconds = started.elapsed().as_secs_f64();
     Ok(summary)
@@ -715,6 +718,23 @@ impl Run<'_> {
                 std::fs::remove_dir_all(&path).map_err(GenerateError::io("removing", &path))?;
             }
         }
+        Ok(())
+    }
+
+    /// The dataset's lists rewritten once more, now with every class's contact sheet, once every
+    /// session is done: what `merge` does over the parts too, so both give the same files.
+    fn finish_dataset(&self) -> Result<(), GenerateError> {
+        let path = self.job.output.join(PLAN_FILE);
+        if !path.is_file() {
+            return Ok(());
+        }
+        let planned = PlannedClips::read(&path)?;
+        let options = TrimOptions {
+            contact_sheets: true,
+            ..trim_options(&self.job.clips, &planned)
+        };
+        let dataset = self.job.output.join(DATASET_DIR);
+        crate::trim::run::relist(&self.ffmpeg, &dataset, &planned.labels, &options)?;
         Ok(())
     }
 

@@ -157,6 +157,7 @@ pub fn trim_job(job: &TrimJob, stop: &AtomicBool) -> Result<TrimReport, TrimJobE
             by_label: plan.as_ref().map(|p| p.clips.clone()).unwrap_or_default(),
             overrides: job.clips,
         },
+        contact_sheets: true,
     };
     // The quality checks read the render bag's annotations, when there is one (a video placed
     // by `--video-start` may have none).
@@ -327,6 +328,23 @@ impl TrimReport {
         }
         if let Some(qa) = &summary.qa {
             text.push_str(&qa.to_string());
+        }
+        let sheets = &summary.sheets;
+        if sheets.drawn + sheets.unchanged > 0 {
+            text.push_str(&format!(
+                "  contact sheets: {} classes in {} ({} drawn now){}\n",
+                sheets.drawn + sheets.unchanged,
+                sheets.dir.display(),
+                sheets.drawn,
+                if sheets.failed.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        "; {} could not be drawn (see the warnings)",
+                        sheets.failed.len()
+                    )
+                }
+            ));
         }
         if let Some(l) = &summary.labels {
             text.push_str(&format!(

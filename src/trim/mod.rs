@@ -58,6 +58,7 @@ pub mod planned;
 pub mod policy;
 pub mod qa;
 pub mod run;
+pub mod sheets;
 pub mod split;
 
 use std::path::PathBuf;
@@ -81,6 +82,15 @@ pub enum TrimError {
         /// The cause.
         #[source]
         source: std::io::Error,
+    },
+    /// A contact sheet cannot be written.
+    #[error("cannot write the contact sheet `{}`", path.display())]
+    Sheet {
+        /// The sheet.
+        path: PathBuf,
+        /// The cause (boxed: it is large).
+        #[source]
+        source: Box<crate::video::VideoError>,
     },
     /// A line of the manifest autoact wrote earlier is not a clip record.
     #[error("`{path}` line {line}: not a clip record")]

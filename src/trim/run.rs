@@ -16,6 +16,7 @@ use super::plan::{FrameRange, Truncated, VideoTiming, frame_ranges};
 use super::planned::scene_values;
 use super::policy::{ClipPolicies, clips_of};
 use super::qa::{ClipQa, QaSummary, Thresholds, measure_clips, write_qa_report};
+use super::sheets::{SheetSummary, write_contact_sheets};
 use super::split::{Refined, SplitConfig, SplitItem, assign_clips};
 use super::{ActionSpan, ClipRecord, TrimError, label_dirs, part_clip_id};
 use crate::dataset::clips::ClipMode;
@@ -51,6 +52,9 @@ pub struct TrimOptions {
     pub qa: Thresholds,
     /// How each class's segments are cut into clips.
     pub clips: ClipPolicies,
+    /// Draw each class's contact sheet ([`super::sheets`]) when the lists are rewritten
+    /// (`generate` leaves them out per capture and draws them once at its end).
+    pub contact_sheets: bool,
 }
 
 /// The capture video and where it sits on the capture's timeline.
@@ -89,6 +93,8 @@ pub struct TrimSummary {
     pub qa: Option<QaSummary>,
     /// The pose and box label files (`None`: no clip has labels).
     pub labels: Option<LabelSummary>,
+    /// The contact sheet of every class.
+    pub sheets: SheetSummary,
 }
 
 /// Cuts every segment of `capture` out of `video` into `dir`, skipping clips the manifest
@@ -174,7 +180,7 @@ pub fn trim_capture(
     );
     progress(ranges.len(), ranges.len());
     // Lists from what is complete, whatever happened above.
-    let lists = rewrite_lists(dir, &manifest, options);
+    let lists = rewrite_lists(ffmpeg, dir, &manifest, options);
     match (result, lists) {
         (
             Ok(()),
@@ -183,12 +189,14 @@ pub fn trim_capture(
                 refined,
                 qa,
                 labels,
+                sheets,
             }),
         ) => {
             summary.lists = lists;
             summary.refined = refined;
             summary.qa = qa;
             summary.labels = labels;
+            summary.sheets = sheets;
             Ok(summary)
         }
         (Ok(()), Err(e)) => Err(e.into()),
@@ -204,10 +212,12 @@ pub fn trim_capture(
 /// Every list of the dataset folder `dir` rewritten from its manifest, under the dataset's lock,
 /// `labels` being its class list: what `autoact merge` does once the clips and manifest lines of
 /// every part are in one folder (the lists are those one run over every capture would write).
+/// `ffmpeg` draws the classes' contact sheets.
 ///
 /// # Errors
 /// [`TrimError`] for the dataset folder, its manifest or its lists.
 pub fn relist(
+    ffmpeg: &Ffmpeg,
     dir: &Path,
     labels: &[String],
     options: &TrimOptions,
@@ -216,7 +226,7 @@ pub fn relist(
     let _lock = lock_dataset(dir)?;
     ensure_classes(dir, labels)?;
     let manifest = Manifest::open(dir)?;
-    Ok(rewrite_lists(dir, &manifest, options)?.lists)
+    Ok(rewrite_lists(ffmpeg, dir, &manifest, options)?.lists)
 }
 
 /// Every clip of the segments the video holds (`segments`, video frames), by each class's clip
@@ -422,12 +432,14 @@ struct Rewritten {
     refined: Vec<Refined>,
     qa: Option<QaSummary>,
     labels: Option<LabelSummary>,
+    sheets: SheetSummary,
 }
 
 /// Every list rewritten from the manifest's clips whose file is on disk, split anew (over the
 /// plan's clips when there is one), each class grouped more finely than asked said on stderr;
-/// then the quality report and the label files over those clips.
+/// then the quality report, the label files and the contact sheets over those clips.
 fn rewrite_lists(
+    ffmpeg: &Ffmpeg,
     dir: &Path,
     manifest: &Manifest,
     options: &TrimOptions,
@@ -446,11 +458,17 @@ fn rewrite_lists(
     let lists = write_lists(dir, &complete, &splits)?;
     let qa = write_qa_report(dir, &complete, &options.qa)?;
     let labels = write_label_files(dir, &complete, &splits)?;
+    let sheets = if options.contact_sheets {
+        write_contact_sheets(ffmpeg, dir, &complete, &options.qa)?
+    } else {
+        SheetSummary::default()
+    };
     Ok(Rewritten {
         lists,
         refined: splits.refined,
         qa,
         labels,
+        sheets,
     })
 }
 

@@ -11,7 +11,8 @@
 //! - [`cut`] cuts a clip of whole frames, by stream copy or re-encoding, checked frame-exact.
 //! - [`probe`] and [`probe_packets`] read what a video file really holds, frame by frame.
 //! - [`annexb_access_units`] turns an encoded file into one Annex B access unit per frame.
-//! - [`write_png`], [`write_png_as`] (grey 8- and 16-bit too), [`read_png`] and [`contact_sheet`] cover stills.
+//! - [`write_png`], [`write_png_as`] (grey 8- and 16-bit too), [`read_png`] and [`contact_sheet`] cover stills;
+//!   [`still_frames`] takes one frame from each of many videos in one ffmpeg call.
 //!
 //! ```no_run
 //! use autoact::video::{EncodeSettings, Ffmpeg, VideoEncoder};
@@ -43,6 +44,7 @@ mod image;
 mod probe;
 mod rational;
 mod stderr_tail;
+mod stills;
 mod tools;
 
 use std::path::{Path, PathBuf};
@@ -59,6 +61,7 @@ pub use encode::{
 pub use image::{PngPixels, Tile, contact_sheet, read_png, write_png, write_png_as};
 pub use probe::{ProbedFrame, ProbedPacket, VideoProbe, probe, probe_packets, probe_size};
 pub use rational::Rational;
+pub use stills::{StillRequest, still_frames};
 pub use tools::{Ffmpeg, INSTALL_HINT, download_cache_dir};
 
 impl VideoError {

@@ -1328,6 +1328,74 @@ fn trim_flags_a_hidden_clip_and_a_class_that_does_not_move() {
             assert_eq!(flagged.contains_key(id), id == hidden, "{id}");
         }
     }
+    check_contact_sheets(&out, &clips, &flagged, &hidden);
+    // A second run over the same clips leaves the sheets as they are.
+    let again = run_trim(&s.bag, &video, &out, &[]);
+    assert!(again.status.success(), "{}", stderr(&again));
+    let summary = common::stdout(&again);
+    assert!(
+        summary.contains("contact sheets: 2 classes in"),
+        "{summary}"
+    );
+    assert!(summary.contains("(0 drawn now)"), "{summary}");
+}
+
+/// Each class's sheet shows its flagged clips first, framed in red, then the others, each tile
+/// at the middle frame of the clip's action span: read back from the coded frames' grey strips.
+fn check_contact_sheets(
+    out: &Path,
+    clips: &[serde_json::Value],
+    flagged: &BTreeMap<String, Vec<String>>,
+    hidden: &str,
+) {
+    let start_of: BTreeMap<&str, u64> = clips
+        .iter()
+        .map(|c| {
+            (
+                c["clip_id"].as_str().unwrap(),
+                c["start_frame"].as_u64().unwrap(),
+            )
+        })
+        .collect();
+    for label in ["walk", "wave"] {
+        let dir = out.join("annotations/contact_sheets");
+        let index: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(dir.join(format!("{label}.json"))).unwrap(),
+        )
+        .unwrap();
+        let (sheet_w, _, rgb) =
+            autoact::video::read_png(&dir.join(format!("{label}.png"))).unwrap();
+        let tiles = index["tiles"].as_array().unwrap();
+        let of_class = clips.iter().filter(|c| c["label"] == label).count();
+        assert_eq!(tiles.len(), of_class.min(24), "{label}");
+        assert_eq!(index["clips"], of_class);
+        assert_eq!(
+            (index["tile_width"].as_u64(), index["tile_height"].as_u64()),
+            (Some(u64::from(W)), Some(u64::from(H)))
+        );
+        if label == "wave" {
+            assert_eq!(tiles[0]["clip_id"], hidden);
+            assert_eq!(tiles[0]["flags"], serde_json::json!(["occluded", "hidden"]));
+            assert_eq!(index["flagged"], 1);
+        } else {
+            assert_eq!(index["flagged"], of_class);
+        }
+        let columns = index["columns"].as_u64().unwrap().min(tiles.len() as u64) as u32;
+        for (k, t) in (0_u32..).zip(tiles) {
+            let id = t["clip_id"].as_str().unwrap();
+            let (x0, y0) = (2 + (k % columns) * (W + 2), 2 + (k / columns) * (H + 2));
+            let at = |x: u32, y: u32| {
+                let i = ((y * sheet_w + x) * 3) as usize;
+                [rgb[i], rgb[i + 1], rgb[i + 2]]
+            };
+            let grey = |strip: u32| u64::from(at(x0 + W * (2 * strip + 1) / 6, y0 + H / 2)[0]) / 16;
+            let shown = grey(0) + 16 * grey(1) + 256 * grey(2);
+            let frame = t["frame"].as_u64().unwrap();
+            assert_eq!(shown, start_of[id] + frame, "{id}: tile {k}");
+            let red = at(x0, y0 + H / 2) == [230, 30, 30];
+            assert_eq!(red, flagged.contains_key(id), "{id}: tile {k}");
+        }
+    }
 }
 
 /// A spec of the two sample classes with `clips` as its `[clips]` table (and the wave class's own

@@ -207,6 +207,49 @@ def check_passes(root, meta):
         print(f"ok depth/masks: {len(with_passes)} clips, one PNG per frame, person in the mask with depth")
 
 
+def check_sheets(root, ann, meta):
+    """Every class has a contact sheet: its flagged clips first (flags as qa.json recomputes them),
+    at most 24 tiles, the PNG as large as its grid, and each tile the frame its index names (the
+    clip's frame decoded with PyAV, compared where the tile is at the video's own size)."""
+    d = os.path.join(ann, "contact_sheets")
+    qa_path = os.path.join(ann, "qa.json")
+    flagged = {}
+    if os.path.exists(qa_path):
+        flagged = {f["clip_id"] for f in json.load(open(qa_path, encoding="utf-8"))["flagged"]}
+    classes = {}
+    for m in meta.values():
+        classes.setdefault(m["label_dir"], []).append(m)
+    compared = 0
+    for label_dir, clips in sorted(classes.items()):
+        index = json.load(open(os.path.join(d, f"{label_dir}.json"), encoding="utf-8"))
+        tiles = index["tiles"]
+        if len(tiles) != min(len(clips), 24) or index["clips"] != len(clips):
+            fail(f"{label_dir}.json: {len(tiles)} tiles, {index['clips']} clips; the class has {len(clips)}")
+        is_flagged = [t["clip_id"] in flagged for t in tiles]
+        if is_flagged != sorted(is_flagged, reverse=True) or any(bool(t["flags"]) != f for t, f in zip(tiles, is_flagged)):
+            fail(f"{label_dir}.json: flagged clips are not the first tiles, or flags differ from qa.json")
+        tw, th, cols = index["tile_width"], index["tile_height"], min(index["columns"], len(tiles))
+        rows = -(-len(tiles) // cols)
+        sheet = decode_png(os.path.join(d, f"{label_dir}.png"))
+        if sheet.shape[:2] != (rows * (th + 2) + 2, cols * (tw + 2) + 2):
+            fail(f"{label_dir}.png is {sheet.shape[1]}x{sheet.shape[0]}, its {len(tiles)} tiles need another size")
+        for k, t in enumerate(tiles):
+            m = meta[t["video"]]
+            if m["capture_resolution"] != f"{tw}x{th}":
+                continue
+            with av.open(os.path.join(root, t["video"])) as c:
+                frame = next(f for i, f in enumerate(c.decode(video=0)) if i == t["frame"]).to_ndarray(format="rgb24")
+            x0, y0 = 2 + (k % cols) * (tw + 2), 2 + (k // cols) * (th + 2)
+            tile = sheet[y0:y0 + th, x0:x0 + tw]
+            # Away from the label (top-left corner) and the red frame of flagged clips.
+            inner = (slice(th // 4, th - 4), slice(4, tw - 4))
+            diff = abs(tile[inner].astype(int) - frame[inner].astype(int)).mean()
+            if diff > 3.0:
+                fail(f"{label_dir}.png tile {k}: differs from frame {t['frame']} of {t['video']} by {diff:.1f} on average")
+            compared += 1
+    print(f"ok contact sheets: {len(classes)} classes, flagged clips first, {compared} tiles equal to the frame they name")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("dataset")
@@ -318,6 +361,7 @@ def main():
     check_spans(meta, anet)
     check_qa(ann, meta)
     check_passes(root, meta)
+    check_sheets(root, ann, meta)
     counts = {s: sum(1 for v in seen.values() if v == s) for s in ["train", "val", "test"]}
     print(f"ok check_trim {root}: {decoded} clips decoded with PyAV {av.__version__}, {counts}, "
           f"{len(classes)} classes, no {a.split_key or 'split_by group'} in two splits")
