@@ -395,8 +395,8 @@ enum Skeleton {
 }
 
 /// The MMAction2/PYSKL annotation dict: `split` (every split, possibly empty, clip ids) and
-/// `annotations` (one dict per clip, `keypoint` `1 × T × V × C` and `keypoint_score` `1 × T × V`,
-/// both `float32`).
+/// `annotations` (one dict per clip, `keypoint` `1 × T × V × C`, and in 2-D `keypoint_score`
+/// `1 × T × V`, both `float32`).
 fn skeleton_pickle(labelled: &[(&ClipRecord, Split, ClipLabels)], which: Skeleton) -> Py {
     let split = Split::ALL
         .into_iter()
@@ -419,8 +419,11 @@ fn skeleton_pickle(labelled: &[(&ClipRecord, Split, ClipLabels)], which: Skeleto
     ])
 }
 
-/// One clip's annotation dict. A frame without labels has zeros and score 0. 2-D scores: 1 for a
-/// point in the image (its position is exact, seen or hidden), 0 out of it; 3-D scores: 1.
+/// One clip's annotation dict. A frame without labels has zeros (and score 0). 2-D scores: 1 for a
+/// point in the image (its position is exact, seen or hidden), 0 out of it. 3-D annotations have
+/// no scores, as NTU RGB+D's 3-D annotations for MMAction2/PYSKL have none: MMAction2's 3-D
+/// skeleton pipeline (`GenSkeFeat` with `dataset='nturgb+d'`) refuses a 3-D annotation with
+/// `keypoint_score`.
 fn skeleton_annotation(c: &ClipRecord, l: &ClipLabels, which: Skeleton) -> Py {
     let (v, ch) = match which {
         Skeleton::Coco2d => (COCO17_JOINTS, 2),
@@ -441,10 +444,7 @@ fn skeleton_annotation(c: &ClipRecord, l: &ClipLabels, which: Skeleton) -> Py {
                     score.push(if p[2] > 0.0 { 1.0 } else { 0.0 });
                 }
             }
-            (Some(f), Skeleton::Ntu3d) => {
-                keypoint.extend_from_slice(&f.ntu25);
-                score.extend(std::iter::repeat_n(1.0, v));
-            }
+            (Some(f), Skeleton::Ntu3d) => keypoint.extend_from_slice(&f.ntu25),
         }
     }
     let shape = Py::Tuple(vec![
@@ -459,7 +459,7 @@ fn skeleton_annotation(c: &ClipRecord, l: &ClipLabels, which: Skeleton) -> Py {
         let at = |f: u64| i64::try_from(f).unwrap_or(i64::MAX);
         (at(a.start_frame), at(a.end_frame))
     });
-    Py::Dict(vec![
+    let mut dict = vec![
         (Py::str("frame_dir"), Py::str(&c.clip_id)),
         (Py::str("label"), Py::Int(i64::from(c.label_id))),
         (Py::str("img_shape"), shape.clone()),
@@ -476,14 +476,17 @@ fn skeleton_annotation(c: &ClipRecord, l: &ClipLabels, which: Skeleton) -> Py {
                 data: keypoint,
             },
         ),
-        (
+    ];
+    if which == Skeleton::Coco2d {
+        dict.push((
             Py::str("keypoint_score"),
             Py::F32Array {
                 shape: dims(&[v]),
                 data: score,
             },
-        ),
-    ])
+        ));
+    }
+    Py::Dict(dict)
 }
 
 /// COCO keypoint JSON over the clips of one split: an image per frame (`file_name` as

@@ -10,7 +10,7 @@
   train, val and test, none empty, naming the clips of clips.jsonl in their splits; per clip
   `frame_dir`, `label` (its class id), `img_shape` and `original_shape` (h, w), `total_frames`
   (= its frame count), `keypoint` float32 1 x T x V x C (V, C = 17, 2 and 25, 3), finite, and
-  `keypoint_score` float32 1 x T x V in [0, 1]; the values equal the clip's sidecar
+  `keypoint_score` float32 1 x T x V in [0, 1] (2-D only); the values equal the clip's sidecar
   (`labels/<label>/<clip>.json`).
 - `annotations/coco_keypoints_{train,val,test}.json` with pycocotools (`COCO(path)`,
   `getCatIds`, `getAnnIds`, `loadAnns`, `loadImgs`): one image per frame of the split's clips,
@@ -81,7 +81,11 @@ def check_pickle(path, clips, sidecars, joints, channels):
         want_span = (span["start_frame"], span["end_frame"]) if span else (0, t)
         if a.get("action_span") != want_span:
             fail(f"{path}: {c['clip_id']}: action_span {a.get('action_span')!r}, clips.jsonl {want_span}")
-        kp, score = a["keypoint"], a["keypoint_score"]
+        kp = a["keypoint"]
+        # 2-D has scores; 3-D has none (MMAction2's NTU 3-D pipeline refuses them).
+        score = a.get("keypoint_score") if channels == 2 else np.zeros((1, t, joints), np.float32)
+        if channels == 3 and "keypoint_score" in a:
+            fail(f"{path}: {c['clip_id']}: a 3-D annotation with keypoint_score (GenSkeFeat refuses it)")
         for name, arr, shape in (("keypoint", kp, (1, t, joints, channels)),
                                  ("keypoint_score", score, (1, t, joints))):
             if not isinstance(arr, np.ndarray) or arr.dtype != np.float32 or arr.shape != shape:
