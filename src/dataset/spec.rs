@@ -136,6 +136,29 @@ pub struct DatasetSection {
     /// byte-identical bags).
     #[serde(default = "default_start_time")]
     pub start_time: StartTime,
+    /// Which engine `autoact generate` renders with (`--engine` overrides it).
+    #[serde(default, skip_serializing_if = "EngineName::is_embedded")]
+    pub engine: EngineName,
+}
+
+/// A rendering engine, by name (`[dataset] engine`, `--engine`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum EngineName {
+    /// autoact's own CPU renderer: fast, no dependencies.
+    #[default]
+    Embedded,
+    /// Blender Cycles through PyPI `bpy` (`tools/setup-blender.sh`): slow, physically based;
+    /// the same labels.
+    Blender,
+}
+
+impl EngineName {
+    /// Whether this is the default engine.
+    #[must_use]
+    pub fn is_embedded(&self) -> bool {
+        *self == EngineName::Embedded
+    }
 }
 
 pub use crate::instant::{DEFAULT_START_TIME, StartTimeError, iso_8601};

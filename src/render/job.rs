@@ -36,6 +36,8 @@ pub struct RenderJob {
     pub force: bool,
     /// Download ffmpeg when it is not installed.
     pub download_ffmpeg: bool,
+    /// Which engine draws the frames.
+    pub engine: super::blender::Engine,
 }
 
 /// What a render job did, for the summary it prints.
@@ -142,6 +144,7 @@ pub fn render_job(job: &RenderJob, stop: &AtomicBool) -> Result<RenderReport, Re
         preset: job.preset.clone(),
         gop_frames: job.gop_frames,
         embed_video: job.embed_video,
+        engine: job.engine.clone(),
     };
     let total = job
         .limit
