@@ -785,6 +785,21 @@ mod tests {
     }
 
     #[test]
+    fn the_engine_is_embedded_unless_the_spec_names_blender() {
+        assert_eq!(parse("").unwrap().file.dataset.engine, EngineName::Embedded);
+        assert_eq!(
+            parse("engine = \"blender\"").unwrap().file.dataset.engine,
+            EngineName::Blender
+        );
+        let err = parse("engine = \"unreal\"").unwrap_err().to_string();
+        assert!(err.contains("unreal") && err.contains("blender"), "{err}");
+        // The default is not written out, so specs without the key serialise as before.
+        let spec = parse("").unwrap();
+        let json = serde_json::to_string(&spec.file.dataset).unwrap();
+        assert!(!json.contains("engine"), "{json}");
+    }
+
+    #[test]
     fn clip_policies_take_the_class_keys_over_the_dataset_table_and_bad_ones_name_their_key() {
         use crate::dataset::clips::{ClipMode, Tail};
         let bag = concat!(env!("CARGO_MANIFEST_DIR"), "/bags/bandai_wave.pose.mcap");

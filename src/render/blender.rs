@@ -409,10 +409,11 @@ fn run_script(
                     progress(k + 1);
                 }
             } else if let Some(d) = line.strip_prefix("autoact-blender: ") {
+                // The first line says what renders; the last how long it took.
                 if description.is_empty() {
-                    description = d.to_owned();
-                    tracing::info!("{d}");
+                    d.clone_into(&mut description);
                 }
+                tracing::info!("{d}");
             } else {
                 tail.push_back(line);
                 if tail.len() > TAIL_LINES {
