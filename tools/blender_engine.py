@@ -25,7 +25,8 @@ Per frame k it writes into the output folder `frame_{k:06}.png` (sRGB, 8-bit RGB
 asked, `frame_{k:06}.depth` (float32 z-depth in metres along the optical axis, row-major from
 the top-left, 0 where nothing is hit) and `frame_{k:06}.mask` (uint8, 1 where the character is
 seen), both read from a multilayer EXR (Cycles' Z and object index passes), and prints
-`autoact-frame k` on stdout. Exit status 3: no `bpy` in this Python.
+`autoact-frame k SECONDS` on stdout (seconds since the first frame started). Exit status 3: no
+`bpy` in this Python.
 """
 
 import json
@@ -158,6 +159,13 @@ def flat_material(name, rgb, env, roughness, specular=0.5):
 # Meshes
 
 
+def set_loop_totals(mesh, polygons, corners):
+    """Blender before 4.x needs each polygon's corner count; later ones derive it (read-only)."""
+    prop = mesh.polygons.bl_rna.properties.get("loop_total")
+    if prop is not None and not prop.is_readonly:
+        mesh.polygons.foreach_set("loop_total", np.full(polygons, corners, dtype=np.int32))
+
+
 def mesh_object(name, collection, positions, indices, albedo=None, normals=None):
     mesh = bpy.data.meshes.new(name)
     faces = indices.reshape(-1, 3)
@@ -167,8 +175,7 @@ def mesh_object(name, collection, positions, indices, albedo=None, normals=None)
     mesh.loops.foreach_set("vertex_index", faces.astype(np.int32).ravel())
     mesh.polygons.add(len(faces))
     mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * len(faces), 3, dtype=np.int32))
-    if "loop_total" in mesh.polygons.bl_rna.properties and not mesh.polygons.bl_rna.properties["loop_total"].is_readonly:
-        mesh.polygons.foreach_set("loop_total", np.full(len(faces), 3, dtype=np.int32))
+    set_loop_totals(mesh, len(faces), 3)
     mesh.update(calc_edges=True)
     mesh.validate()
     if albedo is not None:
@@ -293,8 +300,7 @@ def precipitation_object(name, collection, env):
     mesh.loops.foreach_set("vertex_index", np.arange(4 * count, dtype=np.int32))
     mesh.polygons.add(count)
     mesh.polygons.foreach_set("loop_start", np.arange(0, 4 * count, 4, dtype=np.int32))
-    if "loop_total" in mesh.polygons.bl_rna.properties and not mesh.polygons.bl_rna.properties["loop_total"].is_readonly:
-        mesh.polygons.foreach_set("loop_total", np.full(count, 4, dtype=np.int32))
+    set_loop_totals(mesh, count, 4)
     mesh.update(calc_edges=True)
     material = new_material(name)
     tree = material.node_tree
@@ -321,13 +327,15 @@ def precipitation_object(name, collection, env):
 
 
 def place_precipitation(obj, env, seed, k, time_s, eye, forward, right, up):
-    """Streaks (rain, 0.5 m long, slanted by the wind) or flakes (3 cm) in a 16 m box in front
-    of the camera, drawn anew for frame k."""
+    """Streaks (rain, 0.5 m long, slanted by the wind) or flakes (2 cm) in a 16 m box in front
+    of the camera (from 2 m on), drawn anew for frame k."""
     rain, count = bool(obj["autoact_rain"]), int(obj["autoact_count"])
     rng = np.random.default_rng([seed & 0xFFFFFFFF, k])
     box = 16.0
-    centre = eye + forward * (box * 0.5)
-    p = centre + (rng.random((count, 3)) - 0.5) * box
+    # 2–16 m ahead (nearer, a streak would fill the frame), ±8 m across and up.
+    ahead = 2.0 + rng.random((count, 1)) * (box - 2.0)
+    across = (rng.random((count, 2)) - 0.5) * box
+    p = eye + forward * ahead + right * across[:, :1] + up * across[:, 1:]
     wind = min(env["wind_m_per_s"], 20.0)
     if rain:
         fall = np.array([wind * 0.05, 0.0, -0.5])
@@ -335,7 +343,7 @@ def place_precipitation(obj, env, seed, k, time_s, eye, forward, right, up):
         a, b = p, p + fall
         quads = np.stack([a - width, a + width, b + width, b - width], axis=1)
     else:
-        size = 0.03
+        size = 0.02
         r, u = right * size, up * size
         quads = np.stack([p - r - u, p + r - u, p + r + u, p - r + u], axis=1)
     obj.data.vertices.foreach_set("co", quads.astype(np.float32).ravel())
@@ -361,7 +369,8 @@ def build_scene(i, spec, data):
     body.data.materials.append(vertex_colour_material(f"body_{i}", env, 0.75))
     body.pass_index = PERSON_INDEX
     world_mesh(f"props_{i}", collection, spec["props"], data, vertex_colour_material(f"props_{i}", env, 0.7))
-    backdrop = world_mesh(f"backdrop_{i}", collection, spec["backdrop"], data, vertex_colour_material(f"backdrop_{i}", env, 0.9))
+    backdrop_material = vertex_colour_material(f"backdrop_{i}", env, 0.9)
+    backdrop = world_mesh(f"backdrop_{i}", collection, spec["backdrop"], data, backdrop_material)
     if backdrop is not None and hasattr(backdrop, "visible_shadow"):
         backdrop.visible_shadow = False  # as in the embedded renderer: the far backdrop casts none
     ground = spec["ground"]
@@ -509,7 +518,8 @@ def read_exr(path):
                 p = 0
                 while value[p] != 0:
                     e = value.index(b"\0", p)
-                    header["channels"].append((value[p:e].decode(), struct.unpack_from("<i", value, e + 1)[0]))
+                    kind = struct.unpack_from("<i", value, e + 1)[0]
+                    header["channels"].append((value[p:e].decode(), kind))
                     p = e + 1 + 16
             elif name == "dataWindow":
                 header["window"] = struct.unpack("<4i", value)
@@ -577,6 +587,7 @@ def write_passes(scene, image, exr_path, stem, m):
 
 
 def main():
+    begun = time.time()
     manifest_path = sys.argv[-1]
     with open(manifest_path) as f:
         m = json.load(f)
@@ -617,9 +628,11 @@ def main():
         image.save_render(stem + ".png", scene=scene)
         if m["depth"] or m["mask"]:
             write_passes(scene, image, stem + ".exr", stem, m)
-        print(f"autoact-frame {k}", flush=True)
+        print(f"autoact-frame {k} {time.time() - started:.2f}", flush=True)
     n = len(m["frames"])
-    print(f"autoact-blender: {n} frames in {time.time() - started:.1f} s", flush=True)
+    took = time.time() - started
+    print(f"autoact-blender: {n} frames in {took:.1f} s ({took / max(n, 1):.2f} s/frame) after "
+          f"{started - begun:.1f} s of start-up and scene set-up", flush=True)
 
 
 if __name__ == "__main__":

@@ -13,8 +13,8 @@ set -euo pipefail
 VENV=${AUTOACT_BLENDER_VENV:-${HOME:-/root}/.cache/autoact-ci/blender-venv}
 export PIP_ROOT_USER_ACTION=ignore PIP_DISABLE_PIP_VERSION_CHECK=1
 
-if "$VENV/bin/python" -c 'import bpy' >/dev/null 2>&1; then
-    echo "blender: reusing $VENV ($("$VENV/bin/python" -c 'import bpy; print("bpy", bpy.app.version_string)' 2>/dev/null | tail -n1))" >&2
+if version=$("$VENV/bin/python" -c 'import bpy; print("bpy", bpy.app.version_string)' 2>/dev/null); then
+    echo "setup-blender: reusing $VENV ($(echo "$version" | tail -n1))" >&2
     echo "$VENV/bin/python"
     exit 0
 fi

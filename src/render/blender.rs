@@ -373,7 +373,8 @@ pub fn render(
     })
 }
 
-/// Runs the script, following its `autoact-frame k` lines; returns its `autoact-blender:` line.
+/// Runs the script, following its `autoact-frame K SECONDS` lines; returns its first
+/// `autoact-blender:` line (what renders).
 fn run_script(
     python: &Path,
     script: &Path,
@@ -405,7 +406,8 @@ fn run_script(
             }
             let Ok(line) = line else { break };
             if let Some(k) = line.strip_prefix("autoact-frame ") {
-                if let Ok(k) = k.trim().parse::<u64>() {
+                // `autoact-frame K SECONDS`
+                if let Some(Ok(k)) = k.split_whitespace().next().map(str::parse::<u64>) {
                     progress(k + 1);
                 }
             } else if let Some(d) = line.strip_prefix("autoact-blender: ") {
