@@ -19,8 +19,8 @@ Examples:
   autoact convert --spec examples/dataset.toml -o out/
   autoact render out/demo_gesture_wave_0000.capture.mcap -o out/wave.mp4 --resolution 640x360
   autoact render out/demo_gesture_wave_0000.capture.mcap --preview sheet.png   # 12 frames only
-  tools/setup-blender.sh && autoact render out/demo_gesture_wave_0000.capture.mcap \
-      -o out/wave_blender.mp4 --engine blender --resolution 320x240 --limit 10
+  tools/setup-blender.sh     # once: the venv with Blender's bpy
+  autoact render out/demo_gesture_wave_0000.capture.mcap -o out/b.mp4 --engine blender --limit 10
 
 Outputs: the video; beside it `<video>.render.mcap` with /render/video (autoact_msgs/VideoInfo:
 frame k shows the timeline at its k-th frame stamp) and /render/annotations
