@@ -425,6 +425,10 @@ fn run_script(
         }
     }
     let status = child.wait().map_err(io("wait for", python))?;
+    if stop.load(Ordering::Relaxed) {
+        // Ctrl-C reaches Blender too (one process group): it stopped for the same reason.
+        return Err(BlenderError::Interrupted);
+    }
     if status.success() {
         return Ok(description);
     }
