@@ -4,6 +4,10 @@ Usage (either Blender's own Python or the PyPI `bpy` module, Python 3.13):
 
     blender -b --python tools/render_blender.py -- IN.glb OUT [options]
     python3.13 tools/render_blender.py IN.glb OUT [options]        # with `pip install bpy==5.2.3`
+    "$(tools/setup-blender.sh | tail -n1)" tools/render_blender.py IN.glb OUT [options]   # its venv
+
+(`autoact render CAPTURE --engine blender` renders a capture with Blender Cycles directly, with the
+render bag and labels; this script is for a GLB from `autoact export`.)
 
 OUT is a folder for PNG frames (`frame_0000.png`, ... : file k is timeline frame k) or, with
 `--video`, an `.mp4` file (H.264). Options:

@@ -112,6 +112,13 @@ pub fn run(args: Args) -> Result<Outcome> {
             preset: engine.preset,
             gop_frames: engine.gop,
             passes: args.passes.wanted(),
+            engine: engine.engine,
+            blender: crate::render::blender::BlenderSettings {
+                python: engine.blender_python.clone(),
+                samples: engine.blender_samples,
+                threads: engine.threads,
+                ..crate::render::blender::BlenderSettings::default()
+            },
         },
         clips: ClipChoice {
             split_by: args.split.split_by,

@@ -6,16 +6,21 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 
 use super::Outcome;
+use crate::dataset::spec::EngineName;
+use crate::render::blender::{BlenderSettings, Engine};
 use crate::render::job::{RenderJob, parse_resolution, render_job};
 use crate::render::session::Outputs;
 
-/// Render a capture bag's timeline with the embedded CPU renderer and encode it to H.264.
+/// Render a capture bag's timeline (with the embedded CPU renderer, or Blender Cycles) and encode
+/// it to H.264.
 #[derive(Debug, clap::Args)]
 #[command(after_help = "\
 Examples:
   autoact convert --spec examples/dataset.toml -o out/
   autoact render out/demo_gesture_wave_0000.capture.mcap -o out/wave.mp4 --resolution 640x360
   autoact render out/demo_gesture_wave_0000.capture.mcap --preview sheet.png   # 12 frames only
+  tools/setup-blender.sh     # once: the venv with Blender's bpy
+  autoact render out/demo_gesture_wave_0000.capture.mcap -o out/b.mp4 --engine blender --limit 10
 
 Outputs: the video; beside it `<video>.render.mcap` with /render/video (autoact_msgs/VideoInfo:
 frame k shows the timeline at its k-th frame stamp) and /render/annotations
@@ -93,9 +98,36 @@ pub struct EngineArgs {
     /// `download-ffmpeg` build feature and network access).
     #[arg(long)]
     pub download_ffmpeg: bool,
+    /// What draws the frames: `embedded` (autoact's CPU renderer) or `blender` (Blender Cycles
+    /// through PyPI `bpy`: run tools/setup-blender.sh first; a GPU is used when Cycles finds
+    /// one). The labels are the same. Default: `embedded` (`generate`: the spec's
+    /// `[dataset] engine`).
+    #[arg(long, value_enum, value_name = "ENGINE")]
+    pub engine: Option<EngineName>,
+    /// The Python with `bpy` for `--engine blender` (default: $AUTOACT_BLENDER_PYTHON, else the
+    /// venv tools/setup-blender.sh makes).
+    #[arg(long, value_name = "PATH")]
+    pub blender_python: Option<PathBuf>,
+    /// Cycles samples per pixel for `--engine blender` (then denoised).
+    #[arg(long, value_name = "N", default_value_t = crate::render::blender::DEFAULT_SAMPLES)]
+    pub blender_samples: u32,
 }
 
 impl EngineArgs {
+    /// The engine asked for, `default` when none was.
+    #[must_use]
+    pub fn engine(&self, default: EngineName) -> Engine {
+        match self.engine.unwrap_or(default) {
+            EngineName::Embedded => Engine::Embedded,
+            EngineName::Blender => Engine::Blender(BlenderSettings {
+                python: self.blender_python.clone(),
+                samples: self.blender_samples,
+                threads: self.threads,
+                ..BlenderSettings::default()
+            }),
+        }
+    }
+
     /// Sets the number of rendering threads, if asked.
     ///
     /// # Errors
@@ -142,6 +174,7 @@ impl PassArgs {
 /// Unreadable or incomplete capture bags, ffmpeg missing or failing, unwritable outputs.
 pub fn run(args: Args) -> Result<Outcome> {
     args.engine.set_threads()?;
+    let renderer = args.engine.engine(EngineName::Embedded);
     let engine = args.engine;
     let video = args.output.as_deref();
     let depth_dir = video
@@ -169,6 +202,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         embed_video: args.embed_video,
         force: args.force,
         download_ffmpeg: engine.download_ffmpeg,
+        engine: renderer,
     };
     let report = render_job(&job, crate::interrupt::Interrupt::install()?.flag())?;
     super::print_stdout(&report.report()).context("writing to stdout")?;

@@ -136,6 +136,29 @@ pub struct DatasetSection {
     /// byte-identical bags).
     #[serde(default = "default_start_time")]
     pub start_time: StartTime,
+    /// Which engine `autoact generate` renders with (`--engine` overrides it).
+    #[serde(default, skip_serializing_if = "EngineName::is_embedded")]
+    pub engine: EngineName,
+}
+
+/// A rendering engine, by name (`[dataset] engine`, `--engine`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum EngineName {
+    /// autoact's own CPU renderer: fast, no dependencies.
+    #[default]
+    Embedded,
+    /// Blender Cycles through PyPI `bpy` (`tools/setup-blender.sh`): slow, physically based;
+    /// the same labels.
+    Blender,
+}
+
+impl EngineName {
+    /// Whether this is the default engine.
+    #[must_use]
+    pub fn is_embedded(&self) -> bool {
+        *self == EngineName::Embedded
+    }
 }
 
 pub use crate::instant::{DEFAULT_START_TIME, StartTimeError, iso_8601};
@@ -759,6 +782,21 @@ mod tests {
         assert_eq!(iso_8601(toml.start_nanos), "2024-05-01T09:00:00.250Z");
         let text = parse("start_time = \"2024-05-01T11:00:00.25+02:00\"").unwrap();
         assert_eq!(text.start_nanos, toml.start_nanos);
+    }
+
+    #[test]
+    fn the_engine_is_embedded_unless_the_spec_names_blender() {
+        assert_eq!(parse("").unwrap().file.dataset.engine, EngineName::Embedded);
+        assert_eq!(
+            parse("engine = \"blender\"").unwrap().file.dataset.engine,
+            EngineName::Blender
+        );
+        let err = parse("engine = \"unreal\"").unwrap_err().to_string();
+        assert!(err.contains("unreal") && err.contains("blender"), "{err}");
+        // The default is not written out, so specs without the key serialise as before.
+        let spec = parse("").unwrap();
+        let json = serde_json::to_string(&spec.file.dataset).unwrap();
+        assert!(!json.contains("engine"), "{json}");
     }
 
     #[test]

@@ -48,6 +48,9 @@ pub struct Settings {
     /// The depth and mask passes rendered (absent in journals of earlier versions: none).
     #[serde(default)]
     pub passes: crate::render::passes::Wanted,
+    /// The engine asked for with `--engine` (absent: the spec's, which its hash covers).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub engine: Option<crate::dataset::spec::EngineName>,
     /// What clips of one split share (`--split-by`).
     pub split_by: String,
     /// Train, val and test fractions.

@@ -72,6 +72,26 @@ pub struct RenderChoice {
     pub gop_frames: Option<u32>,
     /// The depth and mask passes to render, for every clip's `depth/` and `masks/` frames.
     pub passes: crate::render::passes::Wanted,
+    /// The engine asked for (`None`: the spec's `[dataset] engine`).
+    pub engine: Option<crate::dataset::spec::EngineName>,
+    /// How the Blender engine renders, when it is the one.
+    pub blender: crate::render::blender::BlenderSettings,
+}
+
+impl RenderChoice {
+    /// The engine to render with: the one asked for, else `spec_engine`.
+    #[must_use]
+    pub fn engine(
+        &self,
+        spec_engine: crate::dataset::spec::EngineName,
+    ) -> crate::render::blender::Engine {
+        match self.engine.unwrap_or(spec_engine) {
+            crate::dataset::spec::EngineName::Embedded => crate::render::blender::Engine::Embedded,
+            crate::dataset::spec::EngineName::Blender => {
+                crate::render::blender::Engine::Blender(self.blender.clone())
+            }
+        }
+    }
 }
 
 /// How clips are cut and split (`autoact trim`'s options).
@@ -285,6 +305,7 @@ impl GenerateJob {
             preset: r.preset.clone(),
             gop_frames: r.gop_frames,
             passes: r.passes,
+            engine: r.engine,
             split_by: c.split_by.name().to_owned(),
             split_ratios: c.split_ratios,
             split_seed: c.seed,
@@ -638,6 +659,7 @@ impl Run<'_> {
             preset: r.preset.clone(),
             gop_frames: r.gop_frames,
             embed_video: None,
+            engine: r.engine(self.spec.file.dataset.engine),
         };
         // Written into this run's own folder and moved into place when both are complete: an
         // encoder left running by a killed run finishes its file in that run's folder, never

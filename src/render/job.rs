@@ -36,6 +36,8 @@ pub struct RenderJob {
     pub force: bool,
     /// Download ffmpeg when it is not installed.
     pub download_ffmpeg: bool,
+    /// Which engine draws the frames.
+    pub engine: super::blender::Engine,
 }
 
 /// What a render job did, for the summary it prints.
@@ -142,6 +144,7 @@ pub fn render_job(job: &RenderJob, stop: &AtomicBool) -> Result<RenderReport, Re
         preset: job.preset.clone(),
         gop_frames: job.gop_frames,
         embed_video: job.embed_video,
+        engine: job.engine.clone(),
     };
     let total = job
         .limit
@@ -255,8 +258,14 @@ impl RenderReport {
         let (width, height, seconds) = (self.width, self.height, self.seconds);
         #[expect(clippy::cast_precision_loss, reason = "display only")]
         let fps = summary.frames as f64 / seconds.max(1e-9);
+        // Blender renders about a frame a second: keep its rate readable.
+        let rate = if fps < 10.0 {
+            format!("{fps:.2}")
+        } else {
+            format!("{fps:.0}")
+        };
         let mut text = format!(
-            "rendered {} frames at {width}x{height} in {seconds:.1} s ({fps:.0} frames/s, {:.1}x real time)\n",
+            "rendered {} frames at {width}x{height} in {seconds:.1} s ({rate} frames/s, {:.1}x real time)\n",
             summary.frames,
             fps / self.fps
         );

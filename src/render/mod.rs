@@ -11,6 +11,7 @@
 //!   character's keypoints and finds its box in the rendered mask.
 
 pub mod annotate;
+pub mod blender;
 pub mod cpu;
 pub mod job;
 pub mod passes;

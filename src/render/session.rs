@@ -12,8 +12,9 @@ use nalgebra::{Isometry3, Translation3};
 use rayon::prelude::*;
 
 use super::annotate::{Annotation, SURFACE_LANDMARKS, annotate};
+use super::blender::{BlenderError, BlenderFrame, BlenderFrames, BlenderJob, Engine};
 use super::cpu::CpuRenderer;
-use super::passes::{FramePasses, PassDirs};
+use super::passes::{FramePasses, PassDirs, Wanted};
 use super::{Camera, FrameInput, Image, Renderer, Stage};
 use crate::bags::capture::Capture;
 use crate::bags::{
@@ -26,7 +27,7 @@ use crate::ros::builtin_interfaces::Time;
 use crate::ros::foxglove_msgs::CompressedVideo;
 use crate::ros::std_msgs::Header;
 use crate::skeleton::character::Character;
-use crate::skeleton::fk::{BonePose, forward, landmark_position};
+use crate::skeleton::fk::{BonePose, WorldPose, forward, landmark_position};
 use crate::skeleton::rig::Rig;
 use crate::video::{
     AccessUnit, EncodeSettings, EncodedVideo, Ffmpeg, Tile, VideoEncoder, VideoError,
@@ -90,6 +91,9 @@ pub enum RenderError {
         /// Frames rendered.
         frames: usize,
     },
+    /// The Blender engine failed.
+    #[error(transparent)]
+    Blender(#[from] BlenderError),
     /// Stopped by a signal; nothing complete-looking was left behind.
     #[error("interrupted; partial outputs were removed")]
     Interrupted,
@@ -117,6 +121,8 @@ pub struct RenderSettings {
     pub gop_frames: Option<u32>,
     /// Put the encoded stream into the render bag, as which viewer's message.
     pub embed_video: Option<crate::bags::render::EmbedVideo>,
+    /// Which engine draws the frames (the labels are the same for every engine).
+    pub engine: Engine,
 }
 
 /// Where to write.
@@ -323,13 +329,26 @@ pub fn render_capture(
     {
         // A preview alone renders only the sampled frames.
         if let Some(path) = &outputs.preview {
-            summary.frames = render_preview_only(&scenes, &plan, path, settings)?;
+            let picks: Vec<&Sample> = plan
+                .preview_picks
+                .iter()
+                .map(|&k| &plan.samples[k])
+                .collect();
+            let blender = scenes.blender(settings, &picks, Wanted::default(), progress, stop)?;
+            summary.frames =
+                render_preview_only(&scenes, &picks, blender.as_ref(), path, settings)?;
             summary.preview = Some(path.clone());
         }
         return Ok(summary);
     }
+    let wanted = Wanted {
+        depth: outputs.depth_dir.is_some(),
+        mask: outputs.mask_dir.is_some(),
+    };
+    let all: Vec<&Sample> = plan.samples.iter().collect();
+    let blender = scenes.blender(settings, &all, wanted, progress, stop)?;
     let mut sinks = FrameSinks::open(&plan, outputs, settings, ffmpeg)?;
-    let outcome = render_in_order(&scenes, &plan, &mut sinks, progress, stop);
+    let outcome = render_in_order(&scenes, &plan, &mut sinks, blender.as_ref(), progress, stop);
     let encoder = sinks.encoder.take();
     let passes = std::mem::take(&mut sinks.passes);
     if let Err(e) = outcome {
@@ -351,6 +370,9 @@ pub fn render_capture(
     if let Some(bag) = outputs.render_bag_path().filter(|_| video.is_some()) {
         let units = embedded_units(video.as_ref(), ffmpeg, settings, plan.samples.len())?;
         let rendered = Rendered {
+            renderer: blender
+                .as_ref()
+                .map_or_else(|| "autoact cpu".to_owned(), |b| b.description.clone()),
             samples: &plan.samples,
             annotations: &sinks.annotations,
             video: video.as_ref(),
@@ -457,18 +479,67 @@ impl<'a> Scenes<'a> {
         unknown
     }
 
-    /// Renders sample `s` into `image` and returns its labels.
-    fn render(&self, renderer: &mut CpuRenderer, image: &mut Image, s: &Sample) -> Annotation {
+    /// Sample `s`'s posed skeleton, camera and seconds since its scene started.
+    fn frame_of(&self, s: &Sample) -> (WorldPose, Camera, f64) {
         let posed = forward(self.rig, &self.characters[s.scene], &s.pose, 1.0);
         let camera = Camera {
             world_from_optical: s.world_from_optical,
             intrinsics: self.intrinsics,
         };
         let scene_start = self.capture.scenes[s.scene].start_nanos;
+        let time_s =
+            crate::skeleton::pose::nanos_to_secs(s.stamp_nanos.saturating_sub(scene_start));
+        (posed, camera, time_s)
+    }
+
+    /// With the Blender engine, renders `picks` with Blender (their annotations still come from
+    /// [`Scenes::render`]); `None` for the embedded engine.
+    fn blender(
+        &self,
+        settings: &RenderSettings,
+        picks: &[&Sample],
+        wanted: Wanted,
+        progress: &(dyn Fn(u64) + Sync),
+        stop: &AtomicBool,
+    ) -> Result<Option<BlenderFrames>, RenderError> {
+        let Engine::Blender(blender) = &settings.engine else {
+            return Ok(None);
+        };
+        let job = BlenderJob {
+            settings: blender,
+            stages: &self.stages,
+            width: settings.width,
+            height: settings.height,
+            wanted,
+        };
+        let frame = |k: usize| {
+            let s = picks[k];
+            let (posed, camera, time_s) = self.frame_of(s);
+            let stage = &self.stages[s.scene];
+            let skinning = crate::scene::body_mesh::Skinning::new(&stage.rest_pose, &posed);
+            let (mut body_m, mut normals) = (Vec::new(), Vec::new());
+            stage.body.skin_into(&skinning, &mut body_m, &mut normals);
+            BlenderFrame {
+                scene: s.scene,
+                time_s,
+                camera,
+                body_m,
+            }
+        };
+        match super::blender::render(&job, picks.len(), &frame, progress, stop) {
+            Ok(frames) => Ok(Some(frames)),
+            Err(BlenderError::Interrupted) => Err(RenderError::Interrupted),
+            Err(e) => Err(e.into()),
+        }
+    }
+
+    /// Renders sample `s` into `image` and returns its labels.
+    fn render(&self, renderer: &mut CpuRenderer, image: &mut Image, s: &Sample) -> Annotation {
+        let (posed, camera, time_s) = self.frame_of(s);
         let input = FrameInput {
             camera,
             pose: &posed,
-            time_s: crate::skeleton::pose::nanos_to_secs(s.stamp_nanos.saturating_sub(scene_start)),
+            time_s,
         };
         renderer.render(&self.stages[s.scene], &input, image);
         let character = &self.characters[s.scene];
@@ -502,18 +573,19 @@ impl<'a> Scenes<'a> {
 /// frames were rendered.
 fn render_preview_only(
     scenes: &Scenes<'_>,
-    plan: &Plan,
+    picks: &[&Sample],
+    blender: Option<&BlenderFrames>,
     path: &Path,
     settings: &RenderSettings,
 ) -> Result<u64, RenderError> {
-    let picks: Vec<&Sample> = plan
-        .preview_picks
-        .iter()
-        .map(|&k| &plan.samples[k])
-        .collect();
-    let tiles = scenes.render_each(&picks, |image, _, s| {
+    let mut tiles = scenes.render_each(picks, |image, _, s| {
         (image.rgb.clone(), preview_label(scenes.capture, s))
     });
+    if let Some(b) = blender {
+        for (k, tile) in tiles.iter_mut().enumerate() {
+            tile.0 = b.frame(k)?.0;
+        }
+    }
     write_preview(path, &tiles, settings)?;
     Ok(tiles.len() as u64)
 }
@@ -627,6 +699,7 @@ fn render_in_order(
     scenes: &Scenes<'_>,
     plan: &Plan,
     sinks: &mut FrameSinks<'_>,
+    blender: Option<&BlenderFrames>,
     progress: &(dyn Fn(u64) + Sync),
     stop: &AtomicBool,
 ) -> Result<(), RenderError> {
@@ -659,6 +732,18 @@ fn render_in_order(
                     if stop.load(Ordering::Relaxed) {
                         return Err(RenderError::Interrupted);
                     }
+                    let frame = match blender {
+                        // Blender's picture and passes, the embedded geometry's labels.
+                        Some(b) => {
+                            let (rgb, passes) = b.frame(k)?;
+                            RenderedImage {
+                                rgb,
+                                passes,
+                                ..frame
+                            }
+                        }
+                        None => frame,
+                    };
                     sinks.take(k, frame, plan, scenes.capture)?;
                     k += 1;
                     progress(k as u64);
@@ -758,6 +843,8 @@ fn write_preview(
 
 /// What a render made, for its render bag.
 struct Rendered<'a> {
+    /// What drew the frames.
+    renderer: String,
     /// The output frames.
     samples: &'a [Sample],
     /// Their labels.
@@ -779,6 +866,7 @@ fn write_render_bag(
     rig: &Rig,
 ) -> Result<(), RenderBagError> {
     let Rendered {
+        ref renderer,
         samples,
         annotations,
         video,
@@ -803,7 +891,7 @@ fn write_render_bag(
         height: settings.height,
         forced_keyframes: forced_keyframes.to_vec(),
         settings_json: serde_json::json!({
-            "renderer": "autoact cpu",
+            "renderer": renderer,
             "crf": settings.crf,
             "preset": settings.preset,
             "gop_frames": settings.gop_frames,
@@ -866,6 +954,7 @@ mod tests {
             preset: "superfast".into(),
             gop_frames: None,
             embed_video: None,
+            engine: Engine::Embedded,
         }
     }
 

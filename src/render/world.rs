@@ -956,6 +956,13 @@ impl GroundTexture {
         GroundTexture { tile_m, levels }
     }
 
+    /// The full-size tile: its side in texels and its texels (linear RGB), row-major, row `v`
+    /// covering `y ∈ [v, v + 1) · tile_m / side` (for engines that sample it themselves).
+    #[must_use]
+    pub fn texels(&self) -> (usize, &[Rgb]) {
+        (TEXTURE_SIZE, &self.levels[0])
+    }
+
     /// The colour at ground point `(x, y)` seen with a pixel footprint of `footprint_m` metres:
     /// the mip level whose texels are about that size (nearest texel), so distant ground does
     /// not shimmer.
