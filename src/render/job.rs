@@ -142,6 +142,7 @@ pub fn render_job(job: &RenderJob, stop: &AtomicBool) -> Result<RenderReport, Re
         preset: job.preset.clone(),
         gop_frames: job.gop_frames,
         embed_video: job.embed_video,
+        extra_keyframes: Vec::new(),
     };
     let total = job
         .limit
