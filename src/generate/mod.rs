@@ -711,12 +711,12 @@ impl Run<'_> {
         let frame_count = if (rate - capture.fps).abs() < 1e-9 {
             capture.frames.len() as u64
         } else {
-            (0_usize..)
-                .take_while(|&k| {
-                    first.stamp_nanos + crate::skeleton::pose::stamp_nanos_at(k, rate)
-                        <= last.stamp_nanos
-                })
-                .count() as u64
+            let at = |k: usize| first.stamp_nanos + crate::skeleton::pose::stamp_nanos_at(k, rate);
+            let mut k = 0_usize;
+            while at(k) <= last.stamp_nanos {
+                k += 1;
+            }
+            k as u64
         };
         let timing = crate::trim::plan::VideoTiming {
             frame0_nanos: i128::from(first.stamp_nanos),

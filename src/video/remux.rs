@@ -306,6 +306,10 @@ fn only_track(moov: &Moov) -> Result<&Trak, Declined> {
 fn sample_table(moov: &Moov, len: u64) -> Result<Vec<Sample>, Declined> {
     let stbl = &only_track(moov)?.mdia.minf.stbl;
     let sizes: Vec<u32> = match &stbl.stsz.samples {
+        // A sample takes at least one byte of the file: a larger count is not believed.
+        StszSamples::Identical { count, .. } if u64::from(*count) > len => {
+            return Err("more samples than bytes in the file".into());
+        }
         StszSamples::Identical { count, size } => vec![*size; *count as usize],
         StszSamples::Different { sizes } => sizes.clone(),
     };
