@@ -19,7 +19,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::bags::capture::Capture;
-use crate::mcap_io::{BagReader, BagWriter, McapIoError, WriteConfig};
+use crate::mcap_io::{BagReader, BagWriter, FileSink, McapIoError, WriteConfig};
 use crate::ros::autoact_msgs::{FrameAnnotation, VideoInfo};
 use crate::ros::foxglove_msgs::CompressedVideo;
 use crate::ros::sensor_msgs::CompressedImage;
@@ -195,36 +195,135 @@ pub fn write(
     frames: impl IntoIterator<Item = RenderedFrame>,
     embed: EmbedVideo,
 ) -> Result<(), RenderBagError> {
-    let part = crate::atomic_file::temporary_sibling(path)
-        .ok_or_else(|| RenderBagError::NotAFile(path.to_path_buf()))?;
-    let result = (|| -> Result<(), McapIoError> {
-        let mut w = BagWriter::create(&part, WriteConfig::default())?;
-        w.write(VIDEO_TOPIC, info_stamp_nanos, info)?;
-        let mut image = CompressedImage::default();
-        for frame in frames {
-            w.write(ANNOTATIONS_TOPIC, frame.stamp_nanos, &frame.annotation)?;
-            let Some(video) = &frame.video else { continue };
-            if embed.foxglove() {
-                w.write(EMBEDDED_VIDEO_TOPIC, frame.stamp_nanos, video)?;
-            }
-            if embed.rerun() {
-                set_image(&mut image, video);
-                w.write(EMBEDDED_IMAGE_TOPIC, frame.stamp_nanos, &image)?;
-            }
+    let mut w = RenderBagWriter::create(path, info_stamp_nanos, info)?;
+    for frame in frames {
+        w.annotation(frame.stamp_nanos, &frame.annotation)?;
+        if let Some(video) = &frame.video {
+            w.video(frame.stamp_nanos, video, embed)?;
         }
-        w.finish()?;
-        Ok(())
-    })();
-    let result = result.map_err(RenderBagError::from).and_then(|()| {
-        crate::atomic_file::commit(&part, path).map_err(|source| RenderBagError::Commit {
-            path: path.to_path_buf(),
-            source,
-        })
-    });
-    if result.is_err() {
-        let _ = std::fs::remove_file(&part);
     }
-    result
+    w.finish()
+}
+
+/// A render bag written message by message while the frames are rendered, so that no frame's
+/// labels are held until the end: the video's description first, then each frame's annotation
+/// as it comes (and access units, where embedded). The bag is written under a temporary name,
+/// renamed into place by [`RenderBagWriter::finish`]; dropped unfinished, it removes that file.
+pub struct RenderBagWriter {
+    path: PathBuf,
+    part: PathBuf,
+    writer: Option<BagWriter<FileSink>>,
+    image: CompressedImage,
+}
+
+impl std::fmt::Debug for RenderBagWriter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RenderBagWriter")
+            .field("path", &self.path)
+            .finish_non_exhaustive()
+    }
+}
+
+impl RenderBagWriter {
+    /// Starts the bag at `path` with the video's description `info`.
+    ///
+    /// # Errors
+    /// [`RenderBagError`] naming the bag.
+    pub fn create(
+        path: &Path,
+        info_stamp_nanos: u64,
+        info: &VideoInfo,
+    ) -> Result<RenderBagWriter, RenderBagError> {
+        let part = crate::atomic_file::temporary_sibling(path)
+            .ok_or_else(|| RenderBagError::NotAFile(path.to_path_buf()))?;
+        let mut bag = RenderBagWriter {
+            path: path.to_path_buf(),
+            writer: Some(BagWriter::create(&part, WriteConfig::default())?),
+            part,
+            image: CompressedImage::default(),
+        };
+        bag.writer_mut()?
+            .write(VIDEO_TOPIC, info_stamp_nanos, info)?;
+        Ok(bag)
+    }
+
+    fn writer_mut(&mut self) -> Result<&mut BagWriter<FileSink>, RenderBagError> {
+        self.writer
+            .as_mut()
+            .ok_or_else(|| RenderBagError::NotAFile(self.path.clone()))
+    }
+
+    /// Writes one frame's labels.
+    ///
+    /// # Errors
+    /// [`RenderBagError`] naming the bag.
+    pub fn annotation(
+        &mut self,
+        stamp_nanos: u64,
+        annotation: &FrameAnnotation,
+    ) -> Result<(), RenderBagError> {
+        self.writer_mut()?
+            .write(ANNOTATIONS_TOPIC, stamp_nanos, annotation)?;
+        Ok(())
+    }
+
+    /// Writes one frame's access unit on the topics `embed` asks for.
+    ///
+    /// # Errors
+    /// [`RenderBagError`] naming the bag.
+    pub fn video(
+        &mut self,
+        stamp_nanos: u64,
+        video: &CompressedVideo,
+        embed: EmbedVideo,
+    ) -> Result<(), RenderBagError> {
+        let mut image = std::mem::take(&mut self.image);
+        let w = self.writer_mut()?;
+        if embed.foxglove() {
+            w.write(EMBEDDED_VIDEO_TOPIC, stamp_nanos, video)?;
+        }
+        if embed.rerun() {
+            set_image(&mut image, video);
+            w.write(EMBEDDED_IMAGE_TOPIC, stamp_nanos, &image)?;
+        }
+        self.image = image;
+        Ok(())
+    }
+
+    /// Ends the bag, syncs it and renames it into place.
+    ///
+    /// # Errors
+    /// [`RenderBagError`] naming the bag; the temporary file is removed.
+    pub fn finish(mut self) -> Result<(), RenderBagError> {
+        let writer = self
+            .writer
+            .take()
+            .ok_or_else(|| RenderBagError::NotAFile(self.path.clone()))?;
+        let result = writer
+            .finish()
+            .map(|_| ())
+            .map_err(RenderBagError::from)
+            .and_then(|()| {
+                crate::atomic_file::commit(&self.part, &self.path).map_err(|source| {
+                    RenderBagError::Commit {
+                        path: self.path.clone(),
+                        source,
+                    }
+                })
+            });
+        if result.is_err() {
+            let _ = std::fs::remove_file(&self.part);
+        }
+        result
+    }
+}
+
+impl Drop for RenderBagWriter {
+    fn drop(&mut self) {
+        if self.writer.take().is_some() {
+            let _ = std::fs::remove_file(&self.part);
+        }
+    }
 }
 
 /// Makes `image` the `sensor_msgs/CompressedImage` of `video`'s access unit: the same stamp,

@@ -42,7 +42,7 @@ use crate::trim::planned::PlannedClips;
 use crate::trim::qa::Thresholds;
 use crate::trim::run::{RunError, TrimOptions, VideoSource, trim_capture};
 use crate::trim::split::{Key, SplitConfig};
-use crate::video::{Ffmpeg, ReencodeSettings, VideoError};
+use crate::video::{Ffmpeg, Rational, ReencodeSettings, VideoError};
 
 /// The plan's file name in the output folder.
 pub const PLAN_FILE: &str = "plan.json";
@@ -660,6 +660,7 @@ impl Run<'_> {
             gop_frames: r.gop_frames,
             embed_video: None,
             engine: r.engine(self.spec.file.dataset.engine),
+            extra_keyframes: self.clip_starts(capture),
         };
         // Written into this run's own folder and moved into place when both are complete: an
         // encoder left running by a killed run finishes its file in that run's folder, never
@@ -715,6 +716,40 @@ impl Run<'_> {
         }
         self.progress.rendered(summary.frames);
         Ok(summary.frames)
+    }
+
+    /// The output frames where the session's planned clips start, as `trim` will find them in
+    /// the render about to be made (frame 0 at the first output frame's stamp): made keyframes,
+    /// every clip is copied, not re-encoded. Empty when they cannot be told; `trim` then reports
+    /// what is wrong, and re-encodes clips that start off a keyframe.
+    fn clip_starts(&self, capture: &Capture) -> Vec<u64> {
+        let (Some(planned), Some(first), Some(last)) =
+            (&self.planned, capture.frames.first(), capture.frames.last())
+        else {
+            return Vec::new();
+        };
+        let rate = self.job.render.fps.unwrap_or(capture.fps);
+        let Some(fps) = Rational::from_f64(rate) else {
+            return Vec::new();
+        };
+        // As the render samples the timeline: the capture's frames, or every 1/fps to its end.
+        let frame_count = if (rate - capture.fps).abs() < 1e-9 {
+            capture.frames.len() as u64
+        } else {
+            let at = |k: usize| first.stamp_nanos + crate::skeleton::pose::stamp_nanos_at(k, rate);
+            let mut k = 0_usize;
+            while at(k) <= last.stamp_nanos {
+                k += 1;
+            }
+            k as u64
+        };
+        let timing = crate::trim::plan::VideoTiming {
+            frame0_nanos: i128::from(first.stamp_nanos),
+            fps,
+            frame_count,
+        };
+        let options = trim_options(&self.job.clips, planned);
+        crate::trim::run::clip_start_frames(capture, &timing, &options.clips).unwrap_or_default()
     }
 
     /// This run's folder for renders in progress: `renders/.run-<process id>`.

@@ -145,6 +145,7 @@ pub fn render_job(job: &RenderJob, stop: &AtomicBool) -> Result<RenderReport, Re
         gop_frames: job.gop_frames,
         embed_video: job.embed_video,
         engine: job.engine.clone(),
+        extra_keyframes: Vec::new(),
     };
     let total = job
         .limit

@@ -5,8 +5,10 @@
 //! Outputs are written under temporary names and renamed when complete, so an interrupted or
 //! failed render never leaves a file that looks finished.
 
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Mutex, PoisonError};
 
 use nalgebra::{Isometry3, Translation3};
 use rayon::prelude::*;
@@ -17,10 +19,7 @@ use super::cpu::CpuRenderer;
 use super::passes::{FramePasses, PassDirs, Wanted};
 use super::{Camera, FrameInput, Image, Renderer, Stage};
 use crate::bags::capture::Capture;
-use crate::bags::{
-    self,
-    render::{RenderBagError, RenderedFrame},
-};
+use crate::bags::{self, render::RenderBagError};
 use crate::camera::{CAMERA_FRAME, Intrinsics};
 use crate::ros::autoact_msgs::{FrameAnnotation, VideoInfo};
 use crate::ros::builtin_interfaces::Time;
@@ -121,6 +120,10 @@ pub struct RenderSettings {
     pub gop_frames: Option<u32>,
     /// Put the encoded stream into the render bag, as which viewer's message.
     pub embed_video: Option<crate::bags::render::EmbedVideo>,
+    /// Output frames to make keyframes besides the segment boundaries: where planned clips
+    /// start (`generate` gives them), so that `trim` copies every clip instead of re-encoding
+    /// the ones inside a segment (fixed windows, action instances).
+    pub extra_keyframes: Vec<u64>,
     /// Which engine draws the frames (the labels are the same for every engine).
     pub engine: Engine,
 }
@@ -171,19 +174,20 @@ pub struct RenderSummary {
     pub unknown_prop_kinds: Vec<String>,
 }
 
-/// One output frame: when, which scene, the pose and the camera.
+/// One output frame: when, which scene, the pose and the camera. The pose is the capture's own
+/// (borrowed, so the plan adds no pose per frame) unless resampling blends two.
 #[derive(Debug, Clone)]
-struct Sample {
+struct Sample<'a> {
     stamp_nanos: u64,
     scene: usize,
-    pose: BonePose,
+    pose: Cow<'a, BonePose>,
     world_from_optical: Isometry3<f64>,
     segment: Option<usize>,
 }
 
 /// Output frames: the capture's own, or resampled at `fps` (poses slerped between the two
 /// neighbouring frames; the camera interpolated only within one clip, so cuts stay cuts).
-fn samples(capture: &Capture, fps: Option<f64>, limit: Option<usize>) -> Vec<Sample> {
+fn samples(capture: &Capture, fps: Option<f64>, limit: Option<usize>) -> Vec<Sample<'_>> {
     let segment_at = |t: u64| {
         capture.segments.iter().position(|s| {
             let (a, b) = (
@@ -203,7 +207,7 @@ fn samples(capture: &Capture, fps: Option<f64>, limit: Option<usize>) -> Vec<Sam
             .map(|f| Sample {
                 stamp_nanos: f.stamp_nanos,
                 scene: f.scene,
-                pose: f.pose.clone(),
+                pose: Cow::Borrowed(&f.pose),
                 world_from_optical: f.world_from_optical,
                 segment: segment_at(f.stamp_nanos),
             })
@@ -233,7 +237,7 @@ fn samples(capture: &Capture, fps: Option<f64>, limit: Option<usize>) -> Vec<Sam
         };
         let blend = a.scene == b.scene;
         let pose = if blend {
-            BonePose {
+            Cow::Owned(BonePose {
                 root_translation_m: a
                     .pose
                     .root_translation_m
@@ -245,9 +249,9 @@ fn samples(capture: &Capture, fps: Option<f64>, limit: Option<usize>) -> Vec<Sam
                     .zip(&b.pose.local_rotations)
                     .map(|(p, q)| p.slerp(q, alpha))
                     .collect(),
-            }
+            })
         } else {
-            a.pose.clone()
+            Cow::Borrowed(&a.pose)
         };
         let segment = segment_at(t);
         let camera = if blend && segment == segment_at(b.stamp_nanos) {
@@ -275,7 +279,7 @@ fn samples(capture: &Capture, fps: Option<f64>, limit: Option<usize>) -> Vec<Sam
 
 /// Output frames where a segment or its animation starts or ends (where `trim`'s `whole` clips
 /// start, with or without the leads): the first frame at or after each boundary.
-fn keyframes(capture: &Capture, samples: &[Sample]) -> Vec<u64> {
+fn keyframes(capture: &Capture, samples: &[Sample<'_>], extra: &[u64]) -> Vec<u64> {
     let mut out = vec![0u64];
     for s in &capture.segments {
         let boundaries = [s.start, s.content_start, s.content_end, s.end];
@@ -286,6 +290,7 @@ fn keyframes(capture: &Capture, samples: &[Sample]) -> Vec<u64> {
             }
         }
     }
+    out.extend(extra.iter().filter(|&&k| k < samples.len() as u64));
     out.sort_unstable();
     out.dedup();
     out
@@ -329,7 +334,7 @@ pub fn render_capture(
     {
         // A preview alone renders only the sampled frames.
         if let Some(path) = &outputs.preview {
-            let picks: Vec<&Sample> = plan
+            let picks: Vec<&Sample<'_>> = plan
                 .preview_picks
                 .iter()
                 .map(|&k| &plan.samples[k])
@@ -345,9 +350,19 @@ pub fn render_capture(
         depth: outputs.depth_dir.is_some(),
         mask: outputs.mask_dir.is_some(),
     };
-    let all: Vec<&Sample> = plan.samples.iter().collect();
+    let all: Vec<&Sample<'_>> = plan.samples.iter().collect();
     let blender = scenes.blender(settings, &all, wanted, progress, stop)?;
-    let mut sinks = FrameSinks::open(&plan, outputs, settings, ffmpeg)?;
+    let renderer = blender
+        .as_ref()
+        .map_or_else(|| "autoact cpu".to_owned(), |b| b.description.clone());
+    // The render bag gets each frame's labels as it is rendered (it describes a video only).
+    let labels = match (outputs.render_bag_path(), &outputs.video) {
+        (Some(bag), Some(video)) => Some(LabelSink::create(
+            &bag, video, capture, settings, &plan, rig, &renderer,
+        )?),
+        _ => None,
+    };
+    let mut sinks = FrameSinks::open(&plan, outputs, settings, ffmpeg, labels)?;
     let outcome = render_in_order(&scenes, &plan, &mut sinks, blender.as_ref(), progress, stop);
     let encoder = sinks.encoder.take();
     let passes = std::mem::take(&mut sinks.passes);
@@ -358,7 +373,7 @@ pub fn render_capture(
         return Err(e);
     }
     passes.commit()?;
-    summary.frames = sinks.annotations.len() as u64;
+    summary.frames = sinks.taken as u64;
     let video = match encoder {
         Some(enc) => Some(enc.finish()?),
         None => None,
@@ -367,20 +382,20 @@ pub fn render_capture(
         write_preview(path, &sinks.preview_tiles, settings)?;
         summary.preview = Some(path.clone());
     }
-    if let Some(bag) = outputs.render_bag_path().filter(|_| video.is_some()) {
+    if let Some(mut labels) = sinks.labels.take() {
         let units = embedded_units(video.as_ref(), ffmpeg, settings, plan.samples.len())?;
-        let rendered = Rendered {
-            renderer: blender
-                .as_ref()
-                .map_or_else(|| "autoact cpu".to_owned(), |b| b.description.clone()),
-            samples: &plan.samples,
-            annotations: &sinks.annotations,
-            video: video.as_ref(),
-            forced_keyframes: &summary.forced_keyframes,
-            units: units.as_deref(),
-        };
-        write_render_bag(&bag, capture, settings, &rendered, rig)?;
-        summary.render_bag = Some(bag);
+        for (sample, unit) in plan.samples.iter().zip(units.iter().flatten()) {
+            let message = CompressedVideo {
+                timestamp: Time::from_nanos(sample.stamp_nanos),
+                frame_id: CAMERA_FRAME.to_owned(),
+                data: unit.data.clone(),
+                format: "h264".into(),
+            };
+            let embed = settings.embed_video.unwrap_or_default();
+            labels.writer.video(sample.stamp_nanos, &message, embed)?;
+        }
+        labels.writer.finish()?;
+        summary.render_bag = outputs.render_bag_path();
     }
     summary.video = video;
     Ok(summary)
@@ -396,9 +411,9 @@ fn check_resolution(settings: &RenderSettings) -> Result<(), RenderError> {
 }
 
 /// The output frames and what is special about them.
-struct Plan {
+struct Plan<'a> {
     /// Every output frame, in order.
-    samples: Vec<Sample>,
+    samples: Vec<Sample<'a>>,
     /// Output frames where a clip starts or ends (they become keyframes).
     keyframes: Vec<u64>,
     /// Output frames shown on the contact sheet.
@@ -407,9 +422,9 @@ struct Plan {
     fps: f64,
 }
 
-impl Plan {
+impl<'a> Plan<'a> {
     /// The frames `settings` ask of `capture`.
-    fn new(capture: &Capture, settings: &RenderSettings) -> Result<Plan, RenderError> {
+    fn new(capture: &'a Capture, settings: &RenderSettings) -> Result<Plan<'a>, RenderError> {
         let samples = samples(capture, settings.fps, settings.limit);
         if samples.is_empty() {
             return Err(RenderError::NoFrames {
@@ -417,7 +432,7 @@ impl Plan {
             });
         }
         Ok(Plan {
-            keyframes: keyframes(capture, &samples),
+            keyframes: keyframes(capture, &samples, &settings.extra_keyframes),
             preview_picks: preview_frames(capture, &samples),
             fps: settings.fps.unwrap_or(capture.fps),
             samples,
@@ -437,6 +452,9 @@ struct Scenes<'a> {
     intrinsics: Intrinsics,
     /// Per rig landmark, whether it is on the body's surface (the face).
     surface_landmarks: Vec<bool>,
+    /// Renderers and images kept from frame to frame: a renderer caches a stage's prop shadow
+    /// map (1024² texels) and its buffers, which a fresh one per frame redrew and reallocated.
+    renderers: Mutex<Vec<(CpuRenderer, Image)>>,
 }
 
 impl<'a> Scenes<'a> {
@@ -464,6 +482,7 @@ impl<'a> Scenes<'a> {
                 .iter()
                 .map(|l| SURFACE_LANDMARKS.contains(&l.name.as_str()))
                 .collect(),
+            renderers: Mutex::new(Vec::new()),
         }
     }
 
@@ -480,7 +499,7 @@ impl<'a> Scenes<'a> {
     }
 
     /// Sample `s`'s posed skeleton, camera and seconds since its scene started.
-    fn frame_of(&self, s: &Sample) -> (WorldPose, Camera, f64) {
+    fn frame_of(&self, s: &Sample<'_>) -> (WorldPose, Camera, f64) {
         let posed = forward(self.rig, &self.characters[s.scene], &s.pose, 1.0);
         let camera = Camera {
             world_from_optical: s.world_from_optical,
@@ -497,7 +516,7 @@ impl<'a> Scenes<'a> {
     fn blender(
         &self,
         settings: &RenderSettings,
-        picks: &[&Sample],
+        picks: &[&Sample<'_>],
         wanted: Wanted,
         progress: &(dyn Fn(u64) + Sync),
         stop: &AtomicBool,
@@ -534,7 +553,7 @@ impl<'a> Scenes<'a> {
     }
 
     /// Renders sample `s` into `image` and returns its labels.
-    fn render(&self, renderer: &mut CpuRenderer, image: &mut Image, s: &Sample) -> Annotation {
+    fn render(&self, renderer: &mut CpuRenderer, image: &mut Image, s: &Sample<'_>) -> Annotation {
         let (posed, camera, time_s) = self.frame_of(s);
         let input = FrameInput {
             camera,
@@ -553,18 +572,25 @@ impl<'a> Scenes<'a> {
     /// depth and surfaces) and its labels, in order.
     fn render_each<T: Send>(
         &self,
-        picks: &[&Sample],
-        keep: impl Fn(&Image, Annotation, &Sample) -> T + Sync,
+        picks: &[&Sample<'_>],
+        keep: impl Fn(&Image, Annotation, &Sample<'_>) -> T + Sync,
     ) -> Vec<T> {
+        let pool = || {
+            self.renderers
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+        };
         picks
             .par_iter()
-            .map_init(
-                || (CpuRenderer::new(), Image::default()),
-                |(r, image), s| {
-                    let a = self.render(r, image, s);
-                    keep(image, a, s)
-                },
-            )
+            .map(|s| {
+                let (mut r, mut image) = pool()
+                    .pop()
+                    .unwrap_or_else(|| (CpuRenderer::new(), Image::default()));
+                let a = self.render(&mut r, &mut image, s);
+                let kept = keep(&image, a, s);
+                pool().push((r, image));
+                kept
+            })
             .collect()
     }
 }
@@ -573,7 +599,7 @@ impl<'a> Scenes<'a> {
 /// frames were rendered.
 fn render_preview_only(
     scenes: &Scenes<'_>,
-    picks: &[&Sample],
+    picks: &[&Sample<'_>],
     blender: Option<&BlenderFrames>,
     path: &Path,
     settings: &RenderSettings,
@@ -599,16 +625,20 @@ struct FrameSinks<'a> {
     width: u32,
     height: u32,
     preview_tiles: Vec<(Vec<u8>, String)>,
-    annotations: Vec<Annotation>,
+    /// The render bag, written frame by frame.
+    labels: Option<LabelSink>,
+    /// Frames taken so far.
+    taken: usize,
 }
 
 impl<'a> FrameSinks<'a> {
     /// Creates the frames folder and starts the encoder, as `outputs` ask.
     fn open(
-        plan: &Plan,
+        plan: &Plan<'_>,
         outputs: &'a Outputs,
         settings: &RenderSettings,
         ffmpeg: Option<&Ffmpeg>,
+        labels: Option<LabelSink>,
     ) -> Result<FrameSinks<'a>, RenderError> {
         if let Some(dir) = &outputs.frames_dir {
             std::fs::create_dir_all(dir).map_err(|source| RenderError::Io {
@@ -634,7 +664,8 @@ impl<'a> FrameSinks<'a> {
             width: settings.width,
             height: settings.height,
             preview_tiles: Vec::new(),
-            annotations: Vec::with_capacity(plan.samples.len()),
+            labels,
+            taken: 0,
         })
     }
 
@@ -643,7 +674,7 @@ impl<'a> FrameSinks<'a> {
         &mut self,
         k: usize,
         frame: RenderedImage,
-        plan: &Plan,
+        plan: &Plan<'_>,
         capture: &Capture,
     ) -> Result<(), RenderError> {
         let RenderedImage {
@@ -663,7 +694,13 @@ impl<'a> FrameSinks<'a> {
             let label = preview_label(capture, &plan.samples[k]);
             self.preview_tiles.push((rgb, label));
         }
-        self.annotations.push(annotation);
+        if let Some(labels) = self.labels.as_mut() {
+            let message = labels.message(k, &plan.samples[k], &annotation, capture);
+            labels
+                .writer
+                .annotation(plan.samples[k].stamp_nanos, &message)?;
+        }
+        self.taken += 1;
         Ok(())
     }
 }
@@ -672,7 +709,7 @@ impl<'a> FrameSinks<'a> {
 fn start_encoder(
     ffmpeg: &Ffmpeg,
     path: &Path,
-    plan: &Plan,
+    plan: &Plan<'_>,
     settings: &RenderSettings,
 ) -> Result<VideoEncoder, RenderError> {
     let mut enc = EncodeSettings::new(settings.width, settings.height, plan.fps)
@@ -697,7 +734,7 @@ struct RenderedImage {
 /// than planned came through.
 fn render_in_order(
     scenes: &Scenes<'_>,
-    plan: &Plan,
+    plan: &Plan<'_>,
     sinks: &mut FrameSinks<'_>,
     blender: Option<&BlenderFrames>,
     progress: &(dyn Fn(u64) + Sync),
@@ -714,7 +751,7 @@ fn render_in_order(
                 if stop.load(Ordering::Relaxed) {
                     break;
                 }
-                let chunk: Vec<&Sample> = chunk.iter().collect();
+                let chunk: Vec<&Sample<'_>> = chunk.iter().collect();
                 let frames = scenes.render_each(&chunk, |image, annotation, _| RenderedImage {
                     rgb: image.rgb.clone(),
                     passes: FramePasses::of(image, wanted),
@@ -756,7 +793,7 @@ fn render_in_order(
         let _ = producer.join();
         outcome
     })?;
-    if stop.load(Ordering::Relaxed) || sinks.annotations.len() < plan.samples.len() {
+    if stop.load(Ordering::Relaxed) || sinks.taken < plan.samples.len() {
         return Err(RenderError::Interrupted);
     }
     Ok(())
@@ -788,7 +825,7 @@ fn embedded_units(
 }
 
 /// Frames for the contact sheet: the middle of each clip's animation, at most 12, evenly chosen.
-fn preview_frames(capture: &Capture, samples: &[Sample]) -> Vec<usize> {
+fn preview_frames(capture: &Capture, samples: &[Sample<'_>]) -> Vec<usize> {
     let mut mids: Vec<usize> = capture
         .segments
         .iter()
@@ -807,7 +844,7 @@ fn preview_frames(capture: &Capture, samples: &[Sample]) -> Vec<usize> {
     picks
 }
 
-fn preview_label(capture: &Capture, s: &Sample) -> String {
+fn preview_label(capture: &Capture, s: &Sample<'_>) -> String {
     let scene = &capture.scenes[s.scene].scene;
     format!(
         "{} {} {}",
@@ -841,103 +878,87 @@ fn write_preview(
     Ok(())
 }
 
-/// What a render made, for its render bag.
-struct Rendered<'a> {
-    /// What drew the frames.
-    renderer: String,
-    /// The output frames.
-    samples: &'a [Sample],
-    /// Their labels.
-    annotations: &'a [Annotation],
-    /// The encoded video.
-    video: Option<&'a EncodedVideo>,
-    /// Frames forced to be keyframes.
-    forced_keyframes: &'a [u64],
-    /// One access unit per frame, to embed.
-    units: Option<&'a [AccessUnit]>,
+/// The render bag being written while the frames are rendered, and the names every frame's
+/// message repeats. Nothing of a frame is kept once its message is written, so memory does not
+/// grow with the session's length.
+struct LabelSink {
+    writer: bags::render::RenderBagWriter,
+    names: Vec<String>,
+    landmark_names: Vec<String>,
 }
 
-/// Writes the render bag: the video's description, then each frame's labels (and access unit).
-fn write_render_bag(
-    path: &Path,
-    capture: &Capture,
-    settings: &RenderSettings,
-    rendered: &Rendered<'_>,
-    rig: &Rig,
-) -> Result<(), RenderBagError> {
-    let Rendered {
-        ref renderer,
-        samples,
-        annotations,
-        video,
-        forced_keyframes,
-        units,
-    } = *rendered;
-    let header = |stamp_nanos: u64| Header {
-        stamp: Time::from_nanos(stamp_nanos),
-        frame_id: CAMERA_FRAME.to_owned(),
-    };
-    let first = samples.first().map_or(0, |s| s.stamp_nanos);
-    let info = VideoInfo {
-        header: header(first),
-        session: capture.session.clone(),
-        capture_bag: crate::file_name(&capture.path),
-        video_file: video.map(|v| crate::file_name(&v.path)).unwrap_or_default(),
-        container: "mp4".into(),
-        codec: "h264".into(),
-        fps: settings.fps.unwrap_or(capture.fps),
-        frame_count: samples.len() as u64,
-        width: settings.width,
-        height: settings.height,
-        forced_keyframes: forced_keyframes.to_vec(),
-        settings_json: serde_json::json!({
-            "renderer": renderer,
-            "crf": settings.crf,
-            "preset": settings.preset,
-            "gop_frames": settings.gop_frames,
-        })
-        .to_string(),
-    };
-    let names: Vec<String> = rig.bones.iter().map(|b| b.name.clone()).collect();
-    let landmark_names: Vec<String> = rig.landmarks.iter().map(|l| l.name.clone()).collect();
-    let frames = samples
-        .iter()
-        .zip(annotations)
-        .enumerate()
-        .map(|(k, (s, a))| RenderedFrame {
-            stamp_nanos: s.stamp_nanos,
-            annotation: FrameAnnotation {
-                header: header(s.stamp_nanos),
-                frame_index: k as u64,
-                segment_id: s
-                    .segment
-                    .map(|i| capture.segments[i].id.clone())
-                    .unwrap_or_default(),
-                keypoint_names: names.clone(),
-                keypoints_3d: a.keypoints_3d.clone(),
-                keypoints_2d: a.keypoints_2d_ros(),
-                visibility: a.visibility.clone(),
-                bbox: a.roi(),
-                silhouette_pixels: a.silhouette_pixels,
-                landmark_names: landmark_names.clone(),
-                landmarks_3d: a.landmarks_3d.clone(),
-                landmarks_2d: a.landmarks_2d_ros(),
-                landmark_visibility: a.landmark_visibility.clone(),
-            },
-            video: units.and_then(|u| u.get(k)).map(|unit| CompressedVideo {
-                timestamp: Time::from_nanos(s.stamp_nanos),
+impl LabelSink {
+    /// Starts the render bag at `path` describing `video` (written by this render).
+    fn create(
+        path: &Path,
+        video: &Path,
+        capture: &Capture,
+        settings: &RenderSettings,
+        plan: &Plan<'_>,
+        rig: &Rig,
+        renderer: &str,
+    ) -> Result<LabelSink, RenderError> {
+        let first = plan.samples.first().map_or(0, |s| s.stamp_nanos);
+        let info = VideoInfo {
+            header: Header {
+                stamp: Time::from_nanos(first),
                 frame_id: CAMERA_FRAME.to_owned(),
-                data: unit.data.clone(),
-                format: "h264".into(),
-            }),
-        });
-    bags::render::write(
-        path,
-        first,
-        &info,
-        frames,
-        settings.embed_video.unwrap_or_default(),
-    )
+            },
+            session: capture.session.clone(),
+            capture_bag: crate::file_name(&capture.path),
+            video_file: crate::file_name(video),
+            container: "mp4".into(),
+            codec: "h264".into(),
+            fps: plan.fps,
+            frame_count: plan.samples.len() as u64,
+            width: settings.width,
+            height: settings.height,
+            forced_keyframes: plan.keyframes.clone(),
+            settings_json: serde_json::json!({
+                "renderer": renderer,
+                "crf": settings.crf,
+                "preset": settings.preset,
+                "gop_frames": settings.gop_frames,
+            })
+            .to_string(),
+        };
+        Ok(LabelSink {
+            writer: bags::render::RenderBagWriter::create(path, first, &info)?,
+            names: rig.bones.iter().map(|b| b.name.clone()).collect(),
+            landmark_names: rig.landmarks.iter().map(|l| l.name.clone()).collect(),
+        })
+    }
+
+    /// Output frame `k`'s labels as a render-bag message.
+    fn message(
+        &self,
+        k: usize,
+        sample: &Sample<'_>,
+        a: &Annotation,
+        capture: &Capture,
+    ) -> FrameAnnotation {
+        FrameAnnotation {
+            header: Header {
+                stamp: Time::from_nanos(sample.stamp_nanos),
+                frame_id: CAMERA_FRAME.to_owned(),
+            },
+            frame_index: k as u64,
+            segment_id: sample
+                .segment
+                .map(|i| capture.segments[i].id.clone())
+                .unwrap_or_default(),
+            keypoint_names: self.names.clone(),
+            keypoints_3d: a.keypoints_3d.clone(),
+            keypoints_2d: a.keypoints_2d_ros(),
+            visibility: a.visibility.clone(),
+            bbox: a.roi(),
+            silhouette_pixels: a.silhouette_pixels,
+            landmark_names: self.landmark_names.clone(),
+            landmarks_3d: a.landmarks_3d.clone(),
+            landmarks_2d: a.landmarks_2d_ros(),
+            landmark_visibility: a.landmark_visibility.clone(),
+        }
+    }
 }
 
 #[cfg(test)]
@@ -954,6 +975,7 @@ mod tests {
             preset: "superfast".into(),
             gop_frames: None,
             embed_video: None,
+            extra_keyframes: Vec::new(),
             engine: Engine::Embedded,
         }
     }

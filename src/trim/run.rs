@@ -26,7 +26,8 @@ use crate::bags::capture::Capture;
 use crate::ros::autoact_msgs::Segment;
 
 use crate::video::{
-    CutMethod, CutRequest, Ffmpeg, Rational, ReencodeSettings, VideoError, cut, keyframe_frames,
+    CutMethod, CutRequest, Ffmpeg, Mp4Source, Rational, ReencodeSettings, VideoError, cut,
+    keyframe_frames,
 };
 
 /// Folder of the clips inside the dataset folder.
@@ -118,7 +119,12 @@ pub fn trim_capture(
     progress: &dyn Fn(usize, usize),
     stop: &AtomicBool,
 ) -> Result<TrimSummary, RunError> {
-    let (frame_count, keyframes) = keyframe_frames(ffmpeg, source.path)?;
+    // Our own renders are cut in-process; other videos (or ones this reader declines) by ffmpeg.
+    let mp4 = Mp4Source::open(source.path)?;
+    let (frame_count, keyframes) = match &mp4 {
+        Some(m) => (m.frame_count(), m.keyframes()),
+        None => keyframe_frames(ffmpeg, source.path)?,
+    };
     let timing = VideoTiming {
         frame0_nanos: source.frame0_nanos,
         fps: source.fps,
@@ -150,6 +156,7 @@ pub fn trim_capture(
         capture,
         passes,
         video: source.path,
+        mp4,
         fps: source.fps,
         keyframes,
         dir,
@@ -237,6 +244,26 @@ pub fn relist(
 /// # Errors
 /// [`TrimError::ClipPolicy`] for a policy `trim`'s options made unusable;
 /// [`TrimError::LabelIdOutOfRange`].
+/// The first frame of every clip `policies` cut from a video of `capture` timed as `timing`,
+/// sorted: the frames a render makes keyframes so that every clip is a stream copy.
+///
+/// # Errors
+/// As cutting: a segment's label out of range, a label without a policy.
+pub fn clip_start_frames(
+    capture: &Capture,
+    timing: &VideoTiming,
+    policies: &ClipPolicies,
+) -> Result<Vec<u64>, TrimError> {
+    let (segments, _) = frame_ranges(&capture.segments, timing);
+    let mut starts: Vec<u64> = clip_ranges(capture, timing, &segments, policies)?
+        .iter()
+        .map(|(r, _)| r.start_frame)
+        .collect();
+    starts.sort_unstable();
+    starts.dedup();
+    Ok(starts)
+}
+
 fn clip_ranges(
     capture: &Capture,
     timing: &VideoTiming,
@@ -479,6 +506,8 @@ struct Run<'a> {
     /// The render's depth and mask frames beside the video.
     passes: PassSources,
     video: &'a Path,
+    /// The video's samples when stream copies are cut in-process (an MP4 that can be).
+    mp4: Option<Mp4Source>,
     fps: Rational,
     /// The video's keyframes (frame indices, sorted): where a stream copy can start.
     keyframes: Vec<u64>,
@@ -673,7 +702,12 @@ impl Run<'_> {
         } else {
             CutMethod::Reencode
         };
-        let mut clip = cut(self.ffmpeg, &request(method), reencode);
+        let mut clip = match (&self.mp4, method) {
+            (Some(mp4), CutMethod::StreamCopy) if Mp4Source::writes(out) => {
+                mp4.cut(out, range.start_frame, range.frame_count)
+            }
+            _ => cut(self.ffmpeg, &request(method), reencode),
+        };
         if copy_ok && matches!(clip, Err(VideoError::FrameCountMismatch { .. })) {
             tracing::info!(
                 clip = target.clip_id,

@@ -9,6 +9,7 @@
 //!   `ffprobe` counted every frame and found every requested keyframe. On any error, on
 //!   [`VideoEncoder::abort`] and on drop, `ffmpeg` is killed and the partial file removed.
 //! - [`cut`] cuts a clip of whole frames, by stream copy or re-encoding, checked frame-exact.
+//! - [`Mp4Source`] cuts stream-copy clips of an H.264 MP4 in-process (no process per clip).
 //! - [`probe`] and [`probe_packets`] read what a video file really holds, frame by frame.
 //! - [`annexb_access_units`] turns an encoded file into one Annex B access unit per frame.
 //! - [`write_png`], [`write_png_as`] (grey 8- and 16-bit too), [`read_png`] and [`contact_sheet`] cover stills;
@@ -43,6 +44,7 @@ mod font;
 mod image;
 mod probe;
 mod rational;
+mod remux;
 mod stderr_tail;
 mod stills;
 mod tools;
@@ -61,6 +63,7 @@ pub use encode::{
 pub use image::{PngPixels, Tile, contact_sheet, read_png, write_png, write_png_as};
 pub use probe::{ProbedFrame, ProbedPacket, VideoProbe, probe, probe_packets, probe_size};
 pub use rational::Rational;
+pub use remux::Mp4Source;
 pub use stills::{StillRequest, still_frames};
 pub use tools::{Ffmpeg, INSTALL_HINT, download_cache_dir};
 

@@ -220,3 +220,75 @@ fn a_run_killed_at_many_points_then_rerun_equals_an_uninterrupted_one() {
     assert!(!o.status.success(), "{}", stdout(&o));
     assert!(stderr(&o).contains("resolution"), "{}", stderr(&o));
 }
+
+/// A real `kill -9` (SIGKILL: no handler, no clean-up, its ffmpeg orphaned) at seeded random
+/// moments, five seeds: each seed kills successive runs in one folder after 0.05–2 s of work
+/// (at most six times), then lets a run finish; every folder ends byte-identical to an
+/// uninterrupted run, with no intermediate left.
+#[test]
+fn runs_killed_with_sigkill_at_random_moments_then_rerun_equal_an_uninterrupted_one() {
+    use std::process::{Command, Stdio};
+    use std::time::{Duration, Instant};
+    let Some((_keep, spec, single)) = reference() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let mut kills = 0;
+    for seed in 1..=5_u64 {
+        let out = dir.path().join(format!("seed{seed}"));
+        // splitmix64: the delays are the same on every run of the test.
+        let mut state = seed;
+        let mut next = || {
+            state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            z ^ (z >> 31)
+        };
+        for _ in 0..6 {
+            let delay = Duration::from_millis(50 + next() % 1950);
+            let mut args = vec!["-q", "generate", arg(spec), "-o", arg(&out)];
+            args.extend(OPTIONS);
+            let mut child = Command::new(env!("CARGO_BIN_EXE_autoact"))
+                .args(&args)
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .spawn()
+                .unwrap();
+            let start = Instant::now();
+            let finished = loop {
+                if let Some(status) = child.try_wait().unwrap() {
+                    break Some(status);
+                }
+                if start.elapsed() >= delay {
+                    break None;
+                }
+                std::thread::sleep(Duration::from_millis(5));
+            };
+            if let Some(status) = finished {
+                assert!(status.success(), "seed {seed}: a run failed: {status}");
+                break;
+            }
+            child.kill().unwrap(); // SIGKILL on Unix
+            child.wait().unwrap();
+            kills += 1;
+        }
+        let o = generate(spec, &out, &[]);
+        assert!(o.status.success(), "seed {seed}: {}", stderr(&o));
+        assert_same_tree(&single.join("dataset"), &out.join("dataset"));
+        for file in ["plan.json", "generate.json"] {
+            assert_eq!(
+                std::fs::read(single.join(file)).unwrap(),
+                std::fs::read(out.join(file)).unwrap(),
+                "seed {seed}: {file}"
+            );
+        }
+        for sub in ["captures", "renders"] {
+            let left: Vec<_> = std::fs::read_dir(out.join(sub))
+                .map(|d| d.map(|e| e.unwrap().path()).collect())
+                .unwrap_or_default();
+            assert!(left.is_empty(), "seed {seed}: {sub}: {left:?}");
+        }
+    }
+    assert!(kills >= 5, "only {kills} runs were killed before finishing");
+}

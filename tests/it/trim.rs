@@ -8,8 +8,8 @@ use std::path::Path;
 use std::process::Command;
 
 use autoact::video::{
-    CutClip, CutMethod, CutRequest, EncodeSettings, Ffmpeg, Rational, ReencodeSettings,
-    VideoEncoder, VideoError, cut, keyframe_frames,
+    CutClip, CutMethod, CutRequest, EncodeSettings, Ffmpeg, Mp4Source, Rational, ReencodeSettings,
+    VideoEncoder, VideoError, cut, keyframe_frames, probe_packets,
 };
 
 const W: u32 = 160;
@@ -164,6 +164,86 @@ fn stream_copy_at_keyframes_is_frame_exact() {
     let out = dir.path().join("tail.mp4");
     cut30(&ffmpeg, &src, &out, 199, 1, CutMethod::StreamCopy).unwrap();
     assert_eq!(decoded_indices(&ffmpeg, &out), vec![199]);
+}
+
+#[test]
+fn in_process_copy_is_frame_exact_and_agrees_with_ffprobe() {
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("src.mp4");
+    let boundaries = [0, 37, 45, 90, 91, 150, 199, 200];
+    coded_video(&ffmpeg, &src, 200, &boundaries);
+    let mp4 = Mp4Source::open(&src)
+        .unwrap()
+        .expect("our own render is copied in-process");
+    let (count, keys) = keyframe_frames(&ffmpeg, &src).unwrap();
+    assert_eq!((mp4.frame_count(), mp4.keyframes()), (count, keys));
+    for w in boundaries.windows(2) {
+        let out = dir.path().join(format!("copy_{}.mp4", w[0]));
+        let clip = mp4.cut(&out, w[0], w[1] - w[0]).unwrap();
+        assert_eq!(clip.frame_count, w[1] - w[0]);
+        assert_eq!(clip.bytes, std::fs::metadata(&out).unwrap().len());
+        assert_eq!(
+            decoded_indices(&ffmpeg, &out),
+            (w[0]..w[1]).collect::<Vec<_>>(),
+            "clip [{}, {})",
+            w[0],
+            w[1]
+        );
+        // ffprobe sees the clip's frames timed from zero at 30 fps, the first one a keyframe.
+        let packets = probe_packets(&ffmpeg, &out).unwrap();
+        assert_eq!(packets.len() as u64, w[1] - w[0]);
+        assert!(packets[0].key);
+        assert_eq!(packets[0].pts, Some(0));
+        // The same cut twice is the same file (shards agree byte for byte).
+        let again = dir.path().join(format!("again_{}.mp4", w[0]));
+        mp4.cut(&again, w[0], w[1] - w[0]).unwrap();
+        assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&again).unwrap());
+    }
+    // Off a keyframe, or past the end: an error and no file.
+    let out = dir.path().join("bad.mp4");
+    assert!(mp4.cut(&out, 30, 5).is_err());
+    assert!(matches!(
+        mp4.cut(&out, 190, 20),
+        Err(VideoError::FrameCountMismatch { found: 10, .. })
+    ));
+    assert!(!out.exists());
+    assert!(
+        !std::fs::read_dir(dir.path()).unwrap().any(|e| e
+            .unwrap()
+            .file_name()
+            .to_string_lossy()
+            .ends_with(".part")),
+        "no .part file left"
+    );
+}
+
+#[test]
+fn in_process_copy_declines_what_it_cannot_copy_exactly() {
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    // B-frames (reordered), and a Matroska file: both left to ffmpeg.
+    for (name, extra) in [("b.mp4", ["-bf", "2"]), ("m.mkv", ["-bf", "0"])] {
+        let path = dir.path().join(name);
+        let o = Command::new(ffmpeg.ffmpeg_path())
+            .args(["-v", "error", "-nostdin", "-y", "-f", "lavfi"])
+            .args(["-i", "testsrc=size=160x96:rate=30", "-frames:v", "30"])
+            .args(["-c:v", "libx264"])
+            .args(extra)
+            .arg(&path)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(Mp4Source::open(&path).unwrap().is_none(), "{name}");
+    }
+    let junk = dir.path().join("junk.mp4");
+    std::fs::write(&junk, b"not an mp4 at all").unwrap();
+    assert!(Mp4Source::open(&junk).unwrap().is_none());
+    assert!(Mp4Source::open(&dir.path().join("missing.mp4")).is_err());
 }
 
 #[test]
