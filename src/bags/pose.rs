@@ -21,6 +21,7 @@ use crate::mcap_io::{BagMessage, BagReader, McapIoError, ReadIssue};
 use crate::ros::autoact_msgs::Skeleton3D;
 use crate::ros::builtin_interfaces::Time;
 use crate::ros::geometry_msgs::{Point, PoseArray};
+use crate::ros::skeleton_decode::SkeletonReader;
 use crate::ros::std_msgs::Header;
 use crate::ros::visualization_msgs::{Marker, MarkerArray};
 use crate::ros::{self, RosMessage};
@@ -137,8 +138,8 @@ pub fn read_pose_topics(
 ) -> Result<PoseTopics, PoseBagError> {
     let readers = BagReader::open_all(path)?;
     let mut gathered = Gathered::default();
-    // Skeletons are decoded into this one, reused from one message to the next.
-    let mut skeleton = Skeleton3D::default();
+    // Skeletons are decoded by this one, reused from one message to the next.
+    let mut skeleton = SkeletonReader::default();
     for (reader_index, reader, item) in readers
         .iter()
         .enumerate()
@@ -257,7 +258,7 @@ fn take_message<'a>(
     reader: &BagReader,
     topic: Option<&str>,
     layout: Option<&'a crate::skeleton::layout::Layout>,
-    skeleton: &'a mut Skeleton3D,
+    skeleton: &'a mut SkeletonReader,
     seen_topics: Option<&mut BTreeMap<String, String>>,
 ) -> Result<Taken<'a>, PoseBagError> {
     let type_name = msg.channel.schema_name();
@@ -315,7 +316,7 @@ impl Gathered {
         reader: &BagReader,
         topic: Option<&str>,
         layout: Option<&crate::skeleton::layout::Layout>,
-        skeleton: &mut Skeleton3D,
+        skeleton: &mut SkeletonReader,
     ) -> Result<(), PoseBagError> {
         match take_message(
             msg,
@@ -472,20 +473,19 @@ fn header_stamp(header: &Header) -> Option<u64> {
     header.stamp.to_nanos().filter(|&n| n != 0)
 }
 
-/// Decodes the people of one message. Skeletons are decoded into `skeleton`, reused from one
+/// Decodes the people of one message. Skeletons are decoded by `skeleton`, reused from one
 /// message to the next so that reading allocates only each frame's own arrays.
 fn decode_people<'a>(
     msg: &BagMessage,
     type_name: &str,
     layout: Option<&'a crate::skeleton::layout::Layout>,
-    skeleton: &'a mut Skeleton3D,
+    skeleton: &'a mut SkeletonReader,
 ) -> Result<Vec<Person<'a>>, DecodeProblem> {
     let bad =
         |e: ros::cdr::CdrError| DecodeProblem::Skip(format!("does not decode as {type_name}: {e}"));
     match type_name {
         t if t == Skeleton3D::TYPE_NAME => {
-            ros::cdr::decode_in_place(&msg.data, skeleton).map_err(bad)?;
-            let s: &'a Skeleton3D = skeleton;
+            let s: &'a Skeleton3D = skeleton.decode(&msg.data).map_err(bad)?;
             let n = s.joint_names.len();
             if s.positions.len() != n || s.confidence.len() != n {
                 return Err(DecodeProblem::Skip(format!(

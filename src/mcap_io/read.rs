@@ -1091,11 +1091,22 @@ fn decompress<'d>(
                             || std::io::Error::other("no memory for a zstd context"),
                         )?),
                     };
-                    context
-                        .reset(zstd::zstd_safe::ResetDirective::SessionOnly)
-                        .map_err(|code| {
-                            std::io::Error::other(zstd::zstd_safe::get_error_name(code))
-                        })?;
+                    let reset = |context: &mut zstd::zstd_safe::DCtx<'static>| {
+                        context
+                            .reset(zstd::zstd_safe::ResetDirective::SessionOnly)
+                            .map_err(|code| {
+                                std::io::Error::other(zstd::zstd_safe::get_error_name(code))
+                            })
+                    };
+                    reset(context)?;
+                    if one_shot_zstd(context, data, size, &mut out) {
+                        return Ok(out.len());
+                    }
+                    // Anything else (several frames, an unknown or lying size, damage) goes
+                    // through the stream, which reads at most `size + 1` bytes and names the
+                    // problem.
+                    out.clear();
+                    reset(context)?;
                     zstd::stream::read::Decoder::with_context(data, context)
                         .take(size + 1)
                         .read_to_end(&mut out)
@@ -1118,6 +1129,46 @@ fn decompress<'d>(
     }
 }
 
+/// Most compressed bytes a chunk may declare per compressed byte for [`one_shot_zstd`] to
+/// allocate its whole declared size at once (plus [`ONE_SHOT_FLOOR_BYTES`]): beyond that, a
+/// damaged size could cost more memory than the bytes that are there justify.
+const ONE_SHOT_RATIO: u64 = 64;
+
+/// Declared sizes up to this always decompress in one shot.
+const ONE_SHOT_FLOOR_BYTES: u64 = 1 << 20;
+
+/// Decompresses `data` into `out` in one call when its zstd frame declares `size` bytes or no
+/// size, and `size` is plausible for the bytes there: straight into `out`'s spare capacity, where the
+/// stream reader first zeroes its buffer and then copies every block out of zstd's own (together
+/// 6 % of a whole-body `convert`). `false` when it does not apply or zstd refuses; `out` is then
+/// to be cleared and the stream used.
+fn one_shot_zstd(
+    context: &mut zstd::zstd_safe::DCtx<'static>,
+    data: &[u8],
+    size: u64,
+    out: &mut Vec<u8>,
+) -> bool {
+    let plausible = ONE_SHOT_RATIO
+        .saturating_mul(data.len() as u64)
+        .saturating_add(ONE_SHOT_FLOOR_BYTES);
+    // The `mcap` writer streams its chunks, so their frames do not declare their size; one that
+    // does must declare the chunk's.
+    let declared_fits = match zstd::zstd_safe::get_frame_content_size(data) {
+        Ok(None) => true,
+        Ok(Some(n)) => n == size,
+        Err(_) => false,
+    };
+    if size > plausible || !declared_fits {
+        return false;
+    }
+    let Ok(size) = usize::try_from(size) else {
+        return false;
+    };
+    out.clear();
+    out.reserve_exact(size);
+    matches!(context.decompress(out, data), Ok(n) if n == size)
+}
+
 impl Iterator for Messages<'_> {
     type Item = Result<BagMessage, ReadIssue>;
 
@@ -1131,6 +1182,86 @@ impl Iterator for Messages<'_> {
             }
             let bytes = self.walker.bytes;
             self.step(bytes);
+        }
+    }
+}
+
+#[cfg(test)]
+mod decompress_tests {
+    use super::*;
+
+    /// Bytes that compress, but not to nothing.
+    fn records(n: usize) -> Vec<u8> {
+        (0..n)
+            .map(|k| ((k % 251) ^ (k / 997)).to_le_bytes()[0])
+            .collect()
+    }
+
+    fn size(bytes: &[u8]) -> u64 {
+        bytes.len() as u64
+    }
+
+    /// `plain` as one streamed zstd frame, which does not declare its size (as the `mcap` writer
+    /// writes chunks).
+    fn streamed(plain: &[u8]) -> Vec<u8> {
+        let mut frame = Vec::new();
+        let mut encoder = zstd::stream::write::Encoder::new(&mut frame, 1).unwrap();
+        std::io::Write::write_all(&mut encoder, plain).unwrap();
+        encoder.finish().unwrap();
+        frame
+    }
+
+    #[test]
+    fn sized_unsized_and_multi_frame_chunks_decompress_to_their_records() {
+        let plain = records(300_000);
+        let one = zstd::bulk::compress(&plain, 1).unwrap();
+        assert_eq!(*decompress("zstd", &one, size(&plain)).unwrap(), plain[..]);
+        let unsized_frame = streamed(&plain);
+        let content_size = zstd::zstd_safe::get_frame_content_size(&unsized_frame);
+        assert_eq!(content_size.ok(), Some(None));
+        assert_eq!(
+            *decompress("zstd", &unsized_frame, size(&plain)).unwrap(),
+            plain[..]
+        );
+        // Two frames back to back, neither declaring its size.
+        let (a, b) = plain.split_at(100_000);
+        let mut two = streamed(a);
+        two.extend(streamed(b));
+        assert_eq!(*decompress("zstd", &two, size(&plain)).unwrap(), plain[..]);
+        assert!(decompress("zstd", &two, size(a)).is_err());
+        // A first frame that declares only its own part is refused, as before the one-shot path.
+        let mut two = zstd::bulk::compress(a, 1).unwrap();
+        two.extend(zstd::bulk::compress(b, 1).unwrap());
+        assert!(decompress("zstd", &two, size(&plain)).is_err());
+    }
+
+    #[test]
+    fn a_chunk_that_declares_another_size_than_its_records_is_an_error() {
+        let plain = records(50_000);
+        let one = zstd::bulk::compress(&plain, 1).unwrap();
+        for declared in [0, 1, size(&plain) - 1, size(&plain) + 1, 1 << 40] {
+            assert!(
+                matches!(
+                    decompress("zstd", &one, declared),
+                    Err(DecompressError::Length { .. })
+                ),
+                "declared {declared}"
+            );
+        }
+        let unsized_frame = streamed(&plain);
+        for declared in [0, 1, size(&plain) - 1, size(&plain) + 1, 1 << 40] {
+            assert!(
+                matches!(
+                    decompress("zstd", &unsized_frame, declared),
+                    Err(DecompressError::Length { .. })
+                ),
+                "declared {declared}, unsized frame"
+            );
+        }
+        // Damaged bytes: an error, whichever way it is read.
+        for frame in [one, unsized_frame] {
+            let cut = &frame[..frame.len() / 2];
+            assert!(decompress("zstd", cut, size(&plain)).is_err());
         }
     }
 }

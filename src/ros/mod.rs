@@ -14,6 +14,7 @@ pub mod cdr;
 pub mod foxglove_msgs;
 pub mod geometry_msgs;
 pub mod sensor_msgs;
+pub mod skeleton_decode;
 pub mod std_msgs;
 pub mod tf2_msgs;
 pub mod type_hash;

@@ -19,6 +19,7 @@ use super::{Clock, PoseBagError, SkippedMessage, Taken, no_pose_topic, take_mess
 use crate::mcap_io::{BagReader, ReadIssue};
 use crate::ros::RosMessage;
 use crate::ros::autoact_msgs::Skeleton3D;
+use crate::ros::skeleton_decode::SkeletonReader;
 use crate::skeleton::pose::PoseFrame;
 
 /// Frames kept per track in pass 1: at most this many, evenly spread over the track (every
@@ -227,7 +228,7 @@ pub fn scan_pose_topics(
     let mut issues = Vec::new();
     let (mut nan_first, mut nan_total) = (Vec::new(), 0u64);
     let mut seen_topics = BTreeMap::new();
-    let mut skeleton = Skeleton3D::default();
+    let mut skeleton = SkeletonReader::default();
     for (reader_index, reader) in readers.iter().enumerate() {
         let mut releaser = Releaser::default();
         for item in reader.messages() {
@@ -546,7 +547,7 @@ pub fn stream_pose_frames<E: From<PoseBagError>>(
             handed: 0,
         })
         .collect();
-    let mut skeleton = Skeleton3D::default();
+    let mut skeleton = SkeletonReader::default();
     for (reader_index, reader) in readers.iter().enumerate() {
         let mut releaser = Releaser::default();
         for item in reader.messages() {
