@@ -798,7 +798,9 @@ impl<'r> Converter<'r> {
     /// [`ConvertOptions::full_twist_reference_angle_rad`]) and of the twist carried from the
     /// parent (the parent's frame moved onto the bone by the smallest arc). As the limb
     /// straightens the reference's weight falls smoothly to zero, so the twist never jumps, and
-    /// it depends on the current frame only.
+    /// a bend plane's twist depends on the current frame only. A leaf bone's direction reference
+    /// (a hand's thumb tip) moves the twist from the previous frame's by [`geom::twist_step`] of
+    /// what it asks.
     fn three_d_world(
         &self,
         b: usize,
@@ -818,20 +820,18 @@ impl<'r> Converter<'r> {
             return (from_parent, None);
         };
         let (RefSolve::Direction { rest_perp, .. } | RefSolve::Normal { rest_perp, .. }) = r;
-        match self.current_reference(r, cur_dir) {
+        let parent_perp = from_parent * rest_perp.into_inner();
+        let (perp, degeneracy) = match self.current_reference(r, cur_dir) {
             Ok((cur_perp, weight)) => {
-                let parent_perp = from_parent * rest_perp.into_inner();
                 let blended = cur_perp.into_inner() * weight + parent_perp * (1.0 - weight);
                 let perp = geom::perpendicular_direction(&blended, cur_dir, 1e-9)
                     .unwrap_or_else(|| Unit::new_normalize(parent_perp));
-                (
-                    geom::frame_rotation(&rest_dir, rest_perp, cur_dir, &perp),
-                    None,
-                )
+                (perp, None)
             }
-            Err(Degeneracy::ParallelReference) => {
-                (from_parent, Some(Degeneracy::ParallelReference))
-            }
+            Err(Degeneracy::ParallelReference) => (
+                Unit::new_normalize(parent_perp),
+                Some(Degeneracy::ParallelReference),
+            ),
             Err(kind) => {
                 // The reference's joints are missing: keep the previous orientation's twist,
                 // i.e. the smallest rotation from where the bone was (or from the parent frame).
@@ -840,9 +840,36 @@ impl<'r> Converter<'r> {
                 } else {
                     *parent_world
                 };
-                (carried(&base), Some(kind))
+                return (carried(&base), Some(kind));
             }
-        }
+        };
+        // A direction reference (a thumb tip) of a bone that passes its twist to no solved child
+        // (a hand whose fingers the layout does not see) sets the twist from the previous
+        // frame's, carried along the bone, by at most a plausible one-frame turn
+        // (`geom::twist_step`), so a noisy reference flipping sides, or falling back to the
+        // parent's twist, never spins the bone. A bone with solved children (the trunk) keeps
+        // the current frame's twist: a 2-D or hinge child below cannot undo a lagging one.
+        let leaf = || {
+            !self
+                .rig
+                .bones
+                .iter()
+                .zip(&self.solved_bones)
+                .any(|(child, solved)| *solved && child.parent == Some(b))
+        };
+        let perp = match r {
+            RefSolve::Direction { .. } if has_previous && leaf() => {
+                let was = carried(&self.previous_world[b]) * rest_perp.into_inner();
+                let delta = cur_dir.dot(&was.cross(&perp)).atan2(was.dot(&perp));
+                let turn = UnitQuaternion::from_axis_angle(cur_dir, geom::twist_step(delta));
+                geom::perpendicular_direction(&(turn * was), cur_dir, 1e-9).unwrap_or(perp)
+            }
+            _ => perp,
+        };
+        (
+            geom::frame_rotation(&rest_dir, rest_perp, cur_dir, &perp),
+            degeneracy,
+        )
     }
 }
 

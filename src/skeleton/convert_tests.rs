@@ -767,3 +767,61 @@ fn degenerate_input_is_counted_on_its_bone_by_kind() {
     );
     assert_eq!(of("l_foot"), None, "{named:?}");
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+    /// Law: a hand whose only twist reference is a noisy thumb tip (a depth camera's: the
+    /// fingers unseen, so the hand passes its twist to no solved bone) never spins: while the
+    /// hand turns slowly and the thumb tip jitters by up to `noise_m` — enough to cross the
+    /// hand's axis, where the reference is undefined, and flip to its other side — no frame
+    /// turns the hand about its axis by more than the source turned plus 16.4°
+    /// (`geom::twist_step`'s largest step), and without jitter the twist is the source's.
+    #[test]
+    fn a_noisy_thumb_reference_never_spins_the_hand(
+        twist_rate in -0.05..0.05f64,
+        noise_m in 0.0..0.08f64,
+        seed in 0u64..1000,
+    ) {
+        let rig = Rig::standard();
+        let character = Character::standard(&rig);
+        let mut layout = Layout::rig_landmarks(&rig);
+        layout.landmarks.retain(|name, _| {
+            !["thumb", "index", "middle", "ring", "pinky"].iter().any(|f| name.contains(f))
+                || name == "l_thumb4"
+                || name == "l_middle1"
+        });
+        let hand = rig.bone_index("l_hand").unwrap();
+        let thumb = rig.landmark_index("l_thumb4").unwrap();
+        let mut c = Converter::new(&rig, &layout, &character, ConvertOptions::default()).unwrap();
+        let mut out = BonePose::rest(&rig);
+        let mut state = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
+        let mut jitter = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let mut prev: Option<(fk::WorldPose, fk::WorldPose)> = None;
+        for k in 0..120u32 {
+            let t = f64::from(k);
+            let mut pose = BonePose::rest(&rig);
+            pose.local_rotations[hand] =
+                UnitQuaternion::from_axis_angle(&rig.bones[hand].rest_direction(), twist_rate * t)
+                    * UnitQuaternion::from_euler_angles(0.3 * (0.05 * t).sin(), 0.0, 0.2);
+            let mut frame = landmark_frame(&rig, &character, &pose, u64::from(k));
+            frame.positions_m[thumb] += Vector3::new(jitter(), jitter(), jitter()) * noise_m;
+            c.convert_frame(&frame, &mut out).unwrap();
+            let src = fk::forward(&rig, &character, &pose, 1.0);
+            let got = fk::forward(&rig, &character, &out, 1.0);
+            if noise_m == 0.0 {
+                prop_assert!(rotation_distance(&src.rotations[hand], &got.rotations[hand]) < 1e-6, "frame {k}");
+            }
+            if let Some((src0, got0)) = &prev {
+                let (s, g) = (spin_deg(&rig, src0, &src, hand), spin_deg(&rig, got0, &got, hand));
+                prop_assert!(g <= s + 16.4, "frame {k}: output turned {g:.1}°, source {s:.1}°");
+            }
+            prev = Some((src, got));
+        }
+    }
+}

@@ -158,6 +158,34 @@ pub fn reference_weight(sin: f64, full_sin: f64) -> f64 {
     x * x * (3.0 - 2.0 * x)
 }
 
+/// A twist step (one frame) up to this is followed exactly, radians (10°).
+pub const TWIST_FOLLOW_RAD: f64 = 10.0 * std::f64::consts::PI / 180.0;
+
+/// A twist step from this on is taken as the reference's noise, radians (45°): only
+/// [`TWIST_RECOVERY`] of it is followed.
+pub const TWIST_DOUBT_RAD: f64 = 45.0 * std::f64::consts::PI / 180.0;
+
+/// The share of a doubted twist step that is taken anyway, so that a reference that stays away
+/// (a real turn made while the reference was unreadable) is reached in a few dozen frames.
+pub const TWIST_RECOVERY: f64 = 0.05;
+
+/// The twist a bone takes in one frame when its reference asks for `delta_rad` (wrapped into
+/// (−π, π]) relative to its previous twist carried along the bone: all of it up to
+/// [`TWIST_FOLLOW_RAD`]; then a share falling smoothly (C¹ smoothstep) to [`TWIST_RECOVERY`] at
+/// [`TWIST_DOUBT_RAD`] and beyond. A twist reference is a short, noisy segment (a thumb tip
+/// seen by a depth camera) whose side of the bone can flip from one frame to the next; a limb
+/// cannot spin half a turn in a frame, so such a flip moves the twist by at most
+/// `TWIST_RECOVERY · π` (9°), and no step exceeds 16.4°, while any slower turn is followed
+/// exactly. Continuous and odd in `delta_rad`.
+#[inline]
+#[must_use]
+pub fn twist_step(delta_rad: f64) -> f64 {
+    let x = ((delta_rad.abs() - TWIST_FOLLOW_RAD) / (TWIST_DOUBT_RAD - TWIST_FOLLOW_RAD))
+        .clamp(0.0, 1.0);
+    let doubt = x * x * (3.0 - 2.0 * x);
+    delta_rad * (1.0 - (1.0 - TWIST_RECOVERY) * doubt)
+}
+
 /// Wraps an angle into (−π, π].
 #[must_use]
 pub fn wrap_angle(a: f64) -> f64 {
@@ -345,6 +373,31 @@ mod tests {
             // Monotone, and no step larger than the smoothstep's slope (1.5 / 1000) allows.
             assert!(w >= last && w - last <= 1.5e-3 + 1e-12, "{k}: {last} → {w}");
             last = w;
+        }
+    }
+
+    #[test]
+    fn twist_steps_follow_slow_turns_and_never_jump() {
+        assert_eq!(twist_step(0.0), 0.0);
+        assert_eq!(twist_step(0.1), 0.1);
+        assert_eq!(twist_step(-TWIST_FOLLOW_RAD), -TWIST_FOLLOW_RAD);
+        let pi = std::f64::consts::PI;
+        assert!((twist_step(pi) - TWIST_RECOVERY * pi).abs() < 1e-12);
+        let mut last = 0.0;
+        for k in 0..=3600 {
+            let d = f64::from(k) * pi / 3600.0;
+            let s = twist_step(d);
+            assert_relative_eq!(twist_step(-d), -s, epsilon = 1e-15);
+            // Never more than 16.4°, and continuous (no step between neighbours past the slope's
+            // bound).
+            assert!(
+                s <= 16.4f64.to_radians(),
+                "{}° → {}°",
+                d.to_degrees(),
+                s.to_degrees()
+            );
+            assert!((s - last).abs() <= 2.0 * pi / 3600.0, "{k}");
+            last = s;
         }
     }
 
