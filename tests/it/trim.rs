@@ -639,18 +639,22 @@ fn trim_reencodes_a_foreign_video_placed_with_video_start() {
     check_lists(&out);
 }
 
-/// Every annotation file's bytes, by name.
+/// Every annotation file's bytes (the contact sheets' folder too), by path in the folder.
 fn annotation_files(out: &Path) -> BTreeMap<String, Vec<u8>> {
-    std::fs::read_dir(out.join("annotations"))
-        .unwrap()
-        .map(|e| {
+    fn walk(dir: &Path, prefix: &str, files: &mut BTreeMap<String, Vec<u8>>) {
+        for e in std::fs::read_dir(dir).unwrap() {
             let e = e.unwrap();
-            (
-                e.file_name().to_string_lossy().into_owned(),
-                std::fs::read(e.path()).unwrap(),
-            )
-        })
-        .collect()
+            let name = format!("{prefix}{}", e.file_name().to_string_lossy());
+            if e.file_type().unwrap().is_dir() {
+                walk(&e.path(), &format!("{name}/"), files);
+            } else {
+                files.insert(name, std::fs::read(e.path()).unwrap());
+            }
+        }
+    }
+    let mut files = BTreeMap::new();
+    walk(&out.join("annotations"), "", &mut files);
+    files
 }
 
 #[test]
