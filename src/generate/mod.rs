@@ -723,26 +723,14 @@ impl Run<'_> {
     /// every clip is copied, not re-encoded. Empty when they cannot be told; `trim` then reports
     /// what is wrong, and re-encodes clips that start off a keyframe.
     fn clip_starts(&self, capture: &Capture) -> Vec<u64> {
-        let (Some(planned), Some(first), Some(last)) =
-            (&self.planned, capture.frames.first(), capture.frames.last())
-        else {
+        let (Some(planned), Some(first)) = (&self.planned, capture.frames.first()) else {
             return Vec::new();
         };
-        let rate = self.job.render.fps.unwrap_or(capture.fps);
-        let Some(fps) = Rational::from_f64(rate) else {
+        let Some(fps) = Rational::from_f64(self.job.render.fps.unwrap_or(capture.fps)) else {
             return Vec::new();
         };
-        // As the render samples the timeline: the capture's frames, or every 1/fps to its end.
-        let frame_count = if (rate - capture.fps).abs() < 1e-9 {
-            capture.frames.len() as u64
-        } else {
-            let at = |k: usize| first.stamp_nanos + crate::skeleton::pose::stamp_nanos_at(k, rate);
-            let mut k = 0_usize;
-            while at(k) <= last.stamp_nanos {
-                k += 1;
-            }
-            k as u64
-        };
+        let frame_count =
+            crate::render::session::output_stamps(capture, self.job.render.fps).count() as u64;
         let timing = crate::trim::plan::VideoTiming {
             frame0_nanos: i128::from(first.stamp_nanos),
             fps,

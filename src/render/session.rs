@@ -185,8 +185,30 @@ struct Sample<'a> {
     segment: Option<usize>,
 }
 
-/// Output frames: the capture's own, or resampled at `fps` (poses slerped between the two
-/// neighbouring frames; the camera interpolated only within one clip, so cuts stay cuts).
+/// The stamps of the output frames of a render of `capture` at `fps` (`None`: its own rate):
+/// the capture's own frames at its own rate, else every 1/`fps` from its first frame to its last.
+/// The one place that knows a render's timeline; `generate` counts frames with it too.
+#[must_use]
+pub fn output_stamps(capture: &Capture, fps: Option<f64>) -> Box<dyn Iterator<Item = u64> + '_> {
+    let same_rate = fps.is_none_or(|f| (f - capture.fps).abs() < 1e-9);
+    let (Some(first), Some(last)) = (capture.frames.first(), capture.frames.last()) else {
+        return Box::new(std::iter::empty());
+    };
+    if same_rate {
+        return Box::new(capture.frames.iter().map(|f| f.stamp_nanos));
+    }
+    let fps = fps.unwrap_or(capture.fps);
+    let (first, last) = (first.stamp_nanos, last.stamp_nanos);
+    Box::new(
+        (0..)
+            .map(move |k| first + crate::skeleton::pose::stamp_nanos_at(k, fps))
+            .take_while(move |&t| t <= last),
+    )
+}
+
+/// Output frames ([`output_stamps`]): the capture's own, or resampled at `fps` (poses slerped
+/// between the two neighbouring frames; the camera interpolated only within one clip, so cuts
+/// stay cuts).
 fn samples(capture: &Capture, fps: Option<f64>, limit: Option<usize>) -> Vec<Sample<'_>> {
     let segment_at = |t: u64| {
         capture.segments.iter().position(|s| {
@@ -213,17 +235,9 @@ fn samples(capture: &Capture, fps: Option<f64>, limit: Option<usize>) -> Vec<Sam
             })
             .collect();
     }
-    let fps = fps.unwrap_or(capture.fps);
-    let (Some(first), Some(last)) = (frames.first(), frames.last()) else {
-        return Vec::new();
-    };
     let mut out = Vec::new();
     let mut i = 0;
-    for k in 0.. {
-        let t = first.stamp_nanos + crate::skeleton::pose::stamp_nanos_at(k, fps);
-        if t > last.stamp_nanos || out.len() >= max {
-            break;
-        }
+    for t in output_stamps(capture, fps).take(max) {
         while i + 1 < frames.len() && frames[i + 1].stamp_nanos <= t {
             i += 1;
         }

@@ -236,14 +236,6 @@ pub fn relist(
     Ok(rewrite_lists(ffmpeg, dir, &manifest, options)?.lists)
 }
 
-/// Every clip of the segments the video holds (`segments`, video frames), by each class's clip
-/// policy, with its clip id; `instances` reads the motion of the segment's animation from the
-/// capture's poses. A segment the policy gives no clip (no motion found, or shorter than a
-/// window with `tail = "drop"`) is said on stderr.
-///
-/// # Errors
-/// [`TrimError::ClipPolicy`] for a policy `trim`'s options made unusable;
-/// [`TrimError::LabelIdOutOfRange`].
 /// The first frame of every clip `policies` cut from a video of `capture` timed as `timing`,
 /// sorted: the frames a render makes keyframes so that every clip is a stream copy.
 ///
@@ -264,6 +256,14 @@ pub fn clip_start_frames(
     Ok(starts)
 }
 
+/// Every clip of the segments the video holds (`segments`, video frames), by each class's clip
+/// policy, with its clip id; `instances` reads the motion of the segment's animation from the
+/// capture's poses. A segment the policy gives no clip (no motion found, or shorter than a
+/// window with `tail = "drop"`) is said on stderr.
+///
+/// # Errors
+/// [`TrimError::ClipPolicy`] for a policy `trim`'s options made unusable;
+/// [`TrimError::LabelIdOutOfRange`].
 fn clip_ranges(
     capture: &Capture,
     timing: &VideoTiming,

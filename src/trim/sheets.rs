@@ -42,6 +42,8 @@ struct SheetTile {
     frame: u64,
     /// What the quality checks flag the clip for.
     flags: Vec<ClipFlag>,
+    /// What the tile says: the clip's variant, scene, viewpoint and part, and its flags.
+    label: String,
 }
 
 /// `<class>.json`: what the sheet shows.
@@ -154,6 +156,7 @@ fn sheet_index(clips: &[&ClipRecord], thresholds: &Thresholds) -> SheetIndex {
             clip_id: c.clip_id.clone(),
             video: c.video.clone(),
             frame: shown_frame(c),
+            label: tile_label(c, &flags),
             flags,
         })
         .collect();
@@ -229,7 +232,6 @@ fn draw(
         .collect();
     let size = (index.tile_width, index.tile_height);
     let mut frames = still_frames(ffmpeg, &requests, size)?;
-    let labels: Vec<String> = index.tiles.iter().map(tile_label).collect();
     for (frame, tile) in frames.iter_mut().zip(&index.tiles) {
         if !tile.flags.is_empty() {
             frame_in_red(frame, size);
@@ -237,32 +239,28 @@ fn draw(
     }
     let tiles: Vec<Tile<'_>> = frames
         .iter()
-        .zip(&labels)
-        .map(|(rgb24, label)| Tile {
+        .zip(&index.tiles)
+        .map(|(rgb24, t)| Tile {
             rgb24,
             width: size.0,
             height: size.1,
-            label,
+            label: &t.label,
         })
         .collect();
     contact_sheet(&tiles, index.columns, index.tile_width)
 }
 
-/// A tile's label: the clip's variant, scene, viewpoint and part, and its flags.
-fn tile_label(t: &SheetTile) -> String {
-    // Clip ids end `…-v<variant>-s<scene>-c<viewpoint>[-w<k>|-i<k>]`: keep those fields.
-    let fields: Vec<&str> = t
-        .clip_id
-        .rsplit('-')
-        .take_while(|f| {
-            f.len() > 1
-                && matches!(f.as_bytes()[0], b'v' | b's' | b'c' | b'w' | b'i')
-                && f[1..].bytes().all(|b| b.is_ascii_digit())
-        })
-        .collect();
-    let mut label: Vec<String> = fields.iter().rev().map(|f| (*f).to_owned()).collect();
-    label.extend(t.flags.iter().map(|f| format!("{f:?}").to_uppercase()));
-    label.join(" ")
+/// A tile's label: the clip's variant, scene, viewpoint and part (as in clips.jsonl), and its
+/// flags.
+fn tile_label(c: &ClipRecord, flags: &[ClipFlag]) -> String {
+    let mut label = format!("v{} s{} c{}", c.variant, c.scene, c.viewpoint);
+    if let Some(part) = c.part {
+        label.push_str(&format!(" #{part}"));
+    }
+    for f in flags {
+        label.push_str(&format!(" {f:?}").to_uppercase());
+    }
+    label
 }
 
 /// Draws a red frame inside an `rgb24` tile.
@@ -318,24 +316,6 @@ mod tests {
                 assert!(*s.last().unwrap() < n);
             }
         }
-    }
-
-    #[test]
-    fn a_tile_label_keeps_the_clip_ids_hierarchy_fields_and_the_flags() {
-        let tile = |clip_id: &str, flags| SheetTile {
-            clip_id: clip_id.to_owned(),
-            video: String::new(),
-            frame: 0,
-            flags,
-        };
-        assert_eq!(
-            tile_label(&tile(
-                "daily-wave-bags_wave.mcap_0-v0-s2-c1-w003",
-                vec![ClipFlag::Occluded, ClipFlag::Hidden]
-            )),
-            "v0 s2 c1 w003 OCCLUDED HIDDEN"
-        );
-        assert_eq!(tile_label(&tile("a-walk-v10-s0-c3", vec![])), "v10 s0 c3");
     }
 
     #[test]
