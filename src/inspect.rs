@@ -225,7 +225,11 @@ impl Report {
         );
         if let (Some(a), Some(b)) = (start, end) {
             let span = crate::skeleton::pose::nanos_to_secs(b - a);
-            s.push_str(&format!("time: {a} .. {b} ns ({span:.3} s)\n"));
+            s.push_str(&format!(
+                "time: {} .. {} ({span:.3} s; {a} .. {b} ns)\n",
+                crate::instant::iso_8601(a),
+                crate::instant::iso_8601(b)
+            ));
         }
         s.push_str(&format!(
             "messages: {}\n\n",

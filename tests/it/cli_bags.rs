@@ -1537,6 +1537,14 @@ fn import_starts_the_timeline_at_the_instant_asked_and_refuses_one_without_offse
         info.contains("start_time=2024-05-01T07:00:00.500Z"),
         "{info}"
     );
+    // The bag's time span is printed as instants (and in nanoseconds for scripts).
+    assert!(
+        info.contains(&format!(
+            "time: 2024-05-01T07:00:00.500Z .. 2024-05-01T07:00:00.800Z (0.300 s; {start} .. {} ns)",
+            start + 300_000_000
+        )),
+        "{info}"
+    );
 
     let o = import_h36m_json(
         &json,
