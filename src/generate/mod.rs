@@ -12,7 +12,9 @@
 //!
 //! Every output is written under a temporary name and renamed when complete, and the journal
 //! names a unit (a session's capture, its render, its clips) only after its outputs are in
-//! place, so a re-run after a crash, `kill -9` or Ctrl-C redoes at most the unit it stopped in.
+//! place, so a re-run after a crash, `kill -9` or Ctrl-C redoes at most the unit it stopped in;
+//! a render is itself made in pieces that outlive a kill (`renders/<session>.pieces/`,
+//! [`crate::render::session::pieces`]), so a render resumes at the piece it stopped in.
 //! With `--shard K/N` a machine makes only its share of the sessions ([`shard`]); [`merge`]
 //! joins the parts into the dataset one machine would have made.
 

@@ -93,6 +93,10 @@ struct Journal {
 ///
 /// # Errors
 /// [`RenderError`]; finished pieces stay finished, no output that looks complete is left.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "render_capture's arguments and the pieces' job"
+)]
 pub fn render_in_pieces(
     rig: &Rig,
     capture: &Capture,
