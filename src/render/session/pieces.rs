@@ -10,8 +10,10 @@
 //! scratch folder, moved into [`PieceJob::dir`], and only then counted as done in
 //! `pieces.json` there (rewritten atomically). Once every piece is done, the pieces are joined:
 //! the videos by copying their H.264 samples into one MP4 ([`crate::video::concat_mp4`]), the
-//! labels by copying every frame's message into one render bag, the passes by moving their
-//! folder — the same outputs, in the same places, as [`super::render_capture`] writes.
+//! labels by copying every frame's message into one render bag, the passes by linking their
+//! frames into one folder — the same outputs, in the same places, as [`super::render_capture`]
+//! writes (the render bag byte for byte; the video differs, its encoder restarting at each
+//! piece). The pieces stay until the caller deletes them, so a join cut short is made again.
 //!
 //! At most the piece in progress is drawn again after a kill; the joined outputs depend only on
 //! the capture, the settings and the piece size.
@@ -485,10 +487,9 @@ fn join_labels(
         (&outputs.depth_dir, DEPTH_DIR),
         (&outputs.mask_dir, MASK_DIR),
     ] {
-        let Some(to) = wanted else { continue };
-        let from = job.dir.join(name);
-        std::fs::create_dir_all(&from).map_err(io("create", &from))?;
-        crate::atomic_file::commit_folder(&from, to).map_err(io("move into place", to))?;
+        if let Some(to) = wanted {
+            link_pass(&job.dir.join(name), to)?;
+        }
     }
     if let Some(path) = &outputs.preview {
         let mut tiles = Vec::with_capacity(plan.preview_picks.len());
@@ -501,6 +502,28 @@ fn join_labels(
     }
     summary.video = Some(video);
     Ok(summary)
+}
+
+/// Fills the pass folder `to` (through its temporary sibling) with hard links to (or copies of)
+/// the pieces' pass frames in `from`: the pieces keep theirs until the render is recorded, so a
+/// join interrupted here is simply made again.
+fn link_pass(from: &Path, to: &Path) -> Result<(), RenderError> {
+    let part = crate::atomic_file::temporary_sibling(to).ok_or_else(|| RenderError::Piece {
+        path: to.to_path_buf(),
+        detail: "not a folder name".to_owned(),
+    })?;
+    if part.exists() {
+        std::fs::remove_dir_all(&part).map_err(io("remove the old", &part))?;
+    }
+    std::fs::create_dir_all(&part).map_err(io("create", &part))?;
+    if from.is_dir() {
+        for entry in std::fs::read_dir(from).map_err(io("list", from))? {
+            let entry = entry.map_err(io("list", from))?;
+            let link = part.join(entry.file_name());
+            crate::atomic_file::link_or_copy(&entry.path(), &link).map_err(io("link", &link))?;
+        }
+    }
+    crate::atomic_file::commit_folder(&part, to).map_err(io("move into place", to))
 }
 
 #[cfg(test)]
