@@ -48,6 +48,10 @@ pub struct Settings {
     /// The depth and mask passes rendered (absent in journals of earlier versions: none).
     #[serde(default)]
     pub passes: crate::render::passes::Wanted,
+    /// Least frames of a render piece (absent in journals from before renders were made in
+    /// pieces: 0, which no run now has, so such a folder is refused rather than mixed).
+    #[serde(default)]
+    pub piece_frames: u64,
     /// The engine asked for with `--engine` (absent: the spec's, which its hash covers).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub engine: Option<crate::dataset::spec::EngineName>,

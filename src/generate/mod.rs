@@ -12,7 +12,9 @@
 //!
 //! Every output is written under a temporary name and renamed when complete, and the journal
 //! names a unit (a session's capture, its render, its clips) only after its outputs are in
-//! place, so a re-run after a crash, `kill -9` or Ctrl-C redoes at most the unit it stopped in.
+//! place, so a re-run after a crash, `kill -9` or Ctrl-C redoes at most the unit it stopped in;
+//! a render is itself made in pieces that outlive a kill (`renders/<session>.pieces/`,
+//! [`crate::render::session::pieces`]), so a render resumes at the piece it stopped in.
 //! With `--shard K/N` a machine makes only its share of the sessions ([`shard`]); [`merge`]
 //! joins the parts into the dataset one machine would have made.
 
@@ -34,7 +36,8 @@ use crate::dataset::capture::{CaptureError, Converted};
 use crate::dataset::plan::Plan;
 use crate::dataset::spec::Spec;
 use crate::pipeline::PipelineError;
-use crate::render::session::{Outputs, RenderError, RenderSettings, render_capture};
+use crate::render::session::pieces::{PieceJob, render_in_pieces};
+use crate::render::session::{Outputs, RenderError, RenderSettings};
 use crate::skeleton::rig::Rig;
 use crate::trim::TrimError;
 use crate::trim::lists::ListSummary;
@@ -76,6 +79,9 @@ pub struct RenderChoice {
     pub engine: Option<crate::dataset::spec::EngineName>,
     /// How the Blender engine renders, when it is the one.
     pub blender: crate::render::blender::BlenderSettings,
+    /// Least frames of a render piece (whole segments; `1`: a piece per segment): a killed
+    /// render resumes at its first unfinished piece ([`crate::render::session::pieces`]).
+    pub piece_frames: u64,
 }
 
 impl RenderChoice {
@@ -135,6 +141,10 @@ pub struct GenerateJob {
     /// Test hook: end the process abruptly (no clean-up, exit code [`ABORT_HOOK_EXIT`]) at the
     /// N-th event (a frame rendered, a clip cut, a unit recorded), as `kill -9` would.
     pub abort_after_events: Option<u64>,
+    /// Test hook: append `SESSION FIRST COUNT` to this file just before each batch of frames is
+    /// drawn (its first frame in the session's render, its frame count), so the frames drawn by
+    /// runs that were killed can be counted.
+    pub drawn_log: Option<PathBuf>,
 }
 
 /// Why generating failed.
@@ -271,7 +281,7 @@ pub struct GenerateSummary {
     pub already_done: usize,
     /// Clips of this folder's sessions.
     pub clips: usize,
-    /// Frames rendered by this run.
+    /// Frames drawn by this run (a resumed render draws only its unfinished pieces).
     pub frames_rendered: u64,
     /// Wall time per stage.
     pub seconds: StageSeconds,
@@ -305,6 +315,7 @@ impl GenerateJob {
             preset: r.preset.clone(),
             gop_frames: r.gop_frames,
             passes: r.passes,
+            piece_frames: r.piece_frames,
             engine: r.engine,
             split_by: c.split_by.name().to_owned(),
             split_ratios: c.split_ratios,
@@ -351,6 +362,8 @@ struct SessionPaths {
     capture: PathBuf,
     video: PathBuf,
     render_bag: PathBuf,
+    /// The render's finished pieces, while it is being made.
+    pieces: PathBuf,
     /// The depth and mask passes beside the video.
     depth: PathBuf,
     mask: PathBuf,
@@ -365,6 +378,7 @@ impl SessionPaths {
             render_bag: crate::bags::render::render_bag_beside(&video),
             depth: crate::bags::render::depth_dir_beside(&video),
             mask: crate::bags::render::mask_dir_beside(&video),
+            pieces: dir.join(RENDERS_DIR).join(format!("{name}.pieces")),
             video,
             preview: dir.join(PREVIEWS_DIR).join(format!("{name}.png")),
         }
@@ -379,6 +393,7 @@ impl SessionPaths {
             &self.render_bag,
             &self.depth,
             &self.mask,
+            &self.pieces,
         ] {
             let removed = if path.is_dir() {
                 std::fs::remove_dir_all(path)
@@ -424,6 +439,8 @@ struct Run<'a> {
     ffmpeg: Ffmpeg,
     progress: DatasetProgress,
     hook: AbortHook,
+    /// The `--drawn-log` test hook's file.
+    drawn_log: Option<std::sync::Mutex<std::fs::File>>,
     stop: &'a AtomicBool,
 }
 
@@ -496,6 +513,16 @@ pub fn generate(job: &GenerateJob, stop: &AtomicBool) -> Result<GenerateSummary,
         hook: AbortHook {
             after: job.abort_after_events,
             events: AtomicU64::new(0),
+        },
+        drawn_log: match &job.drawn_log {
+            Some(path) => Some(std::sync::Mutex::new(
+                std::fs::OpenOptions::new()
+                    .create(true)
+                    .append(true)
+                    .open(path)
+                    .map_err(GenerateError::io("opening", path))?,
+            )),
+            None => None,
         },
         stop,
     };
@@ -605,6 +632,10 @@ impl Run<'_> {
             journal.record(dir, name, Stage::Render)?;
             self.hook.event();
         }
+        if paths.pieces.exists() {
+            std::fs::remove_dir_all(&paths.pieces)
+                .map_err(GenerateError::io("removing", &paths.pieces))?;
+        }
         self.stopped()?;
         let t = Instant::now();
         let trimmed = self.trim(&capture, &paths)?;
@@ -685,11 +716,20 @@ impl Run<'_> {
             self.progress.rendering(k);
             self.hook.event();
         };
-        let summary = render_capture(
+        let session = &capture.session;
+        let drawing = |first: u64, n: u64| self.log_drawn(session, first, n);
+        let pieces = PieceJob {
+            dir: paths.pieces.clone(),
+            scratch: run_dir.join(paths.pieces.file_name().unwrap_or_default()),
+            min_frames: r.piece_frames,
+            drawing: &drawing,
+        };
+        let summary = render_in_pieces(
             &self.rig,
             capture,
             &settings,
             &outputs,
+            &pieces,
             Some(&self.ffmpeg),
             &progress,
             self.stop,
@@ -714,8 +754,23 @@ impl Run<'_> {
                     .map_err(GenerateError::io("moving into place", dir))?;
             }
         }
-        self.progress.rendered(summary.frames);
-        Ok(summary.frames)
+        self.progress.rendered(summary.render.frames);
+        Ok(summary.frames_drawn)
+    }
+
+    /// The `--drawn-log` test hook: `n` frames of `session`'s render from frame `first` on are
+    /// about to be drawn.
+    fn log_drawn(&self, session: &str, first: u64, n: u64) {
+        if let Some(file) = &self.drawn_log {
+            use std::io::Write as _;
+            let mut file = file
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            // One write per line (appended): a kill loses no line already counted.
+            if let Err(e) = file.write_all(format!("{session} {first} {n}\n").as_bytes()) {
+                tracing::warn!("--drawn-log: {e}");
+            }
+        }
     }
 
     /// The output frames where the session's planned clips start, as `trim` will find them in

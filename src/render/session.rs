@@ -5,6 +5,8 @@
 //! Outputs are written under temporary names and renamed when complete, so an interrupted or
 //! failed render never leaves a file that looks finished.
 
+pub mod pieces;
+
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -93,6 +95,14 @@ pub enum RenderError {
     /// The Blender engine failed.
     #[error(transparent)]
     Blender(#[from] BlenderError),
+    /// A finished piece of a render made in pieces ([`pieces`]) cannot be read back.
+    #[error("render piece `{}`: {detail}", path.display())]
+    Piece {
+        /// The piece's file.
+        path: PathBuf,
+        /// What is wrong.
+        detail: String,
+    },
     /// Stopped by a signal; nothing complete-looking was left behind.
     #[error("interrupted; partial outputs were removed")]
     Interrupted,
@@ -377,7 +387,15 @@ pub fn render_capture(
         _ => None,
     };
     let mut sinks = FrameSinks::open(&plan, outputs, settings, ffmpeg, labels)?;
-    let outcome = render_in_order(&scenes, &plan, &mut sinks, blender.as_ref(), progress, stop);
+    let outcome = render_in_order(
+        &scenes,
+        &plan,
+        &mut sinks,
+        blender.as_ref(),
+        progress,
+        &|_, _| {},
+        stop,
+    );
     let encoder = sinks.encoder.take();
     let passes = std::mem::take(&mut sinks.passes);
     if let Err(e) = outcome {
@@ -434,6 +452,8 @@ struct Plan<'a> {
     preview_picks: Vec<usize>,
     /// The output frame rate.
     fps: f64,
+    /// The render's frame index of `samples[0]`: 0, or where a piece starts ([`pieces`]).
+    first: usize,
 }
 
 impl<'a> Plan<'a> {
@@ -450,7 +470,31 @@ impl<'a> Plan<'a> {
             preview_picks: preview_frames(capture, &samples),
             fps: settings.fps.unwrap_or(capture.fps),
             samples,
+            first: 0,
         })
+    }
+
+    /// Frames `range` of this plan as a plan of their own (keyframes and preview picks counted
+    /// from the range's start, [`Plan::first`] its start).
+    fn piece(&self, range: std::ops::Range<usize>) -> Plan<'a> {
+        let within = |k: u64| (range.start as u64..range.end as u64).contains(&k);
+        Plan {
+            samples: self.samples[range.clone()].to_vec(),
+            keyframes: self
+                .keyframes
+                .iter()
+                .filter(|&&k| within(k))
+                .map(|&k| k - range.start as u64)
+                .collect(),
+            preview_picks: self
+                .preview_picks
+                .iter()
+                .filter(|&&k| within(k as u64))
+                .map(|&k| k - range.start)
+                .collect(),
+            fps: self.fps,
+            first: self.first + range.start,
+        }
     }
 }
 
@@ -699,9 +743,11 @@ impl<'a> FrameSinks<'a> {
         if let Some(enc) = self.encoder.as_mut() {
             enc.write_frame(&rgb)?;
         }
-        self.passes.write(k, self.width, self.height, &passes)?;
+        // `k` counts this plan's frames; files and labels are numbered as the whole render's.
+        let frame = plan.first + k;
+        self.passes.write(frame, self.width, self.height, &passes)?;
         if let Some(dir) = self.frames_dir {
-            let path = crate::bags::render::frame_file(dir, k as u64);
+            let path = crate::bags::render::frame_file(dir, frame as u64);
             crate::video::write_png(&path, self.width, self.height, &rgb)?;
         }
         if plan.preview_picks.contains(&k) {
@@ -709,7 +755,7 @@ impl<'a> FrameSinks<'a> {
             self.preview_tiles.push((rgb, label));
         }
         if let Some(labels) = self.labels.as_mut() {
-            let message = labels.message(k, &plan.samples[k], &annotation, capture);
+            let message = labels.message(frame, &plan.samples[k], &annotation, capture);
             labels
                 .writer
                 .annotation(plan.samples[k].stamp_nanos, &message)?;
@@ -752,6 +798,7 @@ fn render_in_order(
     sinks: &mut FrameSinks<'_>,
     blender: Option<&BlenderFrames>,
     progress: &(dyn Fn(u64) + Sync),
+    drawing: &(dyn Fn(u64, u64) + Sync),
     stop: &AtomicBool,
 ) -> Result<(), RenderError> {
     let batch = 4 * rayon::current_num_threads().max(1);
@@ -761,11 +808,12 @@ fn render_in_order(
         let producer = scope.spawn(|| {
             // Owned here, so the channel closes when rendering ends.
             let sender = sender;
-            for chunk in plan.samples.chunks(batch) {
+            for (i, chunk) in plan.samples.chunks(batch).enumerate() {
                 if stop.load(Ordering::Relaxed) {
                     break;
                 }
                 let chunk: Vec<&Sample<'_>> = chunk.iter().collect();
+                drawing((plan.first + i * batch) as u64, chunk.len() as u64);
                 let frames = scenes.render_each(&chunk, |image, annotation, _| RenderedImage {
                     rgb: image.rgb.clone(),
                     passes: FramePasses::of(image, wanted),
@@ -797,7 +845,7 @@ fn render_in_order(
                     };
                     sinks.take(k, frame, plan, scenes.capture)?;
                     k += 1;
-                    progress(k as u64);
+                    progress((plan.first + k) as u64);
                 }
             }
             Ok(())

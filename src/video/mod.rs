@@ -63,7 +63,7 @@ pub use encode::{
 pub use image::{PngPixels, Tile, contact_sheet, read_png, write_png, write_png_as};
 pub use probe::{ProbedFrame, ProbedPacket, VideoProbe, probe, probe_packets, probe_size};
 pub use rational::Rational;
-pub use remux::Mp4Source;
+pub use remux::{Mp4Source, concat as concat_mp4};
 pub use stills::{StillRequest, still_frames};
 pub use tools::{Ffmpeg, INSTALL_HINT, download_cache_dir};
 

@@ -215,6 +215,106 @@ impl Mp4Source {
     }
 }
 
+/// Joins `parts` (videos of one stream's consecutive pieces, each encoded on its own with the
+/// same settings) into `output` by copying their samples in order: one MP4 with the first part's
+/// sample description, timed as the parts back to back. Written to a hidden `.part` sibling, read
+/// back (sample count, sizes, keyframes), synced and renamed; returns its size. The bytes depend
+/// only on the parts, so a render joined from pieces some of which an earlier (killed) run made
+/// is the same file as one whose pieces were all made in one go.
+///
+/// # Errors
+/// [`VideoError::Probe`] when the parts' sample descriptions (SPS, PPS, size) or time scales
+/// differ, or the result does not read back; [`VideoError::InvalidSettings`] for no parts;
+/// [`VideoError::Io`]. No `.part` file is left on any error.
+pub fn concat(parts: &[Mp4Source], output: &Path) -> Result<u64, VideoError> {
+    let invalid = |reason| VideoError::InvalidSettings {
+        path: output.to_path_buf(),
+        reason,
+    };
+    let Some(first) = parts.first() else {
+        return Err(invalid(super::InvalidSetting::EmptyClip));
+    };
+    // The sample descriptions but for their `btrt` (each encode states its own bit rates).
+    let track = |s: &Mp4Source| {
+        let t = &s.moov.trak[0];
+        (
+            t.mdia.mdhd.timescale,
+            without_bit_rates(&t.mdia.minf.stbl.stsd),
+        )
+    };
+    if let Some(other) = parts.iter().find(|p| track(p) != track(first)) {
+        return Err(VideoError::Probe {
+            path: output.to_path_buf(),
+            detail: format!(
+                "`{}` and `{}` differ in their sample description or time scale: not pieces of one stream",
+                first.path.display(),
+                other.path.display()
+            ),
+        });
+    }
+    let part = part_path(output).ok_or_else(|| invalid(super::InvalidSetting::NoFileName))?;
+    let result = write_joined(parts, &part, output);
+    if result.is_err() {
+        remove_part(&part);
+    }
+    result
+}
+
+/// Writes every sample of `parts` into `part` (ftyp, one mdat, moov), checks it and renames it to
+/// `output`; returns its size.
+fn write_joined(parts: &[Mp4Source], part: &Path, output: &Path) -> Result<u64, VideoError> {
+    let io = VideoError::io;
+    let first = &parts[0];
+    let run: Vec<Sample> = parts
+        .iter()
+        .flat_map(|p| p.samples.iter().copied())
+        .collect();
+    let media_len: u64 = run.iter().map(|s| u64::from(s.size)).sum();
+    let mut ftyp = Vec::new();
+    encode(&first.ftyp, &mut ftyp, output)?;
+    let mut mdat_header = Vec::new();
+    encode(
+        &Header {
+            kind: Mdat::KIND,
+            size: Some(usize::try_from(media_len).unwrap_or(usize::MAX)),
+        },
+        &mut mdat_header,
+        output,
+    )?;
+    let data_offset = (ftyp.len() + mdat_header.len()) as u64;
+    let mut moov = clip_moov(&first.moov, &run, data_offset, output)?;
+    let stsd = &mut moov.trak[0].mdia.minf.stbl.stsd;
+    *stsd = without_bit_rates(stsd);
+    let mut tail = Vec::new();
+    encode(&moov, &mut tail, output)?;
+    let mut file = std::io::BufWriter::new(File::create(part).map_err(io("create", part))?);
+    for bytes in [&ftyp, &mdat_header] {
+        file.write_all(bytes).map_err(io("write", part))?;
+    }
+    for p in parts {
+        // One part's media at a time: memory stays at one piece, not the whole render.
+        let media = p.read_samples(&p.samples)?;
+        file.write_all(&media).map_err(io("write", part))?;
+    }
+    file.write_all(&tail).map_err(io("write", part))?;
+    file.into_inner()
+        .map_err(|e| io("write", part)(e.into_error()))?;
+    check_joined(part, output, &run)?;
+    crate::atomic_file::commit(part, output).map_err(io("sync and rename into place", output))?;
+    Ok(data_offset + media_len + tail.len() as u64)
+}
+
+/// `stsd` with no `btrt` box (bit rates of one encode, not of a join of several).
+fn without_bit_rates(stsd: &mp4_atom::Stsd) -> mp4_atom::Stsd {
+    let mut stsd = stsd.clone();
+    for codec in &mut stsd.codecs {
+        if let Codec::Avc1(avc1) = codec {
+            avc1.btrt = None;
+        }
+    }
+    stsd
+}
+
 fn decline(path: &Path, why: &str) -> Option<Mp4Source> {
     tracing::debug!(path = %path.display(), why, "not cut in-process; ffmpeg cuts it");
     None
@@ -439,6 +539,12 @@ fn clip_moov(
 
 /// Reads `part` back and checks it holds `run`: its sample count and sizes, a sync first sample.
 fn check_clip(part: &Path, output: &Path, run: &[Sample]) -> Result<(), VideoError> {
+    check_joined(part, output, run)
+}
+
+/// Reads `part` back and checks it holds `run`: its sample count, sizes, durations and sync
+/// flags, a sync first sample.
+fn check_joined(part: &Path, output: &Path, run: &[Sample]) -> Result<(), VideoError> {
     let bad = |detail: String| VideoError::Probe {
         path: output.to_path_buf(),
         detail: format!("the copied clip does not read back: {detail}"),

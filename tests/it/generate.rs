@@ -38,8 +38,90 @@ sources = ["{walk}", "{wave}"]
     )
 }
 
-/// Options every run here shares (small, fast frames).
-const OPTIONS: [&str; 2] = ["--resolution", "64x48"];
+/// Options every run here shares: small, fast frames; every segment a render piece of its own
+/// (a killed render resumes at its interrupted segment).
+const OPTIONS: [&str; 4] = ["--resolution", "64x48", "--piece-frames", "1"];
+
+/// The frames of each batch a `--drawn-log` text says were drawn: (session, frame).
+fn drawn_frames(log: &str) -> Vec<(String, u64)> {
+    let mut out = Vec::new();
+    for line in log.lines() {
+        let [session, first, count] = line.split(' ').collect::<Vec<_>>()[..] else {
+            panic!("--drawn-log line `{line}`");
+        };
+        let (first, count): (u64, u64) = (first.parse().unwrap(), count.parse().unwrap());
+        out.extend((first..first + count).map(|k| (session.to_owned(), k)));
+    }
+    out
+}
+
+/// The plan's frames in all, and its largest segment's: from a segment's first frame to the
+/// next one's (or its session's end).
+fn plan_frames(plan: &Path) -> (u64, u64) {
+    let plan: serde_json::Value = serde_json::from_slice(&std::fs::read(plan).unwrap()).unwrap();
+    let plan = &plan["plan"];
+    let (mut total, mut largest) = (0, 0);
+    for session in plan["sessions"].as_array().unwrap() {
+        let frames = session["frames"].as_u64().unwrap();
+        total += frames;
+        let leaves = &session["leaves"];
+        let range = leaves["start"].as_u64().unwrap()..leaves["end"].as_u64().unwrap();
+        let mut starts: Vec<u64> = range
+            .map(|i| plan["leaves"][i as usize]["start_frame"].as_u64().unwrap())
+            .collect();
+        starts.push(frames);
+        largest = starts
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .fold(largest, u64::max);
+    }
+    (total, largest)
+}
+
+/// Issue 22's resume criterion over the frames `runs` drew (every run but the last was killed,
+/// `kills` of them): every frame is drawn, and no frame is drawn twice beyond the segment a kill
+/// interrupted: what a killed run drew that a later run draws again lies inside one segment of
+/// one session, and all runs together drew at most `kills` segments more than the plan holds.
+fn assert_no_frame_redrawn_beyond_the_interrupted_segment(
+    runs: &[Vec<(String, u64)>],
+    kills: usize,
+    plan: &Path,
+    what: &str,
+) {
+    use std::collections::BTreeSet;
+    let (total, segment) = plan_frames(plan);
+    let all: BTreeSet<&(String, u64)> = runs.iter().flatten().collect();
+    assert_eq!(
+        all.len() as u64,
+        total,
+        "{what}: frames drawn at least once"
+    );
+    for (r, run) in runs.iter().enumerate() {
+        let later: BTreeSet<&(String, u64)> = runs[r + 1..].iter().flatten().collect();
+        let again: BTreeSet<&(String, u64)> = run.iter().filter(|f| later.contains(f)).collect();
+        let (Some(first), Some(last)) = (again.first(), again.last()) else {
+            continue;
+        };
+        assert!(
+            first.0 == last.0 && last.1 - first.1 < segment,
+            "{what}: run {r} drew {} frames that later runs drew again, from {first:?} to {last:?}: more than the interrupted segment ({segment} frames)",
+            again.len()
+        );
+    }
+    let drawn: usize = runs.iter().map(Vec::len).sum();
+    assert!(
+        drawn as u64 <= total + kills as u64 * segment,
+        "{what}: {drawn} frames drawn for {total}, {kills} kills, segments of at most {segment}"
+    );
+}
+
+/// The frames drawn by the run that appended to `log` from byte `from` on.
+fn drawn_since(log: &Path, from: &mut usize) -> Vec<(String, u64)> {
+    let text = std::fs::read_to_string(log).unwrap_or_default();
+    let run = drawn_frames(&text[*from..]);
+    *from = text.len();
+    run
+}
 
 /// Runs `generate` on `spec` into `out` with `extra` options.
 fn generate(spec: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
@@ -171,9 +253,16 @@ fn a_run_killed_at_many_points_then_rerun_equals_an_uninterrupted_one() {
     // Events are frames rendered, clips cut and units recorded (about 450 in this dataset);
     // each run resumes the one before and is killed (exit 86, no clean-up) at its N-th event:
     // after the first capture, inside renders, inside trims, between units.
+    let log = dir.path().join("drawn.log");
+    let (mut from, mut runs) = (0, Vec::new());
     let mut killed = 0;
     for n in [1, 2, 3, 30, 7, 150, 80, 9, 250, 2, 350] {
-        let o = generate(spec, &out, &["--abort-after", &n.to_string()]);
+        let o = generate(
+            spec,
+            &out,
+            &["--abort-after", &n.to_string(), "--drawn-log", arg(&log)],
+        );
+        runs.push(drawn_since(&log, &mut from));
         match o.status.code() {
             Some(86) => killed += 1,
             Some(0) => break,
@@ -181,8 +270,15 @@ fn a_run_killed_at_many_points_then_rerun_equals_an_uninterrupted_one() {
         }
     }
     assert!(killed >= 6, "only {killed} runs were killed");
-    let o = generate(spec, &out, &[]);
+    let o = generate(spec, &out, &["--drawn-log", arg(&log)]);
     assert!(o.status.success(), "{}", stderr(&o));
+    runs.push(drawn_since(&log, &mut from));
+    assert_no_frame_redrawn_beyond_the_interrupted_segment(
+        &runs,
+        killed,
+        &out.join("plan.json"),
+        "--abort-after",
+    );
     assert_same_tree(&single.join("dataset"), &out.join("dataset"));
     for file in ["plan.json", "generate.json"] {
         let (a, b) = (single.join(file), out.join(file));
@@ -222,9 +318,11 @@ fn a_run_killed_at_many_points_then_rerun_equals_an_uninterrupted_one() {
 }
 
 /// A real `kill -9` (SIGKILL: no handler, no clean-up, its ffmpeg orphaned) at seeded random
-/// moments, five seeds: each seed kills successive runs in one folder after 0.05–2 s of work
-/// (at most six times), then lets a run finish; every folder ends byte-identical to an
-/// uninterrupted run, with no intermediate left.
+/// moments, five seeds: each seed kills successive runs in one folder (at most six times), each
+/// either after 0.05–2 s of work or once it has drawn 1–150 frames (so kills land inside renders,
+/// past a session's first segment too, however slow the start-up), then lets a run finish; every
+/// folder ends byte-identical to an uninterrupted run, with no intermediate left, and no frame
+/// was drawn twice beyond the segment each kill interrupted.
 #[test]
 fn runs_killed_with_sigkill_at_random_moments_then_rerun_equal_an_uninterrupted_one() {
     use std::process::{Command, Stdio};
@@ -245,10 +343,14 @@ fn runs_killed_with_sigkill_at_random_moments_then_rerun_equal_an_uninterrupted_
             z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
             z ^ (z >> 31)
         };
+        let log = dir.path().join(format!("seed{seed}.log"));
+        let (mut from, mut runs, mut seed_kills) = (0, Vec::new(), 0);
         for _ in 0..6 {
             let delay = Duration::from_millis(50 + next() % 1950);
+            let frames = (next() % 2 == 0).then(|| 1 + next() % 150);
             let mut args = vec!["-q", "generate", arg(spec), "-o", arg(&out)];
             args.extend(OPTIONS);
+            args.extend(["--drawn-log", arg(&log)]);
             let mut child = Command::new(env!("CARGO_BIN_EXE_autoact"))
                 .args(&args)
                 .stdout(Stdio::null())
@@ -260,21 +362,38 @@ fn runs_killed_with_sigkill_at_random_moments_then_rerun_equal_an_uninterrupted_
                 if let Some(status) = child.try_wait().unwrap() {
                     break Some(status);
                 }
-                if start.elapsed() >= delay {
+                let due = match frames {
+                    Some(n) => {
+                        let text = std::fs::read_to_string(&log).unwrap_or_default();
+                        drawn_frames(&text[from..]).len() as u64 >= n
+                    }
+                    None => start.elapsed() >= delay,
+                };
+                if due {
                     break None;
                 }
                 std::thread::sleep(Duration::from_millis(5));
             };
             if let Some(status) = finished {
                 assert!(status.success(), "seed {seed}: a run failed: {status}");
+                runs.push(drawn_since(&log, &mut from));
                 break;
             }
             child.kill().unwrap(); // SIGKILL on Unix
             child.wait().unwrap();
+            runs.push(drawn_since(&log, &mut from));
             kills += 1;
+            seed_kills += 1;
         }
-        let o = generate(spec, &out, &[]);
+        let o = generate(spec, &out, &["--drawn-log", arg(&log)]);
         assert!(o.status.success(), "seed {seed}: {}", stderr(&o));
+        runs.push(drawn_since(&log, &mut from));
+        assert_no_frame_redrawn_beyond_the_interrupted_segment(
+            &runs,
+            seed_kills,
+            &out.join("plan.json"),
+            &format!("seed {seed}"),
+        );
         assert_same_tree(&single.join("dataset"), &out.join("dataset"));
         for file in ["plan.json", "generate.json"] {
             assert_eq!(

@@ -220,6 +220,73 @@ fn in_process_copy_is_frame_exact_and_agrees_with_ffprobe() {
     );
 }
 
+/// Encodes frames `frames` (their indices coded in grey) as one piece of a longer stream.
+fn coded_piece(ffmpeg: &Ffmpeg, path: &Path, frames: std::ops::Range<u64>, keyframes: &[u64]) {
+    let settings = EncodeSettings::new(W, H, 30.0).with_keyframes(keyframes.iter().copied());
+    let mut enc = VideoEncoder::start(ffmpeg, path, &settings).unwrap();
+    for k in frames {
+        enc.write_frame(&coded_frame(k)).unwrap();
+    }
+    enc.finish().unwrap();
+}
+
+#[test]
+fn pieces_encoded_apart_join_into_one_frame_exact_video() {
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    // Three pieces of a 100-frame stream (each encoder's own frame 0 is a keyframe), one with a
+    // keyframe inside.
+    let bounds = [0, 37, 45, 100];
+    let mut parts = Vec::new();
+    for (i, w) in bounds.windows(2).enumerate() {
+        let path = dir.path().join(format!("piece{i}.mp4"));
+        coded_piece(&ffmpeg, &path, w[0]..w[1], if i == 2 { &[20] } else { &[] });
+        parts.push(Mp4Source::open(&path).unwrap().unwrap());
+    }
+    let joined = dir.path().join("joined.mp4");
+    let bytes = autoact::video::concat_mp4(&parts, &joined).unwrap();
+    assert_eq!(bytes, std::fs::metadata(&joined).unwrap().len());
+    assert_eq!(
+        decoded_indices(&ffmpeg, &joined),
+        (0..100).collect::<Vec<_>>()
+    );
+    let mp4 = Mp4Source::open(&joined).unwrap().unwrap();
+    assert_eq!(mp4.keyframes(), vec![0, 37, 45, 65]);
+    let (count, keys) = keyframe_frames(&ffmpeg, &joined).unwrap();
+    assert_eq!((count, keys), (100, vec![0, 37, 45, 65]));
+    // Timed as one stream: frame k at k/30 s.
+    let packets = probe_packets(&ffmpeg, &joined).unwrap();
+    assert_eq!(packets.len(), 100);
+    assert_eq!(packets[99].pts, packets[1].pts.map(|p| p * 99));
+    // A clip cut from the join across a piece boundary is the frames asked for.
+    let clip = dir.path().join("clip.mp4");
+    mp4.cut(&clip, 37, 30).unwrap();
+    assert_eq!(
+        decoded_indices(&ffmpeg, &clip),
+        (37..67).collect::<Vec<_>>()
+    );
+    // Joining the same pieces again gives the same bytes.
+    let again = dir.path().join("again.mp4");
+    autoact::video::concat_mp4(&parts, &again).unwrap();
+    assert_eq!(
+        std::fs::read(&joined).unwrap(),
+        std::fs::read(&again).unwrap()
+    );
+    // Pieces of another size are not pieces of one stream: refused, no file left.
+    let other = dir.path().join("other.mp4");
+    let settings = EncodeSettings::new(W + 16, H, 30.0);
+    let mut enc = VideoEncoder::start(&ffmpeg, &other, &settings).unwrap();
+    enc.write_frame(&vec![0; ((W + 16) * H * 3) as usize])
+        .unwrap();
+    enc.finish().unwrap();
+    parts.push(Mp4Source::open(&other).unwrap().unwrap());
+    let refused = dir.path().join("refused.mp4");
+    assert!(autoact::video::concat_mp4(&parts, &refused).is_err());
+    assert!(!refused.exists());
+}
+
 #[test]
 fn in_process_copy_declines_what_it_cannot_copy_exactly() {
     let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
