@@ -126,6 +126,9 @@ pub struct RenderSettings {
     pub extra_keyframes: Vec<u64>,
     /// Which engine draws the frames (the labels are the same for every engine).
     pub engine: Engine,
+    /// Domain randomisation: colour jitter, sensor noise, motion blur
+    /// ([`super::randomise`]; the CRF is `crf`, drawn by the caller).
+    pub randomise: super::randomise::Randomise,
 }
 
 /// Where to write.
@@ -434,6 +437,8 @@ struct Plan<'a> {
     preview_picks: Vec<usize>,
     /// The output frame rate.
     fps: f64,
+    /// The image effects to apply in output order.
+    randomise: super::randomise::Randomise,
 }
 
 impl<'a> Plan<'a> {
@@ -450,6 +455,7 @@ impl<'a> Plan<'a> {
             preview_picks: preview_frames(capture, &samples),
             fps: settings.fps.unwrap_or(capture.fps),
             samples,
+            randomise: settings.randomise.clone(),
         })
     }
 }
@@ -478,7 +484,11 @@ impl<'a> Scenes<'a> {
             .scenes
             .par_iter()
             .enumerate()
-            .map(|(i, s)| Stage::new(rig, &s.scene, s.stream, i as u64))
+            .map(|(i, s)| {
+                let mut stage = Stage::new(rig, &s.scene, s.stream, i as u64);
+                settings.randomise.jitter_stage(&mut stage);
+                stage
+            })
             .collect();
         let characters = capture
             .scenes
@@ -778,12 +788,13 @@ fn render_in_order(
         });
         let mut consume = || -> Result<(), RenderError> {
             let mut k = 0usize;
+            let mut effects = super::randomise::ImageEffects::new(&plan.randomise);
             for frames in &receiver {
                 for frame in frames {
                     if stop.load(Ordering::Relaxed) {
                         return Err(RenderError::Interrupted);
                     }
-                    let frame = match blender {
+                    let mut frame = match blender {
                         // Blender's picture and passes, the embedded geometry's labels.
                         Some(b) => {
                             let (rgb, passes) = b.frame(k)?;
@@ -795,6 +806,9 @@ fn render_in_order(
                         }
                         None => frame,
                     };
+                    let cut = plan.keyframes.binary_search(&(k as u64)).is_ok();
+                    let seed = scenes.stages[plan.samples[k].scene].seed;
+                    effects.apply(k as u64, seed, cut, &mut frame.rgb);
                     sinks.take(k, frame, plan, scenes.capture)?;
                     k += 1;
                     progress(k as u64);
@@ -991,6 +1005,7 @@ mod tests {
             embed_video: None,
             extra_keyframes: Vec::new(),
             engine: Engine::Embedded,
+            randomise: crate::render::randomise::Randomise::default(),
         }
     }
 
