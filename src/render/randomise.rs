@@ -151,7 +151,7 @@ impl Randomise {
         {
             return;
         }
-        let mut rng = ChaCha8Rng::seed_from_u64(hash2(stage.seed, 0x7177e5));
+        let mut rng = ChaCha8Rng::seed_from_u64(hash2(stage.seed, 0x0071_77e5));
         let mut draw = || ColourJitter::draw(self, &mut rng);
         let (top, bottom, shoes, props, floor, surround) =
             (draw(), draw(), draw(), draw(), draw(), draw());
@@ -359,32 +359,27 @@ mod tests {
 
     #[test]
     fn bad_ranges_are_named() {
-        let mut r = Randomise::default();
-        r.sensor_noise = [0.02, 0.01];
-        assert_eq!(r.validate().unwrap_err().key, "sensor_noise");
-        let mut r = Randomise::default();
-        r.motion_blur = [0.0, 1.5];
-        assert_eq!(r.validate().unwrap_err().key, "motion_blur");
-        let mut r = Randomise::default();
-        r.crf = Some([30, 20]);
-        assert_eq!(r.validate().unwrap_err().key, "crf");
-        let mut r = Randomise::default();
-        r.hue_jitter_deg = f64::NAN;
-        assert!(
-            r.validate()
-                .unwrap_err()
-                .to_string()
-                .starts_with("randomise.hue_jitter_deg")
-        );
+        let with = |f: fn(&mut Randomise)| {
+            let mut r = Randomise::default();
+            f(&mut r);
+            r.validate().unwrap_err()
+        };
+        assert_eq!(with(|r| r.sensor_noise = [0.02, 0.01]).key, "sensor_noise");
+        assert_eq!(with(|r| r.motion_blur = [0.0, 1.5]).key, "motion_blur");
+        assert_eq!(with(|r| r.crf = Some([30, 20])).key, "crf");
+        let nan = with(|r| r.hue_jitter_deg = f64::NAN).to_string();
+        assert!(nan.starts_with("randomise.hue_jitter_deg"), "{nan}");
         assert!(Randomise::default().validate().is_ok());
         assert!(Randomise::off().validate().is_ok());
     }
 
     #[test]
     fn the_crf_is_drawn_in_its_range_per_video_and_reproducibly() {
-        let mut r = Randomise::default();
-        assert_eq!(r.video_crf(23, 7), 23);
-        r.crf = Some([18, 30]);
+        assert_eq!(Randomise::default().video_crf(23, 7), 23);
+        let r = Randomise {
+            crf: Some([18, 30]),
+            ..Randomise::default()
+        };
         let crfs: Vec<u8> = (0..64).map(|k| r.video_crf(23, k)).collect();
         assert!(crfs.iter().all(|c| (18..=30).contains(c)));
         assert!(crfs.iter().collect::<std::collections::BTreeSet<_>>().len() > 6);
