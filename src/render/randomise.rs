@@ -34,7 +34,7 @@ pub struct Randomise {
     pub saturation_jitter: f64,
     /// Largest relative change of their brightness (±this).
     pub brightness_jitter: f64,
-    /// Camera sensor noise: the standard deviation of a per-pixel, per-channel noise, as a
+    /// Camera sensor noise: the standard deviation of a per-pixel, per-channel Gaussian noise, as a
     /// fraction of the full 8-bit scale, drawn per scene uniformly in `[min, max]`.
     pub sensor_noise: [f64; 2],
     /// Motion blur: the weight of the previous frame's picture in a frame, drawn per scene
@@ -280,7 +280,7 @@ pub struct ImageEffects {
     previous: Vec<u8>,
     current: Vec<u8>,
     noise_bytes: Vec<u8>,
-    /// Noise offset (8-bit units) by the sum of two noise bytes, for the scene's sigma.
+    /// Noise offset (8-bit units) by noise byte, for the scene's sigma.
     noise_table: Vec<i16>,
 }
 
@@ -323,11 +323,11 @@ impl ImageEffects {
             std::mem::swap(&mut self.previous, &mut self.current);
         }
         if effects.noise_sigma > 0.0 {
-            self.noise_bytes.resize(2 * rgb.len(), 0);
+            self.noise_bytes.resize(rgb.len(), 0);
             ChaCha8Rng::seed_from_u64(hash2(scene_seed ^ 0x0153, k))
                 .fill_bytes(&mut self.noise_bytes);
-            for (v, n) in rgb.iter_mut().zip(self.noise_bytes.chunks_exact(2)) {
-                let offset = self.noise_table[usize::from(n[0]) + usize::from(n[1])];
+            for (v, &n) in rgb.iter_mut().zip(&self.noise_bytes) {
+                let offset = self.noise_table[usize::from(n)];
                 *v = (i16::from(*v) + offset).clamp(0, 255) as u8;
             }
         }
@@ -343,14 +343,62 @@ fn blend(out: &mut [u8], previous: &[u8], w: f32) {
     }
 }
 
-/// The noise offset for every sum of two uniform bytes (0..=510): a triangular distribution
-/// (the sum of two uniforms) scaled to standard deviation `sigma` of full scale, rounded.
+/// The noise offset (8-bit units) for every uniform noise byte: the normal distribution's
+/// quantile at the byte's midpoint, `(b + ½) / 256`, times `sigma` of full scale, rounded — a
+/// Gaussian noise from one byte per channel.
 fn noise_table(sigma: f32) -> Vec<i16> {
-    // (a + b − 255) / 255 for two uniform bytes has standard deviation 1/√6.
-    let scale = sigma * 6f32.sqrt();
-    (0..=510)
-        .map(|s: i32| ((s - 255) as f32 * scale).round() as i16)
+    let scale = f64::from(sigma) * 255.0;
+    (0..256)
+        .map(|b: i32| (normal_quantile((f64::from(b) + 0.5) / 256.0) * scale).round() as i16)
         .collect()
+}
+
+/// The standard normal distribution's quantile at `p` in (0, 1) (Acklam's rational
+/// approximation, relative error under 1.2e-9).
+fn normal_quantile(p: f64) -> f64 {
+    const A: [f64; 6] = [
+        -3.969_683_028_665_376e1,
+        2.209_460_984_245_205e2,
+        -2.759_285_104_469_687e2,
+        1.383_577_518_672_69e2,
+        -3.066_479_806_614_716e1,
+        2.506_628_277_459_239,
+    ];
+    const B: [f64; 5] = [
+        -5.447_609_879_822_406e1,
+        1.615_858_368_580_409e2,
+        -1.556_989_798_598_866e2,
+        6.680_131_188_771_972e1,
+        -1.328_068_155_288_572e1,
+    ];
+    const C: [f64; 6] = [
+        -7.784_894_002_430_293e-3,
+        -3.223_964_580_411_365e-1,
+        -2.400_758_277_161_838,
+        -2.549_732_539_343_734,
+        4.374_664_141_464_968,
+        2.938_163_982_698_783,
+    ];
+    const D: [f64; 4] = [
+        7.784_695_709_041_462e-3,
+        3.224_671_290_700_398e-1,
+        2.445_134_137_142_996,
+        3.754_408_661_907_416,
+    ];
+    let tail = |q: f64| {
+        (((((C[0] * q + C[1]) * q + C[2]) * q + C[3]) * q + C[4]) * q + C[5])
+            / ((((D[0] * q + D[1]) * q + D[2]) * q + D[3]) * q + 1.0)
+    };
+    if p < 0.024_25 {
+        tail((-2.0 * p.ln()).sqrt())
+    } else if p > 1.0 - 0.024_25 {
+        -tail((-2.0 * (1.0 - p).ln()).sqrt())
+    } else {
+        let q = p - 0.5;
+        let r = q * q;
+        (((((A[0] * r + A[1]) * r + A[2]) * r + A[3]) * r + A[4]) * r + A[5]) * q
+            / (((((B[0] * r + B[1]) * r + B[2]) * r + B[3]) * r + B[4]) * r + 1.0)
+    }
 }
 
 #[cfg(test)]
@@ -401,6 +449,13 @@ mod tests {
         // A third of a turn takes red to green.
         let red = j.apply([0.6, 0.2, 0.2]);
         assert!(red[1] > red[0] && red[1] > red[2], "{red:?}");
+    }
+
+    #[test]
+    fn the_normal_quantile_is_right() {
+        assert!(normal_quantile(0.5).abs() < 1e-9);
+        assert!((normal_quantile(0.975) - 1.959_964).abs() < 1e-5);
+        assert!((normal_quantile(0.001) + 3.090_232).abs() < 1e-5);
     }
 
     #[test]
