@@ -1486,7 +1486,7 @@ fn arm(sk: &Skeleton<'_>, dims: &Dims, side: Side) -> Result<PartBuilder, BodyMe
     // A wide shoulder blend rounds the shoulder when the arm hangs down.
     .with_blend(1, SHOULDER_BLEND);
     let hand_scale = sk.scale(hand).abs();
-    // The mitten's centre line lies between the index and pinky knuckles.
+    // The palm's centre line lies between the index and pinky knuckles.
     let palm_offset = Vector3::new(
         0.0,
         0.5 * (sk.head(index0).y + sk.head(pinky0).y) - sk.head(hand).y,

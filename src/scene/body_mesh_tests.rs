@@ -919,8 +919,8 @@ fn curled_fingers_are_drawn_where_their_bones_put_the_fingertips() {
             let tip_at_rest = fk::landmark_position(&rig, &c, &rest, l).coords;
             // The curl moves the tip (so the check below is not vacuous)...
             assert!((tip - tip_at_rest).norm() > 0.03, "{side}_{finger}");
-            // ...and the body's surface is there: a mitten following the fingers' first bones
-            // leaves curled tips 2–4 cm off it.
+            // ...and the body's surface is there (a mitten following only the fingers' first
+            // bones is not: the curl of the second and third bones carries the tips off it).
             let nearest = p
                 .iter()
                 .map(|q| (v3(q) - tip).norm())
