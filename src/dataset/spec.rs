@@ -15,6 +15,7 @@ use super::clips::{ClipPolicy, ClipsSection};
 use crate::camera::{CameraError, RcmRanges, Shot};
 use crate::dsi::plan::{Threshold, ThresholdError};
 use crate::dsi::variants::{VariationBounds, VariationBoundsError};
+use crate::render::randomise::Randomise;
 use crate::scene::{SceneConfig, SceneError};
 
 /// What is wrong with a spec.
@@ -374,6 +375,9 @@ pub struct SpecFile {
     /// How `trim` cuts segments into clips (see [`crate::dataset::clips`]).
     #[serde(default)]
     pub clips: ClipsSection,
+    /// Domain randomisation of the rendered pictures (see [`crate::render::randomise`]).
+    #[serde(default, skip_serializing_if = "Randomise::is_default")]
+    pub randomise: Randomise,
     /// The classes.
     #[serde(rename = "class")]
     pub classes: Vec<ClassSpec>,
@@ -446,6 +450,9 @@ impl Spec {
         check.counts(&file.counts)?;
         let (threshold, variation) = check.dsi(&file.dsi)?;
         check.scene_and_camera(&file.scene, &file.camera)?;
+        file.randomise
+            .validate()
+            .map_err(|e| check.invalid(&format!("randomise.{}", e.key), e.message))?;
         let sources = check.classes(&file)?;
         let mut labels: Vec<String> = file.classes.iter().map(|c| c.action.clone()).collect();
         labels.sort();
@@ -782,6 +789,23 @@ mod tests {
         assert_eq!(iso_8601(toml.start_nanos), "2024-05-01T09:00:00.250Z");
         let text = parse("start_time = \"2024-05-01T11:00:00.25+02:00\"").unwrap();
         assert_eq!(text.start_nanos, toml.start_nanos);
+    }
+
+    #[test]
+    fn randomise_has_defaults_and_bad_ranges_name_the_file_and_key() {
+        let spec = parse("").unwrap();
+        assert_eq!(spec.file.randomise, Randomise::default());
+        let text = "[dataset]\nname = \"t\"\nseed = 1\n[randomise]\nsensor_noise = [0.05, 0.01]\n[[class]]\ncategory = \"g\"\naction = \"wave\"\nsources = []\n";
+        let err = Spec::parse(Path::new("/x/spec.toml"), text)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("/x/spec.toml"), "{err}");
+        assert!(err.contains("randomise.sensor_noise"), "{err}");
+        let typo = text.replace("sensor_noise", "sensor_nois");
+        let err = Spec::parse(Path::new("/x/spec.toml"), &typo)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("sensor_nois"), "{err}");
     }
 
     #[test]

@@ -686,10 +686,18 @@ impl Run<'_> {
             height,
             fps: r.fps,
             limit: None,
-            crf: r.crf,
+            // `[randomise] crf` draws each capture's CRF, keyed by the seed and its session.
+            crf: self.spec.file.randomise.video_crf(
+                r.crf,
+                crate::hash::hash2(
+                    self.spec.file.dataset.seed,
+                    crate::dataset::plan::stream_of(&capture.session),
+                ),
+            ),
             preset: r.preset.clone(),
             gop_frames: r.gop_frames,
             embed_video: None,
+            randomise: self.spec.file.randomise.clone(),
             engine: r.engine(self.spec.file.dataset.engine),
             extra_keyframes: self.clip_starts(capture),
         };

@@ -316,3 +316,143 @@ fn tops_come_plain_striped_or_two_tone_and_fabrics_have_grain() {
         "plain, two-tone, striped: {seen:?}"
     );
 }
+
+/// Renders `stage`'s character at rest from `eye` looking at `target`, at 160×120, at `time_s`.
+fn render_view(stage: &Stage, eye: Point3<f64>, target: Point3<f64>) -> (Image, Camera) {
+    let camera = Camera {
+        world_from_optical: CameraPose::looking_at(eye, target).isometry_world_from_optical(),
+        intrinsics: Intrinsics::from_horizontal_fov(160, 120, 70.0).expect("a valid lens"),
+    };
+    let input = FrameInput {
+        camera,
+        pose: &stage.rest_pose,
+        time_s: 0.0,
+    };
+    let mut image = Image::default();
+    CpuRenderer::new().render(stage, &input, &mut image);
+    (image, camera)
+}
+
+/// Mean sRGB colour (0–1) of the pixels showing `surface`, and how many there are.
+fn mean_colour_of(image: &Image, surface: Surface) -> ([f64; 3], usize) {
+    let mut sum = [0.0; 3];
+    let mut n = 0;
+    for (p, &s) in image.rgb.chunks_exact(3).zip(&image.surface) {
+        if s == surface as u8 {
+            for c in 0..3 {
+                sum[c] += f64::from(p[c]) / 255.0;
+            }
+            n += 1;
+        }
+    }
+    (sum.map(|v| v / n.max(1) as f64), n)
+}
+
+#[test]
+fn backdrops_of_one_location_vary_between_scenes_and_repeat_for_one_seed() {
+    let rig = Rig::standard();
+    for (location, eye, target) in [
+        ("open_field", [0.0, -5.0, 1.6], [0.0, 200.0, 30.0]),
+        ("swimming_pool", [0.0, -3.0, 1.6], [0.0, 30.0, 5.0]),
+        ("street", [0.0, -3.0, 1.6], [0.0, 60.0, 15.0]),
+        ("office", [0.0, -3.0, 1.6], [0.0, 10.0, 1.5]),
+    ] {
+        // One location instance (same props, same placement), different scene seeds.
+        let scene = scene_at(location, Weather::Clear, ClockTime::NOON, 1);
+        let (eye, target) = (Point3::from(eye), Point3::from(target));
+        let means: Vec<[f64; 3]> = (0..8u64)
+            .map(|seed| {
+                let stage = Stage::new(&rig, &scene, seed, 0);
+                let (image, _) = render_view(&stage, eye, target);
+                let (mean, n) = mean_colour_of(&image, Surface::Backdrop);
+                assert!(n > 500, "{location}: only {n} backdrop pixels");
+                mean
+            })
+            .collect();
+        // The backdrop's palette (a season, a facade, a wall paint) is drawn per scene: its
+        // average colour differs between scenes, not only its layout.
+        let spread = means
+            .iter()
+            .flat_map(|a| {
+                means
+                    .iter()
+                    .map(move |b| (0..3).map(|c| (a[c] - b[c]).abs()).sum::<f64>())
+            })
+            .fold(0.0, f64::max);
+        assert!(spread > 0.3, "{location}: backdrop colours {means:.3?}");
+        // The same seed gives the same picture.
+        let stage = Stage::new(&rig, &scene, 3, 0);
+        assert_eq!(
+            render_view(&stage, eye, target).0,
+            render_view(&Stage::new(&rig, &scene, 3, 0), eye, target).0
+        );
+    }
+    // Two scenes of one location drawn from two seeds (character, props, backdrop) differ
+    // measurably over the whole picture.
+    let (eye, target) = (Point3::new(-2.0, -4.0, 1.6), Point3::new(0.0, 4.0, 1.0));
+    let frame = |seed| {
+        let scene = scene_at("tennis_court", Weather::Clear, ClockTime::NOON, seed);
+        render_view(&Stage::new(&rig, &scene, seed, 0), eye, target).0
+    };
+    let (a, b) = (frame(11), frame(12));
+    let mean_abs = a
+        .rgb
+        .iter()
+        .zip(&b.rgb)
+        .map(|(&x, &y)| f64::from(x.abs_diff(y)))
+        .sum::<f64>()
+        / a.rgb.len() as f64;
+    assert!(mean_abs > 8.0, "mean difference {mean_abs:.1} of 255");
+    assert_eq!(frame(11), a);
+}
+
+#[test]
+fn randomisation_changes_the_picture_but_not_the_labels() {
+    use super::annotate::{SURFACE_LANDMARKS, annotate};
+    use super::randomise::{ImageEffects, Randomise};
+    use crate::skeleton::fk::landmark_position;
+    let rig = Rig::standard();
+    let scene = scene_at("street", Weather::Clear, ClockTime::NOON, 3);
+    let character = scene.look.character(&rig);
+    let plain = Stage::new(&rig, &scene, 7, 0);
+    let mut jittered = plain.clone();
+    Randomise::default().jitter_stage(&mut jittered);
+    let mut again = plain.clone();
+    Randomise::default().jitter_stage(&mut again);
+    assert_eq!(
+        jittered.body_vertex_albedo, again.body_vertex_albedo,
+        "reproducible"
+    );
+    assert_eq!(jittered.world, again.world, "reproducible");
+    let (eye, target) = (Point3::new(-1.5, -3.0, 1.5), Point3::new(0.0, 0.0, 1.0));
+    let (a, camera) = render_view(&plain, eye, target);
+    let (b, _) = render_view(&jittered, eye, target);
+    let landmarks: Vec<_> = (0..rig.landmarks.len())
+        .map(|l| landmark_position(&rig, &character, &plain.rest_pose, l))
+        .collect();
+    let surface: Vec<bool> = rig
+        .landmarks
+        .iter()
+        .map(|l| SURFACE_LANDMARKS.contains(&l.name.as_str()))
+        .collect();
+    let labels = |image: &Image| annotate(&plain.rest_pose, &landmarks, &surface, &camera, image);
+    // Colour jitter: another picture, the same depth, surfaces and labels.
+    assert_ne!(a.rgb, b.rgb);
+    assert_eq!((&a.depth, &a.surface), (&b.depth, &b.surface));
+    assert_eq!(labels(&a), labels(&b));
+    assert!(labels(&a).bbox.is_some(), "the character is in view");
+    // Noise and blur: the picture changes, its labels do not.
+    let effects = Randomise {
+        sensor_noise: [0.01, 0.01],
+        motion_blur: [0.3, 0.3],
+        ..Randomise::default()
+    };
+    let mut fx = ImageEffects::new(&effects);
+    let mut first = a.clone();
+    fx.apply(0, plain.seed, true, &mut first.rgb);
+    let mut second = b.clone();
+    fx.apply(1, plain.seed, false, &mut second.rgb);
+    assert_ne!(second.rgb, b.rgb);
+    assert_eq!(labels(&second), labels(&b));
+    assert_eq!(labels(&first), labels(&a));
+}

@@ -15,6 +15,7 @@ pub mod blender;
 pub mod cpu;
 pub mod job;
 pub mod passes;
+pub mod randomise;
 pub(crate) mod raster;
 pub mod session;
 pub mod world;

@@ -136,6 +136,9 @@ pub struct RenderSettings {
     pub extra_keyframes: Vec<u64>,
     /// Which engine draws the frames (the labels are the same for every engine).
     pub engine: Engine,
+    /// Domain randomisation: colour jitter, sensor noise, motion blur
+    /// ([`super::randomise`]; the CRF is `crf`, drawn by the caller).
+    pub randomise: super::randomise::Randomise,
 }
 
 /// Where to write.
@@ -454,6 +457,8 @@ struct Plan<'a> {
     fps: f64,
     /// The render's frame index of `samples[0]`: 0, or where a piece starts ([`pieces`]).
     first: usize,
+    /// The image effects to apply in output order.
+    randomise: super::randomise::Randomise,
 }
 
 impl<'a> Plan<'a> {
@@ -471,6 +476,7 @@ impl<'a> Plan<'a> {
             fps: settings.fps.unwrap_or(capture.fps),
             samples,
             first: 0,
+            randomise: settings.randomise.clone(),
         })
     }
 
@@ -494,6 +500,7 @@ impl<'a> Plan<'a> {
                 .collect(),
             fps: self.fps,
             first: self.first + range.start,
+            randomise: self.randomise.clone(),
         }
     }
 }
@@ -522,7 +529,11 @@ impl<'a> Scenes<'a> {
             .scenes
             .par_iter()
             .enumerate()
-            .map(|(i, s)| Stage::new(rig, &s.scene, s.stream, i as u64))
+            .map(|(i, s)| {
+                let mut stage = Stage::new(rig, &s.scene, s.stream, i as u64);
+                settings.randomise.jitter_stage(&mut stage);
+                stage
+            })
             .collect();
         let characters = capture
             .scenes
@@ -826,12 +837,13 @@ fn render_in_order(
         });
         let mut consume = || -> Result<(), RenderError> {
             let mut k = 0usize;
+            let mut effects = super::randomise::ImageEffects::new(&plan.randomise);
             for frames in &receiver {
                 for frame in frames {
                     if stop.load(Ordering::Relaxed) {
                         return Err(RenderError::Interrupted);
                     }
-                    let frame = match blender {
+                    let mut frame = match blender {
                         // Blender's picture and passes, the embedded geometry's labels.
                         Some(b) => {
                             let (rgb, passes) = b.frame(k)?;
@@ -843,6 +855,11 @@ fn render_in_order(
                         }
                         None => frame,
                     };
+                    let cut = plan.keyframes.binary_search(&(k as u64)).is_ok();
+                    let seed = scenes.stages[plan.samples[k].scene].seed;
+                    // The render's own frame index, not the piece's: a render made in pieces
+                    // draws the same noise as one made whole.
+                    effects.apply((plan.first + k) as u64, seed, cut, &mut frame.rgb);
                     sinks.take(k, frame, plan, scenes.capture)?;
                     k += 1;
                     progress((plan.first + k) as u64);
@@ -1039,6 +1056,7 @@ mod tests {
             embed_video: None,
             extra_keyframes: Vec::new(),
             engine: Engine::Embedded,
+            randomise: crate::render::randomise::Randomise::default(),
         }
     }
 

@@ -956,6 +956,16 @@ impl GroundTexture {
         GroundTexture { tile_m, levels }
     }
 
+    /// Changes every texel of every level by `f` (linear in the colour, so the mip levels stay
+    /// the averages of the tile).
+    pub fn map_texels(&mut self, f: impl Fn(Rgb) -> Rgb) {
+        for level in &mut self.levels {
+            for t in level.iter_mut() {
+                *t = f(*t);
+            }
+        }
+    }
+
     /// The full-size tile: its side in texels and its texels (linear RGB), row-major, row `v`
     /// covering `y ∈ [v, v + 1) · tile_m / side` (for engines that sample it themselves).
     #[must_use]
@@ -1124,29 +1134,93 @@ impl BackdropDraws {
     }
 }
 
-/// The backdrop around a floor of half size `half`, laid out by `seed`.
+/// The backdrop around a floor of half size `half`, laid out by `seed`: which of its kind's
+/// palettes (a season for hills and trees, a facade material for buildings, a wall paint for a
+/// room) and how many hills, trees or buildings are drawn per scene, so that two scenes of one
+/// location do not look alike.
 fn build_backdrop(location: &LocationInstance, half: [f32; 2], seed: u64) -> Mesh {
     let mut backdrop = Mesh::default();
     let mut draws = BackdropDraws { seed, drawn: 0 };
+    let palette = |draws: &mut BackdropDraws, n: usize| {
+        let k = (draws.next() * n as f32) as usize;
+        k.min(n - 1)
+    };
     match location.backdrop {
-        Backdrop::Hills => add_hills(&mut backdrop, &mut draws),
-        Backdrop::Trees => add_tree_line(&mut backdrop, &mut draws, half),
-        Backdrop::CityBlocks => add_city_blocks(&mut backdrop, &mut draws, half),
-        Backdrop::Walls => add_room(&mut backdrop, &mut draws, location, half),
+        Backdrop::Hills => {
+            let season = SEASONS[palette(&mut draws, SEASONS.len())];
+            add_hills(&mut backdrop, &mut draws, season);
+        }
+        Backdrop::Trees => {
+            let season = SEASONS[palette(&mut draws, SEASONS.len())];
+            add_tree_line(&mut backdrop, &mut draws, half, season);
+        }
+        Backdrop::CityBlocks => {
+            let facade = FACADES[palette(&mut draws, FACADES.len())];
+            add_city_blocks(&mut backdrop, &mut draws, half, facade);
+        }
+        Backdrop::Walls => {
+            let paint = WALL_PAINTS[palette(&mut draws, WALL_PAINTS.len())];
+            add_room(&mut backdrop, &mut draws, location, half, paint);
+        }
         Backdrop::Sea | Backdrop::Sky => {}
     }
     backdrop
 }
 
-/// Fourteen hills in a ring 180–340 m out.
-fn add_hills(m: &mut Mesh, draws: &mut BackdropDraws) {
+/// A season's vegetation, sRGB: two ends of the hills' colours and of the tree crowns'.
+#[derive(Debug, Clone, Copy)]
+struct Season {
+    hills: [[f32; 3]; 2],
+    crowns: [[f32; 3]; 2],
+}
+
+/// Spring, summer, a dry summer and autumn.
+const SEASONS: [Season; 4] = [
+    Season {
+        hills: [[0.3, 0.48, 0.2], [0.42, 0.52, 0.28]],
+        crowns: [[0.2, 0.42, 0.14], [0.32, 0.5, 0.2]],
+    },
+    Season {
+        hills: [[0.25, 0.38, 0.18], [0.45, 0.42, 0.3]],
+        crowns: [[0.12, 0.3, 0.1], [0.22, 0.4, 0.15]],
+    },
+    Season {
+        hills: [[0.55, 0.5, 0.32], [0.66, 0.58, 0.38]],
+        crowns: [[0.3, 0.36, 0.16], [0.42, 0.42, 0.2]],
+    },
+    Season {
+        hills: [[0.45, 0.36, 0.2], [0.55, 0.42, 0.24]],
+        crowns: [[0.6, 0.3, 0.08], [0.75, 0.55, 0.15]],
+    },
+];
+
+/// Buildings' facades, sRGB ends: concrete, brick, sandstone, blue glass.
+const FACADES: [[[f32; 3]; 2]; 4] = [
+    [[0.55, 0.53, 0.5], [0.7, 0.68, 0.64]],
+    [[0.45, 0.24, 0.17], [0.6, 0.33, 0.24]],
+    [[0.72, 0.62, 0.46], [0.82, 0.72, 0.55]],
+    [[0.3, 0.4, 0.5], [0.42, 0.52, 0.6]],
+];
+
+/// A room's wall paints, sRGB ends: white, beige, pale blue, pale green, grey.
+const WALL_PAINTS: [[[f32; 3]; 2]; 5] = [
+    [[0.85, 0.84, 0.8], [0.9, 0.88, 0.85]],
+    [[0.8, 0.72, 0.6], [0.85, 0.78, 0.66]],
+    [[0.65, 0.74, 0.82], [0.72, 0.8, 0.86]],
+    [[0.68, 0.78, 0.66], [0.74, 0.82, 0.72]],
+    [[0.55, 0.56, 0.58], [0.62, 0.63, 0.64]],
+];
+
+/// Ten to eighteen hills in a ring 180–340 m out, in the season's colours.
+fn add_hills(m: &mut Mesh, draws: &mut BackdropDraws, season: Season) {
     let tau = std::f32::consts::TAU;
     let at0 = Place::new([0.0, 0.0, 0.0], 0.0);
-    for k in 0..14 {
-        let a = tau * (k as f32 + draws.next()) / 14.0;
+    let count = 10 + (draws.next() * 9.0) as usize;
+    for k in 0..count {
+        let a = tau * (k as f32 + draws.next()) / count as f32;
         let r = 180.0 + 160.0 * draws.next();
         let (w, h) = (70.0 + 80.0 * draws.next(), 25.0 + 45.0 * draws.next());
-        let c = srgb(mix([0.25, 0.38, 0.18], [0.45, 0.42, 0.3], draws.next()));
+        let c = srgb(mix(season.hills[0], season.hills[1], draws.next()));
         let xy = [r * a.cos(), r * a.sin()];
         add_lathe(
             m,
@@ -1159,35 +1233,39 @@ fn add_hills(m: &mut Mesh, draws: &mut BackdropDraws) {
     }
 }
 
-/// A ring of 48 trees just beyond the floor (of half size `half`).
-fn add_tree_line(m: &mut Mesh, draws: &mut BackdropDraws, half: [f32; 2]) {
+/// A ring of 32 to 60 trees just beyond the floor (of half size `half`), in the season's
+/// colours.
+fn add_tree_line(m: &mut Mesh, draws: &mut BackdropDraws, half: [f32; 2], season: Season) {
     let tau = std::f32::consts::TAU;
     let at0 = Place::new([0.0, 0.0, 0.0], 0.0);
-    for k in 0..48 {
-        let a = tau * (k as f32 + 0.8 * draws.next()) / 48.0;
+    let count = 32 + (draws.next() * 29.0) as usize;
+    for k in 0..count {
+        let a = tau * (k as f32 + 0.8 * draws.next()) / count as f32;
         let r = half[0].max(half[1]) + 8.0 + 20.0 * draws.next();
         let h = 6.0 + 8.0 * draws.next();
         let xy = [r * a.cos(), r * a.sin()];
         let bark = srgb([0.3, 0.2, 0.12]);
         cylinder(m, at0, xy, 0.25, 0.0, h * 0.4, 5, bark);
-        let c = srgb(mix([0.12, 0.3, 0.1], [0.22, 0.4, 0.15], draws.next()));
+        let c = srgb(mix(season.crowns[0], season.crowns[1], draws.next()));
         let crown = [(h * 0.3, h * 0.3), (h * 0.22, h * 0.65), (0.0, h)];
         add_lathe(m, at0, xy, &crown, 7, c);
     }
 }
 
-/// A ring of 28 buildings with bands of windows beyond the floor (of half size `half`).
-fn add_city_blocks(m: &mut Mesh, draws: &mut BackdropDraws, half: [f32; 2]) {
+/// A ring of 20 to 34 buildings with bands of windows beyond the floor (of half size `half`),
+/// of the facade's colours.
+fn add_city_blocks(m: &mut Mesh, draws: &mut BackdropDraws, half: [f32; 2], facade: [[f32; 3]; 2]) {
     let tau = std::f32::consts::TAU;
-    for k in 0..28 {
-        let a = tau * (k as f32 + 0.5 * draws.next()) / 28.0;
+    let count = 20 + (draws.next() * 15.0) as usize;
+    for k in 0..count {
+        let a = tau * (k as f32 + 0.5 * draws.next()) / count as f32;
         let r = half[0].max(half[1]) + 25.0 + 40.0 * draws.next();
         let (w, d, h) = (
             14.0 + 14.0 * draws.next(),
             12.0 + 10.0 * draws.next(),
             10.0 + 50.0 * draws.next(),
         );
-        let c = srgb(mix([0.55, 0.53, 0.5], [0.7, 0.62, 0.52], draws.next()));
+        let c = srgb(mix(facade[0], facade[1], draws.next()));
         let block = Place::new([r * a.cos(), r * a.sin(), 0.0], a);
         add_block(m, block, [0.0, 0.0], [d, w, h], 0.0, c);
         // A darker band of windows on every other floor group.
@@ -1201,11 +1279,18 @@ fn add_city_blocks(m: &mut Mesh, draws: &mut BackdropDraws, half: [f32; 2]) {
     }
 }
 
-/// A room's four walls, ceiling and ceiling lights around the floor (of half size `half`).
-fn add_room(m: &mut Mesh, draws: &mut BackdropDraws, location: &LocationInstance, half: [f32; 2]) {
+/// A room's four walls (in the paint's colours), ceiling and ceiling lights around the floor
+/// (of half size `half`).
+fn add_room(
+    m: &mut Mesh,
+    draws: &mut BackdropDraws,
+    location: &LocationInstance,
+    half: [f32; 2],
+    paint: [[f32; 3]; 2],
+) {
     let at0 = Place::new([0.0, 0.0, 0.0], 0.0);
     let height = (location.size_m[0].min(location.size_m[1]) as f32 * 0.35).clamp(3.0, 9.0);
-    let wall = srgb(mix([0.82, 0.8, 0.76], [0.7, 0.74, 0.78], draws.next()));
+    let wall = srgb(mix(paint[0], paint[1], draws.next()));
     let (hx, hy, t) = (half[0] + 0.2, half[1] + 0.2, 0.2);
     // Four walls and a ceiling as boxes seen from inside: draw inverted boxes.
     for (lo, hi) in [

@@ -9,10 +9,13 @@
 //! - `head`: an ellipsoid (scaled by the head bone's scale) with a nose, face skin and a hair
 //!   cap on the top and back; `l_eye`, `r_eye` (dark) and `l_ear`, `r_ear` (skin): small
 //!   ellipsoids on the head where the rays from its centre through the rig's eye and ear
-//!   landmarks (COCO's face keypoints) meet it; `hair`: a hair mass down the back, only for
-//!   long hair;
+//!   landmarks (COCO's face keypoints) meet it; the hair in one of [`HairStyle`]'s cuts (the
+//!   cap's hairline on the head, and `hair` — a mass down the back for long hair —, `ponytail`
+//!   or `bun`);
 //! - `l_arm`, `r_arm`: one tube each from inside the chest along clavicle, upper arm, forearm
-//!   and hand, flattening into a mitten that ends at the middle fingertip; `l_thumb`, `r_thumb`;
+//!   and hand, flattening into a palm that ends just past the knuckles; `l_thumb`, `r_thumb`
+//!   and `l_index` … `r_pinky`: a tube per finger along the rig's three bones of that finger,
+//!   so a curled or spread finger is drawn where its bones (and its landmarks) are;
 //! - `l_leg`, `r_leg`: one tube each from inside the pelvis along thigh and calf to the ankle;
 //! - `l_shoe`, `r_shoe`: flat-soled shoes along the feet.
 //!
@@ -23,7 +26,8 @@
 //! Lengths come from the character's rest skeleton; widths scale with its stature (the head
 //! with its head bone, hands and feet with theirs) and with [`BodyShape::girth_scale`].
 //!
-//! The standard adult has 2,904 triangles and 1,559 vertices; long hair adds 80 triangles.
+//! The standard adult has 3,208 triangles and 1,727 vertices; long hair adds 80 triangles, a
+//! ponytail or a bun 64.
 //! Every body stays under [`MAX_TRIANGLES`].
 //!
 //! # Conventions
@@ -51,7 +55,7 @@ use crate::skeleton::fk::{self, BonePose, WorldPose};
 use crate::skeleton::rig::Rig;
 
 /// The most triangles a body can have (the renderer's budget).
-pub const MAX_TRIANGLES: usize = 3_000;
+pub const MAX_TRIANGLES: usize = 3_400;
 
 /// Blend fraction at the shoulder (clavicle | upper arm), wider than elsewhere so that the
 /// shoulder stays round when the arm hangs down.
@@ -143,8 +147,68 @@ pub struct BodyShape {
     /// Extra forward depth of the chest (bust), metres for the standard height.
     pub bust_depth_m: f64,
     /// How far the hair falls below the bottom of the head at the back, metres for the
-    /// standard head (0 = short hair: a cap above the ears and nape).
+    /// standard head (0 = short hair: a cap above the ears and nape); only for
+    /// [`HairStyle::Long`].
     pub hair_length_m: f64,
+    /// The cut.
+    pub hair_style: HairStyle,
+}
+
+/// A character's haircut.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum HairStyle {
+    /// A cap above the ears and the nape.
+    Short,
+    /// Down the back, [`BodyShape::hair_length_m`] below the head.
+    Long,
+    /// Pulled back into a tail from the back of the head.
+    Ponytail,
+    /// Pulled back into a bun at the back of the head.
+    Bun,
+    /// Bald on top, a fringe of hair round the sides and back.
+    Bald,
+}
+
+impl HairStyle {
+    /// Every style.
+    pub const ALL: [HairStyle; 5] = [
+        HairStyle::Short,
+        HairStyle::Long,
+        HairStyle::Ponytail,
+        HairStyle::Bun,
+        HairStyle::Bald,
+    ];
+
+    /// The style of a drawn look: a draw (keyed by the look's own drawn hair colour, age and
+    /// height, so the scene's seeded draw decides it and every engine and export agrees) from
+    /// weights by sex and age group — women and girls mostly long, ponytails and buns, older
+    /// women mostly short or a bun; men mostly short, older men often bald.
+    #[must_use]
+    pub fn of(look: &Look) -> HairStyle {
+        use HairStyle::{Bald, Bun, Long, Ponytail, Short};
+        let key = look.hair_rgb.iter().fold(
+            crate::hash::hash2(u64::from(look.age_years), look.height_m.to_bits()),
+            |h, c| crate::hash::hash2(h, u64::from(c.to_bits())),
+        );
+        let weights: &[(HairStyle, u32)] = match (look.sex, look.age_group) {
+            (Sex::Female, AgeGroup::Older) => &[(Short, 60), (Bun, 30), (Long, 10)],
+            (Sex::Female, _) => &[(Long, 40), (Ponytail, 25), (Bun, 15), (Short, 20)],
+            (Sex::Male, AgeGroup::Child) => &[(Short, 85), (Long, 15)],
+            (Sex::Male, AgeGroup::Adult) => {
+                &[(Short, 70), (Bald, 12), (Long, 8), (Ponytail, 5), (Bun, 5)]
+            }
+            (Sex::Male, AgeGroup::Older) => &[(Short, 55), (Bald, 45)],
+        };
+        let total: u32 = weights.iter().map(|w| w.1).sum();
+        let mut pick = (key % u64::from(total)) as u32;
+        for &(style, w) in weights {
+            if pick < w {
+                return style;
+            }
+            pick -= w;
+        }
+        Short
+    }
 }
 
 impl BodyShape {
@@ -158,18 +222,22 @@ impl BodyShape {
             chest_scale: 1.0,
             bust_depth_m: 0.0,
             hair_length_m: 0.0,
+            hair_style: HairStyle::Short,
         }
     }
 
     /// The shape for a drawn look: its girth, and (deterministically, from sex and age group)
-    /// wider hips, a narrower waist and chest, a bust and long hair for women and girls; a
-    /// shorter cut for older women; children's figures less marked.
+    /// wider hips, a narrower waist and chest and a bust for women and girls; children's
+    /// figures less marked; the haircut [`HairStyle::of`] the look (long hair longer for women
+    /// and girls than for men and older women).
     #[must_use]
     pub fn from_look(look: &Look) -> BodyShape {
         let mut shape = BodyShape {
             girth_scale: look.girth_scale(),
+            hair_style: HairStyle::of(look),
             ..BodyShape::standard()
         };
+        let mut long: f64 = 0.08;
         if look.sex == Sex::Female {
             let (hips, waist, chest, bust, hair) = match look.age_group {
                 AgeGroup::Child => (1.02, 0.97, 0.96, 0.0, 0.12),
@@ -180,7 +248,10 @@ impl BodyShape {
             shape.waist_scale = waist;
             shape.chest_scale = chest;
             shape.bust_depth_m = bust;
-            shape.hair_length_m = hair;
+            long = hair;
+        }
+        if shape.hair_style == HairStyle::Long {
+            shape.hair_length_m = long.max(0.06);
         }
         shape
     }
@@ -212,7 +283,8 @@ pub enum BodyMeshError {
 /// One closed surface of the body: a contiguous run of vertices and triangles.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct BodyPart {
-    /// `torso`, `head`, `l_eye`, `r_eye`, `l_ear`, `r_ear`, `hair`, `l_arm`, `r_arm`,
+    /// `torso`, `head`, `l_eye`, `r_eye`, `l_ear`, `r_ear`, `hair` / `ponytail` / `bun`,
+    /// `l_arm`, `r_arm`, the fingers (`l_index` … `r_pinky`),
     /// `l_thumb`, `r_thumb`, `l_leg`, `r_leg`, `l_shoe`, `r_shoe`.
     pub name: &'static str,
     /// Its vertices (indices into the per-vertex arrays).
@@ -345,12 +417,20 @@ impl BodyMesh {
             head(&skeleton, &dims, shape)?,
         ];
         parts.extend(face_features(&skeleton, &dims)?);
-        if shape.hair_length_m > 0.03 {
-            parts.push(long_hair(&skeleton, &dims, shape)?);
+        match shape.hair_style {
+            HairStyle::Long if shape.hair_length_m > 0.03 => {
+                parts.push(long_hair(&skeleton, &dims, shape)?);
+            }
+            HairStyle::Ponytail => parts.push(ponytail(&skeleton, &dims)?),
+            HairStyle::Bun => parts.push(bun(&skeleton, &dims)?),
+            _ => {}
         }
         for side in [Side::Left, Side::Right] {
             parts.push(arm(&skeleton, &dims, side)?);
             parts.push(thumb(&skeleton, side)?);
+            for (finger, radius_m) in FINGERS {
+                parts.push(finger_part(&skeleton, side, finger, radius_m)?);
+            }
         }
         for side in [Side::Left, Side::Right] {
             parts.push(leg(&skeleton, &dims, side)?);
@@ -1073,7 +1153,18 @@ fn head(sk: &Skeleton<'_>, dims: &Dims, shape: &BodyShape) -> Result<PartBuilder
             }
         })
         .collect();
-    let hair = hairline(shape.hair_length_m / HEAD_SEMI_M[3]);
+    let hair = hairline(match shape.hair_style {
+        HairStyle::Long => shape.hair_length_m / HEAD_SEMI_M[3],
+        // Pulled back: the hair covers the nape a little lower than a short cut.
+        HairStyle::Ponytail | HairStyle::Bun => 0.1,
+        HairStyle::Short | HairStyle::Bald => 0.0,
+    });
+    // Bald: no hair above this height on the unit head (the crown), only the fringe below it.
+    let crown = if shape.hair_style == HairStyle::Bald {
+        0.4
+    } else {
+        f64::INFINITY
+    };
     let last_band = stations.len();
     let mut part = PartBuilder::new("head");
     part.tube(
@@ -1087,12 +1178,16 @@ fn head(sk: &Skeleton<'_>, dims: &Dims, shape: &BodyShape) -> Result<PartBuilder
                 return Material::Skin;
             }
             if band == last_band {
-                return Material::Hair;
+                return if crown.is_finite() {
+                    Material::Skin
+                } else {
+                    Material::Hair
+                };
             }
             let d = p - centre;
             let q = Vector3::new(d.x / ax, d.y / if d.y >= 0.0 { af } else { ab }, d.z / az);
             let q = q.try_normalize(1e-12).unwrap_or_else(Vector3::z);
-            if q.z > hair(q.y) {
+            if q.z > hair(q.y) && (q.z < crown && q.y < 0.2 || crown.is_infinite()) {
                 Material::Hair
             } else {
                 Material::Skin
@@ -1258,9 +1353,106 @@ fn long_hair(
     Ok(part)
 }
 
+/// A ponytail: a tube from the back of the head down behind the neck, moving with the head.
+fn ponytail(sk: &Skeleton<'_>, dims: &Dims) -> Result<PartBuilder, BodyMeshError> {
+    let hs = dims.head;
+    let centre = head_centre(sk, dims);
+    let head_bone = sk.index("head")?;
+    let root = centre + Vector3::new(0.0, -HEAD_SEMI_M[2] * 0.85, 0.02) * hs;
+    let end = centre + Vector3::new(0.0, -HEAD_SEMI_M[2] - 0.05, -0.2) * hs;
+    let chain = Chain::new(
+        vec![end, root],
+        vec![Influences::single(head_bone)],
+        None,
+        None,
+    );
+    let stations: Vec<Station> = [(0.08, 0.012), (0.35, 0.024), (0.65, 0.028), (0.9, 0.02)]
+        .iter()
+        .map(|&(c, r)| Station::oval(c, r * hs, r * hs))
+        .collect();
+    let mut part = PartBuilder::new("ponytail");
+    part.tube(
+        &chain,
+        &Vector3::y(),
+        &ellipse(HAIR_AROUND),
+        &stations,
+        [Pole::at(0.0), Pole::at(1.05)],
+        &|_, _| Material::Hair,
+    );
+    Ok(part)
+}
+
+/// A bun: a ball of hair at the back of the head, moving with it.
+fn bun(sk: &Skeleton<'_>, dims: &Dims) -> Result<PartBuilder, BodyMeshError> {
+    let hs = dims.head;
+    let centre = head_centre(sk, dims) + Vector3::new(0.0, -HEAD_SEMI_M[2] * 0.92, 0.035) * hs;
+    let semi = [0.038, 0.034, 0.034].map(|v| v * hs);
+    Ok(blob("bun", centre, semi, sk.index("head")?, Material::Hair))
+}
+
+/// The fingers besides the thumb, and each one's radius at its base for the standard hand,
+/// metres.
+const FINGERS: [(&str, f64); 4] = [
+    ("index", 0.0095),
+    ("middle", 0.0100),
+    ("ring", 0.0093),
+    ("pinky", 0.0080),
+];
+
+/// Ring resolution of a finger.
+const FINGER_AROUND: usize = 6;
+
+/// A finger (`index`, `middle`, `ring` or `pinky`): from inside the palm along its three bones
+/// to its tip, each ring on its own bone (blended at the joints), so it bends as its bones do.
+fn finger_part(
+    sk: &Skeleton<'_>,
+    side: Side,
+    finger: &str,
+    radius_m: f64,
+) -> Result<PartBuilder, BodyMeshError> {
+    let b = |name: &str| sk.index(&side.name(name));
+    let hand = b("hand")?;
+    let f = [
+        b(&format!("{finger}0"))?,
+        b(&format!("{finger}1"))?,
+        b(&format!("{finger}2"))?,
+    ];
+    let chain = Chain::new(
+        vec![sk.head(f[0]), sk.head(f[1]), sk.head(f[2]), sk.tail(f[2])],
+        f.iter().map(|&bone| Influences::single(bone)).collect(),
+        Some(Influences::single(hand)),
+        None,
+    );
+    let k = sk.scale(hand).abs() * radius_m;
+    let stations: Vec<Station> = [(-0.3, 1.0), (0.6, 0.97), (1.6, 0.9), (2.55, 0.8)]
+        .iter()
+        .map(|&(c, r)| Station::oval(c, r * k, r * k * 0.85))
+        .collect();
+    let name = match (finger, side) {
+        ("index", Side::Left) => "l_index",
+        ("index", Side::Right) => "r_index",
+        ("middle", Side::Left) => "l_middle",
+        ("middle", Side::Right) => "r_middle",
+        ("ring", Side::Left) => "l_ring",
+        ("ring", Side::Right) => "r_ring",
+        (_, Side::Left) => "l_pinky",
+        (_, Side::Right) => "r_pinky",
+    };
+    let mut part = PartBuilder::new(name);
+    part.tube(
+        &chain,
+        &Vector3::z(),
+        &ellipse(FINGER_AROUND),
+        &stations,
+        [Pole::at(-0.5), Pole::at(2.95)],
+        &|_, _| Material::Skin,
+    );
+    Ok(part)
+}
+
 /// An arm: clavicle (0) → shoulder (1) → elbow (2) → wrist (3) → knuckles (4) → middle
-/// fingertip (5). The mitten's finger part moves with the index, middle and ring fingers'
-/// first bones.
+/// fingertip (5). The tube ends in a palm just past the knuckles; the fingers are parts of
+/// their own ([`finger_part`]).
 fn arm(sk: &Skeleton<'_>, dims: &Dims, side: Side) -> Result<PartBuilder, BodyMeshError> {
     let b = |name: &str| sk.index(&side.name(name));
     let (clavicle, upper, fore, hand) =
@@ -1294,7 +1486,7 @@ fn arm(sk: &Skeleton<'_>, dims: &Dims, side: Side) -> Result<PartBuilder, BodyMe
     // A wide shoulder blend rounds the shoulder when the arm hangs down.
     .with_blend(1, SHOULDER_BLEND);
     let hand_scale = sk.scale(hand).abs();
-    // The mitten's centre line lies between the index and pinky knuckles.
+    // The palm's centre line lies between the index and pinky knuckles.
     let palm_offset = Vector3::new(
         0.0,
         0.5 * (sk.head(index0).y + sk.head(pinky0).y) - sk.head(hand).y,
@@ -1311,11 +1503,11 @@ fn arm(sk: &Skeleton<'_>, dims: &Dims, side: Side) -> Result<PartBuilder, BodyMe
         (2.15, 0.039, 0.037, 0.0), (2.45, 0.034, 0.031, 0.0), (2.75, 0.029, 0.025, 0.0),
         (3.00, 0.027, 0.020, 0.0), (3.35, 0.040, 0.017, 0.0),
     ];
-    // The mitten: (c, half-width, half-thickness).
-    #[rustfmt::skip]
-    let hand_table: [(f64, f64, f64); 5] = [
-        (3.75, 0.045, 0.016), (4.00, 0.045, 0.014), (4.40, 0.043, 0.011), (4.75, 0.038, 0.009),
-        (4.92, 0.027, 0.007),
+    // The palm, to just past the knuckles: (c, half-width, half-thickness).
+    let hand_table: [(f64, f64, f64); 3] = [
+        (3.75, 0.045, 0.016),
+        (4.00, 0.044, 0.014),
+        (4.12, 0.039, 0.012),
     ];
     let mut stations: Vec<Station> = arm_table
         .iter()
@@ -1350,7 +1542,7 @@ fn arm(sk: &Skeleton<'_>, dims: &Dims, side: Side) -> Result<PartBuilder, BodyMe
         [
             Pole::at(0.2),
             Pole {
-                c: 5.0,
+                c: 4.2,
                 offset_m: palm_offset,
             },
         ],

@@ -11,9 +11,9 @@ use crate::scene::cast::Population;
 use crate::skeleton::rig::Dof;
 
 /// The triangle count the module docs state for the standard adult.
-const STANDARD_TRIANGLES: usize = 2_904;
+const STANDARD_TRIANGLES: usize = 3_208;
 /// The vertex count the module docs state for the standard adult.
-const STANDARD_VERTICES: usize = 1_559;
+const STANDARD_VERTICES: usize = 1_727;
 
 struct Body {
     label: String,
@@ -267,12 +267,25 @@ fn triangle_budget_holds_and_the_documented_counts_are_right() {
     let standard = BodyMesh::build(&rig, &Character::standard(&rig), &BodyShape::standard());
     assert_eq!(standard.triangle_count(), STANDARD_TRIANGLES);
     assert_eq!(standard.vertex_count(), STANDARD_VERTICES);
-    let long_hair = BodyShape {
-        hair_length_m: 0.14,
-        ..BodyShape::standard()
-    };
-    let with_hair = BodyMesh::build(&rig, &Character::standard(&rig), &long_hair);
-    assert_eq!(with_hair.triangle_count(), STANDARD_TRIANGLES + 80);
+    for (style, extra) in [
+        (HairStyle::Long, 80),
+        (HairStyle::Ponytail, 64),
+        (HairStyle::Bun, 64),
+        (HairStyle::Bald, 0),
+    ] {
+        let shape = BodyShape {
+            hair_length_m: 0.14,
+            hair_style: style,
+            ..BodyShape::standard()
+        };
+        let with_hair = BodyMesh::build(&rig, &Character::standard(&rig), &shape);
+        assert_eq!(
+            with_hair.triangle_count(),
+            STANDARD_TRIANGLES + extra,
+            "{style:?}"
+        );
+        assert!(with_hair.triangle_count() <= MAX_TRIANGLES);
+    }
     for b in bodies(&rig) {
         assert!(
             b.mesh.triangle_count() <= MAX_TRIANGLES,
@@ -411,7 +424,7 @@ fn rest_extents_match_the_skeleton_and_the_body_is_symmetric() {
                 b.label
             );
         }
-        // The arms reach past the hand bones to the middle fingertips.
+        // The arm's palm reaches past the knuckles, and the middle finger to its fingertip.
         for (side, arm, sign) in [("l", "l_arm", -1.0), ("r", "r_arm", 1.0)] {
             let hand = rig.bone_index(&format!("{side}_hand")).unwrap();
             let middle2 = rig.bone_index(&format!("{side}_middle2")).unwrap();
@@ -419,16 +432,16 @@ fn rest_extents_match_the_skeleton_and_the_body_is_symmetric() {
             let tip = rest.heads_m[middle2].coords
                 + (rig.bones[middle2].tail_rest_m - rig.bones[middle2].head_rest_m)
                     * b.character.bone_scale[middle2];
-            let reach = part(m, arm)
-                .vertices
-                .clone()
-                .map(|v| sign * f64::from(m.rest_positions_m[v][0]))
-                .fold(f64::NEG_INFINITY, f64::max);
-            assert!(
-                reach > sign * hand_tail.x,
-                "{}: {arm} reach {reach}",
-                b.label
-            );
+            let reach_of = |name: &str| {
+                part(m, name)
+                    .vertices
+                    .clone()
+                    .map(|v| sign * f64::from(m.rest_positions_m[v][0]))
+                    .fold(f64::NEG_INFINITY, f64::max)
+            };
+            let palm = reach_of(arm);
+            assert!(palm > sign * hand_tail.x, "{}: {arm} reach {palm}", b.label);
+            let reach = reach_of(&format!("{side}_middle"));
             assert!(
                 (reach - sign * tip.x).abs() < 0.01,
                 "{}: {arm} reaches {reach}, fingertip at {}",
@@ -564,11 +577,23 @@ fn shapes_follow_the_look_and_colours_come_from_it() {
         .find(|l| l.sex == Sex::Male && l.age_group == AgeGroup::Adult)
         .unwrap();
     let (ws, ms) = (BodyShape::from_look(woman), BodyShape::from_look(man));
-    assert!(ws.hip_scale > ms.hip_scale && ws.bust_depth_m > 0.0 && ws.hair_length_m > 0.0);
+    assert!(ws.hip_scale > ms.hip_scale && ws.bust_depth_m > 0.0);
     assert_eq!(ms.girth_scale, man.girth_scale());
-    let with_hair = BodyMesh::build(&rig, &woman.character(&rig), &ws);
+    let long = looks
+        .iter()
+        .find(|l| BodyShape::from_look(l).hair_style == HairStyle::Long)
+        .unwrap();
+    let long_shape = BodyShape::from_look(long);
+    assert!(long_shape.hair_length_m > 0.03);
+    let with_hair = BodyMesh::build(&rig, &long.character(&rig), &long_shape);
     assert!(with_hair.parts.iter().any(|p| p.name == "hair"));
-    let short = BodyMesh::build(&rig, &man.character(&rig), &ms);
+    let short = looks
+        .iter()
+        .find(|l| BodyShape::from_look(l).hair_style == HairStyle::Short)
+        .unwrap();
+    let short_shape = BodyShape::from_look(short);
+    assert_eq!(short_shape.hair_length_m, 0.0);
+    let short = BodyMesh::build(&rig, &short.character(&rig), &short_shape);
     assert!(short.parts.iter().all(|p| p.name != "hair"));
     // A heavier build is wider, not taller.
     let heavy = BodyShape {
@@ -805,5 +830,108 @@ fn eyes_and_ears_sit_on_the_head_at_cocos_face_points() {
             f64::from(b.mesh.rest_positions_m[p.vertices.start][0])
         };
         assert!(x("l_eye") < 0.0 && x("r_eye") > 0.0 && x("l_ear") < x("l_eye"));
+    }
+}
+
+/// Where the hair is on a body: how many hair vertices, the lowest one's height and the
+/// furthest one's distance behind the head bone's head, metres.
+fn hair_extent(mesh: &BodyMesh, head_m: &Vector3<f64>) -> (usize, f64, f64) {
+    let mut n = 0;
+    let (mut lowest, mut behind) = (f64::INFINITY, 0.0f64);
+    for (p, &m) in mesh.rest_positions_m.iter().zip(&mesh.materials) {
+        if m == Material::Hair {
+            n += 1;
+            lowest = lowest.min(f64::from(p[2]));
+            behind = behind.max(head_m.y - f64::from(p[1]));
+        }
+    }
+    (n, lowest, behind)
+}
+
+#[test]
+fn hair_styles_are_drawn_per_character_and_shaped_apart() {
+    let rig = Rig::standard();
+    // Every style comes out of drawn looks, in proportions that depend on sex and age.
+    let looks = draws(&Population::default(), 9, 600);
+    let mut seen = BTreeMap::new();
+    for l in &looks {
+        *seen.entry(HairStyle::of(l)).or_insert(0usize) += 1;
+    }
+    for style in HairStyle::ALL {
+        assert!(seen.get(&style).copied().unwrap_or(0) >= 10, "{seen:?}");
+    }
+    // The same look always gets the same style.
+    assert!(
+        looks
+            .iter()
+            .all(|l| HairStyle::of(l) == HairStyle::of(&l.clone()))
+    );
+    let c = Character::standard(&rig);
+    let head = rest_pose(&rig, &c).heads_m[rig.bone_index("head").unwrap()].coords;
+    let extent = |style| {
+        let shape = BodyShape {
+            hair_length_m: 0.14,
+            hair_style: style,
+            ..BodyShape::standard()
+        };
+        hair_extent(&BodyMesh::build(&rig, &c, &shape), &head)
+    };
+    let short = extent(HairStyle::Short);
+    let long = extent(HairStyle::Long);
+    let pony = extent(HairStyle::Ponytail);
+    let bun = extent(HairStyle::Bun);
+    let bald = extent(HairStyle::Bald);
+    // Long hair and a ponytail fall below a short cut; a bun stands out behind the head; a
+    // bald head has less hair than a short cut.
+    assert!(long.1 < short.1 - 0.08, "{long:?} {short:?}");
+    assert!(pony.1 < short.1 - 0.05, "{pony:?} {short:?}");
+    assert!(bun.2 > short.2 + 0.02, "{bun:?} {short:?}");
+    assert!(bald.0 < short.0 * 3 / 4, "{bald:?} {short:?}");
+}
+
+#[test]
+fn curled_fingers_are_drawn_where_their_bones_put_the_fingertips() {
+    let rig = Rig::standard();
+    let c = Character::standard(&rig);
+    let mesh = BodyMesh::build(&rig, &c, &BodyShape::standard());
+    let mut pose = BonePose::rest(&rig);
+    let fingers = ["index", "middle", "ring", "pinky"];
+    for side in ["l", "r"] {
+        for finger in fingers {
+            for k in 0..3 {
+                let b = rig.bone_index(&format!("{side}_{finger}{k}")).unwrap();
+                let axis = match rig.bones[b].dof {
+                    Dof::Hinge { axis } => axis,
+                    _ => Vector3::y_axis(),
+                };
+                let angle = if k == 0 { 0.3 } else { 0.9 };
+                pose.local_rotations[b] = UnitQuaternion::from_axis_angle(&axis, angle);
+            }
+        }
+    }
+    let (p, _) = skinned(&rig, &c, &mesh, &pose);
+    let rest = rest_pose(&rig, &c);
+    let posed = fk::forward(&rig, &c, &pose, 1.0);
+    for side in ["l", "r"] {
+        for finger in fingers {
+            let l = rig.landmark_index(&format!("{side}_{finger}4")).unwrap();
+            let tip = fk::landmark_position(&rig, &c, &posed, l).coords;
+            let tip_at_rest = fk::landmark_position(&rig, &c, &rest, l).coords;
+            // The curl moves the tip (so the check below is not vacuous)...
+            assert!((tip - tip_at_rest).norm() > 0.03, "{side}_{finger}");
+            // ...and the body's surface is there (a mitten following only the fingers' first
+            // bones is not: the curl of the second and third bones carries the tips off it).
+            let nearest = p
+                .iter()
+                .map(|q| (v3(q) - tip).norm())
+                .fold(f64::INFINITY, f64::min);
+            assert!(nearest < 0.012, "{side}_{finger}: {nearest:.4} m");
+            // The finger is a part of its own.
+            assert!(
+                mesh.parts
+                    .iter()
+                    .any(|q| q.name == format!("{side}_{finger}"))
+            );
+        }
     }
 }
