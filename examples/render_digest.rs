@@ -213,8 +213,8 @@ fn compare(a: &Path, b: &Path) -> bool {
             let pb = &rgb_b[3 * i..3 * i + 3];
             if pa != pb {
                 t.1 += 1;
-                for c in 0..3 {
-                    t.2 = t.2.max(pa[c].abs_diff(pb[c]));
+                for (x, y) in pa.iter().zip(pb) {
+                    t.2 = t.2.max(x.abs_diff(*y));
                 }
             }
             let da = f32::from_bits(u32_at(depth_a, 4 * i));

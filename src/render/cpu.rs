@@ -49,9 +49,6 @@ struct ShadowMap {
     /// Height towards the light of the nearest caster per texel (0 where none).
     heights: Vec<f32>,
     empty: bool,
-    /// Scratch: the casters' vertices in the light frame, then in map coordinates (each vertex
-    /// transformed once, not once per triangle corner).
-    corners: Vec<ScreenVertex>,
 }
 
 impl ShadowMap {
@@ -126,37 +123,30 @@ fn draw_shadow_map(
     }
     let mut lo = [f32::INFINITY; 3];
     let mut hi = [f32::NEG_INFINITY; 3];
-    map.corners.clear();
     for p in positions {
         let c = light.coords(&Vector3::from(*p));
         for k in 0..3 {
             lo[k] = lo[k].min(c[k]);
             hi[k] = hi[k].max(c[k]);
         }
-        map.corners.push(ScreenVertex {
-            x: c[0],
-            y: c[1],
-            inv_z: c[2],
-        });
     }
     let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]) + 2.0 * margin_m;
     map.origin = [lo[0] - margin_m, lo[1] - margin_m];
     map.texels_per_m = size as f32 / extent.max(1e-3);
     map.height_offset = 1.0 - lo[2];
-    let (origin, texels_per_m, height_offset) = (map.origin, map.texels_per_m, map.height_offset);
-    for c in &mut map.corners {
-        *c = ScreenVertex {
-            x: (c.x - origin[0]) * texels_per_m,
-            y: (c.y - origin[1]) * texels_per_m,
-            inv_z: c.inv_z + height_offset,
-        };
-    }
-    let corners = &map.corners;
+    let to_map = |p: &[f32; 3]| {
+        let c = light.coords(&Vector3::from(*p));
+        ScreenVertex {
+            x: (c[0] - map.origin[0]) * map.texels_per_m,
+            y: (c[1] - map.origin[1]) * map.texels_per_m,
+            inv_z: c[2] + map.height_offset,
+        }
+    };
     for t in indices.chunks_exact(3) {
         let s = [
-            corners[t[0] as usize],
-            corners[t[1] as usize],
-            corners[t[2] as usize],
+            to_map(&positions[t[0] as usize]),
+            to_map(&positions[t[1] as usize]),
+            to_map(&positions[t[2] as usize]),
         ];
         fill_triangle(s, size, size, &mut map.heights, Cull::None, |_, _, _| {});
     }
@@ -231,9 +221,6 @@ pub struct CpuRenderer {
     /// Lit vertices: attributes are the fogged ambient colour (3), the fogged direct colour
     /// (3) and the light-space position (3).
     vertices: Vec<ClipVertex<9>>,
-    /// `vertices` projected to the screen (meaningful where in front of the near plane): each
-    /// vertex projected once, not once per triangle corner.
-    screen: Vec<ScreenVertex>,
     polygon: Vec<ClipVertex<9>>,
     unfiltered: Vec<u8>,
 }
@@ -259,7 +246,6 @@ impl CpuRenderer {
         normal_offset_m: f32,
     ) {
         self.vertices.clear();
-        self.screen.clear();
         let key = Vector3::from(env.key_dir);
         for (i, (p, n)) in positions.iter().zip(normals).enumerate() {
             let pw = Vector3::from(*p);
@@ -276,15 +262,6 @@ impl CpuRenderer {
             let ndl = nw.dot(&key).max(0.0);
             let direct = scale(mul(a, env.key_rgb), ndl * keep);
             let l = light.coords(&(pw + nw * normal_offset_m));
-            self.screen.push(if q[2] >= NEAR_M {
-                view.project(q)
-            } else {
-                ScreenVertex {
-                    x: 0.0,
-                    y: 0.0,
-                    inv_z: 0.0,
-                }
-            });
             self.vertices.push(ClipVertex {
                 view: q,
                 attributes: [
@@ -313,80 +290,49 @@ impl CpuRenderer {
         image: &mut Image,
     ) {
         let (w, h) = (view.width, view.height);
-        let shade = Shade {
-            shadows: [&self.character_shadow, &self.prop_shadow],
-            shadowed,
-            surface: surface as u8,
-            encoder: &self.encoder,
-        };
+        let shadows = [&self.character_shadow, &self.prop_shadow];
+        let encoder = &self.encoder;
         let polygon = &mut self.polygon;
         let surfaces = &mut image.surface;
         let depth = &mut image.depth;
         let rgb = &mut image.rgb;
         for t in indices.chunks_exact(3) {
-            let corners = [t[0] as usize, t[1] as usize, t[2] as usize];
-            let tri = corners.map(|k| self.vertices[k]);
+            let tri = [
+                self.vertices[t[0] as usize],
+                self.vertices[t[1] as usize],
+                self.vertices[t[2] as usize],
+            ];
             if tri.iter().all(|v| v.view[2] >= NEAR_M) {
-                // Unclipped: the fan below would be this one triangle, its corners projected
-                // exactly as `screen` holds them.
-                let s = corners.map(|k| self.screen[k]);
-                shade.fill(s, tri.map(|v| v.attributes), w, h, depth, rgb, surfaces);
-                continue;
+                polygon.clear();
+                polygon.extend_from_slice(&tri);
+            } else {
+                clip_near(tri, NEAR_M, polygon);
             }
-            clip_near(tri, NEAR_M, polygon);
-            // A fan over the clipped convex polygon: one or two triangles.
+            // A fan over the (clipped) convex polygon: one or two triangles.
             for k in 1..polygon.len().saturating_sub(1) {
                 let part = [polygon[0], polygon[k], polygon[k + 1]];
                 let s = part.map(|v| view.project(v.view));
-                shade.fill(s, part.map(|v| v.attributes), w, h, depth, rgb, surfaces);
+                let [a0, a1, a2] = part.map(|v| v.attributes);
+                fill_triangle(s, w, h, depth, Cull::Back, |i, _, b| {
+                    let at = |k: usize| a0[k] * b[0] + a1[k] * b[1] + a2[k] * b[2];
+                    let lit = if shadowed {
+                        let (u, v, l) = (at(6), at(7), at(8));
+                        shadows[0]
+                            .visibility(u, v, l)
+                            .min(shadows[1].visibility(u, v, l))
+                    } else {
+                        1.0
+                    };
+                    let c = encoder.encode_rgb([
+                        at(0) + lit * at(3),
+                        at(1) + lit * at(4),
+                        at(2) + lit * at(5),
+                    ]);
+                    rgb[3 * i..3 * i + 3].copy_from_slice(&c);
+                    surfaces[i] = surface as u8;
+                });
             }
         }
-    }
-}
-
-/// How [`CpuRenderer::draw`] colours a mesh's pixels.
-struct Shade<'a> {
-    shadows: [&'a ShadowMap; 2],
-    /// Whether to look up the shadow maps per pixel (the far backdrop does not).
-    shadowed: bool,
-    surface: u8,
-    encoder: &'a Encoder,
-}
-
-impl Shade<'_> {
-    /// Rasterises one screen triangle whose corners carry attributes `a` (see
-    /// [`CpuRenderer`]'s `vertices`), lighting and writing every pixel it wins.
-    #[allow(clippy::too_many_arguments)]
-    #[inline]
-    fn fill(
-        &self,
-        s: [ScreenVertex; 3],
-        a: [[f32; 9]; 3],
-        w: usize,
-        h: usize,
-        depth: &mut [f32],
-        rgb: &mut [u8],
-        surfaces: &mut [u8],
-    ) {
-        let [a0, a1, a2] = a;
-        fill_triangle(s, w, h, depth, Cull::Back, |i, _, b| {
-            let at = |k: usize| a0[k] * b[0] + a1[k] * b[1] + a2[k] * b[2];
-            let lit = if self.shadowed {
-                let (u, v, l) = (at(6), at(7), at(8));
-                self.shadows[0]
-                    .visibility(u, v, l)
-                    .min(self.shadows[1].visibility(u, v, l))
-            } else {
-                1.0
-            };
-            let c = self.encoder.encode_rgb([
-                at(0) + lit * at(3),
-                at(1) + lit * at(4),
-                at(2) + lit * at(5),
-            ]);
-            rgb[3 * i..3 * i + 3].copy_from_slice(&c);
-            surfaces[i] = self.surface;
-        });
     }
 }
 

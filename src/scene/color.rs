@@ -67,12 +67,9 @@ impl Encoder {
     #[inline]
     #[must_use]
     pub fn encode(&self, linear: f32) -> u8 {
-        // Negative and NaN give 0 (black; `max` returns 0 for NaN), above 1 clips to white;
-        // never a panic. Clamping the float first gives the same index as saturating its cast
-        // and then taking the minimum, and lets the cast be the cheap 32-bit one (this runs
-        // three times per pixel).
-        const TOP: f32 = (TABLE_SIZE - 1) as f32;
-        let i = (linear * TOP + 0.5).max(0.0).min(TOP) as i32 as usize;
+        // Float-to-integer casts saturate: negative and NaN give 0 (black), above 1 clips to
+        // white; never a panic.
+        let i = (linear * (TABLE_SIZE - 1) as f32 + 0.5) as usize;
         self.table[i.min(TABLE_SIZE - 1)]
     }
 
@@ -135,39 +132,5 @@ mod tests {
         assert_eq!(e.encode(f32::NAN), 0);
         assert_eq!(e.encode(7.0), 255);
         assert_eq!(e.encode(-1.0), 0);
-    }
-
-    #[test]
-    fn the_clamped_index_is_the_saturating_casts() {
-        // The index before the float was clamped first: saturate the cast, then the minimum.
-        let e = Encoder::new();
-        let before = |l: f32| e.table[((l * 4095.0 + 0.5) as usize).min(TABLE_SIZE - 1)];
-        let mut values = vec![
-            f32::NAN,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            f32::MAX,
-            f32::MIN,
-            -0.0,
-            0.0,
-            f32::MIN_POSITIVE,
-            1.0,
-            1.0 + f32::EPSILON,
-            1e9,
-            -1e-7,
-        ];
-        // Every index boundary and its neighbouring floats, and a dense sweep past both ends.
-        for k in 0..=4096u32 {
-            let l = (k as f32 - 0.5) / 4095.0;
-            values.extend([
-                l,
-                f32::from_bits(l.to_bits() + 1),
-                f32::from_bits(l.to_bits() - 1),
-            ]);
-        }
-        values.extend((0..200_000).map(|k| -0.5 + k as f32 * 1e-5));
-        for l in values {
-            assert_eq!(e.encode(l), before(l), "{l:e}");
-        }
     }
 }
