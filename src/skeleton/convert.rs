@@ -951,9 +951,14 @@ impl<'r> Converter<'r> {
             RefSolve::Normal { .. } if has_previous && trust < 1.0 => {
                 let was = carried(&self.previous_world[b]) * rest_perp.into_inner();
                 let delta = cur_dir.dot(&was.cross(&perp)).atan2(was.dot(&perp));
-                let step = trust * delta + (1.0 - trust) * geom::twist_step(delta);
-                let turn = UnitQuaternion::from_axis_angle(cur_dir, step);
-                geom::perpendicular_direction(&(turn * was), cur_dir, 1e-9).unwrap_or(perp)
+                if delta.abs() <= geom::TWIST_FOLLOW_RAD {
+                    // `twist_step` follows it exactly: this frame's twist, bit for bit.
+                    perp
+                } else {
+                    let step = trust * delta + (1.0 - trust) * geom::twist_step(delta);
+                    let turn = UnitQuaternion::from_axis_angle(cur_dir, step);
+                    geom::perpendicular_direction(&(turn * was), cur_dir, 1e-9).unwrap_or(perp)
+                }
             }
             _ => perp,
         };
