@@ -256,6 +256,10 @@ enum RefSolve {
     Normal {
         points: [usize; 3],
         rest_perp: Unit<Vector3<f64>>,
+        /// The sine of the bend from which the plane's noise, measured on the clip by
+        /// [`Converter::fit_reference_noise`], cannot spin the bone: below it the twist moves
+        /// towards the plane's by bounded steps. 0 when not measured (no bound).
+        noise_sin: f64,
     },
 }
 
@@ -266,6 +270,27 @@ enum Lm {
     Missing,
     LowConfidence,
     At(Point3<f64>),
+}
+
+/// How many standard deviations of a bend plane's one-frame change, from the input's noise, must
+/// fit within [`geom::TWIST_FOLLOW_RAD`] for the plane to be trusted frame by frame
+/// ([`Converter::fit_reference_noise`]).
+pub const REFERENCE_NOISE_SIGMAS: f64 = 4.0;
+
+/// The coefficient of variation (standard deviation over mean) of `d`; `None` with fewer than
+/// two values or a non-positive mean.
+fn variation(d: &[f64]) -> Option<f64> {
+    if d.len() < 2 {
+        return None;
+    }
+    #[expect(
+        clippy::cast_precision_loss,
+        reason = "a sample of a few hundred frames"
+    )]
+    let n = d.len() as f64;
+    let mean = d.iter().sum::<f64>() / n;
+    let var = d.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1.0);
+    (mean.is_finite() && mean > 0.0 && var.is_finite()).then(|| var.sqrt() / mean)
 }
 
 /// A stateful converter for one tracked person: frames must be fed in time order.
@@ -399,6 +424,7 @@ impl<'r> Converter<'r> {
                     Reference::Normal { points, .. } => RefSolve::Normal {
                         points: *points,
                         rest_perp,
+                        noise_sin: 0.0,
                     },
                 }
             });
@@ -464,6 +490,49 @@ impl<'r> Converter<'r> {
         }
     }
 
+    /// Measures, on `sample` (frames in the layout's joint order, evenly spread over the clip),
+    /// how noisy each bend-plane twist reference is. The plane through hip, knee and ankle turns
+    /// by about `cv / sin(bend)` radians when its joints move by `cv` bone lengths across it,
+    /// and the coefficient of variation of the plane's two segment lengths over the clip (RMS of
+    /// the two) measures `cv` on the clip itself: a rigid limb's segments keep their length, so
+    /// what varies is the input's noise. From the bend where [`REFERENCE_NOISE_SIGMAS`] standard
+    /// deviations of the plane's one-frame change fit within [`geom::TWIST_FOLLOW_RAD`] the
+    /// plane is followed frame by frame as before; below, with a trust falling smoothly to 0 at
+    /// a straight limb, the twist moves towards it from the previous frame's by bounded steps
+    /// (see `three_d_world`), so noise flipping the plane of a nearly straight knee cannot spin
+    /// the thigh. Clean motion capture (`cv` ≈ 0) is unaffected, and where the limb is well bent
+    /// the twist is the plane's, so the knee or elbow hinge below still reaches the ankle or
+    /// wrist. Without a call (a live stream with no sample), every plane is followed frame by
+    /// frame.
+    pub fn fit_reference_noise(&mut self, sample: &[PoseFrame]) {
+        let min_c = self.options.min_confidence;
+        for s in &mut self.solves {
+            let Some(RefSolve::Normal {
+                points: [a, b, c],
+                noise_sin,
+                ..
+            }) = &mut s.reference
+            else {
+                continue;
+            };
+            let mut segments = [Vec::new(), Vec::new()];
+            for f in sample {
+                let p = |l: usize| self.binding.set_point(&[l], f, min_c);
+                if let (Some(pa), Some(pb), Some(pc)) = (p(*a), p(*b), p(*c)) {
+                    segments[0].push((pb - pa).norm());
+                    segments[1].push((pc - pb).norm());
+                }
+            }
+            let cv2: Vec<f64> = segments.iter().filter_map(|d| variation(d)).collect();
+            if cv2.len() == 2 {
+                let cv = (0.5 * (cv2[0] * cv2[0] + cv2[1] * cv2[1])).sqrt();
+                // Three noisy joints move the plane's defining offset by about √(3/2)·cv bone
+                // lengths, and its one-frame change by √2 times that.
+                *noise_sin = REFERENCE_NOISE_SIGMAS * 3f64.sqrt() * cv / geom::TWIST_FOLLOW_RAD;
+            }
+        }
+    }
+
     /// The report so far.
     #[must_use]
     pub fn report(&self) -> &ConversionReport {
@@ -519,28 +588,31 @@ impl<'r> Converter<'r> {
         }
     }
 
-    /// The current twist reference of `r`, perpendicular to the bone, and its weight in [0, 1]:
-    /// how well it is defined, from the sine of its angle to the bone (for a bend plane, the
-    /// sine of the bend), full at and above `full_twist_reference_angle_rad`.
+    /// The current twist reference of `r`, perpendicular to the bone, its weight in [0, 1]: how
+    /// well it is defined, from the sine of its angle to the bone (for a bend plane, the sine of
+    /// the bend), full at and above `full_twist_reference_angle_rad`; and how far its noise is
+    /// trusted in one frame, in [0, 1] (1 unless measured by [`Converter::fit_reference_noise`]).
     #[inline]
     fn current_reference(
         &self,
         r: &RefSolve,
         cur_dir: &Unit<Vector3<f64>>,
-    ) -> Result<(Unit<Vector3<f64>>, f64), Degeneracy> {
-        let (v, scale) = match r {
+    ) -> Result<(Unit<Vector3<f64>>, f64, f64), Degeneracy> {
+        let (v, scale, noise_sin) = match r {
             RefSolve::Direction { from, to, .. } => {
                 let v = self.point(to)? - self.point(from)?;
-                (v, v.norm())
+                (v, v.norm(), 0.0)
             }
             RefSolve::Normal {
-                points: [a, b, c], ..
+                points: [a, b, c],
+                noise_sin,
+                ..
             } => {
                 let (a, b, c) = (self.point(&[*a])?, self.point(&[*b])?, self.point(&[*c])?);
                 let (u, w) = (b - a, c - b);
                 // Scale-free: the normal's length over the product of the segment lengths is
                 // the sine of the bend.
-                (u.cross(&w), u.norm() * w.norm())
+                (u.cross(&w), u.norm() * w.norm(), *noise_sin)
             }
         };
         if !(scale.is_finite() && scale > geom::EPS_NORM * geom::EPS_NORM) {
@@ -549,8 +621,13 @@ impl<'r> Converter<'r> {
         let perp = v - cur_dir.into_inner() * cur_dir.dot(&v);
         let sin = perp.norm() / scale;
         let weight = geom::reference_weight(sin, self.options.full_twist_reference_angle_rad.sin());
+        let trust = if noise_sin > 0.0 {
+            geom::reference_weight(sin, noise_sin)
+        } else {
+            1.0
+        };
         match geom::direction(perp) {
-            Some(p) if weight > 0.0 => Ok((p, weight)),
+            Some(p) if weight > 0.0 => Ok((p, weight, trust)),
             _ => Err(Degeneracy::ParallelReference),
         }
     }
@@ -821,16 +898,20 @@ impl<'r> Converter<'r> {
         };
         let (RefSolve::Direction { rest_perp, .. } | RefSolve::Normal { rest_perp, .. }) = r;
         let parent_perp = from_parent * rest_perp.into_inner();
-        let (perp, degeneracy) = match self.current_reference(r, cur_dir) {
-            Ok((cur_perp, weight)) => {
+        // How far this frame's twist is trusted against the previous frame's (below 1 only for
+        // a bend plane whose measured noise can flip it at this bend).
+        let noise_measured = matches!(r, RefSolve::Normal { noise_sin, .. } if *noise_sin > 0.0);
+        let (perp, degeneracy, trust) = match self.current_reference(r, cur_dir) {
+            Ok((cur_perp, weight, trust)) => {
                 let blended = cur_perp.into_inner() * weight + parent_perp * (1.0 - weight);
                 let perp = geom::perpendicular_direction(&blended, cur_dir, 1e-9)
                     .unwrap_or_else(|| Unit::new_normalize(parent_perp));
-                (perp, None)
+                (perp, None, trust)
             }
             Err(Degeneracy::ParallelReference) => (
                 Unit::new_normalize(parent_perp),
                 Some(Degeneracy::ParallelReference),
+                if noise_measured { 0.0 } else { 1.0 },
             ),
             Err(kind) => {
                 // The reference's joints are missing: keep the previous orientation's twist,
@@ -848,7 +929,10 @@ impl<'r> Converter<'r> {
         // frame's, carried along the bone, by at most a plausible one-frame turn
         // (`geom::twist_step`), so a noisy reference flipping sides, or falling back to the
         // parent's twist, never spins the bone. A bone with solved children (the trunk) keeps
-        // the current frame's twist: a 2-D or hinge child below cannot undo a lagging one.
+        // the current frame's twist: a 2-D or hinge child below cannot undo a lagging one. A
+        // noisy bend plane (trust < 1) moves the twist by `trust` of the step it asks plus the
+        // rest of `geom::twist_step`'s: exact where the bend is well above the noise (the hinge
+        // below reaches its end point), bounded where the noise can flip the plane.
         let leaf = || {
             !self
                 .rig
@@ -863,6 +947,18 @@ impl<'r> Converter<'r> {
                 let delta = cur_dir.dot(&was.cross(&perp)).atan2(was.dot(&perp));
                 let turn = UnitQuaternion::from_axis_angle(cur_dir, geom::twist_step(delta));
                 geom::perpendicular_direction(&(turn * was), cur_dir, 1e-9).unwrap_or(perp)
+            }
+            RefSolve::Normal { .. } if has_previous && trust < 1.0 => {
+                let was = carried(&self.previous_world[b]) * rest_perp.into_inner();
+                let delta = cur_dir.dot(&was.cross(&perp)).atan2(was.dot(&perp));
+                if delta.abs() <= geom::TWIST_FOLLOW_RAD {
+                    // `twist_step` follows it exactly: this frame's twist, bit for bit.
+                    perp
+                } else {
+                    let step = trust * delta + (1.0 - trust) * geom::twist_step(delta);
+                    let turn = UnitQuaternion::from_axis_angle(cur_dir, step);
+                    geom::perpendicular_direction(&(turn * was), cur_dir, 1e-9).unwrap_or(perp)
+                }
             }
             _ => perp,
         };
@@ -1054,7 +1150,8 @@ impl<'a> SequenceConverter<'a> {
         };
         let binding = layout.bind(rig).map_err(layout_err)?;
         let character = fit_character(rig, &binding, &sample, options);
-        let converter = Converter::with_binding(rig, binding, &character, options);
+        let mut converter = Converter::with_binding(rig, binding, &character, options);
+        converter.fit_reference_noise(&sample);
         Ok(SequenceConverter {
             converter,
             order: (!identity_order).then_some(order),
