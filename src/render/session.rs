@@ -390,7 +390,7 @@ pub fn render_capture(
         _ => None,
     };
     let mut sinks = FrameSinks::open(&plan, outputs, settings, ffmpeg, labels)?;
-    let outcome = render_in_order(
+    let video = draw_all(
         &scenes,
         &plan,
         &mut sinks,
@@ -398,21 +398,8 @@ pub fn render_capture(
         progress,
         &|_, _| {},
         stop,
-    );
-    let encoder = sinks.encoder.take();
-    let passes = std::mem::take(&mut sinks.passes);
-    if let Err(e) = outcome {
-        if let Some(enc) = encoder {
-            enc.abort();
-        }
-        return Err(e);
-    }
-    passes.commit()?;
+    )?;
     summary.frames = sinks.taken as u64;
-    let video = match encoder {
-        Some(enc) => Some(enc.finish()?),
-        None => None,
-    };
     if let Some(path) = &outputs.preview {
         write_preview(path, &sinks.preview_tiles, settings)?;
         summary.preview = Some(path.clone());
@@ -803,6 +790,30 @@ struct RenderedImage {
 /// Renders every sample in parallel batches on a producer thread and hands the frames to
 /// `sinks` in order. Stops with [`RenderError::Interrupted`] when `stop` is set or fewer frames
 /// than planned came through.
+/// Draws every frame of `plan` into `sinks` ([`render_in_order`]), then commits the passes and
+/// finishes the video; on failure the encoder is stopped and nothing is committed.
+fn draw_all(
+    scenes: &Scenes<'_>,
+    plan: &Plan<'_>,
+    sinks: &mut FrameSinks<'_>,
+    blender: Option<&BlenderFrames>,
+    progress: &(dyn Fn(u64) + Sync),
+    drawing: &(dyn Fn(u64, u64) + Sync),
+    stop: &AtomicBool,
+) -> Result<Option<EncodedVideo>, RenderError> {
+    let outcome = render_in_order(scenes, plan, sinks, blender, progress, drawing, stop);
+    let encoder = sinks.encoder.take();
+    let passes = std::mem::take(&mut sinks.passes);
+    if let Err(e) = outcome {
+        if let Some(enc) = encoder {
+            enc.abort();
+        }
+        return Err(e);
+    }
+    passes.commit()?;
+    Ok(encoder.map(VideoEncoder::finish).transpose()?)
+}
+
 fn render_in_order(
     scenes: &Scenes<'_>,
     plan: &Plan<'_>,

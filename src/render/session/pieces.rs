@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{
     FrameSinks, LabelSink, Outputs, Plan, RenderError, RenderSettings, RenderSummary, Sample,
-    Scenes, check_resolution, embedded_units, preview_label, render_capture, render_in_order,
+    Scenes, check_resolution, draw_all, embedded_units, preview_label, render_capture,
     write_preview,
 };
 use crate::bags::capture::Capture;
@@ -307,7 +307,7 @@ fn render_piece(
         &renderer,
     )?;
     let mut sinks = FrameSinks::open(piece, &staged, settings, ffmpeg, Some(labels))?;
-    let outcome = render_in_order(
+    draw_all(
         scenes,
         piece,
         &mut sinks,
@@ -315,19 +315,7 @@ fn render_piece(
         progress,
         drawing,
         stop,
-    );
-    let encoder = sinks.encoder.take();
-    let passes = std::mem::take(&mut sinks.passes);
-    if let Err(e) = outcome {
-        if let Some(enc) = encoder {
-            enc.abort();
-        }
-        return Err(e);
-    }
-    passes.commit()?;
-    if let Some(enc) = encoder {
-        enc.finish()?;
-    }
+    )?;
     if let Some(labels) = sinks.labels.take() {
         labels.writer.finish()?;
     }
