@@ -72,19 +72,6 @@ pub struct RandomiseError {
 }
 
 impl Randomise {
-    /// No randomisation at all: the pictures of the plain renderer.
-    #[must_use]
-    pub fn off() -> Randomise {
-        Randomise {
-            hue_jitter_deg: 0.0,
-            saturation_jitter: 0.0,
-            brightness_jitter: 0.0,
-            sensor_noise: [0.0, 0.0],
-            motion_blur: [0.0, 0.0],
-            crf: None,
-        }
-    }
-
     /// Whether these are the defaults (the spec then leaves the section out when written back).
     #[must_use]
     pub fn is_default(&self) -> bool {
@@ -418,7 +405,6 @@ mod tests {
         let nan = with(|r| r.hue_jitter_deg = f64::NAN).to_string();
         assert!(nan.starts_with("randomise.hue_jitter_deg"), "{nan}");
         assert!(Randomise::default().validate().is_ok());
-        assert!(Randomise::off().validate().is_ok());
     }
 
     #[test]

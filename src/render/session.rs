@@ -404,19 +404,8 @@ pub fn render_capture(
         write_preview(path, &sinks.preview_tiles, settings)?;
         summary.preview = Some(path.clone());
     }
-    if let Some(mut labels) = sinks.labels.take() {
-        let units = embedded_units(video.as_ref(), ffmpeg, settings, plan.samples.len())?;
-        for (sample, unit) in plan.samples.iter().zip(units.iter().flatten()) {
-            let message = CompressedVideo {
-                timestamp: Time::from_nanos(sample.stamp_nanos),
-                frame_id: CAMERA_FRAME.to_owned(),
-                data: unit.data.clone(),
-                format: "h264".into(),
-            };
-            let embed = settings.embed_video.unwrap_or_default();
-            labels.writer.video(sample.stamp_nanos, &message, embed)?;
-        }
-        labels.writer.finish()?;
+    if let Some(labels) = sinks.labels.take() {
+        labels.finish(video.as_ref(), ffmpeg, settings, &plan)?;
         summary.render_bag = outputs.render_bag_path();
     }
     summary.video = video;
@@ -787,9 +776,6 @@ struct RenderedImage {
     annotation: Annotation,
 }
 
-/// Renders every sample in parallel batches on a producer thread and hands the frames to
-/// `sinks` in order. Stops with [`RenderError::Interrupted`] when `stop` is set or fewer frames
-/// than planned came through.
 /// Draws every frame of `plan` into `sinks` ([`render_in_order`]), then commits the passes and
 /// finishes the video; on failure the encoder is stopped and nothing is committed.
 fn draw_all(
@@ -814,6 +800,9 @@ fn draw_all(
     Ok(encoder.map(VideoEncoder::finish).transpose()?)
 }
 
+/// Renders every sample in parallel batches on a producer thread and hands the frames to
+/// `sinks` in order. Stops with [`RenderError::Interrupted`] when `stop` is set or fewer frames
+/// than planned came through.
 fn render_in_order(
     scenes: &Scenes<'_>,
     plan: &Plan<'_>,
@@ -978,6 +967,30 @@ struct LabelSink {
 }
 
 impl LabelSink {
+    /// Ends the render bag: when the settings embed the video, each frame's access unit of
+    /// `video` goes in beside its labels first.
+    fn finish(
+        mut self,
+        video: Option<&EncodedVideo>,
+        ffmpeg: Option<&Ffmpeg>,
+        settings: &RenderSettings,
+        plan: &Plan<'_>,
+    ) -> Result<(), RenderError> {
+        let units = embedded_units(video, ffmpeg, settings, plan.samples.len())?;
+        let embed = settings.embed_video.unwrap_or_default();
+        for (sample, unit) in plan.samples.iter().zip(units.iter().flatten()) {
+            let message = CompressedVideo {
+                timestamp: Time::from_nanos(sample.stamp_nanos),
+                frame_id: CAMERA_FRAME.to_owned(),
+                data: unit.data.clone(),
+                format: "h264".into(),
+            };
+            self.writer.video(sample.stamp_nanos, &message, embed)?;
+        }
+        self.writer.finish()?;
+        Ok(())
+    }
+
     /// Starts the render bag at `path` describing `video` (written by this render).
     fn create(
         path: &Path,

@@ -26,16 +26,12 @@ use serde::{Deserialize, Serialize};
 
 use super::{
     FrameSinks, LabelSink, Outputs, Plan, RenderError, RenderSettings, RenderSummary, Sample,
-    Scenes, check_resolution, draw_all, embedded_units, preview_label, render_capture,
-    write_preview,
+    Scenes, check_resolution, draw_all, preview_label, render_capture, write_preview,
 };
 use crate::bags::capture::Capture;
 use crate::bags::render::{ANNOTATIONS_TOPIC, decode_annotation};
-use crate::camera::CAMERA_FRAME;
 use crate::mcap_io::BagReader;
 use crate::ros::autoact_msgs::FrameAnnotation;
-use crate::ros::builtin_interfaces::Time;
-use crate::ros::foxglove_msgs::CompressedVideo;
 use crate::skeleton::rig::Rig;
 use crate::video::{EncodedVideo, Ffmpeg, Mp4Source, Rational};
 
@@ -457,18 +453,7 @@ fn join_labels(
                 }
             }
         }
-        let units = embedded_units(Some(&video), ffmpeg, settings, plan.samples.len())?;
-        for (sample, unit) in plan.samples.iter().zip(units.iter().flatten()) {
-            let message = CompressedVideo {
-                timestamp: Time::from_nanos(sample.stamp_nanos),
-                frame_id: CAMERA_FRAME.to_owned(),
-                data: unit.data.clone(),
-                format: "h264".into(),
-            };
-            let embed = settings.embed_video.unwrap_or_default();
-            labels.writer.video(sample.stamp_nanos, &message, embed)?;
-        }
-        labels.writer.finish()?;
+        labels.finish(Some(&video), ffmpeg, settings, plan)?;
         summary.render_bag = Some(bag);
     }
     for (wanted, name) in [
