@@ -59,6 +59,7 @@ fn main() -> Result<()> {
         frame0_nanos: i128::from(first),
         fps,
         annotations: None,
+        drawn: None,
     };
     let stop = AtomicBool::new(false);
     let options = TrimOptions {

@@ -3,9 +3,12 @@
 //!
 //! - `/render/video` — `autoact_msgs/VideoInfo`, once: the capture session and bag rendered, the
 //!   video file, its rate, size, frame count, forced keyframes and encoder settings; its stamp is
-//!   the timeline instant of video frame 0;
-//! - `/render/annotations` — `autoact_msgs/FrameAnnotation` per video frame: 2D and 3D joints,
-//!   visibility, the bounding box and the segment the frame belongs to;
+//!   the timeline instant of video frame 0 — of timeline frame 0 when the render drew only some
+//!   frames (its `settings_json` then has [`TIMELINE_FRAMES_KEY`], see [`DrawnFrames`]);
+//! - `/render/annotations` — `autoact_msgs/FrameAnnotation` per video frame, in order: 2D and 3D
+//!   joints, visibility, the bounding box and the segment the frame belongs to; its `frame_index`
+//!   is the frame's place on the render's timeline (the video's own index when every frame is
+//!   drawn);
 //! - `/render/camera/h264` — `foxglove_msgs/CompressedVideo` per frame (optional,
 //!   `--embed-video`, or `--embed-video=both`): the encoded stream itself, so Foxglove plays it
 //!   beside the skeleton;
@@ -134,6 +137,15 @@ pub enum RenderBagError {
     /// The bag holds no video description.
     #[error("render bag `{0}`: no `{VIDEO_TOPIC}` message ({ty})", ty = VideoInfo::TYPE_NAME)]
     NoVideoInfo(PathBuf),
+    /// A render that drew only some frames does not say which, one annotation per video frame
+    /// ([`DrawnFrames`]).
+    #[error("render bag `{path}`: {detail}")]
+    DrawnFrames {
+        /// The render bag.
+        path: PathBuf,
+        /// What is wrong.
+        detail: String,
+    },
     /// The bag is a render of another capture session.
     #[error(
         "render bag `{bag}` is a render of capture session `{rendered}` (capture bag `{rendered_bag}`), but `{capture_bag}` holds session `{session}`: pass the capture bag that was rendered, or the right `--render-bag`"
@@ -353,6 +365,89 @@ pub struct RenderedVideo {
     pub capture_bag: String,
     /// The video's file name.
     pub video_file: String,
+    /// The timeline frames the video holds, when the render drew only some (`None`: every
+    /// frame, video frame `k` is timeline frame `k`).
+    pub drawn: Option<DrawnFrames>,
+}
+
+/// `settings_json` key of a render that drew only some frames of its timeline (`generate`
+/// without `--keep-intermediates` draws only the frames some clip uses): the frames of the whole
+/// timeline.
+pub const TIMELINE_FRAMES_KEY: &str = "timeline_frames";
+
+/// Which frames of its timeline a render's video holds, when the render drew only some: video
+/// frame `k` shows timeline frame `frames[k]` (frame `j` of the timeline being at `VideoInfo`'s
+/// stamp + `j / fps`, the frame a render of every frame has at `k = j`). The table is the render
+/// bag's own: the `frame_index` of its `k`-th `/render/annotations` message, one per video frame,
+/// with `VideoInfo`'s `settings_json` giving the timeline's length ([`TIMELINE_FRAMES_KEY`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DrawnFrames {
+    /// Frames of the whole timeline.
+    pub timeline_frames: u64,
+    /// The timeline frame of each video frame, strictly increasing.
+    pub frames: Vec<u64>,
+}
+
+impl DrawnFrames {
+    /// The video frame of timeline frames `start .. start + count`, when the video holds them
+    /// all, one after the other; else the first of them it does not hold.
+    ///
+    /// # Errors
+    /// The first timeline frame of the range that the video does not hold.
+    pub fn video_start(&self, start: u64, count: u64) -> Result<u64, u64> {
+        let Ok(first) = self.frames.binary_search(&start) else {
+            return Err(start);
+        };
+        for i in 1..count {
+            // Strictly increasing: frame `start + i` is held iff it is right after `start + i - 1`.
+            if self.frames.get(first + i as usize) != Some(&(start + i)) {
+                return Err(start + i);
+            }
+        }
+        Ok(first as u64)
+    }
+
+    /// The table of render bag `bag`, whose `VideoInfo` says `video_frames` frames of a
+    /// `timeline_frames`-frame timeline.
+    fn read(bag: &Path, timeline_frames: u64, video_frames: u64) -> Result<Self, RenderBagError> {
+        let bad = |detail: String| RenderBagError::DrawnFrames {
+            path: bag.to_path_buf(),
+            detail,
+        };
+        let mut frames = Vec::new();
+        let mut annotation = FrameAnnotation::default();
+        for m in BagReader::open_all(bag)?
+            .iter()
+            .flat_map(BagReader::messages)
+        {
+            let m = m?;
+            if m.channel.topic != ANNOTATIONS_TOPIC {
+                continue;
+            }
+            decode_annotation(&m.data, &mut annotation)
+                .map_err(|e| bad(format!("{ANNOTATIONS_TOPIC} message {}: {e}", frames.len())))?;
+            let k = annotation.frame_index;
+            if frames.last().is_some_and(|&last| k <= last) || k >= timeline_frames {
+                return Err(bad(format!(
+                    "{ANNOTATIONS_TOPIC} message {} is of timeline frame {k}: not after the one \
+                     before, or past the timeline's {timeline_frames} frames",
+                    frames.len()
+                )));
+            }
+            frames.push(k);
+        }
+        if frames.len() as u64 != video_frames {
+            return Err(bad(format!(
+                "{} {ANNOTATIONS_TOPIC} messages for a video of {video_frames} frames: which \
+                 timeline frames the video holds cannot be told",
+                frames.len()
+            )));
+        }
+        Ok(DrawnFrames {
+            timeline_frames,
+            frames,
+        })
+    }
 }
 
 impl RenderedVideo {
@@ -375,7 +470,17 @@ impl RenderedVideo {
                     fps: info.fps,
                 })?;
                 let stamp = info.header.stamp.to_nanos().unwrap_or(m.log_time);
+                let timeline = serde_json::from_str::<serde_json::Value>(&info.settings_json)
+                    .ok()
+                    .and_then(|v| {
+                        v.get(TIMELINE_FRAMES_KEY)
+                            .and_then(serde_json::Value::as_u64)
+                    });
+                let drawn = timeline
+                    .map(|t| DrawnFrames::read(bag, t, info.frame_count))
+                    .transpose()?;
                 return Ok(RenderedVideo {
+                    drawn,
                     bag: bag.to_path_buf(),
                     frame0_nanos: i128::from(stamp),
                     fps,
@@ -413,6 +518,23 @@ mod tests {
     use super::*;
     use crate::ros::builtin_interfaces::Time;
     use crate::ros::geometry_msgs::Point;
+
+    #[test]
+    fn a_clip_is_found_in_a_video_of_some_frames_only_when_it_holds_them_all() {
+        // Timeline frames 2..6 and 9..12 of 20 drawn.
+        let drawn = DrawnFrames {
+            timeline_frames: 20,
+            frames: vec![2, 3, 4, 5, 9, 10, 11],
+        };
+        assert_eq!(drawn.video_start(2, 4), Ok(0));
+        assert_eq!(drawn.video_start(3, 2), Ok(1));
+        assert_eq!(drawn.video_start(9, 3), Ok(4));
+        assert_eq!(drawn.video_start(10, 1), Ok(5));
+        // Starts at a frame not drawn; runs past a gap; runs past the end.
+        assert_eq!(drawn.video_start(1, 2), Err(1));
+        assert_eq!(drawn.video_start(4, 4), Err(6));
+        assert_eq!(drawn.video_start(10, 3), Err(12));
+    }
 
     #[test]
     fn an_annotation_from_before_the_landmarks_decodes_without_them() {

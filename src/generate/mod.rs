@@ -700,6 +700,13 @@ impl Run<'_> {
             randomise: self.spec.file.randomise.clone(),
             engine: r.engine(self.spec.file.dataset.engine),
             extra_keyframes: self.clip_starts(capture),
+            // Without --keep-intermediates the render is only for these clips: it draws only
+            // their frames, and `trim` finds them through the render bag's frame table.
+            only_frames: if self.job.keep_intermediates {
+                None
+            } else {
+                self.clip_frames(capture)
+            },
         };
         // Written into this run's own folder and moved into place when both are complete: an
         // encoder left running by a killed run finishes its file in that run's folder, never
@@ -762,7 +769,9 @@ impl Run<'_> {
                     .map_err(GenerateError::io("moving into place", dir))?;
             }
         }
-        self.progress.rendered(summary.render.frames);
+        // Timeline frames, as the plan's totals count them (drawn or not).
+        let timeline = crate::render::session::output_stamps(capture, r.fps).count() as u64;
+        self.progress.rendered(timeline);
         Ok(summary.frames_drawn)
     }
 
@@ -786,12 +795,36 @@ impl Run<'_> {
     /// every clip is copied, not re-encoded. Empty when they cannot be told; `trim` then reports
     /// what is wrong, and re-encodes clips that start off a keyframe.
     fn clip_starts(&self, capture: &Capture) -> Vec<u64> {
+        let Some((timing, policies)) = self.clip_timing(capture) else {
+            return Vec::new();
+        };
+        crate::trim::run::clip_start_frames(capture, &timing, &policies).unwrap_or_default()
+    }
+
+    /// The output frames the session's planned clips use, by the clip policy `trim` will cut
+    /// them with, in the render about to be made (as [`Run::clip_starts`]): the only frames a
+    /// render for them needs. `None` (draw every frame) when they cannot be told or there are
+    /// none; `trim` then reports what is wrong.
+    fn clip_frames(&self, capture: &Capture) -> Option<Vec<std::ops::Range<u64>>> {
+        let (timing, policies) = self.clip_timing(capture)?;
+        crate::trim::run::clip_frames(capture, &timing, &policies)
+            .ok()
+            .filter(|frames| !frames.is_empty())
+    }
+
+    /// The timing of the render about to be made of `capture` (frame 0 at its first output
+    /// frame's stamp, every output frame), and the clip policies `trim` will cut it by.
+    fn clip_timing(
+        &self,
+        capture: &Capture,
+    ) -> Option<(
+        crate::trim::plan::VideoTiming,
+        crate::trim::policy::ClipPolicies,
+    )> {
         let (Some(planned), Some(first)) = (&self.planned, capture.frames.first()) else {
-            return Vec::new();
+            return None;
         };
-        let Some(fps) = Rational::from_f64(self.job.render.fps.unwrap_or(capture.fps)) else {
-            return Vec::new();
-        };
+        let fps = Rational::from_f64(self.job.render.fps.unwrap_or(capture.fps))?;
         let frame_count =
             crate::render::session::output_stamps(capture, self.job.render.fps).count() as u64;
         let timing = crate::trim::plan::VideoTiming {
@@ -799,8 +832,7 @@ impl Run<'_> {
             fps,
             frame_count,
         };
-        let options = trim_options(&self.job.clips, planned);
-        crate::trim::run::clip_start_frames(capture, &timing, &options.clips).unwrap_or_default()
+        Some((timing, trim_options(&self.job.clips, planned).clips))
     }
 
     /// This run's folder for renders in progress: `renders/.run-<process id>`.
@@ -866,6 +898,7 @@ impl Run<'_> {
             frame0_nanos: rendered.frame0_nanos,
             fps: rendered.fps,
             annotations: Some(&paths.render_bag),
+            drawn: rendered.drawn.as_ref(),
         };
         let progress = |done: usize, _total: usize| {
             self.progress.trimming(done as u64);

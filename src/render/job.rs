@@ -146,6 +146,7 @@ pub fn render_job(job: &RenderJob, stop: &AtomicBool) -> Result<RenderReport, Re
         embed_video: job.embed_video,
         engine: job.engine.clone(),
         extra_keyframes: Vec::new(),
+        only_frames: None,
         randomise: crate::render::randomise::Randomise::default(),
     };
     let total = job

@@ -134,6 +134,11 @@ pub struct RenderSettings {
     /// start (`generate` gives them), so that `trim` copies every clip instead of re-encoding
     /// the ones inside a segment (fixed windows, action instances).
     pub extra_keyframes: Vec<u64>,
+    /// Draw only these frames of the render's timeline (sorted, disjoint ranges of output frame
+    /// indices): `generate` without `--keep-intermediates` gives the frames its clips use. The
+    /// video then holds only those frames, and the render bag says which
+    /// ([`crate::bags::render::DrawnFrames`]); `None` draws every frame.
+    pub only_frames: Option<Vec<std::ops::Range<u64>>>,
     /// Which engine draws the frames (the labels are the same for every engine).
     pub engine: Engine,
     /// Domain randomisation: colour jitter, sensor noise, motion blur
@@ -191,6 +196,8 @@ pub struct RenderSummary {
 /// (borrowed, so the plan adds no pose per frame) unless resampling blends two.
 #[derive(Debug, Clone)]
 struct Sample<'a> {
+    /// Its index on the render's timeline (the frame a render of every frame puts it at).
+    frame: usize,
     stamp_nanos: u64,
     scene: usize,
     pose: Cow<'a, BonePose>,
@@ -239,7 +246,9 @@ fn samples(capture: &Capture, fps: Option<f64>, limit: Option<usize>) -> Vec<Sam
         return frames
             .iter()
             .take(max)
-            .map(|f| Sample {
+            .enumerate()
+            .map(|(frame, f)| Sample {
+                frame,
                 stamp_nanos: f.stamp_nanos,
                 scene: f.scene,
                 pose: Cow::Borrowed(&f.pose),
@@ -294,6 +303,7 @@ fn samples(capture: &Capture, fps: Option<f64>, limit: Option<usize>) -> Vec<Sam
             a.world_from_optical
         };
         out.push(Sample {
+            frame: out.len(),
             stamp_nanos: t,
             scene: a.scene,
             pose,
@@ -431,10 +441,16 @@ struct Plan<'a> {
     preview_picks: Vec<usize>,
     /// The output frame rate.
     fps: f64,
-    /// The render's frame index of `samples[0]`: 0, or where a piece starts ([`pieces`]).
+    /// The index in the render's video of `samples[0]`: 0, or where a piece starts
+    /// ([`pieces`]).
     first: usize,
     /// The image effects to apply in output order.
     randomise: super::randomise::Randomise,
+    /// Timeline stamp of the render's timeline frame 0, nanoseconds.
+    frame0_nanos: u64,
+    /// Frames of the render's timeline when only some are drawn ([`Plan::keep_only`]); `None`:
+    /// every frame is drawn.
+    timeline_of_some: Option<u64>,
 }
 
 impl<'a> Plan<'a> {
@@ -446,14 +462,64 @@ impl<'a> Plan<'a> {
                 limit: settings.limit,
             });
         }
-        Ok(Plan {
+        let mut plan = Plan {
             keyframes: keyframes(capture, &samples, &settings.extra_keyframes),
             preview_picks: preview_frames(capture, &samples),
             fps: settings.fps.unwrap_or(capture.fps),
+            frame0_nanos: samples[0].stamp_nanos,
             samples,
             first: 0,
             randomise: settings.randomise.clone(),
-        })
+            timeline_of_some: None,
+        };
+        if let Some(only) = &settings.only_frames {
+            plan.keep_only(only);
+            if plan.samples.is_empty() {
+                return Err(RenderError::NoFrames {
+                    limit: settings.limit,
+                });
+            }
+        }
+        Ok(plan)
+    }
+
+    /// Keeps only the timeline frames in `only` (sorted, disjoint ranges). The keyframes kept
+    /// are the kept frames that a render of every frame makes keyframes (so the image effects,
+    /// which start afresh at a keyframe, draw every kept frame as that render does); a contact
+    /// sheet's pick not kept moves to the next kept frame.
+    fn keep_only(&mut self, only: &[std::ops::Range<u64>]) {
+        let timeline = self.samples.len() as u64;
+        let kept = |k: u64| {
+            let i = only.partition_point(|r| r.end <= k);
+            only.get(i).is_some_and(|r| r.contains(&k))
+        };
+        let samples: Vec<Sample<'a>> = std::mem::take(&mut self.samples)
+            .into_iter()
+            .filter(|s| kept(s.frame as u64))
+            .collect();
+        let at = |frame: usize| samples.partition_point(|s| s.frame < frame);
+        self.keyframes = self
+            .keyframes
+            .iter()
+            .filter(|&&k| kept(k))
+            .map(|&k| at(usize::try_from(k).unwrap_or(usize::MAX)) as u64)
+            .collect();
+        let last = samples.len().saturating_sub(1);
+        let mut picks: Vec<usize> = self
+            .preview_picks
+            .iter()
+            .map(|&k| at(k).min(last))
+            .collect();
+        picks.dedup();
+        self.preview_picks = picks;
+        self.samples = samples;
+        self.timeline_of_some = Some(timeline);
+    }
+
+    /// Frames of the render's timeline, drawn or not (of a whole render's plan, not a piece's).
+    fn timeline_frames(&self) -> u64 {
+        self.timeline_of_some
+            .unwrap_or_else(|| (self.first + self.samples.len()) as u64)
     }
 
     /// Frames `range` of this plan as a plan of their own (keyframes and preview picks counted
@@ -477,6 +543,8 @@ impl<'a> Plan<'a> {
             fps: self.fps,
             first: self.first + range.start,
             randomise: self.randomise.clone(),
+            frame0_nanos: self.frame0_nanos,
+            timeline_of_some: self.timeline_of_some,
         }
     }
 }
@@ -730,8 +798,9 @@ impl<'a> FrameSinks<'a> {
         if let Some(enc) = self.encoder.as_mut() {
             enc.write_frame(&rgb)?;
         }
-        // `k` counts this plan's frames; files and labels are numbered as the whole render's.
-        let frame = plan.first + k;
+        // `k` counts this plan's frames; files and labels are numbered by the render's timeline
+        // (as a render of every frame numbers them, whatever frames are drawn).
+        let frame = plan.samples[k].frame;
         self.passes.write(frame, self.width, self.height, &passes)?;
         if let Some(dir) = self.frames_dir {
             let path = crate::bags::render::frame_file(dir, frame as u64);
@@ -857,12 +926,15 @@ fn render_in_order(
                     };
                     let cut = plan.keyframes.binary_search(&(k as u64)).is_ok();
                     let seed = scenes.stages[plan.samples[k].scene].seed;
-                    // The render's own frame index, not the piece's: a render made in pieces
-                    // draws the same noise as one made whole.
-                    effects.apply((plan.first + k) as u64, seed, cut, &mut frame.rgb);
+                    // The frame's index on the render's timeline, not the piece's or the
+                    // video's: a render made in pieces, or of only some frames, draws the same
+                    // noise as one made whole.
+                    let frame_index = plan.samples[k].frame as u64;
+                    effects.apply(frame_index, seed, cut, &mut frame.rgb);
                     sinks.take(k, frame, plan, scenes.capture)?;
                     k += 1;
-                    progress((plan.first + k) as u64);
+                    // Timeline frames done, the ones not drawn included.
+                    progress(frame_index + 1);
                 }
             }
             Ok(())
@@ -1001,7 +1073,16 @@ impl LabelSink {
         rig: &Rig,
         renderer: &str,
     ) -> Result<LabelSink, RenderError> {
-        let first = plan.samples.first().map_or(0, |s| s.stamp_nanos);
+        let first = plan.frame0_nanos;
+        let mut settings_json = serde_json::json!({
+            "renderer": renderer,
+            "crf": settings.crf,
+            "preset": settings.preset,
+            "gop_frames": settings.gop_frames,
+        });
+        if let Some(timeline) = plan.timeline_of_some {
+            settings_json[crate::bags::render::TIMELINE_FRAMES_KEY] = timeline.into();
+        }
         let info = VideoInfo {
             header: Header {
                 stamp: Time::from_nanos(first),
@@ -1017,13 +1098,7 @@ impl LabelSink {
             width: settings.width,
             height: settings.height,
             forced_keyframes: plan.keyframes.clone(),
-            settings_json: serde_json::json!({
-                "renderer": renderer,
-                "crf": settings.crf,
-                "preset": settings.preset,
-                "gop_frames": settings.gop_frames,
-            })
-            .to_string(),
+            settings_json: settings_json.to_string(),
         };
         Ok(LabelSink {
             writer: bags::render::RenderBagWriter::create(path, first, &info)?,
@@ -1079,6 +1154,7 @@ mod tests {
             gop_frames: None,
             embed_video: None,
             extra_keyframes: Vec::new(),
+            only_frames: None,
             engine: Engine::Embedded,
             randomise: crate::render::randomise::Randomise::default(),
         }

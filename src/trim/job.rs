@@ -13,7 +13,7 @@ use super::qa::Thresholds;
 use super::run::{RunError, TrimOptions, TrimSummary, VideoSource, trim_capture};
 use super::split::{Key, SplitConfig};
 use crate::bags::capture::{Capture, TimelineError};
-use crate::bags::render::{RenderBagError, RenderedVideo, render_bag_beside};
+use crate::bags::render::{DrawnFrames, RenderBagError, RenderedVideo, render_bag_beside};
 use crate::dataset::clips::ClipsSection;
 use crate::progress::Progress;
 use crate::skeleton::rig::Rig;
@@ -139,7 +139,7 @@ pub fn trim_job(job: &TrimJob, stop: &AtomicBool) -> Result<TrimReport, TrimJobE
     if !job.video.is_file() {
         return Err(TrimJobError::NoVideo(job.video.clone()));
     }
-    let (frame0_nanos, fps) = place_video(job, &capture)?;
+    let (frame0_nanos, fps, drawn) = place_video(job, &capture)?;
     let plan = planned_clips(job, &capture)?;
     let options = TrimOptions {
         split: SplitConfig {
@@ -175,6 +175,7 @@ pub fn trim_job(job: &TrimJob, stop: &AtomicBool) -> Result<TrimReport, TrimJobE
         frame0_nanos,
         fps,
         annotations: annotations.as_deref(),
+        drawn: drawn.as_ref(),
     };
     let result = trim_capture(
         &ffmpeg,
@@ -238,8 +239,12 @@ fn planned_clips(job: &TrimJob, capture: &Capture) -> Result<Option<PlannedClips
 }
 
 /// The timeline stamp of video frame 0 and the video's frame rate: from `--video-start` (and
-/// `--video-fps`) when given, else from the render bag.
-fn place_video(job: &TrimJob, capture: &Capture) -> Result<(i128, Rational), TrimJobError> {
+/// `--video-fps`) when given, else from the render bag, with the timeline frames the video holds
+/// when the render drew only some.
+fn place_video(
+    job: &TrimJob,
+    capture: &Capture,
+) -> Result<(i128, Rational, Option<DrawnFrames>), TrimJobError> {
     let video_fps = |default: f64| {
         let fps = job.video_fps.unwrap_or(default);
         Rational::from_f64(fps)
@@ -256,7 +261,7 @@ fn place_video(job: &TrimJob, capture: &Capture) -> Result<(i128, Rational), Tri
             reason = "seconds of video fit in i128 ns"
         )]
         let offset = (start_s * 1e9).round() as i128;
-        return Ok((i128::from(first) + offset, video_fps(capture.fps)?));
+        return Ok((i128::from(first) + offset, video_fps(capture.fps)?, None));
     }
     let bag = job
         .render_bag
@@ -279,7 +284,7 @@ fn place_video(job: &TrimJob, capture: &Capture) -> Result<(i128, Rational), Tri
         Some(_) => video_fps(rendered.fps.as_f64())?,
         None => rendered.fps,
     };
-    Ok((rendered.frame0_nanos, fps))
+    Ok((rendered.frame0_nanos, fps, rendered.drawn))
 }
 
 impl TrimReport {

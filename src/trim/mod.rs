@@ -220,6 +220,35 @@ pub enum TrimError {
         /// Frames of the video.
         video_frames: u64,
     },
+    /// A clip's frames are not all in a video that holds only some frames of its timeline (a
+    /// render that drew only the frames its clips used, under another clip policy).
+    #[error(
+        "`{}` holds only some frames of its timeline (the clips' of the render's clip policy), and not timeline frame {frame} (stamp {stamp_nanos} ns) that clip `{clip_id}` needs: render again with every frame (`autoact render`, or `generate --keep-intermediates`)",
+        video.display()
+    )]
+    FrameNotInVideo {
+        /// The video.
+        video: PathBuf,
+        /// The clip.
+        clip_id: String,
+        /// The timeline frame missing.
+        frame: u64,
+        /// Its timeline stamp, nanoseconds.
+        stamp_nanos: i128,
+    },
+    /// A video's frames are not those its render bag lists.
+    #[error(
+        "`{}` has {video_frames} frames, but its render bag lists {listed}: not the video that render made",
+        video.display()
+    )]
+    DrawnFrameCount {
+        /// The video.
+        video: PathBuf,
+        /// Frames in it.
+        video_frames: u64,
+        /// Frames the render bag lists.
+        listed: u64,
+    },
     /// A clip's label sidecar is not one.
     #[error("`{path}` is not a clip label file (the `labels/` sidecar `autoact trim` writes)")]
     LabelsRead {

@@ -31,11 +31,17 @@ pub struct ClipPasses {
 }
 
 impl PassSources {
-    /// The pass folders beside `video`, each checked to hold one frame per video frame.
+    /// The pass folders beside `video`, each checked to hold one frame per video frame, the
+    /// last of them numbered `last_frame` (frames are numbered by the render's timeline: a
+    /// render that drew only some frames numbers them with gaps).
     ///
     /// # Errors
     /// [`TrimError::PassFrames`] naming a folder whose frames are not the video's.
-    pub fn beside(video: &Path, video_frames: u64) -> Result<PassSources, TrimError> {
+    pub fn beside(
+        video: &Path,
+        video_frames: u64,
+        last_frame: Option<u64>,
+    ) -> Result<PassSources, TrimError> {
         let found = |dir: PathBuf| -> Result<Option<PathBuf>, TrimError> {
             if !dir.is_dir() {
                 return Ok(None);
@@ -50,8 +56,7 @@ impl PassSources {
                 })
                 .count() as u64;
             let complete = frames == video_frames
-                && (video_frames == 0
-                    || crate::bags::render::frame_file(&dir, video_frames - 1).is_file());
+                && last_frame.is_none_or(|k| crate::bags::render::frame_file(&dir, k).is_file());
             if !complete {
                 return Err(TrimError::PassFrames {
                     dir,
@@ -140,7 +145,7 @@ mod tests {
         let video = dir.path().join("v.mp4");
         pass(dir.path(), "v.depth", 10);
         pass(dir.path(), "v.mask", 10);
-        let sources = PassSources::beside(&video, 10).unwrap();
+        let sources = PassSources::beside(&video, 10, Some(9)).unwrap();
         let ds = dir.path().join("ds");
         let got = sources.link_clip(&ds, "wave", "c1", 4, 3).unwrap();
         assert_eq!(got.depth.as_deref(), Some("depth/wave/c1"));
@@ -158,9 +163,11 @@ mod tests {
     fn a_pass_that_is_not_the_videos_is_refused_by_name_and_no_pass_is_fine() {
         let dir = tempfile::tempdir().unwrap();
         let video = dir.path().join("v.mp4");
-        assert!(!PassSources::beside(&video, 10).unwrap().any());
+        assert!(!PassSources::beside(&video, 10, Some(9)).unwrap().any());
         pass(dir.path(), "v.mask", 9);
-        let e = PassSources::beside(&video, 10).unwrap_err().to_string();
+        let e = PassSources::beside(&video, 10, Some(9))
+            .unwrap_err()
+            .to_string();
         assert!(
             e.contains("v.mask") && e.contains(" 9 ") && e.contains(" 10"),
             "{e}"

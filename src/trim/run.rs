@@ -23,6 +23,7 @@ use crate::dataset::clips::ClipMode;
 use crate::skeleton::rig::Rig;
 
 use crate::bags::capture::Capture;
+use crate::bags::render::DrawnFrames;
 use crate::ros::autoact_msgs::Segment;
 
 use crate::video::{
@@ -69,6 +70,10 @@ pub struct VideoSource<'a> {
     pub fps: Rational,
     /// The render bag whose per-frame annotations the quality checks read (`None`: no checks).
     pub annotations: Option<&'a Path>,
+    /// The timeline frames the video holds, when its render drew only some (`None`: video frame
+    /// `k` is timeline frame `k`). Clips are placed on the timeline, then found in the video
+    /// through this table; a clip whose frames it lacks is refused, never cut from other frames.
+    pub drawn: Option<&'a DrawnFrames>,
 }
 
 /// What a run did.
@@ -125,10 +130,22 @@ pub fn trim_capture(
         Some(m) => (m.frame_count(), m.keyframes()),
         None => keyframe_frames(ffmpeg, source.path)?,
     };
+    if let Some(drawn) = source.drawn
+        && drawn.frames.len() as u64 != frame_count
+    {
+        return Err(TrimError::DrawnFrameCount {
+            video: source.path.to_path_buf(),
+            video_frames: frame_count,
+            listed: drawn.frames.len() as u64,
+        }
+        .into());
+    }
+    // Clips are cut on the render's timeline: the video's own frames, or all of the timeline's
+    // when the video holds only some.
     let timing = VideoTiming {
         frame0_nanos: source.frame0_nanos,
         fps: source.fps,
-        frame_count,
+        frame_count: source.drawn.map_or(frame_count, |d| d.timeline_frames),
     };
     std::fs::create_dir_all(dir).map_err(TrimError::io("create", dir))?;
     // Held until this run returns: its manifest and lists then see every clip of any other run.
@@ -139,6 +156,7 @@ pub fn trim_capture(
     let clips = clip_ranges(capture, &timing, &segments, &options.clips)?;
     let ranges: Vec<FrameRange> = clips.iter().map(|(r, _)| r.clone()).collect();
     let ids: Vec<String> = clips.iter().map(|(_, id)| id.clone()).collect();
+    let video_starts = video_starts(source, &timing, &clips)?;
     forget_stale_clips(dir, &mut manifest, capture, &ids)?;
     let mut summary = TrimSummary {
         truncated,
@@ -150,7 +168,10 @@ pub fn trim_capture(
                 .len(),
         ..TrimSummary::default()
     };
-    let passes = PassSources::beside(source.path, frame_count)?;
+    let last_frame = source
+        .drawn
+        .map_or(frame_count.checked_sub(1), |d| d.frames.last().copied());
+    let passes = PassSources::beside(source.path, frame_count, last_frame)?;
     let run = Run {
         ffmpeg,
         capture,
@@ -164,7 +185,7 @@ pub fn trim_capture(
         label_dirs: label_dirs(&capture.labels),
         capture_video: crate::file_name(source.path),
         capture_bag: crate::file_name(&capture.path),
-        duration_s: frame_count as f64 / source.fps.as_f64(),
+        duration_s: timing.frame_count as f64 / source.fps.as_f64(),
         resolution: crate::video::probe_size(ffmpeg, source.path)
             .map(|(w, h)| format!("{w}x{h}"))
             .unwrap_or_default(),
@@ -179,6 +200,7 @@ pub fn trim_capture(
     };
     let result = run.cut_all(
         &clips,
+        &video_starts,
         &measured,
         &mut manifest,
         &mut summary,
@@ -254,6 +276,64 @@ pub fn clip_start_frames(
     starts.sort_unstable();
     starts.dedup();
     Ok(starts)
+}
+
+/// The timeline frames some clip `policies` cut from a render of `capture` timed as `timing`
+/// uses, as sorted, disjoint ranges: the frames a render for those clips alone has to draw
+/// (`generate` without `--keep-intermediates`).
+///
+/// # Errors
+/// As cutting: a segment's label out of range, a label without a policy.
+pub fn clip_frames(
+    capture: &Capture,
+    timing: &VideoTiming,
+    policies: &ClipPolicies,
+) -> Result<Vec<std::ops::Range<u64>>, TrimError> {
+    let (segments, _) = frame_ranges(&capture.segments, timing);
+    let mut clips: Vec<std::ops::Range<u64>> = clip_ranges(capture, timing, &segments, policies)?
+        .iter()
+        .map(|(r, _)| r.start_frame..r.end_frame())
+        .filter(|r| !r.is_empty())
+        .collect();
+    clips.sort_unstable_by_key(|r| (r.start, r.end));
+    let mut out: Vec<std::ops::Range<u64>> = Vec::with_capacity(clips.len());
+    for r in clips {
+        match out.last_mut() {
+            Some(last) if r.start <= last.end => last.end = last.end.max(r.end),
+            _ => out.push(r),
+        }
+    }
+    Ok(out)
+}
+
+/// The video frame each clip (timeline frames) starts at: its own first frame, or, when the
+/// video holds only some timeline frames, where the table puts it.
+///
+/// # Errors
+/// [`TrimError::FrameNotInVideo`] naming the video, the clip and the first timeline frame (and
+/// its stamp) of the clip that the video does not hold.
+fn video_starts(
+    source: &VideoSource<'_>,
+    timing: &VideoTiming,
+    clips: &[(FrameRange, String)],
+) -> Result<Vec<u64>, TrimError> {
+    clips
+        .iter()
+        .map(|(range, clip_id)| {
+            let Some(drawn) = source.drawn else {
+                return Ok(range.start_frame);
+            };
+            drawn
+                .video_start(range.start_frame, range.frame_count)
+                .map_err(|frame| TrimError::FrameNotInVideo {
+                    video: source.path.to_path_buf(),
+                    clip_id: clip_id.clone(),
+                    frame,
+                    stamp_nanos: timing.frame0_nanos
+                        + i128::from(timing.fps.frame_time_nanos(frame)),
+                })
+        })
+        .collect()
 }
 
 /// Every clip of the segments the video holds (`segments`, video frames), by each class's clip
@@ -545,6 +625,7 @@ impl Run<'_> {
     fn cut_all(
         &self,
         ranges: &[(FrameRange, String)],
+        video_starts: &[u64],
         measured: &Measured<'_>,
         manifest: &mut Manifest,
         summary: &mut TrimSummary,
@@ -562,7 +643,8 @@ impl Run<'_> {
                 summary.skipped += 1;
                 continue;
             }
-            let (method, rawframes) = self.cut_clip(&target, range)?;
+            let at = video_starts.get(done).copied().unwrap_or(range.start_frame);
+            let (method, rawframes) = self.cut_clip(&target, range, at)?;
             let passes = self.passes.link_clip(
                 self.dir,
                 target.label_dir,
@@ -673,25 +755,26 @@ impl Run<'_> {
             }))
     }
 
-    /// One segment → one clip: by stream copy where its first frame is a keyframe (and
-    /// re-encoding is not forced), re-encoded otherwise or when the copy does not hold exactly
-    /// its frames ([`cut`] verifies the count); then its frames, with `--rawframes`. Returns how
-    /// it was cut and its frames' folder, relative to the dataset folder.
+    /// One segment → one clip, starting at frame `at` of the video (the clip's first timeline
+    /// frame there): by stream copy where that frame is a keyframe (and re-encoding is not
+    /// forced), re-encoded otherwise or when the copy does not hold exactly its frames ([`cut`]
+    /// verifies the count); then its frames, with `--rawframes`. Returns how it was cut and its
+    /// frames' folder, relative to the dataset folder.
     fn cut_clip(
         &self,
         target: &ClipTarget<'_>,
         range: &FrameRange,
+        at: u64,
     ) -> Result<(CutMethod, Option<String>), RunError> {
         let out = &target.out;
         if let Some(parent) = out.parent() {
             std::fs::create_dir_all(parent).map_err(TrimError::io("create", parent))?;
         }
-        let copy_ok = !self.options.force_reencode
-            && self.keyframes.binary_search(&range.start_frame).is_ok();
+        let copy_ok = !self.options.force_reencode && self.keyframes.binary_search(&at).is_ok();
         let request = |method| CutRequest {
             input: self.video,
             output: out,
-            start_frame: range.start_frame,
+            start_frame: at,
             frame_count: range.frame_count,
             fps: self.fps,
             method,
@@ -704,7 +787,7 @@ impl Run<'_> {
         };
         let mut clip = match (&self.mp4, method) {
             (Some(mp4), CutMethod::StreamCopy) if Mp4Source::writes(out) => {
-                mp4.cut(out, range.start_frame, range.frame_count)
+                mp4.cut(out, at, range.frame_count)
             }
             _ => cut(self.ffmpeg, &request(method), reencode),
         };

@@ -9,7 +9,10 @@ use std::sync::OnceLock;
 
 use crate::common::{self, arg, autoact, stderr, stdout};
 
-/// Four sessions (one per source animation), two clips each, at 8 fps.
+/// Four sessions (one per source animation), at 8 fps: `wave`'s segments one clip each (the
+/// animation, its leads left out), `walk`'s cut into 4-frame windows 6 frames apart (the frames
+/// between windows and the tail left out), so a run without `--keep-intermediates` draws fewer
+/// frames than the plan holds.
 fn spec_toml() -> String {
     let wave = common::repo("bags/bandai_wave.pose.mcap");
     let walk = common::repo("bags/bandai_walk.pose.mcap");
@@ -34,13 +37,15 @@ sources = ["{wave}", "{walk}"]
 category = "locomotion"
 action = "walk"
 sources = ["{walk}", "{wave}"]
+clips = {{ policy = "windows", length_frames = 4, stride_frames = 6, tail = "drop" }}
 "#
     )
 }
 
 /// Options every run here shares: small, fast frames; every segment a render piece of its own
-/// (a killed render resumes at its interrupted segment).
-const OPTIONS: [&str; 4] = ["--resolution", "64x48", "--piece-frames", "1"];
+/// (a killed render resumes at its interrupted segment); lossless video (`--crf 0`), so a clip's
+/// decoded frames are the frames drawn, whatever frames the encoder saw around them.
+const OPTIONS: [&str; 6] = ["--resolution", "64x48", "--piece-frames", "1", "--crf", "0"];
 
 /// The frames of each batch a `--drawn-log` text says were drawn: (session, frame).
 fn drawn_frames(log: &str) -> Vec<(String, u64)> {
@@ -79,17 +84,19 @@ fn plan_frames(plan: &Path) -> (u64, u64) {
 }
 
 /// Issue 22's resume criterion over the frames `runs` drew (every run but the last was killed,
-/// `kills` of them): every frame is drawn, and no frame is drawn twice beyond the segment a kill
-/// interrupted: what a killed run drew that a later run draws again lies inside one segment of
-/// one session, and all runs together drew at most `kills` segments more than the plan holds.
+/// `kills` of them) into `out` (without `--keep-intermediates`, so its renders draw only the
+/// clips' frames): every clip frame is drawn, and no frame is drawn twice beyond the segment a
+/// kill interrupted: what a killed run drew that a later run draws again lies inside one segment
+/// of one session, and all runs together drew at most `kills` segments more than the clips hold.
 fn assert_no_frame_redrawn_beyond_the_interrupted_segment(
     runs: &[Vec<(String, u64)>],
     kills: usize,
-    plan: &Path,
+    out: &Path,
     what: &str,
 ) {
     use std::collections::BTreeSet;
-    let (total, segment) = plan_frames(plan);
+    let (_, segment) = plan_frames(&out.join("plan.json"));
+    let total = clip_frames(&out.join("dataset")).len() as u64;
     let all: BTreeSet<&(String, u64)> = runs.iter().flatten().collect();
     assert_eq!(
         all.len() as u64,
@@ -183,6 +190,95 @@ fn reference() -> Option<&'static (tempfile::TempDir, PathBuf, PathBuf)> {
         .as_ref()
 }
 
+/// One uninterrupted run without `--keep-intermediates` (its renders draw only the clips'
+/// frames), with the frames it drew logged: the spec, the output folder and the log.
+fn skipping() -> Option<&'static (tempfile::TempDir, PathBuf, PathBuf)> {
+    static SKIPPING: OnceLock<Option<(tempfile::TempDir, PathBuf, PathBuf)>> = OnceLock::new();
+    SKIPPING
+        .get_or_init(|| {
+            let (_, spec, _) = reference()?;
+            let dir = tempfile::tempdir().unwrap();
+            let out = dir.path().join("skipping");
+            let log = dir.path().join("drawn.log");
+            let o = generate(spec, &out, &["--drawn-log", arg(&log)]);
+            assert!(o.status.success(), "{}", stderr(&o));
+            Some((dir, out, log))
+        })
+        .as_ref()
+}
+
+/// The frames of `dataset`'s clips, once each however many clips hold them: (session, frame
+/// of the session's timeline).
+fn clip_frames(dataset: &Path) -> std::collections::BTreeSet<(String, u64)> {
+    let manifest = std::fs::read_to_string(dataset.join("manifest.jsonl")).unwrap();
+    let mut frames = std::collections::BTreeSet::new();
+    for line in manifest.lines() {
+        let r: serde_json::Value = serde_json::from_str(line).unwrap();
+        let start = r["start_frame"].as_u64().unwrap();
+        let count = r["frame_count"].as_u64().unwrap();
+        let session = r["session"].as_str().unwrap();
+        frames.extend((start..start + count).map(|k| (session.to_owned(), k)));
+    }
+    frames
+}
+
+/// The MD5 of each decoded frame of `video` (ffmpeg's `framemd5`, the digests alone).
+fn frame_digests(ffmpeg: &autoact::video::Ffmpeg, video: &Path) -> Vec<String> {
+    let o = std::process::Command::new(ffmpeg.ffmpeg_path())
+        .args(["-v", "error", "-i", arg(video), "-f", "framemd5", "-"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    stdout(&o)
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| l.rsplit(',').next().unwrap().trim().to_owned())
+        .collect()
+}
+
+/// Issue 22 item 4: without `--keep-intermediates` a render draws only the frames some clip
+/// uses, once each, and `trim` finds every clip's frames in that shorter video: the clips'
+/// decoded frames, their labels, the lists and the manifest are those of a run that drew every
+/// frame.
+#[test]
+fn a_run_that_draws_only_the_clips_frames_makes_the_same_dataset() {
+    let (Some((_keep, _, single)), Some((_dir, out, log))) = (reference(), skipping()) else {
+        return;
+    };
+    let ffmpeg = common::ffmpeg_or_skip(module_path!()).unwrap();
+    let drawn = drawn_frames(&std::fs::read_to_string(log).unwrap());
+    let wanted = clip_frames(&out.join("dataset"));
+    assert_eq!(clip_frames(&single.join("dataset")), wanted);
+    assert_eq!(
+        drawn.len(),
+        wanted.len(),
+        "frames drawn, distinct clip frames"
+    );
+    let distinct: std::collections::BTreeSet<_> = drawn.iter().collect();
+    assert_eq!(distinct.len(), drawn.len(), "a frame drawn twice");
+    let (plan_total, _) = plan_frames(&out.join("plan.json"));
+    assert!(
+        (drawn.len() as u64) < plan_total,
+        "{} frames drawn of {plan_total}: the spec leaves frames out of every clip",
+        drawn.len()
+    );
+    let (a, b) = (tree(&single.join("dataset")), tree(&out.join("dataset")));
+    assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
+    let mut videos = 0;
+    for (name, bytes) in &a {
+        if name.starts_with("videos") {
+            let digests = |root: &Path| frame_digests(&ffmpeg, &root.join("dataset").join(name));
+            let (full, sparse) = (digests(single), digests(out));
+            assert!(!full.is_empty(), "{}", name.display());
+            assert_eq!(full, sparse, "{}: decoded frames", name.display());
+            videos += 1;
+        } else {
+            assert!(*bytes == b[name], "{} differs", name.display());
+        }
+    }
+    assert!(videos > 8, "{videos} clips");
+}
+
 #[test]
 fn three_shards_merged_equal_one_run_byte_for_byte() {
     let Some((_keep, spec, single)) = reference() else {
@@ -206,15 +302,24 @@ fn three_shards_merged_equal_one_run_byte_for_byte() {
                 .map_or(0, |m| m.lines().count())
         })
         .collect();
-    assert_eq!(clips.iter().sum::<usize>(), 8, "{clips:?}");
-    assert!(clips.iter().all(|&c| c < 8), "{clips:?}");
+    let all = std::fs::read_to_string(single.join("dataset/manifest.jsonl"))
+        .unwrap()
+        .lines()
+        .count();
+    assert!(all > 8, "{all} clips in the single run");
+    assert_eq!(clips.iter().sum::<usize>(), all, "{clips:?}");
+    assert!(clips.iter().all(|&c| c < all), "{clips:?}");
     let merged = dir.path().join("merged");
     let mut args = vec!["merge"];
     args.extend(parts.iter().rev().map(|p| arg(p)));
     args.extend(["-o", arg(&merged)]);
     let o = autoact(&args);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stdout(&o).contains("8 clips"), "{}", stdout(&o));
+    assert!(
+        stdout(&o).contains(&format!("{all} clips")),
+        "{}",
+        stdout(&o)
+    );
     // Every file: lists, splits, label ids, manifests, annotations, clips, and the intermediates.
     assert_same_tree(single, &merged);
     assert!(
@@ -245,7 +350,7 @@ fn three_shards_merged_equal_one_run_byte_for_byte() {
 
 #[test]
 fn a_run_killed_at_many_points_then_rerun_equals_an_uninterrupted_one() {
-    let Some((_keep, spec, single)) = reference() else {
+    let (Some((_keep, spec, single)), Some((_dir, skipped, _))) = (reference(), skipping()) else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
@@ -273,13 +378,8 @@ fn a_run_killed_at_many_points_then_rerun_equals_an_uninterrupted_one() {
     let o = generate(spec, &out, &["--drawn-log", arg(&log)]);
     assert!(o.status.success(), "{}", stderr(&o));
     runs.push(drawn_since(&log, &mut from));
-    assert_no_frame_redrawn_beyond_the_interrupted_segment(
-        &runs,
-        killed,
-        &out.join("plan.json"),
-        "--abort-after",
-    );
-    assert_same_tree(&single.join("dataset"), &out.join("dataset"));
+    assert_no_frame_redrawn_beyond_the_interrupted_segment(&runs, killed, &out, "--abort-after");
+    assert_same_tree(&skipped.join("dataset"), &out.join("dataset"));
     for file in ["plan.json", "generate.json"] {
         let (a, b) = (single.join(file), out.join(file));
         assert_eq!(
@@ -327,7 +427,7 @@ fn a_run_killed_at_many_points_then_rerun_equals_an_uninterrupted_one() {
 fn runs_killed_with_sigkill_at_random_moments_then_rerun_equal_an_uninterrupted_one() {
     use std::process::{Command, Stdio};
     use std::time::{Duration, Instant};
-    let Some((_keep, spec, single)) = reference() else {
+    let (Some((_keep, spec, single)), Some((_dir, skipped, _))) = (reference(), skipping()) else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
@@ -391,10 +491,10 @@ fn runs_killed_with_sigkill_at_random_moments_then_rerun_equal_an_uninterrupted_
         assert_no_frame_redrawn_beyond_the_interrupted_segment(
             &runs,
             seed_kills,
-            &out.join("plan.json"),
+            &out,
             &format!("seed {seed}"),
         );
-        assert_same_tree(&single.join("dataset"), &out.join("dataset"));
+        assert_same_tree(&skipped.join("dataset"), &out.join("dataset"));
         for file in ["plan.json", "generate.json"] {
             assert_eq!(
                 std::fs::read(single.join(file)).unwrap(),

@@ -1803,3 +1803,86 @@ fn real_punches_are_cut_into_one_clip_per_punch() {
         assert!(span.end - span.start <= 40, "{span:?} is one punch");
     }
 }
+
+/// A render that drew only the frames of the default clips (`whole` animations, leads left out,
+/// as `generate` without `--keep-intermediates` renders): `trim` cuts those clips from it, and
+/// refuses clips whose frames it does not hold (the leads, with `--include-lead`), naming the
+/// video and the missing frame's stamp rather than cutting other frames.
+#[test]
+fn a_render_of_some_frames_gives_its_clips_and_refuses_others() {
+    use autoact::render::session::{Outputs, RenderSettings, render_capture};
+    use std::sync::atomic::AtomicBool;
+    let Some(ffmpeg) = common::ffmpeg_or_skip(module_path!()) else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let bag = capture_bag(dir.path(), "wave");
+    let rig = Rig::standard();
+    let capture = Capture::read(&rig, &bag).unwrap();
+    let timing = autoact::trim::plan::VideoTiming {
+        frame0_nanos: i128::from(capture.frames[0].stamp_nanos),
+        fps: Rational::from_f64(capture.fps).unwrap(),
+        frame_count: capture.frames.len() as u64,
+    };
+    let policies = autoact::trim::policy::ClipPolicies::default();
+    let only = autoact::trim::run::clip_frames(&capture, &timing, &policies).unwrap();
+    let drawn: u64 = only.iter().map(|r| r.end - r.start).sum();
+    assert!(drawn > 0 && drawn < timing.frame_count, "{only:?}");
+    let video = dir.path().join("some.mp4");
+    let settings = RenderSettings {
+        width: 64,
+        height: 48,
+        fps: None,
+        limit: None,
+        crf: 23,
+        preset: "ultrafast".into(),
+        gop_frames: None,
+        embed_video: None,
+        extra_keyframes: autoact::trim::run::clip_start_frames(&capture, &timing, &policies)
+            .unwrap(),
+        only_frames: Some(only),
+        engine: autoact::render::blender::Engine::Embedded,
+        randomise: autoact::render::randomise::Randomise::default(),
+    };
+    let outputs = Outputs {
+        video: Some(video.clone()),
+        ..Outputs::default()
+    };
+    let summary = render_capture(
+        &rig,
+        &capture,
+        &settings,
+        &outputs,
+        Some(&ffmpeg),
+        &|_| {},
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    assert_eq!(summary.frames, drawn);
+    let trim = |out: &str, extra: &[&str]| {
+        let out = dir.path().join(out);
+        let mut args = vec!["trim", common::arg(&bag), common::arg(&video), "-o"];
+        args.push(common::arg(&out));
+        args.extend(extra);
+        autoact(&args)
+    };
+    let o = trim("clips", &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let manifest = std::fs::read_to_string(dir.path().join("clips/manifest.jsonl")).unwrap();
+    let frames: u64 = manifest
+        .lines()
+        .map(|l| {
+            serde_json::from_str::<serde_json::Value>(l).unwrap()["frame_count"]
+                .as_u64()
+                .unwrap()
+        })
+        .sum();
+    assert_eq!(frames, drawn, "{manifest}");
+    let o = trim("leads", &["--include-lead"]);
+    assert!(!o.status.success(), "{}", stdout(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("some.mp4") && e.contains("holds only some frames") && e.contains(" ns)"),
+        "{e}"
+    );
+}

@@ -83,6 +83,10 @@ struct Journal {
     done: usize,
     /// The renderer's description (the render bag's `settings_json` names it).
     renderer: String,
+    /// Frames of the render's timeline, when only some are drawn (a render of other frames
+    /// starts over).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    timeline_frames: Option<u64>,
 }
 
 /// Renders `capture` as [`render_capture`] does, in pieces that a later call resumes ([`self`]).
@@ -116,9 +120,9 @@ pub fn render_in_pieces(
     };
     check_resolution(settings)?;
     let plan = Plan::new(capture, settings)?;
-    let starts = piece_starts(capture, &plan.samples, job.min_frames);
+    let starts = piece_starts(capture, &plan, job.min_frames);
     let ranges = ranges(&starts, plan.samples.len());
-    let mut journal = resume(&job.dir, &starts, plan.samples.len())?;
+    let mut journal = resume(&job.dir, &starts, &plan)?;
     let resumed = journal.done;
     let scenes = Scenes::prepare(rig, capture, settings);
     let mut frames_drawn = 0;
@@ -143,7 +147,7 @@ pub fn render_in_pieces(
         journal.done = i + 1;
         write_journal(&job.dir, &journal)?;
     }
-    progress(plan.samples.len() as u64);
+    progress(plan.timeline_frames());
     let encoded = join_video(&job.dir, ranges.len(), video, &plan)?;
     let render = join_labels(
         rig, capture, settings, outputs, job, &plan, &journal, encoded, ffmpeg,
@@ -161,14 +165,18 @@ pub fn render_in_pieces(
 
 /// First frame of each piece: frame 0, then the first output frame of a segment once the piece
 /// so far holds at least `min_frames` frames; a last piece shorter than that joins the one before.
-fn piece_starts(capture: &Capture, samples: &[Sample<'_>], min_frames: u64) -> Vec<u64> {
+/// A piece starts only at a keyframe of the plan (a render of every frame makes each segment's
+/// first frame one; a render of some frames, the first drawn frame of a segment that starts a
+/// clip), so that the image effects, which start afresh in each piece, draw as one render does.
+fn piece_starts(capture: &Capture, plan: &Plan<'_>, min_frames: u64) -> Vec<u64> {
+    let samples = &plan.samples;
     let len = samples.len() as u64;
     let mut bounds: Vec<u64> = capture
         .segments
         .iter()
         .filter_map(|s| s.start.to_nanos())
         .map(|t| samples.partition_point(|f| f.stamp_nanos < t) as u64)
-        .filter(|&k| k > 0 && k < len)
+        .filter(|&k| k > 0 && k < len && plan.keyframes.binary_search(&k).is_ok())
         .collect();
     bounds.sort_unstable();
     bounds.dedup();
@@ -197,13 +205,14 @@ fn ranges(starts: &[u64], len: usize) -> Vec<Range<usize>> {
 
 /// The journal of the pieces in `dir` when it is of this render (the same frames and bounds),
 /// else a fresh one, with `dir` emptied and created.
-fn resume(dir: &Path, starts: &[u64], frames: usize) -> Result<Journal, RenderError> {
+fn resume(dir: &Path, starts: &[u64], plan: &Plan<'_>) -> Result<Journal, RenderError> {
     let fresh = Journal {
         version: VERSION,
-        frames: frames as u64,
+        frames: plan.samples.len() as u64,
         starts: starts.to_vec(),
         done: 0,
         renderer: String::new(),
+        timeline_frames: plan.timeline_of_some,
     };
     let path = dir.join(JOURNAL_FILE);
     if let Ok(bytes) = std::fs::read(&path)
@@ -211,6 +220,7 @@ fn resume(dir: &Path, starts: &[u64], frames: usize) -> Result<Journal, RenderEr
         && found.version == VERSION
         && found.frames == fresh.frames
         && found.starts == fresh.starts
+        && found.timeline_frames == fresh.timeline_frames
         && found.done <= starts.len()
     {
         return Ok(found);
