@@ -130,23 +130,7 @@ pub fn trim_capture(
         Some(m) => (m.frame_count(), m.keyframes()),
         None => keyframe_frames(ffmpeg, source.path)?,
     };
-    if let Some(drawn) = source.drawn
-        && drawn.frames.len() as u64 != frame_count
-    {
-        return Err(TrimError::DrawnFrameCount {
-            video: source.path.to_path_buf(),
-            video_frames: frame_count,
-            listed: drawn.frames.len() as u64,
-        }
-        .into());
-    }
-    // Clips are cut on the render's timeline: the video's own frames, or all of the timeline's
-    // when the video holds only some.
-    let timing = VideoTiming {
-        frame0_nanos: source.frame0_nanos,
-        fps: source.fps,
-        frame_count: source.drawn.map_or(frame_count, |d| d.timeline_frames),
-    };
+    let timing = timeline(source, frame_count)?;
     std::fs::create_dir_all(dir).map_err(TrimError::io("create", dir))?;
     // Held until this run returns: its manifest and lists then see every clip of any other run.
     let _lock = lock_dataset(dir)?;
@@ -180,6 +164,7 @@ pub fn trim_capture(
         mp4,
         fps: source.fps,
         keyframes,
+        video_starts,
         dir,
         options,
         label_dirs: label_dirs(&capture.labels),
@@ -200,7 +185,6 @@ pub fn trim_capture(
     };
     let result = run.cut_all(
         &clips,
-        &video_starts,
         &measured,
         &mut manifest,
         &mut summary,
@@ -236,6 +220,28 @@ pub fn trim_capture(
             Err(e)
         }
     }
+}
+
+/// The timing of the render's timeline, which clips are cut on: the video's own frames, or all of
+/// the timeline's when the video (of `frame_count` frames) holds only some.
+///
+/// # Errors
+/// [`TrimError::DrawnFrameCount`] when the render bag lists other frames than the video has.
+fn timeline(source: &VideoSource<'_>, frame_count: u64) -> Result<VideoTiming, TrimError> {
+    if let Some(drawn) = source.drawn
+        && drawn.frames.len() as u64 != frame_count
+    {
+        return Err(TrimError::DrawnFrameCount {
+            video: source.path.to_path_buf(),
+            video_frames: frame_count,
+            listed: drawn.frames.len() as u64,
+        });
+    }
+    Ok(VideoTiming {
+        frame0_nanos: source.frame0_nanos,
+        fps: source.fps,
+        frame_count: source.drawn.map_or(frame_count, |d| d.timeline_frames),
+    })
 }
 
 /// Every list of the dataset folder `dir` rewritten from its manifest, under the dataset's lock,
@@ -591,6 +597,8 @@ struct Run<'a> {
     fps: Rational,
     /// The video's keyframes (frame indices, sorted): where a stream copy can start.
     keyframes: Vec<u64>,
+    /// The video frame each clip of the run starts at ([`video_starts`]).
+    video_starts: Vec<u64>,
     dir: &'a Path,
     options: &'a TrimOptions,
     /// The folder name of each class.
@@ -625,7 +633,6 @@ impl Run<'_> {
     fn cut_all(
         &self,
         ranges: &[(FrameRange, String)],
-        video_starts: &[u64],
         measured: &Measured<'_>,
         manifest: &mut Manifest,
         summary: &mut TrimSummary,
@@ -643,7 +650,11 @@ impl Run<'_> {
                 summary.skipped += 1;
                 continue;
             }
-            let at = video_starts.get(done).copied().unwrap_or(range.start_frame);
+            let at = self
+                .video_starts
+                .get(done)
+                .copied()
+                .unwrap_or(range.start_frame);
             let (method, rawframes) = self.cut_clip(&target, range, at)?;
             let passes = self.passes.link_clip(
                 self.dir,
