@@ -4,8 +4,9 @@
 # `autoact generate` from the sample bags (bags/, CC BY-NC 4.0 motion), RUNS times (default 3).
 # Prints each run's stage times, then the medians: frames/s per stage and for the chain, and
 # the chain's time extrapolated to NTU-GTAutoAct's 953,570 frames (target: <= 45 min, i.e.
-# >= 355 frames/s). "frames" are the dataset's clip frames; render also draws the short
-# lead-ins/outs, so its own rate is given per rendered frame too. CPU time (user + system,
+# >= 355 frames/s). "frames" are the dataset's clip frames; "rendered" counts the frames drawn
+# (without --keep-intermediates only the clips' frames: the two are equal here), and render's own
+# rate is given per rendered frame too. CPU time (user + system,
 # ffmpeg included) is printed too: on a shared machine it moves less than wall time.
 #
 # Usage: tools/bench_generate.sh [WORK_DIR] [RUNS]   (AUTOACT=path/to/autoact to skip the build)

@@ -64,14 +64,17 @@ pub struct Args {
     /// Write a contact sheet of each capture into `DIR/previews/`.
     #[arg(long)]
     pub previews: bool,
-    /// Keep each session's capture bag, video and render bag once its clips are final.
+    /// Keep each session's capture bag, video and render bag once its clips are final. Their
+    /// renders then draw every frame; without this option a render draws only the frames some
+    /// clip uses.
     #[arg(long)]
     pub keep_intermediates: bool,
     /// Test hook: end the process abruptly at the N-th event (frame rendered, clip cut, unit
     /// recorded), as kill -9 would, with exit code 86.
     #[arg(long, hide = true, value_name = "N")]
     pub abort_after: Option<u64>,
-    /// Test hook: append `SESSION FIRST COUNT` to FILE before each batch of frames is drawn.
+    /// Test hook: append `SESSION FIRST COUNT` to FILE before each batch of frames is drawn
+    /// (FIRST: the batch's first frame in the session's video).
     #[arg(long, hide = true, value_name = "FILE")]
     pub drawn_log: Option<PathBuf>,
     /// Renders are made in pieces of whole segments, each at least N frames; a render killed

@@ -15,6 +15,9 @@
 //! place, so a re-run after a crash, `kill -9` or Ctrl-C redoes at most the unit it stopped in;
 //! a render is itself made in pieces that outlive a kill (`renders/<session>.pieces/`,
 //! [`crate::render::session::pieces`]), so a render resumes at the piece it stopped in.
+//! Without `--keep-intermediates` a render draws only the frames some clip uses
+//! ([`crate::trim::run::clip_frames`]), and `trim` finds the clips in it through the render
+//! bag's frame table ([`crate::bags::render::DrawnFrames`]).
 //! With `--shard K/N` a machine makes only its share of the sessions ([`shard`]); [`merge`]
 //! joins the parts into the dataset one machine would have made.
 
@@ -134,7 +137,8 @@ pub struct GenerateJob {
     pub clips: ClipChoice,
     /// Write a contact sheet per capture into `previews/`.
     pub previews: bool,
-    /// Keep each session's capture bag, video and render bag after its clips are final.
+    /// Keep each session's capture bag, video and render bag after its clips are final; their
+    /// renders then draw every frame (without it, a render draws only the frames some clip uses).
     pub keep_intermediates: bool,
     /// Download ffmpeg when it is not installed.
     pub download_ffmpeg: bool,
@@ -142,7 +146,7 @@ pub struct GenerateJob {
     /// N-th event (a frame rendered, a clip cut, a unit recorded), as `kill -9` would.
     pub abort_after_events: Option<u64>,
     /// Test hook: append `SESSION FIRST COUNT` to this file just before each batch of frames is
-    /// drawn (its first frame in the session's render, its frame count), so the frames drawn by
+    /// drawn (its first frame in the session's video, its frame count), so the frames drawn by
     /// runs that were killed can be counted.
     pub drawn_log: Option<PathBuf>,
 }
