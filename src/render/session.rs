@@ -483,10 +483,13 @@ impl<'a> Plan<'a> {
         Ok(plan)
     }
 
-    /// Keeps only the timeline frames in `only` (sorted, disjoint ranges). The keyframes kept
-    /// are the kept frames that a render of every frame makes keyframes (so the image effects,
-    /// which start afresh at a keyframe, draw every kept frame as that render does); a contact
-    /// sheet's pick not kept moves to the next kept frame.
+    /// Keeps only the timeline frames in `only` (sorted, disjoint ranges). The keyframes are the
+    /// kept frames that a render of every frame makes keyframes, and the first kept frame after
+    /// every gap (a cut in this video: motion blur must not blend frames that are not neighbours
+    /// on the timeline). With the clips' starts among the keyframes asked for (as `generate`
+    /// asks), every gap ends at a clip start, so the image effects, which start afresh at a
+    /// keyframe, draw every kept frame as that render does. A contact sheet's pick not kept moves
+    /// to the next kept frame.
     fn keep_only(&mut self, only: &[std::ops::Range<u64>]) {
         let timeline = self.samples.len() as u64;
         let kept = |k: u64| {
@@ -498,12 +501,19 @@ impl<'a> Plan<'a> {
             .filter(|s| kept(s.frame as u64))
             .collect();
         let at = |frame: usize| samples.partition_point(|s| s.frame < frame);
-        self.keyframes = self
+        let mut keyframes: Vec<u64> = self
             .keyframes
             .iter()
             .filter(|&&k| kept(k))
             .map(|&k| at(usize::try_from(k).unwrap_or(usize::MAX)) as u64)
             .collect();
+        keyframes.extend((0..samples.len()).filter_map(|j| {
+            let after_gap = j == 0 || samples[j - 1].frame + 1 != samples[j].frame;
+            after_gap.then_some(j as u64)
+        }));
+        keyframes.sort_unstable();
+        keyframes.dedup();
+        self.keyframes = keyframes;
         let last = samples.len().saturating_sub(1);
         let mut picks: Vec<usize> = self
             .preview_picks
