@@ -52,6 +52,8 @@ pub struct TrimJob {
     pub reencode: ReencodeSettings,
     /// Also extract every clip's frames.
     pub rawframes: bool,
+    /// Their JPEG quality range, ffmpeg qscale `[min, max]` (a checked range), drawn per clip.
+    pub jpeg_quality: [u8; 2],
     /// Download ffmpeg when it is not installed.
     pub download_ffmpeg: bool,
     /// Clip policy keys that override the plan's for every class.
@@ -151,6 +153,7 @@ pub fn trim_job(job: &TrimJob, stop: &AtomicBool) -> Result<TrimReport, TrimJobE
         force_reencode: job.force_reencode,
         reencode: job.reencode.clone(),
         rawframes: job.rawframes,
+        jpeg_quality: job.jpeg_quality,
         planned: plan.as_ref().map(|p| p.items.clone()),
         qa: Thresholds::default(),
         clips: ClipPolicies {
@@ -363,7 +366,8 @@ impl TrimReport {
     }
 }
 
-/// A `--split-ratios` or `--hold-out` value that cannot be used, saying what is expected.
+/// A `--split-ratios`, `--hold-out` or `--jpeg-quality` value that cannot be used, saying what
+/// is expected.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("{0}")]
 pub struct SplitArgError(String);
@@ -394,6 +398,32 @@ pub fn parse_ratios(s: &str) -> Result<[f64; 3], SplitArgError> {
     Ok([a, b, c])
 }
 
+/// Parses a `--jpeg-quality`: one ffmpeg qscale `Q` or a range `MIN,MAX` (2 best … 31).
+///
+/// # Errors
+/// [`SplitArgError`] saying what is expected.
+pub fn parse_jpeg_quality(s: &str) -> Result<[u8; 2], SplitArgError> {
+    let parts: Vec<u8> = s
+        .split(',')
+        .map(|p| {
+            p.trim()
+                .parse::<u8>()
+                .map_err(|_| SplitArgError(format!("`{p}` is not a whole number")))
+        })
+        .collect::<Result<_, _>>()?;
+    let range = match parts[..] {
+        [q] => [q, q],
+        [lo, hi] => [lo, hi],
+        _ => {
+            return Err(SplitArgError(format!(
+                "`{s}`: give one qscale Q or a range MIN,MAX, e.g. 2,8"
+            )));
+        }
+    };
+    crate::video::check_jpeg_qscale(range).map_err(|e| SplitArgError(format!("`{s}`: {e}")))?;
+    Ok(range)
+}
+
 /// Parses a `KEY=VALUE` hold-out (`weather=RAIN`).
 ///
 /// # Errors
@@ -420,8 +450,24 @@ impl crate::outcome::LostInput for TrimReport {
 
 #[cfg(test)]
 mod tests {
-    use super::{parse_hold_out, parse_ratios};
+    use super::{parse_hold_out, parse_jpeg_quality, parse_ratios};
     use crate::trim::split::Key;
+
+    #[test]
+    fn jpeg_qualities_parse_or_say_what_is_expected() {
+        assert_eq!(parse_jpeg_quality("2").unwrap(), [2, 2]);
+        assert_eq!(parse_jpeg_quality("4, 12").unwrap(), [4, 12]);
+        for (bad, says) in [
+            ("1", "qscale"),
+            ("12,4", "qscale"),
+            ("2,40", "qscale"),
+            ("x", "whole number"),
+            ("2,3,4", "MIN,MAX"),
+        ] {
+            let e = parse_jpeg_quality(bad).unwrap_err().to_string();
+            assert!(e.contains(says), "{bad}: {e}");
+        }
+    }
 
     #[test]
     fn ratios_and_hold_outs_parse_or_say_what_is_expected() {
