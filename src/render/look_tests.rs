@@ -294,7 +294,7 @@ fn top_pattern(stage: &Stage) -> Result<usize, String> {
     }
     let on_torso = |i: usize| torso.vertices.contains(&i);
     // Sleeves: exactly the top's vertices off the torso.
-    if top.iter().all(|&(i, _, o)| o == !on_torso(i)) {
+    if top.iter().all(|&(i, _, o)| o != on_torso(i)) {
         return Ok(4);
     }
     // A print: only on the torso's front, within a chest-sized patch.
@@ -370,7 +370,7 @@ fn a_tops_pattern_changes_its_pixels_but_not_the_labels() {
         .expect("another pattern among 63 seeds");
     let mut b = a.clone();
     b.body_vertex_albedo = other;
-    let height = f64::from(scene.look.height_m);
+    let height = scene.look.height_m;
     let (eye, target) = (
         Point3::new(0.0, 2.2, 0.7 * height),
         Point3::new(0.0, 0.0, 0.65 * height),

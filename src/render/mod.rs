@@ -180,7 +180,6 @@ fn clothes_pattern(body: &BodyMesh, albedo: &[Rgb], seed: u64) -> Vec<Rgb> {
             match m {
                 Material::Top => {
                     let c = match pattern {
-                        TopPattern::Plain => base,
                         TopPattern::Stripes if (p[2] / 0.07).floor() as i64 % 2 == 0 => contrast,
                         TopPattern::TwoTone if p[2] > 0.78 * stature => contrast,
                         TopPattern::ChestPrint
