@@ -98,10 +98,10 @@ pub struct Args {
     #[arg(long, default_value_t = 18, value_parser = clap::value_parser!(u8).range(0..=51))]
     pub crf: u8,
     /// JPEG quality of `--rawframes`: ffmpeg qscale, 2 (best) … 31, or a range `MIN,MAX` each
-    /// clip's quality is drawn from (by the dataset's seed and the clip id), as the spec's
-    /// `[randomise] jpeg_quality` does in `generate`.
-    #[arg(long, value_name = "Q|MIN,MAX", default_value = "2", value_parser = parse_jpeg_quality)]
-    pub jpeg_quality: [u8; 2],
+    /// clip's quality is drawn from (by the dataset's seed and the clip id). Default: the spec's
+    /// `[randomise] jpeg_quality` as the capture bag recorded it (what `generate` uses), else 2.
+    #[arg(long, value_name = "Q|MIN,MAX", value_parser = parse_jpeg_quality)]
+    pub jpeg_quality: Option<[u8; 2]>,
     /// How segments are cut into clips.
     #[command(flatten)]
     pub clips: ClipArgs,
