@@ -67,6 +67,7 @@ fn main() -> Result<()> {
         force_reencode: false,
         reencode: ReencodeSettings::default(),
         rawframes: false,
+        jpeg_quality: [autoact::video::JPEG_QSCALE_BEST; 2],
         planned: None,
         qa: autoact::trim::qa::Thresholds::default(),
         clips: autoact::trim::policy::ClipPolicies::default(),

@@ -18,6 +18,15 @@ pub fn hash2(a: u64, b: u64) -> u64 {
     mix64(a ^ mix64(b))
 }
 
+/// FNV-1a, 64 bits, of `text`: a stable number for a name (a scene's stream, a session's or a
+/// clip's key).
+#[must_use]
+pub fn of_str(text: &str) -> u64 {
+    text.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    })
+}
+
 /// A uniform value in [0, 1) from a hash of `(a, b)`.
 #[inline]
 #[must_use]

@@ -14,7 +14,8 @@
 //! - `/segments` (`autoact_msgs/Segment`) at each clip's start: the full hierarchy path, the
 //!   label and its id, and the clip's and the animation's times.
 //!
-//! The metadata record `autoact.dataset` names the spec, seed, rate, resolution and labels.
+//! The metadata record `autoact.dataset` names the spec, seed, rate, resolution and labels, and
+//! holds the spec's `[randomise]` ([`RANDOMISE_KEY`]).
 //!
 //! [`CaptureWriter`] writes one; [`Capture::read`] reads it back into what the renderer draws
 //! and the trimmer cuts: its scenes, its clips, and per timeline frame the character's pose and
@@ -57,6 +58,9 @@ pub const CAMERA_INFO_TOPIC: &str = "/camera/camera_info";
 pub const SCENE_TOPIC: &str = "/scene";
 /// Topic of the clip segments.
 pub const SEGMENTS_TOPIC: &str = "/segments";
+/// The key of the `autoact.dataset` record that holds the spec's `[randomise]` (JSON).
+pub const RANDOMISE_KEY: &str = "randomise";
+
 /// Name of the metadata record that describes the dataset.
 pub const METADATA_NAME: &str = "autoact.dataset";
 
@@ -423,6 +427,10 @@ pub struct Capture {
     pub labels: Vec<String>,
     /// The dataset's seed, from the `autoact.dataset` record.
     pub seed: Option<u64>,
+    /// The spec's `[randomise]` as JSON, from the `autoact.dataset` record's
+    /// [`RANDOMISE_KEY`] (read by `crate::render::randomise::Randomise::recorded`); `None` for
+    /// bags written before it was recorded.
+    pub randomise: Option<String>,
     /// The camera's lens as recorded.
     pub intrinsics: Intrinsics,
     /// Scenes in time order.
@@ -491,6 +499,7 @@ impl Capture {
             fps,
             labels: record.labels,
             seed: record.seed,
+            randomise: record.randomise,
             intrinsics,
             scenes,
             segments,
@@ -524,6 +533,7 @@ struct DatasetRecord {
     fps: Option<f64>,
     labels: Vec<String>,
     seed: Option<u64>,
+    randomise: Option<String>,
 }
 
 impl DatasetRecord {
@@ -539,6 +549,9 @@ impl DatasetRecord {
                 }
                 if let Some(v) = meta.get("seed").and_then(|v| v.parse::<u64>().ok()) {
                     record.seed = Some(v);
+                }
+                if let Some(v) = meta.get(RANDOMISE_KEY) {
+                    record.randomise = Some(v.clone());
                 }
                 if let Some(text) = meta.get("labels") {
                     record.labels =

@@ -12,7 +12,7 @@ use crate::render::job::{RenderJob, parse_resolution, render_job};
 use crate::render::session::Outputs;
 
 /// Render a capture bag's timeline (with the embedded CPU renderer, or Blender Cycles) and encode
-/// it to H.264.
+/// it to H.264, with the domain randomisation (`[randomise]`) the bag recorded.
 #[derive(Debug, clap::Args)]
 #[command(after_help = "\
 Examples:
@@ -67,6 +67,11 @@ pub struct Args {
     /// Render only the first N frames (a quick look; the video then covers only those).
     #[arg(long, value_name = "N")]
     pub limit: Option<usize>,
+    /// Draw clean pictures: no colour jitter, sensor noise, motion blur or drawn CRF. Without
+    /// it, the capture bag's recorded `[randomise]` applies, so the frames are `generate`'s
+    /// (bags written before autoact recorded it get the defaults).
+    #[arg(long)]
+    pub no_randomise: bool,
     /// Replace outputs that exist.
     #[arg(long)]
     pub force: bool,
@@ -203,6 +208,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         force: args.force,
         download_ffmpeg: engine.download_ffmpeg,
         engine: renderer,
+        no_randomise: args.no_randomise,
     };
     let report = render_job(&job, crate::interrupt::Interrupt::install()?.flag())?;
     super::print_stdout(&report.report()).context("writing to stdout")?;

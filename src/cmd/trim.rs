@@ -7,7 +7,7 @@ use anyhow::{Context, Result};
 
 use super::Outcome;
 use crate::dataset::clips::{ClipMode, ClipsSection, Tail};
-use crate::trim::job::{TrimJob, parse_hold_out, parse_ratios, trim_job};
+use crate::trim::job::{TrimJob, parse_hold_out, parse_jpeg_quality, parse_ratios, trim_job};
 use crate::trim::split::Key;
 use crate::video::ReencodeSettings;
 
@@ -97,6 +97,11 @@ pub struct Args {
     /// x264 constant rate factor for re-encoded clips.
     #[arg(long, default_value_t = 18, value_parser = clap::value_parser!(u8).range(0..=51))]
     pub crf: u8,
+    /// JPEG quality of `--rawframes`: ffmpeg qscale, 2 (best) … 31, or a range `MIN,MAX` each
+    /// clip's quality is drawn from (by the dataset's seed and the clip id). Default: the spec's
+    /// `[randomise] jpeg_quality` as the capture bag recorded it (what `generate` uses), else 2.
+    #[arg(long, value_name = "Q|MIN,MAX", value_parser = parse_jpeg_quality)]
+    pub jpeg_quality: Option<[u8; 2]>,
     /// How segments are cut into clips.
     #[command(flatten)]
     pub clips: ClipArgs,
@@ -209,6 +214,7 @@ pub fn run(args: Args) -> Result<Outcome> {
             crf: args.crf,
         },
         rawframes: args.cut.rawframes,
+        jpeg_quality: args.jpeg_quality,
         download_ffmpeg: args.download_ffmpeg,
         clips: args.clips.section(),
     };

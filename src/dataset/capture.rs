@@ -576,8 +576,8 @@ impl<'a> Dataset<'a> {
         })
     }
 
-    /// The session's metadata record: the dataset, the session, the spec, the seed, the camera
-    /// and the labels.
+    /// The session's metadata record: the dataset, the session, the spec, the seed, the camera,
+    /// the labels and the spec's `[randomise]` (so `autoact render` draws what `generate` does).
     fn session_metadata(&self, session: &Session) -> BTreeMap<String, String> {
         let d = &self.spec.file.dataset;
         let mut meta = BTreeMap::new();
@@ -600,6 +600,10 @@ impl<'a> Dataset<'a> {
             serde_json::to_string(&self.plan.labels).unwrap_or_default(),
         );
         meta.insert("clips".to_string(), session.leaves.len().to_string());
+        meta.insert(
+            crate::bags::capture::RANDOMISE_KEY.to_string(),
+            self.spec.file.randomise.to_record(),
+        );
         meta
     }
 

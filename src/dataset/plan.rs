@@ -171,9 +171,7 @@ pub struct Plan {
 /// FNV-1a, 64 bits: a stable stream number for a scene id.
 #[must_use]
 pub fn stream_of(id: &str) -> u64 {
-    id.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
-    })
+    crate::hash::of_str(id)
 }
 
 fn frames_for(seconds: f64, fps: f64) -> u64 {

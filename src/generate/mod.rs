@@ -349,6 +349,8 @@ pub(crate) fn trim_options(choice: &ClipChoice, planned: &PlannedClips) -> TrimO
         force_reencode: choice.reencode,
         reencode: choice.reencode_settings.clone(),
         rawframes: choice.rawframes,
+        // `generate`'s trim sets the spec's `[randomise] jpeg_quality`; the lists need none.
+        jpeg_quality: [crate::video::JPEG_QSCALE_BEST; 2],
         planned: Some(planned.items.clone()),
         qa: Thresholds::default(),
         // Each class's clip policy as the spec (through the plan) gives it.
@@ -691,12 +693,10 @@ impl Run<'_> {
             fps: r.fps,
             limit: None,
             // `[randomise] crf` draws each capture's CRF, keyed by the seed and its session.
-            crf: self.spec.file.randomise.video_crf(
+            crf: self.spec.file.randomise.capture_crf(
                 r.crf,
-                crate::hash::hash2(
-                    self.spec.file.dataset.seed,
-                    crate::dataset::plan::stream_of(&capture.session),
-                ),
+                self.spec.file.dataset.seed,
+                &capture.session,
             ),
             preset: r.preset.clone(),
             gop_frames: r.gop_frames,
@@ -896,7 +896,10 @@ impl Run<'_> {
         planned.check(capture)?;
         let rendered = RenderedVideo::read(&paths.render_bag)?;
         rendered.check_renders(capture)?;
-        let options = trim_options(&self.job.clips, planned);
+        let options = TrimOptions {
+            jpeg_quality: self.spec.file.randomise.jpeg_quality,
+            ..trim_options(&self.job.clips, planned)
+        };
         let source = VideoSource {
             path: &paths.video,
             frame0_nanos: rendered.frame0_nanos,

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
+use super::randomise::{Randomise, RecordedRandomiseError};
 use super::session::{Outputs, RenderError, RenderSettings, RenderSummary, render_capture};
 use crate::bags::capture::{Capture, TimelineError};
 use crate::progress::Progress;
@@ -38,6 +39,9 @@ pub struct RenderJob {
     pub download_ffmpeg: bool,
     /// Which engine draws the frames.
     pub engine: super::blender::Engine,
+    /// Draw without any randomisation (`--no-randomise`); otherwise with the `[randomise]` the
+    /// capture bag recorded (the defaults for a bag without one), as `generate` does.
+    pub no_randomise: bool,
 }
 
 /// What a render job did, for the summary it prints.
@@ -98,6 +102,15 @@ pub enum RenderJobError {
     /// The frame rate is not a positive number.
     #[error("--fps {0}: must be a positive number")]
     Fps(f64),
+    /// The capture bag's recorded `[randomise]` cannot be used.
+    #[error("`{}`", path.display())]
+    Randomise {
+        /// The capture bag.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: RecordedRandomiseError,
+    },
     /// The render failed.
     #[error("rendering `{}`", path.display())]
     Render {
@@ -135,19 +148,30 @@ pub fn render_job(job: &RenderJob, stop: &AtomicBool) -> Result<RenderReport, Re
     {
         return Err(RenderJobError::Fps(fps));
     }
+    let randomise = if job.no_randomise {
+        Randomise::none()
+    } else {
+        Randomise::recorded(capture.randomise.as_deref()).map_err(|source| {
+            RenderJobError::Randomise {
+                path: job.capture.clone(),
+                source,
+            }
+        })?
+    };
     let settings = RenderSettings {
         width,
         height,
         fps: job.fps,
         limit: job.limit,
-        crf: job.crf,
+        // A recorded `[randomise] crf` draws the CRF as `generate` did.
+        crf: randomise.capture_crf(job.crf, capture.seed.unwrap_or(0), &capture.session),
         preset: job.preset.clone(),
         gop_frames: job.gop_frames,
         embed_video: job.embed_video,
         engine: job.engine.clone(),
         extra_keyframes: Vec::new(),
         only_frames: None,
-        randomise: crate::render::randomise::Randomise::default(),
+        randomise,
     };
     let total = job
         .limit

@@ -262,35 +262,71 @@ fn the_face_shows_dark_eyes_where_cocos_eye_points_project() {
     }
 }
 
+/// Which pattern a stage's top has, read off its vertices' colours: 0 plain, 1 two-tone, 2
+/// striped, 3 a chest print, 4 colour-blocked sleeves.
+fn top_pattern(stage: &Stage) -> Result<usize, String> {
+    use crate::scene::body_mesh::Material;
+    let base = stage.body_albedo[Material::Top as usize];
+    let peak = base.iter().fold(0.0f32, |a, &c| a.max(c));
+    let body = &stage.body;
+    let stature = body
+        .rest_positions_m
+        .iter()
+        .map(|p| p[2])
+        .fold(0.0f32, f32::max);
+    let torso = body
+        .parts
+        .iter()
+        .find(|p| p.name == "torso")
+        .expect("a torso");
+    // (vertex, position, whether it has another colour than the top's, beyond the ±6 % grain).
+    let mut top: Vec<(usize, [f32; 3], bool)> = (0..body.materials.len())
+        .filter(|&i| body.materials[i] == Material::Top)
+        .map(|i| {
+            let c = stage.body_vertex_albedo[i];
+            let other = (0..3).any(|k| (c[k] - base[k]).abs() > 0.07 * peak + 0.005);
+            (i, body.rest_positions_m[i], other)
+        })
+        .collect();
+    let other: Vec<(usize, [f32; 3], bool)> = top.iter().copied().filter(|v| v.2).collect();
+    if other.is_empty() {
+        return Ok(0);
+    }
+    let on_torso = |i: usize| torso.vertices.contains(&i);
+    // Sleeves: exactly the top's vertices off the torso.
+    if top.iter().all(|&(i, _, o)| o != on_torso(i)) {
+        return Ok(4);
+    }
+    // A print: only on the torso's front, within a chest-sized patch.
+    if other.iter().all(|&(i, p, _)| {
+        on_torso(i)
+            && p[1] > 0.0
+            && p[0].abs() < 0.06 * stature
+            && (0.6 * stature..0.8 * stature).contains(&p[2])
+    }) {
+        return Ok(3);
+    }
+    top.sort_by(|a, b| a.1[2].total_cmp(&b.1[2]));
+    match top.windows(2).filter(|w| w[0].2 != w[1].2).count() {
+        1 => Ok(1),
+        s if s >= 4 => Ok(2),
+        s => Err(format!(
+            "{} vertices of another colour, {s} switches",
+            other.len()
+        )),
+    }
+}
+
 #[test]
-fn tops_come_plain_striped_or_two_tone_and_fabrics_have_grain() {
+fn tops_come_plain_striped_two_tone_printed_or_blocked_and_fabrics_have_grain() {
     use crate::scene::body_mesh::Material;
     let rig = Rig::standard();
     let scene = scene_at("open_field", Weather::Clear, ClockTime::NOON, 2);
-    let mut seen = [0usize; 3];
-    for seed in 0..24 {
+    let mut seen = [0usize; 5];
+    for seed in 0..40 {
         let stage = Stage::new(&rig, &scene, seed, 0);
-        let base = stage.body_albedo[Material::Top as usize];
-        // (height, whether the vertex has the contrasting shade) for every vertex of the top.
-        let mut top: Vec<(f32, bool)> = stage
-            .body
-            .materials
-            .iter()
-            .zip(&stage.body.rest_positions_m)
-            .zip(&stage.body_vertex_albedo)
-            .filter(|((m, _), _)| **m == Material::Top)
-            .map(|((_, p), c)| (p[2], (c[1] / base[1] - 1.0).abs() > 0.1))
-            .collect();
-        top.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let switches = top.windows(2).filter(|w| w[0].1 != w[1].1).count();
-        let contrasting = top.iter().filter(|v| v.1).count();
-        // Plain: none contrasting; two-tone: one switch up the body (a yoke); stripes: many.
-        let kind = match (contrasting, switches) {
-            (0, _) => 0,
-            (_, 1) => 1,
-            (_, s) if s >= 4 => 2,
-            other => panic!("seed {seed}: a top that is none of the patterns: {other:?}"),
-        };
+        let kind = top_pattern(&stage)
+            .unwrap_or_else(|e| panic!("seed {seed}: a top that is none of the patterns: {e}"));
         seen[kind] += 1;
         // Grain: the trousers' vertices are not all one colour, but within ±6 % of it.
         let bottom = stage.body_albedo[Material::Bottom as usize];
@@ -313,8 +349,150 @@ fn tops_come_plain_striped_or_two_tone_and_fabrics_have_grain() {
     }
     assert!(
         seen.iter().all(|&n| n >= 3),
-        "plain, two-tone, striped: {seen:?}"
+        "plain, two-tone, striped, printed, blocked: {seen:?}"
     );
+}
+
+#[test]
+fn a_tops_pattern_changes_its_pixels_but_not_the_labels() {
+    let rig = Rig::standard();
+    let scene = scene_at("open_field", Weather::Clear, ClockTime::NOON, 2);
+    let a = Stage::new(&rig, &scene, 0, 0);
+    let kind = top_pattern(&a).expect("a pattern");
+    // The same stage with another seed's pattern on its clothes.
+    let other = (1..64)
+        .map(|seed| super::clothes_pattern(&a.body, &a.body_albedo, seed))
+        .find(|albedo| {
+            let mut b = a.clone();
+            b.body_vertex_albedo.clone_from(albedo);
+            top_pattern(&b).is_ok_and(|k| k != kind)
+        })
+        .expect("another pattern among 63 seeds");
+    let mut b = a.clone();
+    b.body_vertex_albedo = other;
+    let height = scene.look.height_m;
+    let (eye, target) = (
+        Point3::new(0.0, 2.2, 0.7 * height),
+        Point3::new(0.0, 0.0, 0.65 * height),
+    );
+    let (ia, _) = render_view(&a, eye, target);
+    let (ib, _) = render_view(&b, eye, target);
+    if let Some(dir) = std::env::var_os("AUTOACT_LOOK_DUMP") {
+        for (name, image) in [("top_a.png", &ia), ("top_b.png", &ib)] {
+            let path = std::path::Path::new(&dir).join(name);
+            crate::video::write_png(&path, image.width, image.height, &image.rgb).expect("png");
+        }
+    }
+    assert_eq!(ia.depth, ib.depth);
+    assert_eq!(ia.surface, ib.surface);
+    let changed = ia
+        .rgb
+        .chunks_exact(3)
+        .zip(ib.rgb.chunks_exact(3))
+        .zip(&ia.surface)
+        .filter(|((p, q), s)| **s == Surface::Character as u8 && p != q)
+        .count();
+    let character = ia
+        .surface
+        .iter()
+        .filter(|&&s| s == Surface::Character as u8)
+        .count();
+    assert!(
+        changed * 10 > character,
+        "{changed} of {character} character pixels changed"
+    );
+}
+
+#[test]
+fn the_face_has_a_dark_mouth_and_brows_in_the_hairs_colour() {
+    let rig = Rig::standard();
+    let mut scene = scene_at("open_field", Weather::Clear, ClockTime::NOON, 2);
+    scene.look.skin_rgb = [0.86, 0.69, 0.58];
+    scene.look.hair_rgb = [0.12, 0.08, 0.05];
+    scene.sun.azimuth_deg = 20.0;
+    let stage = Stage::new(&rig, &scene, 5, 0);
+    let centroid = |name: &str| {
+        let part = stage
+            .body
+            .parts
+            .iter()
+            .find(|p| p.name == name)
+            .expect(name);
+        let n = part.vertices.len() as f64;
+        let sum = part.vertices.clone().fold([0.0f64; 3], |s, i| {
+            let p = stage.body.rest_positions_m[i];
+            [
+                s[0] + f64::from(p[0]),
+                s[1] + f64::from(p[1]),
+                s[2] + f64::from(p[2]),
+            ]
+        });
+        Point3::new(sum[0] / n, sum[1] / n, sum[2] / n)
+    };
+    let mouth = centroid("mouth");
+    let eyes = nalgebra::center(&centroid("l_eye"), &centroid("r_eye"));
+    // Below the nose and the eyes, on the face's midline.
+    assert!(
+        mouth.z < eyes.z - 0.04 && mouth.x.abs() < 0.005,
+        "{mouth:?}"
+    );
+    let eye = mouth + nalgebra::Vector3::new(0.0, 0.45, 0.05);
+    let (w, h) = (320u32, 240u32);
+    let camera = Camera {
+        world_from_optical: CameraPose::looking_at(eye, mouth + nalgebra::Vector3::z() * 0.05)
+            .isometry_world_from_optical(),
+        intrinsics: Intrinsics::from_horizontal_fov(w, h, 50.0).expect("a lens"),
+    };
+    let input = FrameInput {
+        camera,
+        pose: &stage.rest_pose,
+        time_s: 0.0,
+    };
+    let mut image = Image::default();
+    CpuRenderer::new().render(&stage, &input, &mut image);
+    if let Some(dir) = std::env::var_os("AUTOACT_LOOK_DUMP") {
+        let path = std::path::Path::new(&dir).join("mouth.png");
+        crate::video::write_png(&path, w, h, &image.rgb).expect("png");
+    }
+    let k = &camera.intrinsics;
+    let pixel = |p: Point3<f64>| {
+        let q = camera.world_from_optical.inverse_transform_point(&p);
+        let x = k.fx_px * q.x / q.z + k.cx_px;
+        let y = k.fy_px * q.y / q.z + k.cy_px;
+        (x as usize, y as usize)
+    };
+    let luma = |(x, y): (usize, usize)| {
+        let i = 3 * (y * w as usize + x);
+        let p = &image.rgb[i..i + 3];
+        (u32::from(p[0]) * 2 + u32::from(p[1]) * 5 + u32::from(p[2])) / 8
+    };
+    let on_character =
+        |(x, y): (usize, usize)| image.surface[y * w as usize + x] == Surface::Character as u8;
+    let darkest = |(x, y): (usize, usize)| {
+        (y - 1..=y + 1)
+            .flat_map(|yy| (x - 1..=x + 1).map(move |xx| (xx, yy)))
+            .map(luma)
+            .min()
+            .unwrap_or(255)
+    };
+    let up = nalgebra::Vector3::z();
+    // The skin around each feature: 2.5 cm below the mouth (the chin), 2 cm above each brow
+    // (the forehead), both on the face.
+    for (name, skin) in [
+        ("mouth", mouth - up * 0.025),
+        ("l_brow", centroid("l_brow") + up * 0.02),
+        ("r_brow", centroid("r_brow") + up * 0.02),
+    ] {
+        let at = pixel(centroid(name));
+        let skin = pixel(skin);
+        assert!(on_character(at) && on_character(skin), "{name}");
+        assert!(
+            darkest(at) * 2 < luma(skin),
+            "{name}: {} is not darker than the skin's {}",
+            darkest(at),
+            luma(skin)
+        );
+    }
 }
 
 /// Renders `stage`'s character at rest from `eye` looking at `target`, at 160×120, at `time_s`.

@@ -56,7 +56,8 @@ pub struct Stage {
     /// Linear albedo per body [`Material`] (indexed by `Material as usize`).
     pub body_albedo: Vec<Rgb>,
     /// Linear albedo per body vertex: its material's, with the clothes' pattern (stripes, a
-    /// two-tone top, a fabric's grain) drawn from the stage's seed.
+    /// two-tone top, a chest print, colour-blocked sleeves, a fabric's grain) drawn from the
+    /// stage's seed.
     pub body_vertex_albedo: Vec<Rgb>,
     /// The rest pose the body mesh was built in.
     pub rest_pose: WorldPose,
@@ -97,12 +98,23 @@ enum TopPattern {
     Plain,
     Stripes,
     TwoTone,
+    /// A print on the chest's front.
+    ChestPrint,
+    /// Sleeves (the top's part of each arm) in another hue.
+    ColourBlock,
 }
 
+/// The chest print's extent: heights as fractions of the stature, and its half-width as one.
+const CHEST_PRINT_Z: [f32; 2] = [0.64, 0.76];
+const CHEST_PRINT_HALF_WIDTH: f32 = 0.05;
+
 /// Per-vertex albedo of `body`: its material's (`albedo`, per material) with a pattern on the
-/// clothes chosen by `seed` — a top plain, striped (bands 7 cm high) or two-tone (a yoke over
-/// the shoulders), in a contrasting shade of its colour; and a fabric's grain (±6 % per vertex)
-/// on tops and trousers.
+/// clothes chosen by `seed` — a top plain, striped (bands 7 cm high), two-tone (a yoke over
+/// the shoulders) in a contrasting shade of its colour, with a print on the chest's front (a
+/// light, dark or contrasting patch), or colour-blocked (the sleeves in another hue: the top's
+/// colour with its channels turned, or a strong colour on a grey top); and a fabric's grain (±6 % per vertex) on tops and
+/// trousers. Per-vertex colours only: the renderer interpolates them as it does any albedo, at
+/// no extra cost per pixel.
 fn clothes_pattern(body: &BodyMesh, albedo: &[Rgb], seed: u64) -> Vec<Rgb> {
     use crate::hash::unit2;
     let top = albedo[Material::Top as usize];
@@ -111,10 +123,12 @@ fn clothes_pattern(body: &BodyMesh, albedo: &[Rgb], seed: u64) -> Vec<Rgb> {
         seed ^ 0xc107,
         u64::from(top[0].to_bits() ^ top[1].to_bits()),
     );
-    let pattern = match key % 3 {
+    let pattern = match key % 5 {
         0 => TopPattern::Plain,
         1 => TopPattern::Stripes,
-        _ => TopPattern::TwoTone,
+        2 => TopPattern::TwoTone,
+        3 => TopPattern::ChestPrint,
+        _ => TopPattern::ColourBlock,
     };
     let light = 0.2126 * top[0] + 0.7152 * top[1] + 0.0722 * top[2];
     // The contrasting shade: darker for a light top, lighter for a dark one.
@@ -129,6 +143,33 @@ fn clothes_pattern(body: &BodyMesh, albedo: &[Rgb], seed: u64) -> Vec<Rgb> {
         .map(|p| p[2])
         .fold(0.0f32, f32::max)
         .max(0.5);
+    // The print: a near-black on a light top, a near-white on a dark one, or the contrasting
+    // shade, drawn with the pattern.
+    let print = match ((key / 5) % 2, light > 0.25) {
+        (0, true) => [0.03, 0.03, 0.035],
+        (0, false) => [0.8, 0.8, 0.78],
+        _ => contrast,
+    };
+    // Another hue: the channels turned, or for a nearly grey top a strong colour (red, navy,
+    // green or mustard, linear).
+    let chroma =
+        top.iter().fold(0.0f32, |a, &c| a.max(c)) - top.iter().fold(1.0f32, |a, &c| a.min(c));
+    let blocked = if chroma > 0.25 {
+        [top[2], top[0], top[1]]
+    } else {
+        [
+            [0.5, 0.05, 0.04],
+            [0.03, 0.08, 0.35],
+            [0.05, 0.3, 0.1],
+            [0.6, 0.45, 0.05],
+        ][((key / 10) % 4) as usize]
+    };
+    let on_torso = |i: usize| {
+        body.parts
+            .iter()
+            .find(|p| p.vertices.contains(&i))
+            .is_some_and(|p| p.name == "torso")
+    };
     body.materials
         .iter()
         .zip(&body.rest_positions_m)
@@ -138,12 +179,21 @@ fn clothes_pattern(body: &BodyMesh, albedo: &[Rgb], seed: u64) -> Vec<Rgb> {
             let grain = 0.94 + 0.12 * unit2(seed ^ 0xfab, i as u64);
             match m {
                 Material::Top => {
-                    let second = match pattern {
-                        TopPattern::Plain => false,
-                        TopPattern::Stripes => (p[2] / 0.07).floor() as i64 % 2 == 0,
-                        TopPattern::TwoTone => p[2] > 0.78 * stature,
+                    let c = match pattern {
+                        TopPattern::Stripes if (p[2] / 0.07).floor() as i64 % 2 == 0 => contrast,
+                        TopPattern::TwoTone if p[2] > 0.78 * stature => contrast,
+                        TopPattern::ChestPrint
+                            if p[1] > 0.0
+                                && p[0].abs() < CHEST_PRINT_HALF_WIDTH * stature
+                                && (CHEST_PRINT_Z[0] * stature..CHEST_PRINT_Z[1] * stature)
+                                    .contains(&p[2])
+                                && on_torso(i) =>
+                        {
+                            print
+                        }
+                        TopPattern::ColourBlock if !on_torso(i) => blocked,
+                        _ => base,
                     };
-                    let c = if second { contrast } else { base };
                     c.map(|v| v * grain)
                 }
                 Material::Bottom => base.map(|v| v * grain),

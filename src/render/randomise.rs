@@ -1,8 +1,10 @@
 //! Domain randomisation: cheap variations of the picture that are known to help a model trained
 //! on synthetic frames transfer to real footage — colour jitter on the clothes, props and
-//! ground, camera sensor noise, motion blur and a jittered H.264 quality. `[randomise]` in the
-//! dataset spec sets them ([`Randomise`], every key with a modest default); `autoact render`
-//! uses the defaults.
+//! ground, camera sensor noise, motion blur, a jittered H.264 quality (per capture video) and a
+//! jittered JPEG quality (per clip's rawframes). `[randomise]` in the dataset spec sets them
+//! ([`Randomise`], every key with a modest default); the capture bag records them (the
+//! `autoact.dataset` metadata record's `randomise` key), so `autoact render` draws the same
+//! pictures as `generate` (the defaults for a bag without the key; none with `--no-randomise`).
 //!
 //! - Every draw comes from a ChaCha8 stream seeded by the scene's stream (the stage's seed) or
 //!   the capture, so the same spec and seed give byte-identical pictures.
@@ -44,11 +46,17 @@ pub struct Randomise {
     /// in `[min, max]` (replacing `--crf`); unset, every video uses `--crf`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub crf: Option<[u8; 2]>,
+    /// JPEG quality of the extracted rawframes (`--rawframes`): ffmpeg's mjpeg `qscale`, 2 (best)
+    /// … 31 (worst), drawn per clip uniformly in `[min, max]` ([`crate::video::jpeg_qscale`]).
+    /// Clips themselves are copied from the capture video, so their H.264 quality is the
+    /// capture's (`crf`), not drawn per clip.
+    pub jpeg_quality: [u8; 2],
 }
 
 impl Default for Randomise {
     /// Modest defaults: ±8° hue, ±12 % saturation, ±10 % brightness, noise up to 1.2 % of full
-    /// scale, blur weight up to 0.3, the CRF not jittered.
+    /// scale, blur weight up to 0.3, the CRF not jittered, JPEG qscale 2 (ffmpeg's best, what
+    /// rawframes were always written with: a default that loses nothing).
     fn default() -> Randomise {
         Randomise {
             hue_jitter_deg: 8.0,
@@ -57,8 +65,20 @@ impl Default for Randomise {
             sensor_noise: [0.0, 0.012],
             motion_blur: [0.0, 0.3],
             crf: None,
+            jpeg_quality: [crate::video::JPEG_QSCALE_BEST; 2],
         }
     }
+}
+
+/// A capture bag's recorded `[randomise]` that cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordedRandomiseError {
+    /// Not the JSON of a `[randomise]`.
+    #[error("the `randomise` key of the autoact.dataset record is not a [randomise] section")]
+    Json(#[source] serde_json::Error),
+    /// A value out of range.
+    #[error("the `randomise` key of the autoact.dataset record")]
+    Range(#[source] RandomiseError),
 }
 
 /// A `[randomise]` value out of range: the key (without `randomise.`) and what would be right.
@@ -76,6 +96,49 @@ impl Randomise {
     #[must_use]
     pub fn is_default(&self) -> bool {
         *self == Randomise::default()
+    }
+
+    /// No randomisation at all (`autoact render --no-randomise`): no colour jitter, noise or
+    /// blur, the CRF not drawn, the best JPEG quality.
+    #[must_use]
+    pub fn none() -> Randomise {
+        Randomise {
+            hue_jitter_deg: 0.0,
+            saturation_jitter: 0.0,
+            brightness_jitter: 0.0,
+            sensor_noise: [0.0, 0.0],
+            motion_blur: [0.0, 0.0],
+            crf: None,
+            jpeg_quality: [crate::video::JPEG_QSCALE_BEST; 2],
+        }
+    }
+
+    /// The `[randomise]` a capture bag recorded (`json`, the `autoact.dataset` record's
+    /// `randomise` key), checked; the defaults when the bag has none (bags written before it was
+    /// recorded).
+    ///
+    /// # Errors
+    /// [`RecordedRandomiseError`]: the text is not a `[randomise]` or a value is out of range.
+    pub fn recorded(json: Option<&str>) -> Result<Randomise, RecordedRandomiseError> {
+        let Some(json) = json else {
+            return Ok(Randomise::default());
+        };
+        let r: Randomise = serde_json::from_str(json).map_err(RecordedRandomiseError::Json)?;
+        r.validate().map_err(RecordedRandomiseError::Range)?;
+        Ok(r)
+    }
+
+    /// As recorded in a capture bag's metadata (see [`Randomise::recorded`]).
+    #[must_use]
+    pub fn to_record(&self) -> String {
+        serde_json::to_string(self).unwrap_or_default()
+    }
+
+    /// The x264 CRF of the capture video of session `session` of the dataset seeded `seed`
+    /// ([`Randomise::video_crf`] keyed by both): what `generate` and `render` encode at.
+    #[must_use]
+    pub fn capture_crf(&self, fallback: u8, seed: u64, session: &str) -> u8 {
+        self.video_crf(fallback, hash2(seed, crate::hash::of_str(session)))
     }
 
     /// Checks every value's range.
@@ -112,7 +175,10 @@ impl Randomise {
                 format!("[{lo}, {hi}] is not a CRF range [min, max] with min ≤ max ≤ 51"),
             );
         }
-        Ok(())
+        crate::video::check_jpeg_qscale(self.jpeg_quality).map_err(|e| RandomiseError {
+            key: "jpeg_quality",
+            message: e.to_string(),
+        })
     }
 
     /// The x264 CRF of the video keyed by `key` (e.g. the dataset's seed hashed with the
@@ -402,9 +468,40 @@ mod tests {
         assert_eq!(with(|r| r.sensor_noise = [0.02, 0.01]).key, "sensor_noise");
         assert_eq!(with(|r| r.motion_blur = [0.0, 1.5]).key, "motion_blur");
         assert_eq!(with(|r| r.crf = Some([30, 20])).key, "crf");
+        assert_eq!(with(|r| r.jpeg_quality = [1, 5]).key, "jpeg_quality");
+        assert_eq!(with(|r| r.jpeg_quality = [9, 8]).key, "jpeg_quality");
         let nan = with(|r| r.hue_jitter_deg = f64::NAN).to_string();
         assert!(nan.starts_with("randomise.hue_jitter_deg"), "{nan}");
         assert!(Randomise::default().validate().is_ok());
+    }
+
+    #[test]
+    fn a_recorded_randomise_reads_back_and_bad_records_are_refused() {
+        assert_eq!(Randomise::recorded(None).unwrap(), Randomise::default());
+        let r = Randomise {
+            sensor_noise: [0.03, 0.05],
+            crf: Some([20, 28]),
+            jpeg_quality: [4, 9],
+            ..Randomise::none()
+        };
+        assert_eq!(Randomise::recorded(Some(&r.to_record())).unwrap(), r);
+        // Keys a record leaves out are the defaults.
+        let partial = Randomise::recorded(Some(r#"{"hue_jitter_deg": 0.0}"#)).unwrap();
+        assert_eq!(partial.sensor_noise, Randomise::default().sensor_noise);
+        assert!(matches!(
+            Randomise::recorded(Some(r#"{"sensor_noise": "loud"}"#)),
+            Err(RecordedRandomiseError::Json(_))
+        ));
+        assert!(matches!(
+            Randomise::recorded(Some(r#"{"motion_blur": [0.5, 0.1]}"#)),
+            Err(RecordedRandomiseError::Range(RandomiseError {
+                key: "motion_blur",
+                ..
+            }))
+        ));
+        let none = Randomise::none();
+        assert!(none.validate().is_ok());
+        assert_eq!(none.capture_crf(23, 1, "s"), 23);
     }
 
     #[test]

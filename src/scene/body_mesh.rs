@@ -9,9 +9,10 @@
 //! - `head`: an ellipsoid (scaled by the head bone's scale) with a nose, face skin and a hair
 //!   cap on the top and back; `l_eye`, `r_eye` (dark) and `l_ear`, `r_ear` (skin): small
 //!   ellipsoids on the head where the rays from its centre through the rig's eye and ear
-//!   landmarks (COCO's face keypoints) meet it; the hair in one of [`HairStyle`]'s cuts (the
-//!   cap's hairline on the head, and `hair` — a mass down the back for long hair —, `ponytail`
-//!   or `bun`);
+//!   landmarks (COCO's face keypoints) meet it; `l_brow`, `r_brow` (hair) above the eyes and
+//!   `mouth` (dark) below the nose, laid on the head from the eye landmarks; the hair in one of
+//!   [`HairStyle`]'s cuts (the cap's hairline on the head, and `hair` — a mass down the back
+//!   for long hair —, `ponytail` or `bun`);
 //! - `l_arm`, `r_arm`: one tube each from inside the chest along clavicle, upper arm, forearm
 //!   and hand, flattening into a palm that ends just past the knuckles; `l_thumb`, `r_thumb`
 //!   and `l_index` … `r_pinky`: a tube per finger along the rig's three bones of that finger,
@@ -26,7 +27,7 @@
 //! Lengths come from the character's rest skeleton; widths scale with its stature (the head
 //! with its head bone, hands and feet with theirs) and with [`BodyShape::girth_scale`].
 //!
-//! The standard adult has 3,208 triangles and 1,727 vertices; long hair adds 80 triangles, a
+//! The standard adult has 3,316 triangles and 1,787 vertices; long hair adds 80 triangles, a
 //! ponytail or a bun 64.
 //! Every body stays under [`MAX_TRIANGLES`].
 //!
@@ -1195,24 +1196,30 @@ fn head(sk: &Skeleton<'_>, dims: &Dims, shape: &BodyShape) -> Result<PartBuilder
         },
     );
     // The nose: push the front vertices near eye–mouth height forward.
-    let nose_dir = Vector3::new(0.0, 1.0, -0.12).normalize();
-    let cos_reach = 25f64.to_radians().cos();
     for p in &mut part.positions {
         let d = *p - centre;
         let q = Vector3::new(d.x / ax, d.y / af, d.z / az);
         let Some(q) = q.try_normalize(1e-12) else {
             continue;
         };
-        let t = smoothstep((q.dot(&nose_dir) - cos_reach) / (1.0 - cos_reach));
-        p.y += 0.018 * hs * t;
+        p.y += nose_push_m(&q, hs);
     }
     Ok(part)
+}
+
+/// How far the nose pushes the head's surface forward (+y) in the direction `q` from the head's
+/// centre (a unit direction on the unit head), for a head scaled by `hs`.
+fn nose_push_m(q: &Vector3<f64>, hs: f64) -> f64 {
+    let nose_dir = Vector3::new(0.0, 1.0, -0.12).normalize();
+    let cos_reach = 25f64.to_radians().cos();
+    0.018 * hs * smoothstep((q.dot(&nose_dir) - cos_reach) / (1.0 - cos_reach))
 }
 
 /// The eyes and ears, small closed ellipsoids on the head's surface moving with the head bone,
 /// each where the ray from the head's centre through the rig's landmark (`l_eye`, `r_eye`,
 /// `l_ear`, `r_ear`, the points COCO's face keypoints are read from) meets the head: eyes
-/// [`Material::Eye`], ears skin. A rig without those landmarks gets none.
+/// [`Material::Eye`], ears skin; then the brows and the mouth ([`brows_and_mouth`]). A rig
+/// without those landmarks gets none.
 fn face_features(sk: &Skeleton<'_>, dims: &Dims) -> Result<Vec<PartBuilder>, BodyMeshError> {
     let hs = dims.head;
     let [ax, af, ab, az] = HEAD_SEMI_M.map(|s| s * hs);
@@ -1246,7 +1253,120 @@ fn face_features(sk: &Skeleton<'_>, dims: &Dims) -> Result<Vec<PartBuilder>, Bod
         let mid = surface + normal * (out * semi[0]);
         parts.push(blob(name, mid, semi, head_bone, material));
     }
+    parts.extend(brows_and_mouth(sk, dims)?);
     Ok(parts)
+}
+
+/// Below the eyes' midpoint, the mouth's height on an adult head of scale 1, metres (the eyes to
+/// the lips' parting is about 6.5 cm on an adult).
+const EYES_TO_MOUTH_M: f64 = 0.064;
+/// Above each eye, its brow's height on an adult head of scale 1, metres.
+const EYE_TO_BROW_M: f64 = 0.019;
+
+/// The brows (`l_brow`, `r_brow`: thin [`Material::Hair`] bars above the eyes, the hair's
+/// colour) and the mouth (`mouth`: a flat [`Material::Eye`] bar, the shadowed parting of the
+/// lips, which reads as a dark line at video sizes), laid on the head's surface (the mouth over
+/// the nose's push) from the eye landmarks. Small, coarse ellipsoids (36 triangles each): no
+/// texture or per-pixel pass. A rig without eye landmarks gets none.
+fn brows_and_mouth(sk: &Skeleton<'_>, dims: &Dims) -> Result<Vec<PartBuilder>, BodyMeshError> {
+    let hs = dims.head;
+    let [ax, af, ab, az] = HEAD_SEMI_M.map(|s| s * hs);
+    let centre = head_centre(sk, dims);
+    let head_bone = sk.index("head")?;
+    let eye = |name: &str| {
+        let l = sk.rig.landmark_index(name)?;
+        (l < sk.character.landmark_offset_m.len())
+            .then(|| fk::landmark_position(sk.rig, sk.character, &sk.rest, l).coords)
+    };
+    let (Some(l_eye), Some(r_eye)) = (eye("l_eye"), eye("r_eye")) else {
+        return Ok(Vec::new());
+    };
+    // Where the ray from the centre through `at` meets the head (with the nose's push), and the
+    // surface's normal there.
+    let on_surface = |at: Vector3<f64>| {
+        let d = at - centre;
+        let front = if d.y >= 0.0 { af } else { ab };
+        let q = Vector3::new(d.x / ax, d.y / front, d.z / az).try_normalize(1e-12)?;
+        let mut surface = centre + Vector3::new(q.x * ax, q.y * front, q.z * az);
+        surface.y += nose_push_m(&q, hs);
+        let normal = Vector3::new(q.x / ax, q.y / front, q.z / az).normalize();
+        Some((surface, normal))
+    };
+    let features: [(&'static str, Vector3<f64>, [f64; 3], Material); 3] = [
+        (
+            "l_brow",
+            l_eye + Vector3::z() * (EYE_TO_BROW_M * hs),
+            [0.017, 0.006, 0.005],
+            Material::Hair,
+        ),
+        (
+            "r_brow",
+            r_eye + Vector3::z() * (EYE_TO_BROW_M * hs),
+            [0.017, 0.006, 0.005],
+            Material::Hair,
+        ),
+        (
+            "mouth",
+            0.5 * (l_eye + r_eye) - Vector3::z() * (EYES_TO_MOUTH_M * hs),
+            [0.021, 0.006, 0.005],
+            Material::Eye,
+        ),
+    ];
+    let mut parts = Vec::new();
+    for (name, at, semi, material) in features {
+        let Some((surface, normal)) = on_surface(at) else {
+            continue;
+        };
+        let semi = semi.map(|v| v * hs);
+        // Half out of the skin, so it shows from the front and the side.
+        let mid = surface + normal * (0.3 * semi[1]);
+        parts.push(flat_blob(name, mid, semi, head_bone, material));
+    }
+    Ok(parts)
+}
+
+/// A coarse closed ellipsoid like [`blob`] (6 around, 3 rings: 36 triangles), for the brows and
+/// the mouth.
+fn flat_blob(
+    name: &'static str,
+    centre: Vector3<f64>,
+    semi: [f64; 3],
+    bone: usize,
+    material: Material,
+) -> PartBuilder {
+    let chain = Chain::new(
+        vec![
+            centre - Vector3::z() * semi[2],
+            centre + Vector3::z() * semi[2],
+        ],
+        vec![Influences::single(bone)],
+        None,
+        None,
+    );
+    let stations: Vec<Station> = [1.0f64, 2.0, 3.0]
+        .into_iter()
+        .map(|k| {
+            let (s, c) = (std::f64::consts::FRAC_PI_4 * k).sin_cos();
+            Station {
+                c: 0.5 * (1.0 - c),
+                half_width_m: semi[0] * s,
+                front_m: semi[1] * s,
+                back_m: semi[1] * s,
+                offset_m: Vector3::zeros(),
+                weight_shift: 0.0,
+            }
+        })
+        .collect();
+    let mut part = PartBuilder::new(name);
+    part.tube(
+        &chain,
+        &Vector3::y(),
+        &ellipse(6),
+        &stations,
+        [Pole::at(0.0), Pole::at(1.0)],
+        &|_, _| material,
+    );
+    part
 }
 
 /// A small closed ellipsoid named `name` centred at `centre` with semi-axes `semi` (x, y, z),

@@ -2,7 +2,7 @@
 //! capture's timeline (from the render bag beside it, or as given), cut with a progress bar, and
 //! say what was done.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
@@ -52,6 +52,9 @@ pub struct TrimJob {
     pub reencode: ReencodeSettings,
     /// Also extract every clip's frames.
     pub rawframes: bool,
+    /// Their JPEG quality range, ffmpeg qscale `[min, max]` (a checked range), drawn per clip;
+    /// `None`: the capture bag's recorded `[randomise] jpeg_quality`, else the best (2).
+    pub jpeg_quality: Option<[u8; 2]>,
     /// Download ffmpeg when it is not installed.
     pub download_ffmpeg: bool,
     /// Clip policy keys that override the plan's for every class.
@@ -95,6 +98,18 @@ pub enum TrimJobError {
     /// The frame rate is not a positive number.
     #[error("frame rate {0}: must be a positive number")]
     FrameRate(f64),
+    /// The capture bag's recorded `[randomise]` holds no usable `jpeg_quality`.
+    #[error(
+        "`{}`: the `randomise` key of the autoact.dataset record has no usable `jpeg_quality` (pass `--jpeg-quality`)",
+        path.display()
+    )]
+    RecordedJpegQuality {
+        /// The capture bag.
+        path: PathBuf,
+        /// What is wrong with it.
+        #[source]
+        source: RecordedJpegQualityError,
+    },
     /// No render bag places the video on the timeline.
     #[error(
         "no render bag `{}` beside the video, so its frame 0 cannot be placed on the capture's timeline: pass `--video-start SECONDS` (and `--video-fps`) for a video autoact did not render, or `--render-bag`",
@@ -151,6 +166,10 @@ pub fn trim_job(job: &TrimJob, stop: &AtomicBool) -> Result<TrimReport, TrimJobE
         force_reencode: job.force_reencode,
         reencode: job.reencode.clone(),
         rawframes: job.rawframes,
+        jpeg_quality: match job.jpeg_quality {
+            Some(q) => q,
+            None => recorded_jpeg_quality(&capture.path, capture.randomise.as_deref())?,
+        },
         planned: plan.as_ref().map(|p| p.items.clone()),
         qa: Thresholds::default(),
         clips: ClipPolicies {
@@ -368,7 +387,46 @@ impl TrimReport {
     }
 }
 
-/// A `--split-ratios` or `--hold-out` value that cannot be used, saying what is expected.
+/// Why a recorded `jpeg_quality` cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordedJpegQualityError {
+    /// Not JSON with a `[min, max]` of whole numbers under that key.
+    #[error("not a [randomise] section with `jpeg_quality = [min, max]`")]
+    Json(#[source] serde_json::Error),
+    /// Out of range.
+    #[error(transparent)]
+    Range(#[from] crate::video::JpegQscaleError),
+}
+
+/// The rawframes' JPEG quality range the capture bag at `path` recorded (`json`, its
+/// `[randomise]`, whose `jpeg_quality` `generate` uses), the best (2) when it recorded none.
+///
+/// # Errors
+/// [`TrimJobError::RecordedJpegQuality`] when the record is there but not usable.
+fn recorded_jpeg_quality(path: &Path, json: Option<&str>) -> Result<[u8; 2], TrimJobError> {
+    /// The one key of the recorded `[randomise]` that trim needs (the renderer reads the rest).
+    #[derive(serde::Deserialize)]
+    struct Recorded {
+        #[serde(default)]
+        jpeg_quality: Option<[u8; 2]>,
+    }
+    let best = [crate::video::JPEG_QSCALE_BEST; 2];
+    let Some(json) = json else {
+        return Ok(best);
+    };
+    let error = |source| TrimJobError::RecordedJpegQuality {
+        path: path.to_path_buf(),
+        source,
+    };
+    let recorded: Recorded =
+        serde_json::from_str(json).map_err(|e| error(RecordedJpegQualityError::Json(e)))?;
+    let range = recorded.jpeg_quality.unwrap_or(best);
+    crate::video::check_jpeg_qscale(range).map_err(|e| error(e.into()))?;
+    Ok(range)
+}
+
+/// A `--split-ratios`, `--hold-out` or `--jpeg-quality` value that cannot be used, saying what
+/// is expected.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("{0}")]
 pub struct SplitArgError(String);
@@ -399,6 +457,32 @@ pub fn parse_ratios(s: &str) -> Result<[f64; 3], SplitArgError> {
     Ok([a, b, c])
 }
 
+/// Parses a `--jpeg-quality`: one ffmpeg qscale `Q` or a range `MIN,MAX` (2 best … 31).
+///
+/// # Errors
+/// [`SplitArgError`] saying what is expected.
+pub fn parse_jpeg_quality(s: &str) -> Result<[u8; 2], SplitArgError> {
+    let parts: Vec<u8> = s
+        .split(',')
+        .map(|p| {
+            p.trim()
+                .parse::<u8>()
+                .map_err(|_| SplitArgError(format!("`{p}` is not a whole number")))
+        })
+        .collect::<Result<_, _>>()?;
+    let range = match parts[..] {
+        [q] => [q, q],
+        [lo, hi] => [lo, hi],
+        _ => {
+            return Err(SplitArgError(format!(
+                "`{s}`: give one qscale Q or a range MIN,MAX, e.g. 2,8"
+            )));
+        }
+    };
+    crate::video::check_jpeg_qscale(range).map_err(|e| SplitArgError(format!("`{s}`: {e}")))?;
+    Ok(range)
+}
+
 /// Parses a `KEY=VALUE` hold-out (`weather=RAIN`).
 ///
 /// # Errors
@@ -425,8 +509,47 @@ impl crate::outcome::LostInput for TrimReport {
 
 #[cfg(test)]
 mod tests {
-    use super::{parse_hold_out, parse_ratios};
+    use super::{parse_hold_out, parse_jpeg_quality, parse_ratios, recorded_jpeg_quality};
     use crate::trim::split::Key;
+
+    #[test]
+    fn the_recorded_jpeg_quality_is_read_or_refused_by_name() {
+        let bag = std::path::Path::new("c.capture.mcap");
+        assert_eq!(recorded_jpeg_quality(bag, None).unwrap(), [2, 2]);
+        let read = |json: &str| recorded_jpeg_quality(bag, Some(json));
+        assert_eq!(read(r#"{"sensor_noise": [0.0, 0.01]}"#).unwrap(), [2, 2]);
+        assert_eq!(
+            read(r#"{"jpeg_quality": [4, 9], "crf": [20, 24]}"#).unwrap(),
+            [4, 9]
+        );
+        for bad in [
+            r#"{"jpeg_quality": [40, 50]}"#,
+            r#"{"jpeg_quality": "x"}"#,
+            "{",
+        ] {
+            let e = read(bad).unwrap_err().to_string();
+            assert!(
+                e.contains("c.capture.mcap") && e.contains("jpeg_quality"),
+                "{e}"
+            );
+        }
+    }
+
+    #[test]
+    fn jpeg_qualities_parse_or_say_what_is_expected() {
+        assert_eq!(parse_jpeg_quality("2").unwrap(), [2, 2]);
+        assert_eq!(parse_jpeg_quality("4, 12").unwrap(), [4, 12]);
+        for (bad, says) in [
+            ("1", "qscale"),
+            ("12,4", "qscale"),
+            ("2,40", "qscale"),
+            ("x", "whole number"),
+            ("2,3,4", "MIN,MAX"),
+        ] {
+            let e = parse_jpeg_quality(bad).unwrap_err().to_string();
+            assert!(e.contains(says), "{bad}: {e}");
+        }
+    }
 
     #[test]
     fn ratios_and_hold_outs_parse_or_say_what_is_expected() {

@@ -317,6 +317,11 @@ pub struct ClipRecord {
     /// Its frames, relative to the dataset folder, with `--rawframes`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rawframes: Option<String>,
+    /// The JPEG quality its rawframes were written at: ffmpeg's mjpeg qscale, 2 (best) … 31,
+    /// drawn per clip from `[randomise] jpeg_quality` (`trim --jpeg-quality`); absent without
+    /// rawframes (and in manifests written before it was drawn, whose frames are at 2).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub jpeg_quality: Option<u8>,
     /// Its depth frames (16-bit PNG, millimetres), relative to the dataset folder, when the
     /// capture was rendered with `--depth` ([`passes`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -47,6 +47,10 @@ pub struct TrimOptions {
     pub reencode: ReencodeSettings,
     /// Also extract every clip's frames as JPEG (`img_00001.jpg` …).
     pub rawframes: bool,
+    /// The JPEG quality range of the rawframes, ffmpeg qscale `[min, max]` (2 best … 31): each
+    /// clip's is drawn in it from the dataset's seed and the clip's id
+    /// ([`crate::video::jpeg_qscale`]).
+    pub jpeg_quality: [u8; 2],
     /// Every clip of the dataset's plan, to decide the splits over; `None`: over the clips in
     /// the dataset folder.
     pub planned: Option<Vec<SplitItem>>,
@@ -730,8 +734,18 @@ impl Run<'_> {
         })
     }
 
+    /// The JPEG qscale of clip `clip_id`'s rawframes: drawn in the options' range, keyed by the
+    /// dataset's seed and the clip's id (the same on every run and in every shard).
+    fn rawframe_qscale(&self, clip_id: &str) -> u8 {
+        crate::video::jpeg_qscale(
+            self.options.jpeg_quality,
+            crate::hash::hash2(self.capture.seed.unwrap_or(0), crate::hash::of_str(clip_id)),
+        )
+    }
+
     /// Whether the manifest holds `target` complete from an earlier run: the same clip of the
-    /// same video, at the same place, with its frames if they are asked for.
+    /// same video, at the same place, with its frames if they are asked for (at its drawn JPEG
+    /// quality).
     ///
     /// # Errors
     /// [`TrimError::OtherCapture`] if the manifest's clip of that id is from another capture.
@@ -759,7 +773,10 @@ impl Run<'_> {
             && r.start_frame == range.start_frame
             && r.capture_video == self.capture_video
             && target.out.is_file()
-            && (!self.options.rawframes || r.rawframes.is_some())
+            && (!self.options.rawframes
+                || (r.rawframes.is_some()
+                    && r.jpeg_quality.unwrap_or(crate::video::JPEG_QSCALE_BEST)
+                        == self.rawframe_qscale(&target.clip_id)))
             && self.passes.covered_by(&ClipPasses {
                 depth: r.depth.clone(),
                 masks: r.masks.clone(),
@@ -819,6 +836,7 @@ impl Run<'_> {
             out,
             &self.dir.join(&rel_frames),
             range.frame_count,
+            self.rawframe_qscale(&target.clip_id),
         )?;
         Ok((clip.method, Some(rel_frames)))
     }
@@ -840,10 +858,14 @@ impl Run<'_> {
             .find(|s| s.scene_id == seg.scene_id)
             .map(|s| &s.scene);
         let values = scene_values(scene);
+        let jpeg_quality = rawframes
+            .as_ref()
+            .map(|_| self.rawframe_qscale(&target.clip_id));
         ClipRecord {
             clip_id: target.clip_id,
             video: target.video,
             rawframes,
+            jpeg_quality,
             depth: None,
             masks: None,
             label: target.label.clone(),

@@ -499,6 +499,7 @@ pub(crate) mod tests {
             clip_id: clip_id.to_owned(),
             video: format!("videos/{label}/{clip_id}.mp4"),
             rawframes: None,
+            jpeg_quality: None,
             depth: None,
             masks: None,
             label: label.to_owned(),

@@ -261,8 +261,51 @@ fn run_and_check(
     })
 }
 
+/// ffmpeg's best mjpeg `qscale` (`-q:v`): what rawframes are written with unless
+/// `[randomise] jpeg_quality` (or `trim --jpeg-quality`) draws another.
+pub const JPEG_QSCALE_BEST: u8 = 2;
+/// ffmpeg's worst mjpeg `qscale`.
+pub const JPEG_QSCALE_WORST: u8 = 31;
+
+/// A JPEG quality range that is not `[min, max]` with `2 ≤ min ≤ max ≤ 31`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "[{min}, {max}] is not an ffmpeg JPEG qscale range [min, max] with {JPEG_QSCALE_BEST} (best) ≤ min ≤ max ≤ {JPEG_QSCALE_WORST} (worst)"
+)]
+pub struct JpegQscaleError {
+    /// The range's first value.
+    pub min: u8,
+    /// Its second.
+    pub max: u8,
+}
+
+/// Checks a JPEG qscale range `[min, max]`.
+///
+/// # Errors
+/// [`JpegQscaleError`] when it is not `2 ≤ min ≤ max ≤ 31`.
+pub fn check_jpeg_qscale([lo, hi]: [u8; 2]) -> Result<(), JpegQscaleError> {
+    if JPEG_QSCALE_BEST <= lo && lo <= hi && hi <= JPEG_QSCALE_WORST {
+        Ok(())
+    } else {
+        Err(JpegQscaleError { min: lo, max: hi })
+    }
+}
+
+/// The JPEG qscale of the clip keyed by `key` (the dataset's seed hashed with the clip's id):
+/// drawn uniformly in `[min, max]` (a checked range), the same for the same key on every run.
+#[must_use]
+pub fn jpeg_qscale([lo, hi]: [u8; 2], key: u64) -> u8 {
+    if hi <= lo {
+        return lo;
+    }
+    let span = u64::from(hi - lo) + 1;
+    // `span` ≤ 30, so the remainder fits a u8.
+    lo + (crate::hash::hash2(key, 0x0004_a9e6) % span) as u8
+}
+
 /// Decodes every frame of `video` into `dir` as `img_00001.jpg` … (MMAction2's rawframe
-/// naming, 1-based), through a hidden `.<dir>.part` sibling folder renamed once it holds exactly
+/// naming, 1-based) at JPEG quality `qscale` (ffmpeg's `-q:v`, [`JPEG_QSCALE_BEST`] …
+/// [`JPEG_QSCALE_WORST`]), through a hidden `.<dir>.part` sibling folder renamed once it holds exactly
 /// `frame_count` images (an existing `dir` is replaced only then).
 ///
 /// # Errors
@@ -273,6 +316,7 @@ pub fn extract_frames(
     video: &Path,
     dir: &Path,
     frame_count: u64,
+    qscale: u8,
 ) -> Result<(), VideoError> {
     let invalid = |reason: InvalidSetting| VideoError::InvalidSettings {
         path: dir.to_path_buf(),
@@ -288,7 +332,8 @@ pub fn extract_frames(
             .hide_banner()
             .args(["-nostdin", "-nostats", "-loglevel", "level+warning"])
             .input(ffmpeg_path_arg(video))
-            .args(["-map", "0:v:0", "-fps_mode", "passthrough", "-q:v", "2"])
+            .args(["-map", "0:v:0", "-fps_mode", "passthrough", "-q:v"])
+            .arg(qscale.to_string())
             .args(["-start_number", "1", "-f", "image2"])
             .overwrite()
             .output(part.join("img_%05d.jpg").as_os_str());
@@ -312,7 +357,26 @@ pub fn extract_frames(
 
 #[cfg(test)]
 mod tests {
-    use super::{Rational, frames_nanos, seconds_floor_us};
+    use super::{Rational, check_jpeg_qscale, frames_nanos, jpeg_qscale, seconds_floor_us};
+
+    #[test]
+    fn jpeg_qscales_are_drawn_in_their_range_reproducibly() {
+        assert_eq!(jpeg_qscale([2, 2], 9), 2);
+        let drawn: Vec<u8> = (0..200).map(|k| jpeg_qscale([3, 12], k)).collect();
+        assert!(drawn.iter().all(|q| (3..=12).contains(q)), "{drawn:?}");
+        assert!(drawn.contains(&3) && drawn.contains(&12), "{drawn:?}");
+        assert_eq!(
+            drawn,
+            (0..200)
+                .map(|k| jpeg_qscale([3, 12], k))
+                .collect::<Vec<_>>()
+        );
+        assert!(check_jpeg_qscale([2, 31]).is_ok());
+        for bad in [[1, 5], [6, 5], [2, 32]] {
+            let e = check_jpeg_qscale(bad).unwrap_err().to_string();
+            assert!(e.contains("qscale"), "{e}");
+        }
+    }
 
     #[test]
     fn times_round_down_to_the_microsecond() {

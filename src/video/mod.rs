@@ -54,7 +54,8 @@ use std::process::ExitStatus;
 
 pub use annexb::{AccessUnit, AnnexBError, annexb_access_units, split_access_units};
 pub use cut::{
-    CutClip, CutMethod, CutRequest, ReencodeSettings, cut, extract_frames, keyframe_frames,
+    CutClip, CutMethod, CutRequest, JPEG_QSCALE_BEST, JPEG_QSCALE_WORST, JpegQscaleError,
+    ReencodeSettings, check_jpeg_qscale, cut, extract_frames, jpeg_qscale, keyframe_frames,
 };
 pub use encode::{
     DEFAULT_CRF, DEFAULT_GOP_SECS, DEFAULT_PRESET, EncodeSettings, EncodedVideo, VideoEncoder,

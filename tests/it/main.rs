@@ -20,6 +20,7 @@ mod generate;
 mod h36m_real_data;
 mod labels;
 mod outputs;
+mod randomise;
 mod readers_real_data;
 mod render;
 mod roundtrip_real_data;
