@@ -9,7 +9,7 @@ use super::{Outcome, OutputArgs, print_stdout};
 use crate::dsi::plan::Threshold;
 use crate::dsi::smoothing::Smoothing;
 use crate::dsi::variants::VariationBounds;
-use crate::dsi::{self, DsiOptions, Pace};
+use crate::dsi::{self, DsiOptions, Pace, SourceKind};
 use crate::pipeline;
 use crate::pipeline::convert::ConvertJob;
 use crate::pipeline::spec::SpecJob;
@@ -109,6 +109,13 @@ pub struct DsiArgs {
     /// allows [default: none].
     #[arg(long, value_name = "ALPHA")]
     pub smooth_bass: Option<f64>,
+    /// What made the input, which sets how hard DSI smooths it: `mocap` keeps each bone's
+    /// correction within 3 × its measured noise level; `estimator` (pose estimators, Kinect)
+    /// drops that band and sets Friedman's bass control to 10 unless --smooth-bass is given;
+    /// `auto` takes `estimator` for tracks in a camera's frame (ZED, NTU, MMPose JSON,
+    /// MarkerArray) and `mocap` for the others [default: auto].
+    #[arg(long, value_enum, value_name = "KIND")]
+    pub dsi_source: Option<SourceKind>,
     /// Seeded random variants to write besides each animation: variant k of person N is its own
     /// animation (BoneFrame `variant` = k, tf frames under `v<k>/`).
     #[arg(long, value_name = "V", default_value_t = 0)]
@@ -197,6 +204,7 @@ impl DsiArgs {
             spans_s,
             bass: self.smooth_bass,
         });
+        options.source = self.dsi_source;
         options.variants = self.variants;
         options.bounds = self.variation_deg;
         options.seed = self.seed;

@@ -145,6 +145,56 @@ pub struct DsiOptions {
     pub seed: u64,
     /// Replace single-frame outliers before planning ([`outliers`]).
     pub reject_outliers: bool,
+    /// What made the clip, which sets how hard it is smoothed ([`SourceKind`]); `None`: not
+    /// declared (`dsi::run` then treats it as motion capture, `convert` asks the input).
+    pub source: Option<SourceKind>,
+}
+
+/// What made a clip: what DSI's smoothing assumes about its error.
+///
+/// The noise band ([`NOISE_BAND`] × each bone's noise level) keeps smoothing off real motion on
+/// the premise that a key's distance from the curve through its neighbours measures the clip's
+/// noise. That holds for motion capture (independent marker noise) and fails for camera-based
+/// estimators, whose own temporal filters make their error correlated from frame to frame: ZED's
+/// median neighbour residual is as small as clean mocap's while its error comes in bursts of
+/// several frames, so the band stops the smoothing where it is needed (docs/dsi.md, measured).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum SourceKind {
+    /// Motion capture (BVH, Human3.6M): corrections within the noise band, Friedman's bass
+    /// control as given.
+    #[default]
+    Mocap,
+    /// A pose estimator's output in a camera's frame (ZED, Kinect/NTU, MMPose JSON,
+    /// MarkerArray): no noise band (the source range still bounds every rotation), and
+    /// Friedman's bass control at its maximum, [`ESTIMATOR_BASS`], unless one is given.
+    Estimator,
+}
+
+/// Friedman's bass control for estimator output: the top of its [0, 10] scale, where the
+/// SuperSmoother takes the woofer wherever its cross-validated error allows (Friedman 1984's
+/// own setting for the smoothest fit the data support), not a value fitted to a clip.
+pub const ESTIMATOR_BASS: f64 = 10.0;
+
+impl SourceKind {
+    /// The kind `convert --dsi-source auto` gives a track: an estimator when its points are in a
+    /// camera's frame.
+    #[must_use]
+    pub fn from_camera_frame(camera_frame: bool) -> SourceKind {
+        if camera_frame {
+            SourceKind::Estimator
+        } else {
+            SourceKind::Mocap
+        }
+    }
+
+    /// Its name, as the CLI and the bag's metadata give it.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            SourceKind::Mocap => "mocap",
+            SourceKind::Estimator => "estimator",
+        }
+    }
 }
 
 impl DsiOptions {
@@ -164,7 +214,46 @@ impl DsiOptions {
             bounds: VariationBounds::default(),
             seed: 0,
             reject_outliers: true,
+            source: None,
         }
+    }
+
+    /// The options for a clip of kind `kind`, unless a kind was declared already.
+    #[must_use]
+    pub fn for_source(&self, kind: SourceKind) -> DsiOptions {
+        DsiOptions {
+            source: Some(self.source.unwrap_or(kind)),
+            ..self.clone()
+        }
+    }
+
+    /// The kind the clip is smoothed as (motion capture when none was declared).
+    #[must_use]
+    pub fn source_kind(&self) -> SourceKind {
+        self.source.unwrap_or_default()
+    }
+
+    /// How many noise levels a smoothing correction may reach ([`NOISE_BAND`]), or `None` for no
+    /// band ([`SourceKind::Estimator`]).
+    #[must_use]
+    pub fn noise_band(&self) -> Option<f64> {
+        match self.source_kind() {
+            SourceKind::Mocap => Some(NOISE_BAND),
+            SourceKind::Estimator => None,
+        }
+    }
+
+    /// The smoothing applied: [`DsiOptions::smoothing`], with [`ESTIMATOR_BASS`] for an estimator
+    /// clip that has no bass control of its own.
+    #[must_use]
+    pub fn effective_smoothing(&self) -> Option<Smoothing> {
+        self.smoothing.map(|s| match self.source_kind() {
+            SourceKind::Mocap => s,
+            SourceKind::Estimator => Smoothing {
+                bass: Some(s.bass.unwrap_or(ESTIMATOR_BASS)),
+                ..s
+            },
+        })
     }
 }
 
@@ -292,9 +381,9 @@ fn check(rig: &Rig, options: &DsiOptions) -> Result<(), DsiError> {
 /// [`NOISE_BAND`] times its noise level (see [`outliers::NoiseLevels`]).
 pub const NOISE_BAND: f64 = 3.0;
 
-/// Shortens every smoothing correction (`before → after`, per bone) to [`NOISE_BAND`] times
-/// the bone's noise level.
-fn limit_corrections(before: &[BonePose], after: &mut [BonePose], noise_rad: &[f64]) {
+/// Shortens every smoothing correction (`before → after`, per bone) to `band` times the bone's
+/// noise level.
+fn limit_corrections(before: &[BonePose], after: &mut [BonePose], noise_rad: &[f64], band: f64) {
     for (b0, b1) in before.iter().zip(after.iter_mut()) {
         for ((q0, q1), sigma) in b0
             .local_rotations
@@ -302,13 +391,79 @@ fn limit_corrections(before: &[BonePose], after: &mut [BonePose], noise_rad: &[f
             .zip(&mut b1.local_rotations)
             .zip(noise_rad)
         {
-            let limit = NOISE_BAND * sigma;
+            let limit = band * sigma;
             let c = crate::skeleton::geom::log_rotation(&(q0.inverse() * *q1));
             let angle = c.norm();
             if angle > limit {
                 let limited = q0 * crate::skeleton::geom::exp_rotation(&(c * (limit / angle)));
                 *q1 = crate::skeleton::geom::align_hemisphere(limited, q1);
             }
+        }
+    }
+}
+
+/// Eases every bone's smoothed track back towards its source range before [`clamp`] cuts it
+/// off, so the output meets the range's faces smoothly instead of with a kink (a hard clamp
+/// stops a bone's velocity in one frame: third differences as large as ZED's own jitter on
+/// bones that hardly move, e.g. its clavicles, 9 → 108 rad/s³ of jerk before this).
+///
+/// Per component of each bone's rotation vector about its range's mean, the excess past each
+/// face `e_f ≥ 0` is replaced by its envelope `E = mean_w(max_w(e))` (a running maximum, then a
+/// running mean, both over `2·reach + 1` frames) and the rotation moved back by `E`. Every
+/// window of the mean holds frame `f`, so `E_f ≥ e_f`: each frame ends inside the face it
+/// passed (to the clamp's rounding), and `E` is continuous, reaching `reach` frames to each side
+/// of the excess. Tracks that stay inside are untouched.
+fn ease_into_range(poses: &mut [BonePose], ranges: &[Option<range::SourceRange>], reach: usize) {
+    use crate::skeleton::geom::{align_hemisphere, exp_rotation};
+    use nalgebra::Vector3;
+    let n = poses.len();
+    let envelope = |e: &[f64]| -> Vec<f64> {
+        let window = |f: usize| f.saturating_sub(reach)..(f + reach + 1).min(n);
+        let peaks: Vec<f64> = (0..n)
+            .map(|f| e[window(f)].iter().copied().fold(0.0, f64::max))
+            .collect();
+        (0..n)
+            .map(|f| {
+                let w = window(f);
+                #[expect(clippy::cast_precision_loss, reason = "short windows")]
+                let count = w.len() as f64;
+                peaks[w].iter().sum::<f64>() / count
+            })
+            .collect()
+    };
+    for (b, r) in ranges.iter().enumerate() {
+        let Some(r) = r else { continue };
+        let coordinates: Vec<Vector3<f64>> = poses
+            .iter()
+            .map(|p| r.coordinates(&p.local_rotations[b]))
+            .collect();
+        let mut shift = vec![Vector3::zeros(); n];
+        let mut moved = false;
+        for c in 0..3 {
+            let above: Vec<f64> = coordinates
+                .iter()
+                .map(|v| (v[c] - r.hi[c]).max(0.0))
+                .collect();
+            let below: Vec<f64> = coordinates
+                .iter()
+                .map(|v| (r.lo[c] - v[c]).max(0.0))
+                .collect();
+            for (e, sign) in [(above, -1.0), (below, 1.0)] {
+                if e.iter().all(|x| *x == 0.0) {
+                    continue;
+                }
+                moved = true;
+                for (s, x) in shift.iter_mut().zip(envelope(&e)) {
+                    s[c] += sign * x;
+                }
+            }
+        }
+        if !moved {
+            continue;
+        }
+        for ((pose, v), s) in poses.iter_mut().zip(&coordinates).zip(&shift) {
+            let q = &mut pose.local_rotations[b];
+            *q = align_hemisphere(r.mean * exp_rotation(&(v + s)), q);
         }
     }
 }

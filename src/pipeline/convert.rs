@@ -236,6 +236,9 @@ pub(super) struct Person<'a> {
     /// For a camera-frame track: the transform that stands it on the ground
     /// ([`crate::skeleton::ground`]), applied to every frame before it is solved.
     pub(super) world_from_camera: Option<Isometry3<f64>>,
+    /// Whether the track's points are in a camera's frame (an estimator's output): what
+    /// `--dsi-source auto` smooths as [`crate::dsi::SourceKind::Estimator`].
+    pub(super) camera_frame: bool,
 }
 
 /// `frame` in the world frame: moved by `world_from_camera` when the track is grounded.
@@ -512,6 +515,7 @@ fn prepare_people<'a>(
             writer,
             frames_out: 0,
             world_from_camera,
+            camera_frame: track.camera_frame,
         });
     }
     Ok(people)
@@ -624,6 +628,7 @@ fn finish_people(
             mut writer,
             mut frames_out,
             world_from_camera: _,
+            camera_frame: _,
         } = person;
         let mut result = Ok(());
         resampler.finish(&mut |t, p| {

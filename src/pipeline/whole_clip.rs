@@ -209,8 +209,10 @@ fn whole_clip<'r>(
         source,
         converter,
         writer,
+        camera_frame,
         ..
     } = person;
+    let options = &options.for_source(dsi::SourceKind::from_camera_frame(camera_frame));
     let layout_name = converter.layout_name().to_string();
     let coverage = converter.coverage().clone();
     let (character, report) = converter.finish();
@@ -327,6 +329,12 @@ pub(super) fn record_options(meta: &mut BTreeMap<String, String>, o: &DsiOptions
             .map(ToString::to_string)
             .collect::<Vec<_>>()
             .join(","),
+    );
+    meta.insert(
+        "dsi_source".to_string(),
+        o.source
+            .map_or("auto (estimator for camera-frame tracks)", |k| k.name())
+            .to_string(),
     );
     meta.insert(
         "smoothing".to_string(),
