@@ -687,11 +687,17 @@ mod tests {
     #[test]
     fn a_one_frame_glitch_affects_at_most_one_frame() {
         let rig = Rig::standard();
-        let options = DsiOptions {
-            out_fps: 30.0,
-            ..DsiOptions::new(&rig)
-        };
-        for (noise, speed) in [(0.0, 2.0), (0.01, 2.0), (0.0, 4.0)] {
+        for (kind, noise, speed) in [
+            (SourceKind::Mocap, 0.0, 2.0),
+            (SourceKind::Mocap, 0.01, 2.0),
+            (SourceKind::Mocap, 0.0, 4.0),
+            (SourceKind::Estimator, 0.01, 2.0),
+            (SourceKind::Estimator, 0.0, 4.0),
+        ] {
+            let options = DsiOptions {
+                out_fps: 30.0,
+                ..DsiOptions::new(&rig).for_source(kind)
+            };
             let keys = frames(
                 fixture::whole_body(&rig, 90, noise, |t| (speed * t).sin()),
                 30.0,
@@ -705,7 +711,7 @@ mod tests {
                         .unwrap();
                 assert!(
                     affected <= 1,
-                    "noise {noise}, {angle_deg}°: {affected} frames"
+                    "{kind:?}, noise {noise}, {angle_deg}°: {affected} frames"
                 );
             }
         }
@@ -746,6 +752,128 @@ mod tests {
             if noise > 0.02 {
                 proptest::prop_assert!(f.jerk_cut_pct > 50.0, "{:?}", f);
             }
+        }
+    }
+
+    /// Estimator-like error: bursts of several frames, each a smooth bump of up to `size`
+    /// radians on every bone (what a tracker's own filter makes of a detection jump), one every
+    /// `every` frames.
+    fn with_bursts(poses: &mut [BonePose], size: f64, every: usize) {
+        for (k, pose) in poses.iter_mut().enumerate() {
+            #[expect(clippy::cast_precision_loss, reason = "frame indices")]
+            let phase = (k % every) as f64;
+            let bump = if phase < 6.0 {
+                size * (std::f64::consts::PI * phase / 6.0).sin().powi(2)
+            } else {
+                0.0
+            };
+            for (b, q) in pose.local_rotations.iter_mut().enumerate() {
+                #[expect(clippy::cast_precision_loss, reason = "bone indices")]
+                let axis = nalgebra::Vector3::new(1.0, (b as f64).sin(), 0.5).normalize();
+                *q *= crate::skeleton::geom::exp_rotation(&(axis * bump));
+            }
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(4))]
+        /// Law: on clips with bursty, frame-to-frame correlated error (the estimator family),
+        /// smoothing them as estimator output cuts at least as much jerk as smoothing them as
+        /// motion capture, and more than half of it, and no bone goes past 105 % of its source range.
+        #[test]
+        fn estimator_output_is_smoothed_within_its_range(size in 0.03..0.15f64, every in 9usize..25, speed in 0.5..3.0f64) {
+            let rig = Rig::standard();
+            let mut poses = fixture::whole_body(&rig, 90, 0.0, |t| (speed * t).sin());
+            with_bursts(&mut poses, size, every);
+            let keys = frames(poses, 30.0);
+            let fidelity = |kind| {
+                let options = DsiOptions { out_fps: 30.0, ..DsiOptions::new(&rig).for_source(kind) };
+                let out = run(&rig, &keys, &options).unwrap();
+                eval::fidelity(&rig, &keys, &out.animations[0])
+            };
+            let (mocap, estimator) = (fidelity(SourceKind::Mocap), fidelity(SourceKind::Estimator));
+            proptest::prop_assert!(estimator.jerk_cut_pct >= mocap.jerk_cut_pct, "{:?} vs {:?}", estimator, mocap);
+            proptest::prop_assert!(estimator.jerk_cut_pct > 50.0, "{:?}", estimator);
+            proptest::prop_assert!(estimator.max_overshoot_pct <= 5.0, "{:?}", estimator);
+            proptest::prop_assert!(estimator.duration_change_pct.abs() < 1e-9, "{:?}", estimator);
+        }
+    }
+
+    #[test]
+    fn a_declared_source_wins_and_sets_the_smoothing() {
+        let rig = Rig::standard();
+        let options = DsiOptions::new(&rig);
+        assert_eq!(options.source_kind(), SourceKind::Mocap);
+        assert_eq!(options.noise_band(), Some(NOISE_BAND));
+        assert_eq!(options.effective_smoothing(), options.smoothing);
+        let estimator = options.for_source(SourceKind::Estimator);
+        assert_eq!(estimator.noise_band(), None);
+        assert_eq!(
+            estimator.effective_smoothing().unwrap().bass,
+            Some(ESTIMATOR_BASS)
+        );
+        // Declared mocap stays mocap on a camera-frame track; a bass given stays.
+        let declared = DsiOptions {
+            source: Some(SourceKind::Mocap),
+            ..options.clone()
+        };
+        assert_eq!(
+            declared.for_source(SourceKind::Estimator).source_kind(),
+            SourceKind::Mocap
+        );
+        let mut bass = estimator.clone();
+        bass.smoothing = Some(smoothing::Smoothing {
+            bass: Some(2.0),
+            ..Smoothing::default()
+        });
+        assert_eq!(bass.effective_smoothing().unwrap().bass, Some(2.0));
+        assert_eq!(SourceKind::from_camera_frame(true), SourceKind::Estimator);
+        assert_eq!(SourceKind::from_camera_frame(false).name(), "mocap");
+    }
+
+    #[test]
+    fn easing_into_the_range_ends_inside_without_a_kink() {
+        use crate::skeleton::geom::{exp_rotation, rotation_distance};
+        use nalgebra::Vector3;
+        // A swing about x whose source range is ±0.5 rad, smoothed past it to ±0.6 rad.
+        let source: Vec<nalgebra::UnitQuaternion<f64>> = (0..60)
+            .map(|k| exp_rotation(&Vector3::new(0.5 * (f64::from(k) * 0.2).sin(), 0.0, 0.0)))
+            .collect();
+        let range = range::SourceRange::of(&source).unwrap();
+        let pose = |a: f64| BonePose {
+            root_translation_m: Vector3::zeros(),
+            local_rotations: vec![exp_rotation(&Vector3::new(a, 0.0, 0.0))],
+        };
+        let angles: Vec<f64> = (0..60).map(|k| 0.6 * (f64::from(k) * 0.2).sin()).collect();
+        let mut eased: Vec<BonePose> = angles.iter().map(|&a| pose(a)).collect();
+        ease_into_range(&mut eased, &[Some(range.clone())], 3);
+        let x = |p: &BonePose| range.coordinates(&p.local_rotations[0])[0];
+        let clamped: Vec<f64> = angles
+            .iter()
+            .map(|&a| x(&pose(a)).clamp(range.lo[0], range.hi[0]))
+            .collect();
+        let eased_x: Vec<f64> = eased.iter().map(x).collect();
+        for v in &eased_x {
+            assert!(*v <= range.hi[0] + 1e-9 && *v >= range.lo[0] - 1e-9, "{v}");
+        }
+        // The largest change of velocity: the hard clamp's kink, the easing's ramp.
+        let kink = |v: &[f64]| {
+            v.windows(3)
+                .map(|w| (w[2] - 2.0 * w[1] + w[0]).abs())
+                .fold(0.0, f64::max)
+        };
+        assert!(
+            kink(&eased_x) < 0.6 * kink(&clamped),
+            "{} vs {}",
+            kink(&eased_x),
+            kink(&clamped)
+        );
+        // A track inside its range is left alone.
+        let mut inside: Vec<BonePose> = source.iter().map(|q| pose(q.scaled_axis()[0])).collect();
+        let before = inside.clone();
+        ease_into_range(&mut inside, &[Some(range)], 3);
+        for (a, b) in inside.iter().zip(&before) {
+            assert!(rotation_distance(&a.local_rotations[0], &b.local_rotations[0]) < 1e-12);
         }
     }
 
