@@ -158,7 +158,7 @@ pub struct DsiOptions {
 /// estimators, whose own temporal filters make their error correlated from frame to frame: ZED's
 /// median neighbour residual is as small as clean mocap's while its error comes in bursts of
 /// several frames, so the band stops the smoothing where it is needed (docs/dsi.md, measured).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum SourceKind {
     /// Motion capture (BVH, Human3.6M): corrections within the noise band, Friedman's bass
     /// control as given.
