@@ -129,8 +129,8 @@ pub struct DsiArgs {
 /// `--dsi-source`'s value.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum DsiSourceArg {
-    /// `estimator` for tracks in a camera's frame (ZED, NTU, MMPose JSON, MarkerArray,
-    /// PoseArray), `mocap` for the others.
+    /// `estimator` for the tracks of pose bags imported from ZED, NTU or MMPose JSON and for
+    /// MarkerArray and PoseArray topics (camera-frame sources), `mocap` for the others.
     Auto,
     /// Motion capture: each bone's correction within 3 × its measured noise level.
     Mocap,

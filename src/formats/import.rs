@@ -52,6 +52,21 @@ impl InputFormat {
             InputFormat::Ntu | InputFormat::ZedMat | InputFormat::MmposeJson
         )
     }
+
+    /// The format a pose bag's import record names (its `format`, as [`Imported::metadata`]
+    /// writes it), `None` for another name.
+    #[must_use]
+    pub fn from_record_name(name: &str) -> Option<InputFormat> {
+        [
+            InputFormat::Bvh,
+            InputFormat::Ntu,
+            InputFormat::H36mExpmap,
+            InputFormat::ZedMat,
+            InputFormat::MmposeJson,
+        ]
+        .into_iter()
+        .find(|f| format!("{f:?}") == name)
+    }
 }
 
 /// How to read a dataset file (the `autoact import` options).
@@ -838,5 +853,20 @@ mod tests {
                 ("source", "clip.json"),
             ]
         );
+    }
+
+    #[test]
+    fn a_record_names_its_format() {
+        for f in [
+            InputFormat::Bvh,
+            InputFormat::Ntu,
+            InputFormat::H36mExpmap,
+            InputFormat::ZedMat,
+            InputFormat::MmposeJson,
+        ] {
+            assert_eq!(InputFormat::from_record_name(&format!("{f:?}")), Some(f));
+        }
+        assert_eq!(InputFormat::from_record_name("Auto"), None);
+        assert!(InputFormat::from_record_name("ZedMat").is_some_and(InputFormat::is_camera_frame));
     }
 }

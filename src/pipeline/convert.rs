@@ -236,9 +236,10 @@ pub(super) struct Person<'a> {
     /// For a camera-frame track: the transform that stands it on the ground
     /// ([`crate::skeleton::ground`]), applied to every frame before it is solved.
     pub(super) world_from_camera: Option<Isometry3<f64>>,
-    /// Whether the track's points are in a camera's frame (an estimator's output): what
-    /// `--dsi-source auto` smooths as [`crate::dsi::SourceKind::Estimator`].
-    pub(super) camera_frame: bool,
+    /// Whether the track is an estimator's output (its points in a camera's frame, or imported
+    /// from a camera-frame format): what `--dsi-source auto` smooths as
+    /// [`crate::dsi::SourceKind::Estimator`].
+    pub(super) estimator: bool,
 }
 
 /// `frame` in the world frame: moved by `world_from_camera` when the track is grounded.
@@ -462,6 +463,15 @@ fn prepare_people<'a>(
     prefixed: bool,
 ) -> Result<Vec<Person<'a>>, PipelineError> {
     let mut people = Vec::new();
+    // A pose bag that `import` wrote from a camera-frame format holds estimator output, already
+    // grounded (so its tracks are not grounded again) but smoothed as an estimator's.
+    let imported_from_camera = scan.metadata.iter().any(|(name, record)| {
+        name == crate::bags::pose::METADATA_NAME
+            && record
+                .get("format")
+                .and_then(|f| crate::formats::import::InputFormat::from_record_name(f))
+                .is_some_and(crate::formats::import::InputFormat::is_camera_frame)
+    });
     for track in &scan.tracks {
         let layout = match given_layout {
             Some(l) => l.clone(),
@@ -515,7 +525,7 @@ fn prepare_people<'a>(
             writer,
             frames_out: 0,
             world_from_camera,
-            camera_frame: track.camera_frame,
+            estimator: track.camera_frame || imported_from_camera,
         });
     }
     Ok(people)
@@ -628,7 +638,7 @@ fn finish_people(
             mut writer,
             mut frames_out,
             world_from_camera: _,
-            camera_frame: _,
+            estimator: _,
         } = person;
         let mut result = Ok(());
         resampler.finish(&mut |t, p| {

@@ -209,10 +209,10 @@ fn whole_clip<'r>(
         source,
         converter,
         writer,
-        camera_frame,
+        estimator,
         ..
     } = person;
-    let options = &options.for_source(dsi::SourceKind::from_camera_frame(camera_frame));
+    let options = &options.for_source(dsi::SourceKind::from_camera_frame(estimator));
     let layout_name = converter.layout_name().to_string();
     let coverage = converter.coverage().clone();
     let (character, report) = converter.finish();
