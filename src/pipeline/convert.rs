@@ -158,6 +158,8 @@ pub struct DsiSummary {
     pub eta: f64,
     /// δ: source frames per output frame.
     pub delta: f64,
+    /// What the clip was smoothed as (`--dsi-source`, `auto` resolved for the track).
+    pub source: crate::dsi::SourceKind,
     /// Whether the animations were smoothed.
     pub smoothed: bool,
     /// Variants written besides the animation.
@@ -214,7 +216,11 @@ impl std::fmt::Display for DsiSummary {
             writeln!(
                 f,
                 "    {}{} variants (seed {})",
-                if self.smoothed { "smoothed; " } else { "" },
+                if self.smoothed {
+                    format!("smoothed as {}; ", self.source.name())
+                } else {
+                    String::new()
+                },
                 self.variants,
                 self.seed
             )?;

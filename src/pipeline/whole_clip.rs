@@ -243,6 +243,7 @@ fn whole_clip<'r>(
             frames_added: plans.iter().map(|p| p.frames_added()).sum(),
             eta: plan.eta,
             delta: plan.delta,
+            source: options.source_kind(),
             smoothed: options.smoothing.is_some(),
             variants: options.variants,
             seed: options.seed,
