@@ -8,7 +8,9 @@
 //! 2. [`interp`]: every output frame interpolated on the rotation group (a local cubic in the
 //!    tangent space inside unit motions, the geodesic across transitions);
 //! 3. [`variants`]: `V` seeded variants, smooth perturbations bounded per DoF class;
-//! 4. [`smoothing`]: Friedman's [`supersmoother`] in the tangent space around a running mean.
+//! 4. [`smoothing`]: Friedman's [`supersmoother`] in the tangent space around a running mean,
+//!    as hard as the kind of source allows ([`SourceKind`]), then eased into each bone's source
+//!    range and clamped to it.
 //!
 //! Every output quaternion is unit (to 1e-9, checked), sign-continuous per bone, and inside its
 //! bone's DoF class.

@@ -9,7 +9,8 @@
 //! two passes over the output measure each variant's own range. [`Solver::next_window`] finally
 //! makes the output window by window: every output frame interpolated from the keys around it,
 //! varied, smoothed with [`Solver::margin_frames`] frames on each side (more than the
-//! SuperSmoother reaches), limited, clamped and finished with the state of the window before.
+//! SuperSmoother reaches), limited (motion capture), eased into the source range, clamped and
+//! finished with the state of the window before.
 //!
 //! Memory: a window of keys and of output frames, plus a few numbers per key (times,
 //! distances, the plan), whatever the clip's length. The result is the whole-clip computation's:

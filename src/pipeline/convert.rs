@@ -471,13 +471,8 @@ fn prepare_people<'a>(
     let mut people = Vec::new();
     // A pose bag that `import` wrote from a camera-frame format holds estimator output, already
     // grounded (so its tracks are not grounded again) but smoothed as an estimator's.
-    let imported_from_camera = scan.metadata.iter().any(|(name, record)| {
-        name == crate::bags::pose::METADATA_NAME
-            && record
-                .get("format")
-                .and_then(|f| crate::formats::import::InputFormat::from_record_name(f))
-                .is_some_and(crate::formats::import::InputFormat::is_camera_frame)
-    });
+    let imported_from_camera =
+        crate::formats::import::InputFormat::imported_from_camera(&scan.metadata);
     for track in &scan.tracks {
         let layout = match given_layout {
             Some(l) => l.clone(),
