@@ -406,8 +406,8 @@ fn limit_corrections(before: &[BonePose], after: &mut [BonePose], noise_rad: &[f
 
 /// Eases every bone's smoothed track back towards its source range before [`clamp`] cuts it
 /// off, so the output meets the range's faces smoothly instead of with a kink (a hard clamp
-/// stops a bone's velocity in one frame: third differences as large as ZED's own jitter on
-/// bones that hardly move, e.g. its clavicles, 9 → 108 rad/s³ of jerk before this).
+/// stops a bone's velocity in one frame; on the ZED clips smoothed as estimator output the jerk
+/// cut goes from 87.5 / 84.7 % with the hard clamp alone to 88.1 / 86.6 % with the easing).
 ///
 /// Per component of each bone's rotation vector about its range's mean, the excess past each
 /// face `e_f ≥ 0` is replaced by its envelope `E = mean_w(max_w(e))` (a running maximum, then a
