@@ -27,7 +27,7 @@ use autoact::dsi::eval::{
 use autoact::dsi::interp::{self, Method, Sample};
 use autoact::dsi::plan::source_period_s;
 use autoact::dsi::reference::{self, canonical, published_sample_times};
-use autoact::dsi::{self, DsiOptions};
+use autoact::dsi::{self, DsiOptions, SourceKind};
 use autoact::formats::{bvh, bvh_map::BvhMapping, h36m_expmap, ntu, zed_mat};
 use autoact::skeleton::convert::{Animation, ConvertOptions, convert_sequence};
 use autoact::skeleton::fk::BonePose;
@@ -143,7 +143,8 @@ fn main() -> Result<()> {
     );
 
     println!("## 2. Real estimator output\n");
-    let options = DsiOptions::new(&rig);
+    // What `convert --dsi` does to these camera-frame sources by default (`--dsi-source auto`).
+    let options = DsiOptions::new(&rig).for_source(SourceKind::Estimator);
     let smoothing = options.smoothing.unwrap_or_default();
     println!(
         "Raw pose-estimation output (ZED 2i body tracking, Kinect v2 in NTU RGB+D: jitter, dropped frames),"
@@ -153,8 +154,15 @@ fn main() -> Result<()> {
         options.threshold
     );
     println!(
-        "weights, SuperSmoother spans {:?} s), and (c) the reference code as published (per-component PCHIP at",
-        smoothing.spans_s
+        "weights, SuperSmoother spans {:?} s, smoothed as estimator output: no noise band, bass α = {}), and, to",
+        smoothing.spans_s,
+        autoact::dsi::ESTIMATOR_BASS
+    );
+    println!(
+        "compare, the same DSI smoothing them as motion capture (`--dsi-source mocap`: corrections within 3 × each"
+    );
+    println!(
+        "bone's noise level, no bass), and (c) the reference code as published (per-component PCHIP at"
     );
     println!(
         "`linspace(0, F, 6F)`, per-component SuperSmoother, no normalisation; times taken at real speed)."
@@ -199,6 +207,19 @@ fn main() -> Result<()> {
             out.animations[0].len(),
             &out.plan.frames_added().to_string(),
         );
+        let mocap = DsiOptions {
+            source: Some(SourceKind::Mocap),
+            ..options.clone()
+        };
+        let (row, out) = sensor.dsi_row(&rig, &clip, mocap)?;
+        invariants &= row.flips == 0 && row.norms == 0;
+        row.print(
+            &clip.name,
+            frames_in,
+            "DSI as mocap",
+            out.animations[0].len(),
+            &out.plan.frames_added().to_string(),
+        );
 
         let key_times: Vec<f64> = (0..frames_in).map(|k| k as f64).collect();
         let sample_times = published_sample_times(frames_in);
@@ -233,7 +254,9 @@ fn main() -> Result<()> {
     println!(
         "motion the Kinect keeps is bounded by its feet, whose jitter spans tens of degrees and is what any"
     );
-    println!("smoothing removes. Jerk cut / range of motion kept (%), full DSI:\n");
+    println!(
+        "smoothing removes. Jerk cut / range of motion kept (%), full DSI smoothing them as estimator output:\n"
+    );
     let span_sets: [[f64; 3]; 4] = [
         [0.05, 0.1, 0.3],
         [0.1, 0.2, 0.6],
@@ -291,7 +314,10 @@ fn keeps_section(rig: &Rig, sets: &[(&str, Vec<Clip>)], sensors: &[Clip]) -> Res
         "Every clip above through `convert --dsi` with the defaults (outliers rejected, threshold `3x`, default"
     );
     println!(
-        "smoothing) at the clip's own frame rate, against the clip. Duration: output ÷ input − 1. Peak angular"
+        "smoothing; `--dsi-source auto`: the BVH and Human3.6M clips smoothed as motion capture, the ZED and NTU"
+    );
+    println!(
+        "recordings as estimator output) at the clip's own frame rate, against the clip. Duration: output ÷ input − 1. Peak angular"
     );
     println!(
         "speed kept: output ÷ input of each bone's 95th-percentile speed, mean over bones faster than 0.5 rad/s."
@@ -323,7 +349,13 @@ fn keeps_section(rig: &Rig, sets: &[(&str, Vec<Clip>)], sensors: &[Clip]) -> Res
         .iter()
         .flat_map(|(_, clips)| clips.iter().map(|c| (c, true)));
     for (clip, is_clean) in clean.chain(sensors.iter().map(|c| (c, false))) {
-        let mut options = DsiOptions::new(rig);
+        // As `convert --dsi-source auto` takes them: BVH and Human3.6M as motion capture, the
+        // camera-frame recordings as estimator output.
+        let mut options = DsiOptions::new(rig).for_source(if is_clean {
+            SourceKind::Mocap
+        } else {
+            SourceKind::Estimator
+        });
         options.out_fps = 1.0 / source_period_s(&times_s(&clip.animation));
         let keys = &clip.animation.frames;
         let out = dsi::run(rig, keys, &options)?;

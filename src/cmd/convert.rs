@@ -9,7 +9,7 @@ use super::{Outcome, OutputArgs, print_stdout};
 use crate::dsi::plan::Threshold;
 use crate::dsi::smoothing::Smoothing;
 use crate::dsi::variants::VariationBounds;
-use crate::dsi::{self, DsiOptions, Pace};
+use crate::dsi::{self, DsiOptions, Pace, SourceKind};
 use crate::pipeline;
 use crate::pipeline::convert::ConvertJob;
 use crate::pipeline::spec::SpecJob;
@@ -109,6 +109,9 @@ pub struct DsiArgs {
     /// allows [default: none].
     #[arg(long, value_name = "ALPHA")]
     pub smooth_bass: Option<f64>,
+    /// What made the input, which sets how hard DSI smooths it (see docs/dsi.md).
+    #[arg(long, value_enum, value_name = "KIND", default_value_t = DsiSourceArg::Auto)]
+    pub dsi_source: DsiSourceArg,
     /// Seeded random variants to write besides each animation: variant k of person N is its own
     /// animation (BoneFrame `variant` = k, tf frames under `v<k>/`).
     #[arg(long, value_name = "V", default_value_t = 0)]
@@ -121,6 +124,31 @@ pub struct DsiArgs {
     /// variants on every machine.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+}
+
+/// `--dsi-source`'s value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum DsiSourceArg {
+    /// `estimator` for the tracks of pose bags imported from ZED, NTU or MMPose JSON and for
+    /// MarkerArray and PoseArray topics (camera-frame sources), `mocap` for the others.
+    Auto,
+    /// Motion capture: each bone's correction within 3 × its measured noise level.
+    Mocap,
+    /// A pose estimator's output: no noise band (the source range still bounds every rotation),
+    /// Friedman's bass control 10 unless --smooth-bass is given.
+    Estimator,
+}
+
+impl DsiSourceArg {
+    /// The kind declared, `None` for `auto`.
+    #[must_use]
+    pub fn kind(self) -> Option<SourceKind> {
+        match self {
+            DsiSourceArg::Auto => None,
+            DsiSourceArg::Mocap => Some(SourceKind::Mocap),
+            DsiSourceArg::Estimator => Some(SourceKind::Estimator),
+        }
+    }
 }
 
 /// `--smooth`'s value.
@@ -197,6 +225,7 @@ impl DsiArgs {
             spans_s,
             bass: self.smooth_bass,
         });
+        options.source = self.dsi_source.kind();
         options.variants = self.variants;
         options.bounds = self.variation_deg;
         options.seed = self.seed;

@@ -15,7 +15,8 @@ use crate::camera::{
     CameraError, CameraPose, Intrinsics, Subject, Viewpoint, camera_at, framing_band,
 };
 use crate::dsi::smoothing::Smoothing;
-use crate::dsi::{self, DsiError, DsiOptions, Pace};
+use crate::dsi::{self, DsiError, DsiOptions, Pace, SourceKind};
+use crate::formats::import::InputFormat;
 use crate::loss::Losses;
 use crate::mcap_io::{BagReader, McapIoError, WriteConfig};
 use crate::ros::RosMessage;
@@ -115,6 +116,9 @@ struct Source {
     character: Character,
     coverage: Coverage,
     losses: Losses,
+    /// Whether it is an estimator's output (imported from, or a pose bag imported from, a
+    /// camera-frame format): DSI smooths it as [`SourceKind::Estimator`].
+    estimator: bool,
 }
 
 /// Reads one source (a pose bag or an animation bag) and runs DSI on it with the spec's
@@ -137,7 +141,8 @@ pub fn convert_source(
         source: Box::new(why),
     };
     let read = read_source(rig, &s.path, s.track).map_err(err)?;
-    let mut options = DsiOptions::new(rig);
+    let mut options =
+        DsiOptions::new(rig).for_source(SourceKind::from_camera_frame(read.estimator));
     options.out_fps = spec.file.dataset.fps;
     options.pace = Pace::Speed(spec.file.dsi.speed);
     options.threshold = spec.threshold;
@@ -182,6 +187,7 @@ fn read_source(rig: &Rig, path: &Path, track: Option<u64>) -> Result<Source, Sou
             character: animation.character,
             coverage: animation.report.coverage,
             losses,
+            estimator: imported.format.is_camera_frame(),
         });
     }
     let readers = BagReader::open_all(path).map_err(SourceError::Open)?;
@@ -200,8 +206,13 @@ fn read_source(rig: &Rig, path: &Path, track: Option<u64>) -> Result<Source, Sou
             character,
             coverage,
             losses: Losses::from_animation(&lost),
+            // Already an animation: smoothed, if at all, when it was made.
+            estimator: false,
         });
     }
+    let estimator = readers
+        .iter()
+        .any(|r| InputFormat::imported_from_camera(&r.metadata()));
     let topics = bags::pose::read_pose_topics(path, None, None)?;
     let mut losses = Losses::from_pose_topics(&topics);
     let (index, (topic, seq)) = topics
@@ -226,6 +237,7 @@ fn read_source(rig: &Rig, path: &Path, track: Option<u64>) -> Result<Source, Sou
         character: animation.character,
         coverage: animation.report.coverage,
         losses,
+        estimator,
     })
 }
 

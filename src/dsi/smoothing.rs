@@ -81,6 +81,18 @@ impl Smoothing {
         Ok(())
     }
 
+    /// The tweeter span in frames at `fps`, at least one.
+    #[must_use]
+    pub fn tweeter_frames(&self, fps: f64) -> usize {
+        #[expect(
+            clippy::cast_possible_truncation,
+            clippy::cast_sign_loss,
+            reason = "a validated positive span times a positive rate: a small count"
+        )]
+        let frames = (self.spans_s[0] * fps).round().max(1.0) as usize;
+        frames
+    }
+
     /// The SuperSmoother for `n` frames of a clip of `clip_frames` frames (≥ `n`) at `fps`: the
     /// spans in seconds turned into fractions of the `n` frames, scaled down together when the
     /// clip is shorter than the woofer.

@@ -9,7 +9,8 @@
 //! two passes over the output measure each variant's own range. [`Solver::next_window`] finally
 //! makes the output window by window: every output frame interpolated from the keys around it,
 //! varied, smoothed with [`Solver::margin_frames`] frames on each side (more than the
-//! SuperSmoother reaches), limited, clamped and finished with the state of the window before.
+//! SuperSmoother reaches), limited (motion capture), eased into the source range, clamped and
+//! finished with the state of the window before.
 //!
 //! Memory: a window of keys and of output frames, plus a few numbers per key (times,
 //! distances, the plan), whatever the clip's length. The result is the whole-clip computation's:
@@ -407,7 +408,8 @@ impl Solver<'_> {
 
     /// Output frames on each side of a window that are smoothed with it and then dropped:
     /// twice the three spans together (the running mean reaches half the woofer, the
-    /// SuperSmoother's passes half of each of its spans), and 8 frames more.
+    /// SuperSmoother's passes half of each of its spans), and 8 frames more, and twice the
+    /// tweeter for the easing into the source range.
     #[must_use]
     pub fn margin_frames(&self) -> usize {
         self.options.smoothing.map_or(0, |s| {
@@ -418,7 +420,8 @@ impl Solver<'_> {
             )]
             let frames =
                 (2.0 * s.spans_s.iter().sum::<f64>() * self.options.out_fps).ceil() as usize;
-            frames + 8
+            // The easing into the range reaches twice the tweeter further.
+            frames + 8 + 2 * s.tweeter_frames(self.options.out_fps)
         })
     }
 
@@ -538,7 +541,13 @@ impl Solver<'_> {
             } else {
                 self.variation().variant(v, &base, extended.start)
             };
-            if let Some(s) = &self.options.smoothing {
+            let index = usize::try_from(v).unwrap_or(usize::MAX);
+            let ranges = if v == 0 {
+                &self.key_ranges
+            } else {
+                &self.variant_ranges[index - 1]
+            };
+            if let Some(s) = &self.options.effective_smoothing() {
                 let before = out.clone();
                 s.apply_as_part(
                     self.rig,
@@ -547,15 +556,12 @@ impl Solver<'_> {
                     &self.moving,
                     total,
                 );
-                super::limit_corrections(&before, &mut out, &self.noise_rad);
+                if let Some(band) = self.options.noise_band() {
+                    super::limit_corrections(&before, &mut out, &self.noise_rad, band);
+                }
+                super::ease_into_range(&mut out, ranges, s.tweeter_frames(self.options.out_fps));
             }
             let mut poses: Vec<BonePose> = out.drain(inner.clone()).collect();
-            let index = usize::try_from(v).unwrap_or(usize::MAX);
-            let ranges = if v == 0 {
-                &self.key_ranges
-            } else {
-                &self.variant_ranges[index - 1]
-            };
             let carry = &mut self.carry[index];
             super::clamp(self.rig, &mut poses, ranges, &mut carry.clamped);
             super::finish(self.rig, &mut poses, &self.moving, &mut carry.finished);

@@ -52,6 +52,34 @@ impl InputFormat {
             InputFormat::Ntu | InputFormat::ZedMat | InputFormat::MmposeJson
         )
     }
+
+    /// Whether a pose bag whose metadata records are `records` was imported from a camera-frame
+    /// format ([`InputFormat::is_camera_frame`]): estimator output, already grounded.
+    #[must_use]
+    pub fn imported_from_camera(records: &[(String, BTreeMap<String, String>)]) -> bool {
+        records.iter().any(|(name, record)| {
+            name == crate::bags::pose::METADATA_NAME
+                && record
+                    .get("format")
+                    .and_then(|f| InputFormat::from_record_name(f))
+                    .is_some_and(InputFormat::is_camera_frame)
+        })
+    }
+
+    /// The format a pose bag's import record names (its `format`, as [`Imported::metadata`]
+    /// writes it), `None` for another name.
+    #[must_use]
+    pub fn from_record_name(name: &str) -> Option<InputFormat> {
+        [
+            InputFormat::Bvh,
+            InputFormat::Ntu,
+            InputFormat::H36mExpmap,
+            InputFormat::ZedMat,
+            InputFormat::MmposeJson,
+        ]
+        .into_iter()
+        .find(|f| format!("{f:?}") == name)
+    }
 }
 
 /// How to read a dataset file (the `autoact import` options).
@@ -838,5 +866,29 @@ mod tests {
                 ("source", "clip.json"),
             ]
         );
+    }
+
+    #[test]
+    fn a_record_names_its_format() {
+        for f in [
+            InputFormat::Bvh,
+            InputFormat::Ntu,
+            InputFormat::H36mExpmap,
+            InputFormat::ZedMat,
+            InputFormat::MmposeJson,
+        ] {
+            assert_eq!(InputFormat::from_record_name(&format!("{f:?}")), Some(f));
+        }
+        assert_eq!(InputFormat::from_record_name("Auto"), None);
+        assert!(InputFormat::from_record_name("ZedMat").is_some_and(InputFormat::is_camera_frame));
+        let record = |format: &str| {
+            vec![(
+                crate::bags::pose::METADATA_NAME.to_string(),
+                BTreeMap::from([("format".to_string(), format.to_string())]),
+            )]
+        };
+        assert!(InputFormat::imported_from_camera(&record("Ntu")));
+        assert!(!InputFormat::imported_from_camera(&record("Bvh")));
+        assert!(!InputFormat::imported_from_camera(&[]));
     }
 }

@@ -158,6 +158,8 @@ pub struct DsiSummary {
     pub eta: f64,
     /// δ: source frames per output frame.
     pub delta: f64,
+    /// What the clip was smoothed as (`--dsi-source`, `auto` resolved for the track).
+    pub source: crate::dsi::SourceKind,
     /// Whether the animations were smoothed.
     pub smoothed: bool,
     /// Variants written besides the animation.
@@ -214,7 +216,11 @@ impl std::fmt::Display for DsiSummary {
             writeln!(
                 f,
                 "    {}{} variants (seed {})",
-                if self.smoothed { "smoothed; " } else { "" },
+                if self.smoothed {
+                    format!("smoothed as {}; ", self.source.name())
+                } else {
+                    String::new()
+                },
                 self.variants,
                 self.seed
             )?;
@@ -236,6 +242,10 @@ pub(super) struct Person<'a> {
     /// For a camera-frame track: the transform that stands it on the ground
     /// ([`crate::skeleton::ground`]), applied to every frame before it is solved.
     pub(super) world_from_camera: Option<Isometry3<f64>>,
+    /// Whether the track is an estimator's output (its points in a camera's frame, or imported
+    /// from a camera-frame format): what `--dsi-source auto` smooths as
+    /// [`crate::dsi::SourceKind::Estimator`].
+    pub(super) estimator: bool,
 }
 
 /// `frame` in the world frame: moved by `world_from_camera` when the track is grounded.
@@ -459,6 +469,10 @@ fn prepare_people<'a>(
     prefixed: bool,
 ) -> Result<Vec<Person<'a>>, PipelineError> {
     let mut people = Vec::new();
+    // A pose bag that `import` wrote from a camera-frame format holds estimator output, already
+    // grounded (so its tracks are not grounded again) but smoothed as an estimator's.
+    let imported_from_camera =
+        crate::formats::import::InputFormat::imported_from_camera(&scan.metadata);
     for track in &scan.tracks {
         let layout = match given_layout {
             Some(l) => l.clone(),
@@ -512,6 +526,7 @@ fn prepare_people<'a>(
             writer,
             frames_out: 0,
             world_from_camera,
+            estimator: track.camera_frame || imported_from_camera,
         });
     }
     Ok(people)
@@ -624,6 +639,7 @@ fn finish_people(
             mut writer,
             mut frames_out,
             world_from_camera: _,
+            estimator: _,
         } = person;
         let mut result = Ok(());
         resampler.finish(&mut |t, p| {

@@ -209,8 +209,10 @@ fn whole_clip<'r>(
         source,
         converter,
         writer,
+        estimator,
         ..
     } = person;
+    let options = &options.for_source(dsi::SourceKind::from_camera_frame(estimator));
     let layout_name = converter.layout_name().to_string();
     let coverage = converter.coverage().clone();
     let (character, report) = converter.finish();
@@ -241,6 +243,7 @@ fn whole_clip<'r>(
             frames_added: plans.iter().map(|p| p.frames_added()).sum(),
             eta: plan.eta,
             delta: plan.delta,
+            source: options.source_kind(),
             smoothed: options.smoothing.is_some(),
             variants: options.variants,
             seed: options.seed,
@@ -327,6 +330,12 @@ pub(super) fn record_options(meta: &mut BTreeMap<String, String>, o: &DsiOptions
             .map(ToString::to_string)
             .collect::<Vec<_>>()
             .join(","),
+    );
+    meta.insert(
+        "dsi_source".to_string(),
+        o.source
+            .map_or("auto (estimator for camera-frame tracks)", |k| k.name())
+            .to_string(),
     );
     meta.insert(
         "smoothing".to_string(),

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use autoact::bags::render::EmbedVideo;
 use autoact::cli::{Cli, Command};
 use autoact::cmd::EXIT_USAGE;
-use autoact::cmd::convert::SmoothArg;
+use autoact::cmd::convert::{DsiSourceArg, SmoothArg};
 use autoact::cmd::import::Axes;
 use autoact::cmd::plan::PlanFormat;
 use autoact::dsi::plan::Threshold;
@@ -295,6 +295,7 @@ fn convert_defaults_and_bag_flags() {
     assert!(dsi.dsi_weights.is_empty());
     assert_eq!((dsi.speed, dsi.delta), (None, None));
     assert_eq!((dsi.smooth, dsi.smooth_bass), (None, None));
+    assert_eq!(dsi.dsi_source, DsiSourceArg::Auto);
     assert_eq!(dsi.variants, 0);
     assert_eq!(dsi.variation_deg, VariationBounds::default());
     assert_eq!(dsi.seed, 0);
@@ -434,6 +435,14 @@ fn convert_dsi_thresholds_in_each_unit_and_bad_dsi_values() {
         )
         .dsi;
         assert_eq!(dsi.dsi_threshold, Some(threshold), "{text}");
+    }
+    for (text, kind) in [
+        ("auto", None),
+        ("mocap", Some(dsi::SourceKind::Mocap)),
+        ("estimator", Some(dsi::SourceKind::Estimator)),
+    ] {
+        let dsi = args_of!(Convert, &["convert", "i", "-o", "o", "--dsi-source", text]).dsi;
+        assert_eq!(dsi.dsi_source.kind(), kind, "{text}");
     }
     // Bad values as `--flag=VALUE`, so that those starting with `-` reach the value parser.
     for bad in ["3", "-1x", "0rad", "fast", "1.5deg"] {

@@ -729,6 +729,10 @@ fn dsi_variants_are_labelled_animations_of_their_own_and_deterministic() {
     assert_eq!(convert["seed"], "5");
     assert_eq!(convert["variants"], "3");
     assert_eq!(convert["dsi_threshold"], "3x");
+    assert_eq!(
+        convert["dsi_source"],
+        "auto (estimator for camera-frame tracks)"
+    );
     assert_eq!(convert["dof"], "full");
 }
 
