@@ -16,7 +16,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::raster::{ClipVertex, Cull, ScreenVertex, clip_near, fill_triangle};
+use super::raster::{ClipVertex, Cull, ScreenVertex, clip_near, fill_triangle, floor};
 use super::world::Surface;
 use super::{FrameInput, Image, Renderer, Stage};
 use crate::hash::unit2;
@@ -48,6 +48,8 @@ struct ShadowMap {
     height_offset: f32,
     /// Height towards the light of the nearest caster per texel (0 where none).
     heights: Vec<f32>,
+    /// The depth bias, metres (`BIAS_TEXELS` texels), computed once per map.
+    bias_m: f32,
     empty: bool,
 }
 
@@ -64,14 +66,15 @@ impl ShadowMap {
         if !(x >= 0.0 && y >= 0.0 && x < n - 1.0 && y < n - 1.0) {
             return 1.0;
         }
-        let (xi, yi) = (x as usize, y as usize);
+        // In range (checked above): a 32-bit cast is exact and cheaper than one to usize.
+        let (xi, yi) = (x as i32, y as i32);
         let (fx, fy) = (x - xi as f32, y - yi as f32);
-        let receiver = h + self.height_offset + BIAS_TEXELS / self.texels_per_m;
-        let i = yi * self.size + xi;
-        // 0 marks a texel no caster covers.
+        let receiver = h + self.height_offset + self.bias_m;
+        let i = yi as usize * self.size + xi as usize;
+        // 0 marks a texel no caster covers. `|`, not `||`: both tests, no branch per texel.
         let lit = |k: usize| {
             let caster = self.heights[k];
-            f32::from(u8::from(caster == 0.0 || caster <= receiver))
+            f32::from(u8::from(caster == 0.0) | u8::from(caster <= receiver))
         };
         let top = lit(i) * (1.0 - fx) + lit(i + 1) * fx;
         let bottom = lit(i + self.size) * (1.0 - fx) + lit(i + self.size + 1) * fx;
@@ -133,6 +136,7 @@ fn draw_shadow_map(
     let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]) + 2.0 * margin_m;
     map.origin = [lo[0] - margin_m, lo[1] - margin_m];
     map.texels_per_m = size as f32 / extent.max(1e-3);
+    map.bias_m = BIAS_TEXELS / map.texels_per_m;
     map.height_offset = 1.0 - lo[2];
     let to_map = |p: &[f32; 3]| {
         let c = light.coords(&Vector3::from(*p));
@@ -559,7 +563,7 @@ fn precipitation(env: &Environment, seed: u64, time_s: f64, view: &View, image: 
     };
     for k in 0..count {
         let r = |j: u64| unit2(seed ^ 0x9ec1, k * 4 + j);
-        let wrap = |v: f32| v - (v / box_m).floor() * box_m;
+        let wrap = |v: f32| v - floor(v / box_m) * box_m;
         let phase = r(3) * std::f32::consts::TAU;
         let sway = if rain {
             0.0
@@ -599,9 +603,10 @@ fn precipitation(env: &Environment, seed: u64, time_s: f64, view: &View, image: 
             let f = s as f32 / steps as f32;
             let (x, y) = (sa.x + (sb.x - sa.x) * f, sa.y + (sb.y - sa.y) * f);
             let iz = sa.inv_z + (sb.inv_z - sa.inv_z) * f;
+            let (x0, y0) = (floor(x) as i64, floor(y) as i64);
             for dy in -radius..=radius {
                 for dx in -radius..=radius {
-                    let (px, py) = (x.floor() as i64 + dx, y.floor() as i64 + dy);
+                    let (px, py) = (x0 + dx, y0 + dy);
                     if px < 0 || py < 0 || px >= view.width as i64 || py >= view.height as i64 {
                         continue;
                     }

@@ -24,7 +24,7 @@ const ROUNDING_LIMIT: f32 = 1.0e9;
 /// `⌊v⌋` through an integer cast (the default x86-64 target has no rounding instruction, and a
 /// libm call per row of every triangle is measurable). NaN gives 0.
 #[inline]
-fn floor(v: f32) -> f32 {
+pub(crate) fn floor(v: f32) -> f32 {
     let v = v.clamp(-ROUNDING_LIMIT, ROUNDING_LIMIT);
     let i = v as i64 as f32;
     if i > v { i - 1.0 } else { i }
