@@ -27,6 +27,10 @@ use crate::scene::weather::Precipitation;
 /// Side of the character's shadow map, texels, at most: smaller images use a map about as many
 /// texels across as the image is tall (at least 256), which keeps its texels near pixel size.
 const CHARACTER_SHADOW_SIZE: usize = 512;
+/// The character's faces left out of its shadow map: those facing away from the light. The
+/// body is closed, so the caster nearest the light over any texel is a face towards it; in
+/// the light's frame (depth axis towards the light) those run clockwise on the map.
+const CHARACTER_SHADOW_CULL: Cull = Cull::Front;
 /// Side of the props' shadow map, texels.
 const PROP_SHADOW_SIZE: usize = 1024;
 /// Near clipping distance, metres.
@@ -108,7 +112,8 @@ impl LightFrame {
     }
 }
 
-/// Renders `triangles` of `positions` into `map`, fitted to their extent (plus `margin_m`).
+/// Renders `triangles` of `positions` into `map`, fitted to their extent (plus `margin_m`),
+/// skipping the faces `cull` says.
 fn draw_shadow_map(
     map: &mut ShadowMap,
     size: usize,
@@ -116,6 +121,7 @@ fn draw_shadow_map(
     positions: &[[f32; 3]],
     indices: &[u32],
     margin_m: f32,
+    cull: Cull,
 ) {
     map.size = size;
     map.heights.clear();
@@ -152,7 +158,7 @@ fn draw_shadow_map(
             to_map(&positions[t[1] as usize]),
             to_map(&positions[t[2] as usize]),
         ];
-        fill_triangle(s, size, size, &mut map.heights, Cull::None, |_, _, _| {});
+        fill_triangle(s, size, size, &mut map.heights, cull, |_, _, _| {});
     }
 }
 
@@ -366,6 +372,7 @@ impl Renderer for CpuRenderer {
                 &self.skinned_positions,
                 &stage.body.indices,
                 0.1,
+                CHARACTER_SHADOW_CULL,
             );
             if self.prop_shadow_stage != Some(stage.id) {
                 draw_shadow_map(
@@ -375,6 +382,7 @@ impl Renderer for CpuRenderer {
                     &stage.world.props.positions,
                     &stage.world.props.indices,
                     0.5,
+                    Cull::None,
                 );
                 self.prop_shadow_stage = Some(stage.id);
             }

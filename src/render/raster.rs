@@ -46,6 +46,9 @@ pub(crate) enum Cull {
     /// Skip triangles whose vertices run clockwise as the viewer sees them: faces seen from
     /// behind, for meshes wound counter-clockwise seen from outside.
     Back,
+    /// Skip triangles whose vertices run counter-clockwise as the viewer sees them (the other
+    /// side of [`Cull::Back`], for a view whose depth axis points towards the viewer).
+    Front,
 }
 
 /// Rasterises one triangle into `depth` (`width` pixels per row), calling
@@ -68,7 +71,7 @@ pub(crate) fn fill_triangle(
     if area.is_nan() || area.abs() <= 1e-12 {
         return;
     }
-    if cull == Cull::Back && area > 0.0 {
+    if (cull == Cull::Back && area > 0.0) || (cull == Cull::Front && area < 0.0) {
         return;
     }
     let (v, area) = if area < 0.0 {
