@@ -5,8 +5,15 @@
 //! ```sh
 //! render_digest dump OUT            # every frame's colour, depth bits and surface ids to OUT
 //! render_digest compare A B         # how two dumps differ (exit 1 if they do)
-//! render_digest bench [REPEATS]     # renders the set REPEATS times; prints CPU ms per frame
+//! render_digest bench [REPEATS [WxH]]  # renders the set REPEATS times; prints CPU ms per frame
+//! render_digest frames WxH NOISE BLUR > raw.rgb   # a capture-like sequence, raw rgb24
 //! ```
+//!
+//! `frames` renders the waving sample's frames in order with one scene and a fixed camera, passes
+//! them through `[randomise]`'s image effects with the sensor noise sigma `NOISE` (fraction of
+//! full scale) and blur weight `BLUR`, writes them to stdout as raw `rgb24` (pipe into ffmpeg
+//! with autoact's x264 settings to measure the encoder's cost) and prints the renderer's and the
+//! effects' CPU ms per frame to stderr.
 //!
 //! `tools/bench_render_cpu.py` runs `bench` of two builds in turn and prints the ratio; a dump of
 //! a build before a renderer change compared with one after shows whether its output moved.
@@ -25,6 +32,7 @@ use autoact::bags::animation::read_animation;
 use autoact::camera::{CameraPose, Intrinsics};
 use autoact::mcap_io::BagReader;
 use autoact::render::cpu::CpuRenderer;
+use autoact::render::randomise::{ImageEffects, Randomise};
 use autoact::render::{Camera, FrameInput, Image, Renderer, Stage};
 use autoact::scene::Scene;
 use autoact::scene::cast::Population;
@@ -192,9 +200,9 @@ fn compare(a: &Path, b: &Path) -> bool {
     let u32_at = |v: &[u8], i: usize| u32::from_le_bytes(v[i..i + 4].try_into().unwrap());
     let mut frame = 0;
     println!(
-        "| frame size | colour pixels differing | max channel difference | depth pixels differing | max relative depth difference | surface pixels differing |"
+        "| frame size | colour pixels differing | max channel difference | mean channel difference (all pixels) | depth pixels differing | max relative depth difference | surface pixels differing |"
     );
-    println!("|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|");
     let mut totals = std::collections::BTreeMap::new();
     while at < a.len() {
         let (w, h) = (u32_at(&a, at) as usize, u32_at(&a, at + 4) as usize);
@@ -206,7 +214,7 @@ fn compare(a: &Path, b: &Path) -> bool {
         at += 8 * n;
         let t = totals
             .entry((w, h))
-            .or_insert((0usize, 0usize, 0u8, 0usize, 0f32, 0usize));
+            .or_insert((0usize, 0usize, 0u8, 0usize, 0f32, 0usize, 0u64));
         t.0 += 1;
         for i in 0..n {
             let pa = &rgb_a[3 * i..3 * i + 3];
@@ -215,6 +223,7 @@ fn compare(a: &Path, b: &Path) -> bool {
                 t.1 += 1;
                 for (x, y) in pa.iter().zip(pb) {
                     t.2 = t.2.max(x.abs_diff(*y));
+                    t.6 += u64::from(x.abs_diff(*y));
                 }
             }
             let da = f32::from_bits(u32_at(depth_a, 4 * i));
@@ -232,8 +241,14 @@ fn compare(a: &Path, b: &Path) -> bool {
     }
     for ((w, h), t) in &totals {
         println!(
-            "| {w}×{h} ({} frames) | {} | {} | {} | {:.3e} | {} |",
-            t.0, t.1, t.2, t.3, t.4, t.5
+            "| {w}×{h} ({} frames) | {} | {} | {:.2e} | {} | {:.3e} | {} |",
+            t.0,
+            t.1,
+            t.2,
+            t.6 as f64 / (3 * w * h * t.0) as f64,
+            t.3,
+            t.4,
+            t.5
         );
         same &= t.1 == 0 && t.3 == 0 && t.5 == 0;
     }
@@ -241,9 +256,12 @@ fn compare(a: &Path, b: &Path) -> bool {
     same
 }
 
-fn bench(repeats: usize) {
+fn bench(repeats: usize, only: Option<&str>) {
     let set = build();
     for (w, h) in SIZES {
+        if only.is_some_and(|o| o != format!("{w}x{h}")) {
+            continue;
+        }
         // One untimed pass: buffers grow, the props' shadow maps are drawn.
         render_all(&set, w, h, 1, |_| {});
         let start = thread_cpu_ns();
@@ -257,6 +275,69 @@ fn bench(repeats: usize) {
     }
 }
 
+fn frames(size: &str, noise: f64, blur: f64) {
+    let (w, h) = size.split_once('x').unwrap();
+    let (width, height): (u32, u32) = (w.parse().unwrap(), h.parse().unwrap());
+    let rig = Rig::standard();
+    let bag = concat!(env!("CARGO_MANIFEST_DIR"), "/bags/bandai_wave.anim.mcap");
+    let readers = BagReader::open_all(Path::new(bag)).unwrap();
+    let (anim, _, _) = read_animation(&rig, &readers, None).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(31);
+    let location = &Location::builtin_pool()[0];
+    let instance = location.draw(&mut rng, 2.5);
+    let look = Population::default().draw(&mut rng).unwrap();
+    let clock = ClockTime::NOON;
+    let scene = Scene {
+        weather: Weather::ALL[0],
+        weather_params: Weather::ALL[0].params(),
+        clock,
+        sun: sun_position(clock, 34.0, 172),
+        location: instance,
+        look: look.clone(),
+    };
+    let stage = Stage::new(&rig, &scene, 11, 0);
+    let character = look.character(&rig);
+    let intrinsics = Intrinsics::from_horizontal_fov(width, height, 60.0).unwrap();
+    let target = Point3::new(0.0, 0.0, 0.5 * look.height_m);
+    let camera = CameraPose::looking_at(Point3::new(3.5, -2.0, 1.5), target);
+    let config = Randomise {
+        sensor_noise: [noise, noise],
+        motion_blur: [blur, blur],
+        ..Randomise::default()
+    };
+    let mut effects = ImageEffects::new(&config);
+    let mut renderer = CpuRenderer::new();
+    let mut image = Image::default();
+    let (mut render_ns, mut effects_ns) = (0, 0);
+    let mut out = std::io::BufWriter::new(std::io::stdout().lock());
+    for (k, frame) in anim.iter().enumerate() {
+        let pose = fk::forward(&rig, &character, &frame.pose, 1.0);
+        let input = FrameInput {
+            camera: Camera {
+                world_from_optical: camera.isometry_world_from_optical(),
+                intrinsics,
+            },
+            pose: &pose,
+            time_s: k as f64 / 30.0,
+        };
+        let start = thread_cpu_ns();
+        renderer.render(&stage, &input, &mut image);
+        let mid = thread_cpu_ns();
+        effects.apply(k as u64, stage.seed, k == 0, &mut image.rgb);
+        effects_ns += thread_cpu_ns() - mid;
+        render_ns += mid - start;
+        out.write_all(&image.rgb).unwrap();
+    }
+    out.flush().unwrap();
+    let n = anim.len() as f64;
+    eprintln!(
+        "{width}x{height} {} frames: render {:.4} cpu_ms_per_frame, effects {:.4} cpu_ms_per_frame",
+        anim.len(),
+        render_ns as f64 / 1e6 / n,
+        effects_ns as f64 / 1e6 / n
+    );
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
@@ -266,9 +347,15 @@ fn main() {
                 std::process::exit(1);
             }
         }
-        Some("bench") => bench(args.get(1).map_or(3, |r| r.parse().unwrap())),
+        Some("bench") => bench(
+            args.get(1).map_or(3, |r| r.parse().unwrap()),
+            args.get(2).map(String::as_str),
+        ),
+        Some("frames") => frames(&args[1], args[2].parse().unwrap(), args[3].parse().unwrap()),
         _ => {
-            eprintln!("usage: render_digest dump OUT | compare A B | bench [REPEATS]");
+            eprintln!(
+                "usage: render_digest dump OUT | compare A B | bench [REPEATS [WxH]] | frames WxH NOISE BLUR"
+            );
             std::process::exit(2);
         }
     }

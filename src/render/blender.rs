@@ -257,7 +257,7 @@ fn mesh_json(blob: &mut Blob, mesh: &Mesh) -> Result<Value, BlenderError> {
 
 fn texture_json(blob: &mut Blob, texture: &GroundTexture) -> Result<Value, BlenderError> {
     let (size, texels) = texture.texels();
-    Ok(json!({"tile_m": texture.tile_m, "size": size, "texels": blob.f32s(texels)?}))
+    Ok(json!({"tile_m": texture.tile_m(), "size": size, "texels": blob.f32s(texels)?}))
 }
 
 /// The scene as the script builds it.

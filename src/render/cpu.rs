@@ -16,7 +16,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::raster::{ClipVertex, Cull, ScreenVertex, clip_near, fill_triangle};
+use super::raster::{ClipVertex, Cull, ScreenVertex, clip_near, fill_triangle, floor};
 use super::world::Surface;
 use super::{FrameInput, Image, Renderer, Stage};
 use crate::hash::unit2;
@@ -27,6 +27,10 @@ use crate::scene::weather::Precipitation;
 /// Side of the character's shadow map, texels, at most: smaller images use a map about as many
 /// texels across as the image is tall (at least 256), which keeps its texels near pixel size.
 const CHARACTER_SHADOW_SIZE: usize = 512;
+/// The character's faces left out of its shadow map: those facing away from the light. The
+/// body is closed, so the caster nearest the light over any texel is a face towards it; in
+/// the light's frame (depth axis towards the light) those run clockwise on the map.
+const CHARACTER_SHADOW_CULL: Cull = Cull::Front;
 /// Side of the props' shadow map, texels.
 const PROP_SHADOW_SIZE: usize = 1024;
 /// Near clipping distance, metres.
@@ -48,12 +52,21 @@ struct ShadowMap {
     height_offset: f32,
     /// Height towards the light of the nearest caster per texel (0 where none).
     heights: Vec<f32>,
+    /// The depth bias, metres (`BIAS_TEXELS` texels), computed once per map.
+    bias_m: f32,
     empty: bool,
 }
 
 impl ShadowMap {
     /// Light visibility at light-space point `(u, v, h)`, [0, 1], or 1 outside the map.
-    #[inline]
+    /// Always inlined: called per pixel from the colour and ground passes, and a call per
+    /// lookup (which `#[inline]` alone let the compiler choose in `draw`) costs more than the
+    /// out-of-map early return it mostly takes.
+    #[expect(
+        clippy::inline_always,
+        reason = "measured: per-pixel calls in the colour pass"
+    )]
+    #[inline(always)]
     fn visibility(&self, u: f32, v: f32, h: f32) -> f32 {
         if self.empty {
             return 1.0;
@@ -64,14 +77,15 @@ impl ShadowMap {
         if !(x >= 0.0 && y >= 0.0 && x < n - 1.0 && y < n - 1.0) {
             return 1.0;
         }
-        let (xi, yi) = (x as usize, y as usize);
+        // In range (checked above): a 32-bit cast is exact and cheaper than one to usize.
+        let (xi, yi) = (x as i32, y as i32);
         let (fx, fy) = (x - xi as f32, y - yi as f32);
-        let receiver = h + self.height_offset + BIAS_TEXELS / self.texels_per_m;
-        let i = yi * self.size + xi;
-        // 0 marks a texel no caster covers.
+        let receiver = h + self.height_offset + self.bias_m;
+        let i = yi as usize * self.size + xi as usize;
+        // 0 marks a texel no caster covers. `|`, not `||`: both tests, no branch per texel.
         let lit = |k: usize| {
             let caster = self.heights[k];
-            f32::from(u8::from(caster == 0.0 || caster <= receiver))
+            f32::from(u8::from(caster == 0.0) | u8::from(caster <= receiver))
         };
         let top = lit(i) * (1.0 - fx) + lit(i + 1) * fx;
         let bottom = lit(i + self.size) * (1.0 - fx) + lit(i + self.size + 1) * fx;
@@ -105,7 +119,8 @@ impl LightFrame {
     }
 }
 
-/// Renders `triangles` of `positions` into `map`, fitted to their extent (plus `margin_m`).
+/// Renders `triangles` of `positions` into `map`, fitted to their extent (plus `margin_m`),
+/// skipping the faces `cull` says.
 fn draw_shadow_map(
     map: &mut ShadowMap,
     size: usize,
@@ -113,6 +128,7 @@ fn draw_shadow_map(
     positions: &[[f32; 3]],
     indices: &[u32],
     margin_m: f32,
+    cull: Cull,
 ) {
     map.size = size;
     map.heights.clear();
@@ -133,6 +149,7 @@ fn draw_shadow_map(
     let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]) + 2.0 * margin_m;
     map.origin = [lo[0] - margin_m, lo[1] - margin_m];
     map.texels_per_m = size as f32 / extent.max(1e-3);
+    map.bias_m = BIAS_TEXELS / map.texels_per_m;
     map.height_offset = 1.0 - lo[2];
     let to_map = |p: &[f32; 3]| {
         let c = light.coords(&Vector3::from(*p));
@@ -148,7 +165,7 @@ fn draw_shadow_map(
             to_map(&positions[t[1] as usize]),
             to_map(&positions[t[2] as usize]),
         ];
-        fill_triangle(s, size, size, &mut map.heights, Cull::None, |_, _, _| {});
+        fill_triangle(s, size, size, &mut map.heights, cull, |_, _, _| {});
     }
 }
 
@@ -362,6 +379,7 @@ impl Renderer for CpuRenderer {
                 &self.skinned_positions,
                 &stage.body.indices,
                 0.1,
+                CHARACTER_SHADOW_CULL,
             );
             if self.prop_shadow_stage != Some(stage.id) {
                 draw_shadow_map(
@@ -371,6 +389,7 @@ impl Renderer for CpuRenderer {
                     &stage.world.props.positions,
                     &stage.world.props.indices,
                     0.5,
+                    Cull::None,
                 );
                 self.prop_shadow_stage = Some(stage.id);
             }
@@ -559,7 +578,7 @@ fn precipitation(env: &Environment, seed: u64, time_s: f64, view: &View, image: 
     };
     for k in 0..count {
         let r = |j: u64| unit2(seed ^ 0x9ec1, k * 4 + j);
-        let wrap = |v: f32| v - (v / box_m).floor() * box_m;
+        let wrap = |v: f32| v - floor(v / box_m) * box_m;
         let phase = r(3) * std::f32::consts::TAU;
         let sway = if rain {
             0.0
@@ -599,9 +618,10 @@ fn precipitation(env: &Environment, seed: u64, time_s: f64, view: &View, image: 
             let f = s as f32 / steps as f32;
             let (x, y) = (sa.x + (sb.x - sa.x) * f, sa.y + (sb.y - sa.y) * f);
             let iz = sa.inv_z + (sb.inv_z - sa.inv_z) * f;
+            let (x0, y0) = (floor(x) as i64, floor(y) as i64);
             for dy in -radius..=radius {
                 for dx in -radius..=radius {
-                    let (px, py) = (x.floor() as i64 + dx, y.floor() as i64 + dy);
+                    let (px, py) = (x0 + dx, y0 + dy);
                     if px < 0 || py < 0 || px >= view.width as i64 || py >= view.height as i64 {
                         continue;
                     }

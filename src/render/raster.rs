@@ -24,7 +24,7 @@ const ROUNDING_LIMIT: f32 = 1.0e9;
 /// `⌊v⌋` through an integer cast (the default x86-64 target has no rounding instruction, and a
 /// libm call per row of every triangle is measurable). NaN gives 0.
 #[inline]
-fn floor(v: f32) -> f32 {
+pub(crate) fn floor(v: f32) -> f32 {
     let v = v.clamp(-ROUNDING_LIMIT, ROUNDING_LIMIT);
     let i = v as i64 as f32;
     if i > v { i - 1.0 } else { i }
@@ -46,6 +46,9 @@ pub(crate) enum Cull {
     /// Skip triangles whose vertices run clockwise as the viewer sees them: faces seen from
     /// behind, for meshes wound counter-clockwise seen from outside.
     Back,
+    /// Skip triangles whose vertices run counter-clockwise as the viewer sees them (the other
+    /// side of [`Cull::Back`], for a view whose depth axis points towards the viewer).
+    Front,
 }
 
 /// Rasterises one triangle into `depth` (`width` pixels per row), calling
@@ -68,7 +71,7 @@ pub(crate) fn fill_triangle(
     if area.is_nan() || area.abs() <= 1e-12 {
         return;
     }
-    if cull == Cull::Back && area > 0.0 {
+    if (cull == Cull::Back && area > 0.0) || (cull == Cull::Front && area < 0.0) {
         return;
     }
     let (v, area) = if area < 0.0 {

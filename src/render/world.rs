@@ -865,10 +865,20 @@ const TEXTURE_SIZE: usize = 128;
 #[derive(Debug, Clone, PartialEq)]
 pub struct GroundTexture {
     /// Metres covered by one tile.
-    pub tile_m: f32,
-    /// Levels, largest first; level `k` is `(TEXTURE_SIZE >> k)²` texels, row-major.
-    levels: Vec<Vec<Rgb>>,
+    tile_m: f32,
+    /// Every level's texels, one after another, largest first; level `k` is
+    /// `(TEXTURE_SIZE >> k)²` texels, row-major, from `level_start[k]`.
+    texels: Vec<Rgb>,
+    level_start: [usize; MIP_LEVELS],
+    /// Texels per metre of each level (`(TEXTURE_SIZE >> k) / tile_m`), divided once here
+    /// instead of per pixel.
+    level_texels_per_m: [f32; MIP_LEVELS],
+    /// Metres per texel of the largest level.
+    texel_m: f32,
 }
+
+/// Levels of a ground texture's mip chain: `TEXTURE_SIZE` down to 1×1.
+const MIP_LEVELS: usize = TEXTURE_SIZE.trailing_zeros() as usize + 1;
 
 impl GroundTexture {
     fn generate(ground: Ground, seed: u64, env: &Environment) -> GroundTexture {
@@ -953,16 +963,34 @@ impl GroundTexture {
             levels.push(next);
             size = half;
         }
-        GroundTexture { tile_m, levels }
+        let mut level_start = [0; MIP_LEVELS];
+        let mut level_texels_per_m = [0.0; MIP_LEVELS];
+        let mut all = Vec::with_capacity(levels.iter().map(Vec::len).sum());
+        for (k, level) in levels.iter().enumerate() {
+            level_start[k] = all.len();
+            level_texels_per_m[k] = (TEXTURE_SIZE >> k) as f32 / tile_m;
+            all.extend_from_slice(level);
+        }
+        GroundTexture {
+            tile_m,
+            texels: all,
+            level_start,
+            level_texels_per_m,
+            texel_m: tile_m / TEXTURE_SIZE as f32,
+        }
+    }
+
+    /// Metres covered by one tile.
+    #[must_use]
+    pub fn tile_m(&self) -> f32 {
+        self.tile_m
     }
 
     /// Changes every texel of every level by `f` (linear in the colour, so the mip levels stay
     /// the averages of the tile).
     pub fn map_texels(&mut self, f: impl Fn(Rgb) -> Rgb) {
-        for level in &mut self.levels {
-            for t in level.iter_mut() {
-                *t = f(*t);
-            }
+        for t in &mut self.texels {
+            *t = f(*t);
         }
     }
 
@@ -970,7 +998,7 @@ impl GroundTexture {
     /// covering `y ∈ [v, v + 1) · tile_m / side` (for engines that sample it themselves).
     #[must_use]
     pub fn texels(&self) -> (usize, &[Rgb]) {
-        (TEXTURE_SIZE, &self.levels[0])
+        (TEXTURE_SIZE, &self.texels[..TEXTURE_SIZE * TEXTURE_SIZE])
     }
 
     /// The colour at ground point `(x, y)` seen with a pixel footprint of `footprint_m` metres:
@@ -979,22 +1007,20 @@ impl GroundTexture {
     #[inline]
     #[must_use]
     pub fn sample(&self, x: f32, y: f32, footprint_m: f32) -> Rgb {
-        let texel_m = self.tile_m / TEXTURE_SIZE as f32;
-        let ratio = footprint_m / texel_m;
+        let ratio = footprint_m / self.texel_m;
         let level = if ratio <= 1.0 {
             0
         } else {
             // ⌊log2(ratio)⌋ from the float's exponent.
-            (((ratio.to_bits() >> 23) & 0xff) as i32 - 127).clamp(0, 7) as usize
+            (((ratio.to_bits() >> 23) & 0xff) as i32 - 127).clamp(0, MIP_LEVELS as i32 - 1) as usize
         };
-        let level = level.min(self.levels.len() - 1);
         let size = TEXTURE_SIZE >> level;
-        let scale_px = size as f32 / self.tile_m;
+        let scale_px = self.level_texels_per_m[level];
         // `size` is a power of two: masking the floored texel index wraps negatives too.
         let mask = size as i32 - 1;
         let u = (fast_floor(x * scale_px) & mask) as usize;
         let v = (fast_floor(y * scale_px) & mask) as usize;
-        self.levels[level][v * size + u]
+        self.texels[self.level_start[level] + v * size + u]
     }
 }
 
@@ -1463,7 +1489,7 @@ mod tests {
             3,
         );
         let t = GroundTexture::generate(Ground::Tiles, 3, &env);
-        let avg = *t.levels.last().and_then(|l| l.first()).expect("1×1 level");
+        let avg = *t.texels.last().expect("1×1 level");
         let far = t.sample(0.37, 1.91, 100.0);
         assert_eq!(far, avg);
         // Near: texels differ (grout vs tile).

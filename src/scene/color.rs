@@ -69,8 +69,10 @@ impl Encoder {
     pub fn encode(&self, linear: f32) -> u8 {
         // Float-to-integer casts saturate: negative and NaN give 0 (black), above 1 clips to
         // white; never a panic.
-        let i = (linear * (TABLE_SIZE - 1) as f32 + 0.5) as usize;
-        self.table[i.min(TABLE_SIZE - 1)]
+        // Clamped as a float first: the 32-bit cast then needs no saturation (cheaper than a
+        // saturating cast to usize and a `min`), and NaN still gives 0.
+        let i = (linear * (TABLE_SIZE - 1) as f32 + 0.5).clamp(0.0, (TABLE_SIZE - 1) as f32) as i32;
+        self.table[i as usize & (TABLE_SIZE - 1)]
     }
 
     /// A pixel.
