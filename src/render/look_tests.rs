@@ -192,6 +192,70 @@ fn snow_and_wet_ground_are_continuous_textures_without_blocks() {
     }
 }
 
+/// A 320×240 close-up of a stage's character at rest from `eye` looking at `target` (written as
+/// `name` under `$AUTOACT_LOOK_DUMP` when that is set), for the face's tests.
+struct CloseUp {
+    camera: Camera,
+    image: Image,
+    width: usize,
+}
+
+impl CloseUp {
+    fn new(stage: &Stage, eye: Point3<f64>, target: Point3<f64>, name: &str) -> CloseUp {
+        let (w, h) = (320u32, 240u32);
+        let camera = Camera {
+            world_from_optical: CameraPose::looking_at(eye, target).isometry_world_from_optical(),
+            intrinsics: Intrinsics::from_horizontal_fov(w, h, 50.0).expect("a lens"),
+        };
+        let input = FrameInput {
+            camera,
+            pose: &stage.rest_pose,
+            time_s: 0.0,
+        };
+        let mut image = Image::default();
+        CpuRenderer::new().render(stage, &input, &mut image);
+        if let Some(dir) = std::env::var_os("AUTOACT_LOOK_DUMP") {
+            let path = std::path::Path::new(&dir).join(name);
+            crate::video::write_png(&path, w, h, &image.rgb).expect("png");
+        }
+        CloseUp {
+            camera,
+            image,
+            width: w as usize,
+        }
+    }
+
+    /// The pixel a world point projects onto.
+    fn pixel(&self, p: Point3<f64>) -> (usize, usize) {
+        let k = &self.camera.intrinsics;
+        let q = self.camera.world_from_optical.inverse_transform_point(&p);
+        let x = k.fx_px * q.x / q.z + k.cx_px;
+        let y = k.fy_px * q.y / q.z + k.cy_px;
+        (x as usize, y as usize)
+    }
+
+    /// A pixel's luma, 0–255.
+    fn luma(&self, (x, y): (usize, usize)) -> u32 {
+        let i = 3 * (y * self.width + x);
+        let p = &self.image.rgb[i..i + 3];
+        (u32::from(p[0]) * 2 + u32::from(p[1]) * 5 + u32::from(p[2])) / 8
+    }
+
+    /// The darkest luma within one pixel of `(x, y)`.
+    fn darkest_around(&self, (x, y): (usize, usize)) -> u32 {
+        (y - 1..=y + 1)
+            .flat_map(|yy| (x - 1..=x + 1).map(move |xx| (xx, yy)))
+            .map(|at| self.luma(at))
+            .min()
+            .unwrap_or(255)
+    }
+
+    /// Whether a pixel shows the character.
+    fn on_character(&self, (x, y): (usize, usize)) -> bool {
+        self.image.surface[y * self.width + x] == Surface::Character as u8
+    }
+}
+
 #[test]
 fn the_face_shows_dark_eyes_where_cocos_eye_points_project() {
     use crate::skeleton::fk;
@@ -211,53 +275,19 @@ fn the_face_shows_dark_eyes_where_cocos_eye_points_project() {
     // centimetre inside the head, on the rays through the drawn eyes, so seen from the front
     // they project onto them.
     let eye = nose + nalgebra::Vector3::new(0.0, 0.45, 0.03);
-    let (w, h) = (320u32, 240u32);
-    let camera = Camera {
-        world_from_optical: CameraPose::looking_at(eye, point("head_center"))
-            .isometry_world_from_optical(),
-        intrinsics: Intrinsics::from_horizontal_fov(w, h, 50.0).expect("a lens"),
-    };
-    let input = FrameInput {
-        camera,
-        pose: &stage.rest_pose,
-        time_s: 0.0,
-    };
-    let mut image = Image::default();
-    CpuRenderer::new().render(&stage, &input, &mut image);
-    if let Some(dir) = std::env::var_os("AUTOACT_LOOK_DUMP") {
-        let path = std::path::Path::new(&dir).join("face.png");
-        crate::video::write_png(&path, w, h, &image.rgb).expect("png");
-    }
-    let k = &camera.intrinsics;
-    let pixel = |p: Point3<f64>| {
-        let q = camera.world_from_optical.inverse_transform_point(&p);
-        let x = k.fx_px * q.x / q.z + k.cx_px;
-        let y = k.fy_px * q.y / q.z + k.cy_px;
-        (x as usize, y as usize)
-    };
-    let luma = |(x, y): (usize, usize)| {
-        let i = 3 * (y * w as usize + x);
-        let p = &image.rgb[i..i + 3];
-        (u32::from(p[0]) * 2 + u32::from(p[1]) * 5 + u32::from(p[2])) / 8
-    };
-    let character_at =
-        |(x, y): (usize, usize)| image.surface[y * w as usize + x] == Surface::Character as u8;
+    let view = CloseUp::new(&stage, eye, point("head_center"), "face.png");
     // The skin of the nose's tip, beside the eyes.
-    let nose_tip = pixel(nose);
-    assert!(character_at(nose_tip));
+    let nose_tip = view.pixel(nose);
+    assert!(view.on_character(nose_tip));
     for name in ["l_eye", "r_eye"] {
-        let (x, y) = pixel(point(name));
+        let at = view.pixel(point(name));
         // The darkest pixel within one of the eye point.
-        let darkest = (y - 1..=y + 1)
-            .flat_map(|yy| (x - 1..=x + 1).map(move |xx| (xx, yy)))
-            .map(luma)
-            .min()
-            .unwrap_or(255);
-        assert!(character_at((x, y)), "{name} is on the character");
+        let darkest = view.darkest_around(at);
+        assert!(view.on_character(at), "{name} is on the character");
         assert!(
-            darkest * 2 < luma(nose_tip),
+            darkest * 2 < view.luma(nose_tip),
             "{name}: {darkest} is not darker than the nose's {}",
-            luma(nose_tip)
+            view.luma(nose_tip)
         );
     }
 }
@@ -437,44 +467,12 @@ fn the_face_has_a_dark_mouth_and_brows_in_the_hairs_colour() {
         "{mouth:?}"
     );
     let eye = mouth + nalgebra::Vector3::new(0.0, 0.45, 0.05);
-    let (w, h) = (320u32, 240u32);
-    let camera = Camera {
-        world_from_optical: CameraPose::looking_at(eye, mouth + nalgebra::Vector3::z() * 0.05)
-            .isometry_world_from_optical(),
-        intrinsics: Intrinsics::from_horizontal_fov(w, h, 50.0).expect("a lens"),
-    };
-    let input = FrameInput {
-        camera,
-        pose: &stage.rest_pose,
-        time_s: 0.0,
-    };
-    let mut image = Image::default();
-    CpuRenderer::new().render(&stage, &input, &mut image);
-    if let Some(dir) = std::env::var_os("AUTOACT_LOOK_DUMP") {
-        let path = std::path::Path::new(&dir).join("mouth.png");
-        crate::video::write_png(&path, w, h, &image.rgb).expect("png");
-    }
-    let k = &camera.intrinsics;
-    let pixel = |p: Point3<f64>| {
-        let q = camera.world_from_optical.inverse_transform_point(&p);
-        let x = k.fx_px * q.x / q.z + k.cx_px;
-        let y = k.fy_px * q.y / q.z + k.cy_px;
-        (x as usize, y as usize)
-    };
-    let luma = |(x, y): (usize, usize)| {
-        let i = 3 * (y * w as usize + x);
-        let p = &image.rgb[i..i + 3];
-        (u32::from(p[0]) * 2 + u32::from(p[1]) * 5 + u32::from(p[2])) / 8
-    };
-    let on_character =
-        |(x, y): (usize, usize)| image.surface[y * w as usize + x] == Surface::Character as u8;
-    let darkest = |(x, y): (usize, usize)| {
-        (y - 1..=y + 1)
-            .flat_map(|yy| (x - 1..=x + 1).map(move |xx| (xx, yy)))
-            .map(luma)
-            .min()
-            .unwrap_or(255)
-    };
+    let view = CloseUp::new(
+        &stage,
+        eye,
+        mouth + nalgebra::Vector3::z() * 0.05,
+        "mouth.png",
+    );
     let up = nalgebra::Vector3::z();
     // The skin around each feature: 2.5 cm below the mouth (the chin), 2 cm above each brow
     // (the forehead), both on the face.
@@ -483,14 +481,14 @@ fn the_face_has_a_dark_mouth_and_brows_in_the_hairs_colour() {
         ("l_brow", centroid("l_brow") + up * 0.02),
         ("r_brow", centroid("r_brow") + up * 0.02),
     ] {
-        let at = pixel(centroid(name));
-        let skin = pixel(skin);
-        assert!(on_character(at) && on_character(skin), "{name}");
+        let at = view.pixel(centroid(name));
+        let skin = view.pixel(skin);
+        assert!(view.on_character(at) && view.on_character(skin), "{name}");
         assert!(
-            darkest(at) * 2 < luma(skin),
+            view.darkest_around(at) * 2 < view.luma(skin),
             "{name}: {} is not darker than the skin's {}",
-            darkest(at),
-            luma(skin)
+            view.darkest_around(at),
+            view.luma(skin)
         );
     }
 }

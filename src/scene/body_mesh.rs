@@ -1325,6 +1325,18 @@ fn brows_and_mouth(sk: &Skeleton<'_>, dims: &Dims) -> Result<Vec<PartBuilder>, B
     Ok(parts)
 }
 
+/// A small closed ellipsoid named `name` centred at `centre` with semi-axes `semi` (x, y, z),
+/// all on `bone`, of one `material`: 8 around, 4 rings.
+fn blob(
+    name: &'static str,
+    centre: Vector3<f64>,
+    semi: [f64; 3],
+    bone: usize,
+    material: Material,
+) -> PartBuilder {
+    ellipsoid(name, centre, semi, bone, material, 5, 8)
+}
+
 /// A coarse closed ellipsoid like [`blob`] (6 around, 3 rings: 36 triangles), for the brows and
 /// the mouth.
 fn flat_blob(
@@ -1334,51 +1346,20 @@ fn flat_blob(
     bone: usize,
     material: Material,
 ) -> PartBuilder {
-    let chain = Chain::new(
-        vec![
-            centre - Vector3::z() * semi[2],
-            centre + Vector3::z() * semi[2],
-        ],
-        vec![Influences::single(bone)],
-        None,
-        None,
-    );
-    let stations: Vec<Station> = [1.0f64, 2.0, 3.0]
-        .into_iter()
-        .map(|k| {
-            let (s, c) = (std::f64::consts::FRAC_PI_4 * k).sin_cos();
-            Station {
-                c: 0.5 * (1.0 - c),
-                half_width_m: semi[0] * s,
-                front_m: semi[1] * s,
-                back_m: semi[1] * s,
-                offset_m: Vector3::zeros(),
-                weight_shift: 0.0,
-            }
-        })
-        .collect();
-    let mut part = PartBuilder::new(name);
-    part.tube(
-        &chain,
-        &Vector3::y(),
-        &ellipse(6),
-        &stations,
-        [Pole::at(0.0), Pole::at(1.0)],
-        &|_, _| material,
-    );
-    part
+    ellipsoid(name, centre, semi, bone, material, 4, 6)
 }
 
-/// A small closed ellipsoid named `name` centred at `centre` with semi-axes `semi` (x, y, z),
-/// all on `bone`, of one `material`.
-fn blob(
+/// A closed ellipsoid of `rings - 1` rings of `sides` vertices between its two poles, on one
+/// bone, of one material.
+fn ellipsoid(
     name: &'static str,
     centre: Vector3<f64>,
     semi: [f64; 3],
     bone: usize,
     material: Material,
+    rings: usize,
+    sides: usize,
 ) -> PartBuilder {
-    const RINGS: usize = 5;
     let chain = Chain::new(
         vec![
             centre - Vector3::z() * semi[2],
@@ -1388,10 +1369,10 @@ fn blob(
         None,
         None,
     );
-    let stations: Vec<Station> = (1..RINGS)
+    let stations: Vec<Station> = (1..rings)
         .map(|k| {
             #[expect(clippy::cast_precision_loss, reason = "small counts")]
-            let phi = std::f64::consts::PI * k as f64 / RINGS as f64;
+            let phi = std::f64::consts::PI * k as f64 / rings as f64;
             let (s, c) = phi.sin_cos();
             Station {
                 c: 0.5 * (1.0 - c),
@@ -1407,7 +1388,7 @@ fn blob(
     part.tube(
         &chain,
         &Vector3::y(),
-        &ellipse(8),
+        &ellipse(sides),
         &stations,
         [Pole::at(0.0), Pole::at(1.0)],
         &|_, _| material,

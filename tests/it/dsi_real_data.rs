@@ -14,7 +14,7 @@
 
 use std::path::{Path, PathBuf};
 
-use autoact::dsi::eval::{fidelity, glitch_frames_affected};
+use autoact::dsi::eval::{Fidelity, fidelity, glitch_frames_affected};
 use autoact::dsi::plan::source_period_s;
 use autoact::dsi::{self, DsiOptions, SourceKind};
 use autoact::formats::{bvh, bvh_map::BvhMapping, h36m_expmap, ntu, zed_mat};
@@ -72,23 +72,34 @@ fn default_dsi_keeps_clean_motion_capture() {
     let clips = clean_clips(&rig);
     assert!(clips.len() >= 14, "{} clips", clips.len());
     for (name, anim) in clips {
-        let first = anim.frames[0].stamp_nanos;
-        let times: Vec<f64> = anim
-            .frames
-            .iter()
-            .map(|f| autoact::skeleton::pose::nanos_to_secs(f.stamp_nanos - first))
-            .collect();
-        let mut options = DsiOptions::new(&rig);
-        options.out_fps = 1.0 / source_period_s(&times);
-        let out = dsi::run(&rig, &anim.frames, &options).unwrap();
-        let f = fidelity(&rig, &anim.frames, &out.animations[0]);
+        let f = dsi_in_range_and_glitch_free(&rig, &name, &anim, DsiOptions::new(&rig));
         assert!(f.duration_change_pct.abs() <= 2.0, "{name}: {f:?}");
         assert!(f.peak_speed_kept_pct >= 90.0, "{name}: {f:?}");
-        assert!(f.max_overshoot_pct <= 5.0, "{name}: {f:?}");
-        let glitch =
-            glitch_frames_affected(&rig, &anim.frames, &options, 45f64.to_radians()).unwrap();
-        assert!(glitch.is_none_or(|g| g <= 1), "{name}: glitch {glitch:?}");
     }
+}
+
+/// Runs DSI with `options` on `anim` at its own frame rate, checks that no bone goes past 105 %
+/// of its source range and that a 45° one-frame glitch affects at most one output frame, and
+/// returns what the output kept.
+fn dsi_in_range_and_glitch_free(
+    rig: &Rig,
+    name: &str,
+    anim: &Animation,
+    mut options: DsiOptions,
+) -> Fidelity {
+    let first = anim.frames[0].stamp_nanos;
+    let times: Vec<f64> = anim
+        .frames
+        .iter()
+        .map(|f| autoact::skeleton::pose::nanos_to_secs(f.stamp_nanos - first))
+        .collect();
+    options.out_fps = 1.0 / source_period_s(&times);
+    let out = dsi::run(rig, &anim.frames, &options).unwrap();
+    let f = fidelity(rig, &anim.frames, &out.animations[0]);
+    assert!(f.max_overshoot_pct <= 5.0, "{name}: {f:?}");
+    let glitch = glitch_frames_affected(rig, &anim.frames, &options, 45f64.to_radians()).unwrap();
+    assert!(glitch.is_none_or(|g| g <= 1), "{name}: glitch {glitch:?}");
+    f
 }
 
 fn estimator_clips(rig: &Rig) -> Vec<(String, Animation)> {
@@ -116,20 +127,8 @@ fn default_dsi_smooths_raw_estimator_output() {
     let clips = estimator_clips(&rig);
     assert!(clips.len() >= 3, "{} clips", clips.len());
     for (name, anim) in clips {
-        let first = anim.frames[0].stamp_nanos;
-        let times: Vec<f64> = anim
-            .frames
-            .iter()
-            .map(|f| autoact::skeleton::pose::nanos_to_secs(f.stamp_nanos - first))
-            .collect();
-        let mut options = DsiOptions::new(&rig).for_source(SourceKind::Estimator);
-        options.out_fps = 1.0 / source_period_s(&times);
-        let out = dsi::run(&rig, &anim.frames, &options).unwrap();
-        let f = fidelity(&rig, &anim.frames, &out.animations[0]);
+        let options = DsiOptions::new(&rig).for_source(SourceKind::Estimator);
+        let f = dsi_in_range_and_glitch_free(&rig, &name, &anim, options);
         assert!(f.jerk_cut_pct >= 85.0, "{name}: {f:?}");
-        assert!(f.max_overshoot_pct <= 5.0, "{name}: {f:?}");
-        let glitch =
-            glitch_frames_affected(&rig, &anim.frames, &options, 45f64.to_radians()).unwrap();
-        assert!(glitch.is_none_or(|g| g <= 1), "{name}: glitch {glitch:?}");
     }
 }
