@@ -1,7 +1,9 @@
 //! The renderer's gallery: four weathers × four times of day × three characters, one contact
-//! sheet per weather, written to `docs/render-<weather>.png` (or the folder given). The pose is
-//! the waving sample's middle frame; every scene is drawn from a fixed seed, so the sheets are
-//! byte-identical on every run (CI regenerates them and compares).
+//! sheet per weather, written to `docs/render-<weather>.png` (or the folder given), and every one
+//! of the 14 weathers × the four times of day for one character, `docs/render-weathers.png` (the
+//! outdoor locations taken in turn). The pose is the waving sample's middle frame; every scene is
+//! drawn from a fixed seed, so the sheets are byte-identical on every run (CI regenerates them
+//! and compares).
 //!
 //! ```sh
 //! cargo run --release --example render_gallery            # rewrites docs/render-*.png
@@ -36,6 +38,7 @@ use rand_chacha::ChaCha8Rng;
 const WIDTH: u32 = 320;
 const HEIGHT: u32 = 240;
 const TILE_WIDTH: u32 = 200;
+const WEATHERS_TILE_WIDTH: u32 = 160;
 
 fn main() {
     let out = std::env::args().nth(1).map_or_else(
@@ -78,9 +81,7 @@ fn main() {
         (Weather::Foggy, "open_field"),
         (Weather::Snow, "parking_lot"),
     ];
-    let intrinsics = Intrinsics::from_horizontal_fov(WIDTH, HEIGHT, 60.0).unwrap();
-    let mut renderer = CpuRenderer::new();
-    let mut image = Image::default();
+    let mut renderer = Drawer::default();
     for (wi, (weather, location)) in weathers.into_iter().enumerate() {
         let mut tiles_rgb = Vec::new();
         let mut labels = Vec::new();
@@ -96,40 +97,111 @@ fn main() {
                     location: instance.clone(),
                     look: look.clone(),
                 };
-                let seed = 7 + wi as u64;
-                let stage = Stage::new(&rig, &scene, seed, tiles_rgb.len() as u64);
-                let character = look.character(&rig);
-                let posed = fk::forward(&rig, &character, &pose, 1.0);
-                let target = Point3::new(0.0, 0.0, 0.5 * look.height_m);
-                let eye = Point3::new(-1.5, 2.6, 1.2);
-                let camera = CameraPose::looking_at(eye, target);
-                let input = FrameInput {
-                    camera: Camera {
-                        world_from_optical: camera.isometry_world_from_optical(),
-                        intrinsics,
-                    },
-                    pose: &posed,
-                    time_s: 1.0,
-                };
-                renderer.render(&stage, &input, &mut image);
-                tiles_rgb.push(image.rgb.clone());
+                let index = tiles_rgb.len() as u64;
+                tiles_rgb.push(draw(
+                    &mut renderer,
+                    &rig,
+                    &pose,
+                    &scene,
+                    7 + wi as u64,
+                    index,
+                ));
                 labels
                     .push(format!("{name} {:?} {}", look.age_group, look.age_years).to_uppercase());
             }
         }
-        let tiles: Vec<Tile<'_>> = tiles_rgb
-            .iter()
-            .zip(&labels)
-            .map(|(rgb, label)| Tile {
-                rgb24: rgb,
-                width: WIDTH,
-                height: HEIGHT,
-                label,
-            })
-            .collect();
-        let (w, h, rgb) = contact_sheet(&tiles, 3, TILE_WIDTH).unwrap();
         let path = out.join(format!("render-{}.png", weather.name().to_lowercase()));
-        write_png(&path, w, h, &rgb).unwrap();
-        println!("{} ({w}x{h}, {location})", path.display());
+        write_sheet(&path, &tiles_rgb, &labels, 3, TILE_WIDTH);
+        println!("{} ({location})", path.display());
     }
+    // Every weather at every time, the adult character, the outdoor locations in turn.
+    let outdoor: Vec<&Location> = pool.iter().filter(|l| !l.indoor).collect();
+    let mut tiles_rgb = Vec::new();
+    let mut labels = Vec::new();
+    for (wi, weather) in Weather::ALL.into_iter().enumerate() {
+        let mut rng = ChaCha8Rng::seed_from_u64(200 + wi as u64);
+        let location = outdoor[wi % outdoor.len()];
+        let instance = location.draw(&mut rng, 2.5);
+        for (name, clock) in times {
+            let scene = Scene {
+                weather,
+                weather_params: weather.params(),
+                clock,
+                sun: sun_position(clock, 34.0, 172),
+                location: instance.clone(),
+                look: looks[1].clone(),
+            };
+            let index = tiles_rgb.len() as u64;
+            tiles_rgb.push(draw(
+                &mut renderer,
+                &rig,
+                &pose,
+                &scene,
+                300 + wi as u64,
+                index,
+            ));
+            labels.push(format!("{} {name}", weather.name()).to_uppercase());
+        }
+    }
+    let path = out.join("render-weathers.png");
+    write_sheet(&path, &tiles_rgb, &labels, 4, WEATHERS_TILE_WIDTH);
+    println!("{} (14 weathers x 4 times)", path.display());
+}
+
+/// The renderer and its reused image.
+#[derive(Default)]
+struct Drawer {
+    renderer: CpuRenderer,
+    image: Image,
+}
+
+/// `scene` drawn with the character in `pose` from the gallery's camera: rgb24, WIDTH × HEIGHT.
+fn draw(
+    drawer: &mut Drawer,
+    rig: &Rig,
+    pose: &fk::BonePose,
+    scene: &Scene,
+    seed: u64,
+    index: u64,
+) -> Vec<u8> {
+    let intrinsics = Intrinsics::from_horizontal_fov(WIDTH, HEIGHT, 60.0).unwrap();
+    let stage = Stage::new(rig, scene, seed, index);
+    let character = scene.look.character(rig);
+    let posed = fk::forward(rig, &character, pose, 1.0);
+    let target = Point3::new(0.0, 0.0, 0.5 * scene.look.height_m);
+    let eye = Point3::new(-1.5, 2.6, 1.2);
+    let camera = CameraPose::looking_at(eye, target);
+    let input = FrameInput {
+        camera: Camera {
+            world_from_optical: camera.isometry_world_from_optical(),
+            intrinsics,
+        },
+        pose: &posed,
+        time_s: 1.0,
+    };
+    drawer.renderer.render(&stage, &input, &mut drawer.image);
+    drawer.image.rgb.clone()
+}
+
+/// A contact sheet of `tiles_rgb` (WIDTH × HEIGHT each) with `labels`, `columns` wide, written
+/// to `path`.
+fn write_sheet(
+    path: &std::path::Path,
+    tiles_rgb: &[Vec<u8>],
+    labels: &[String],
+    columns: u32,
+    tile_width: u32,
+) {
+    let tiles: Vec<Tile<'_>> = tiles_rgb
+        .iter()
+        .zip(labels)
+        .map(|(rgb, label)| Tile {
+            rgb24: rgb,
+            width: WIDTH,
+            height: HEIGHT,
+            label,
+        })
+        .collect();
+    let (w, h, rgb) = contact_sheet(&tiles, columns, tile_width).unwrap();
+    write_png(path, w, h, &rgb).unwrap();
 }
