@@ -30,14 +30,15 @@ use std::path::Path;
 
 use autoact::bags::animation::read_animation;
 use autoact::camera::{CameraPose, Intrinsics};
+use autoact::dataset::randomise::Randomise;
 use autoact::mcap_io::BagReader;
 use autoact::render::cpu::CpuRenderer;
-use autoact::render::randomise::{ImageEffects, Randomise};
+use autoact::render::randomise::ImageEffects;
 use autoact::render::{Camera, FrameInput, Image, Renderer, Stage};
-use autoact::scene::Scene;
+use autoact::scene::SceneConfig;
 use autoact::scene::cast::Population;
 use autoact::scene::location::Location;
-use autoact::scene::sky::{ClockTime, sun_position};
+use autoact::scene::sky::ClockTime;
 use autoact::scene::weather::Weather;
 use autoact::skeleton::fk::{self, WorldPose};
 use autoact::skeleton::rig::Rig;
@@ -86,14 +87,8 @@ fn build() -> Set {
             let weather = Weather::ALL[n % Weather::ALL.len()];
             let look = population.draw(&mut rng).unwrap();
             let clock = clocks[(li + k) % clocks.len()];
-            let scene = Scene {
-                weather,
-                weather_params: weather.params(),
-                clock,
-                sun: sun_position(clock, 34.0, 172),
-                location: instance.clone(),
-                look: look.clone(),
-            };
+            let scene =
+                SceneConfig::default().scene(weather, clock, instance.clone(), look.clone());
             stages.push(Stage::new(&rig, &scene, 11 + n as u64, n as u64));
             let character = look.character(&rig);
             let height = look.height_m;
@@ -287,14 +282,7 @@ fn frames(size: &str, noise: f64, blur: f64) {
     let instance = location.draw(&mut rng, 2.5);
     let look = Population::default().draw(&mut rng).unwrap();
     let clock = ClockTime::NOON;
-    let scene = Scene {
-        weather: Weather::ALL[0],
-        weather_params: Weather::ALL[0].params(),
-        clock,
-        sun: sun_position(clock, 34.0, 172),
-        location: instance,
-        look: look.clone(),
-    };
+    let scene = SceneConfig::default().scene(Weather::ALL[0], clock, instance, look.clone());
     let stage = Stage::new(&rig, &scene, 11, 0);
     let character = look.character(&rig);
     let intrinsics = Intrinsics::from_horizontal_fov(width, height, 60.0).unwrap();

@@ -23,11 +23,11 @@ use autoact::camera::{CameraPose, Intrinsics};
 use autoact::mcap_io::BagReader;
 use autoact::render::cpu::CpuRenderer;
 use autoact::render::{Camera, FrameInput, Image, Renderer, Stage};
-use autoact::scene::Scene;
 use autoact::scene::cast::{AgeGroup, Population, Sex};
 use autoact::scene::location::Location;
-use autoact::scene::sky::{ClockTime, sun_position};
+use autoact::scene::sky::ClockTime;
 use autoact::scene::weather::Weather;
+use autoact::scene::{Scene, SceneConfig};
 use autoact::skeleton::fk;
 use autoact::skeleton::rig::Rig;
 use autoact::video::{Tile, contact_sheet, write_png};
@@ -81,31 +81,22 @@ fn main() {
         (Weather::Foggy, "open_field"),
         (Weather::Snow, "parking_lot"),
     ];
-    let mut renderer = Drawer::default();
+    let config = SceneConfig::default();
+    let mut drawer = Drawer {
+        rig,
+        pose,
+        renderer: CpuRenderer::new(),
+        image: Image::default(),
+    };
     for (wi, (weather, location)) in weathers.into_iter().enumerate() {
         let mut tiles_rgb = Vec::new();
         let mut labels = Vec::new();
         let mut rng = ChaCha8Rng::seed_from_u64(100 + wi as u64);
-        let instance = place(location).draw(&mut rng, 2.5);
+        let instance = place(location).draw(&mut rng, config.clear_radius_m);
         for (name, clock) in times {
             for look in &looks {
-                let scene = Scene {
-                    weather,
-                    weather_params: weather.params(),
-                    clock,
-                    sun: sun_position(clock, 34.0, 172),
-                    location: instance.clone(),
-                    look: look.clone(),
-                };
-                let index = tiles_rgb.len() as u64;
-                tiles_rgb.push(draw(
-                    &mut renderer,
-                    &rig,
-                    &pose,
-                    &scene,
-                    7 + wi as u64,
-                    index,
-                ));
+                let scene = config.scene(weather, clock, instance.clone(), look.clone());
+                tiles_rgb.push(drawer.draw(&scene, 7 + wi as u64, tiles_rgb.len()));
                 labels
                     .push(format!("{name} {:?} {}", look.age_group, look.age_years).to_uppercase());
             }
@@ -121,25 +112,10 @@ fn main() {
     for (wi, weather) in Weather::ALL.into_iter().enumerate() {
         let mut rng = ChaCha8Rng::seed_from_u64(200 + wi as u64);
         let location = outdoor[wi % outdoor.len()];
-        let instance = location.draw(&mut rng, 2.5);
+        let instance = location.draw(&mut rng, config.clear_radius_m);
         for (name, clock) in times {
-            let scene = Scene {
-                weather,
-                weather_params: weather.params(),
-                clock,
-                sun: sun_position(clock, 34.0, 172),
-                location: instance.clone(),
-                look: looks[1].clone(),
-            };
-            let index = tiles_rgb.len() as u64;
-            tiles_rgb.push(draw(
-                &mut renderer,
-                &rig,
-                &pose,
-                &scene,
-                300 + wi as u64,
-                index,
-            ));
+            let scene = config.scene(weather, clock, instance.clone(), looks[1].clone());
+            tiles_rgb.push(drawer.draw(&scene, 300 + wi as u64, tiles_rgb.len()));
             labels.push(format!("{} {name}", weather.name()).to_uppercase());
         }
     }
@@ -148,39 +124,36 @@ fn main() {
     println!("{} (14 weathers x 4 times)", path.display());
 }
 
-/// The renderer and its reused image.
-#[derive(Default)]
+/// Draws the gallery's tiles: the waving pose from the gallery's camera, with a reused image.
 struct Drawer {
+    rig: Rig,
+    pose: fk::BonePose,
     renderer: CpuRenderer,
     image: Image,
 }
 
-/// `scene` drawn with the character in `pose` from the gallery's camera: rgb24, WIDTH × HEIGHT.
-fn draw(
-    drawer: &mut Drawer,
-    rig: &Rig,
-    pose: &fk::BonePose,
-    scene: &Scene,
-    seed: u64,
-    index: u64,
-) -> Vec<u8> {
-    let intrinsics = Intrinsics::from_horizontal_fov(WIDTH, HEIGHT, 60.0).unwrap();
-    let stage = Stage::new(rig, scene, seed, index);
-    let character = scene.look.character(rig);
-    let posed = fk::forward(rig, &character, pose, 1.0);
-    let target = Point3::new(0.0, 0.0, 0.5 * scene.look.height_m);
-    let eye = Point3::new(-1.5, 2.6, 1.2);
-    let camera = CameraPose::looking_at(eye, target);
-    let input = FrameInput {
-        camera: Camera {
-            world_from_optical: camera.isometry_world_from_optical(),
-            intrinsics,
-        },
-        pose: &posed,
-        time_s: 1.0,
-    };
-    drawer.renderer.render(&stage, &input, &mut drawer.image);
-    drawer.image.rgb.clone()
+impl Drawer {
+    /// `scene` (staged with `seed`, tile `index`) with the character in the pose: rgb24,
+    /// WIDTH × HEIGHT.
+    fn draw(&mut self, scene: &Scene, seed: u64, index: usize) -> Vec<u8> {
+        let intrinsics = Intrinsics::from_horizontal_fov(WIDTH, HEIGHT, 60.0).unwrap();
+        let stage = Stage::new(&self.rig, scene, seed, index as u64);
+        let character = scene.look.character(&self.rig);
+        let posed = fk::forward(&self.rig, &character, &self.pose, 1.0);
+        let target = Point3::new(0.0, 0.0, 0.5 * scene.look.height_m);
+        let eye = Point3::new(-1.5, 2.6, 1.2);
+        let camera = CameraPose::looking_at(eye, target);
+        let input = FrameInput {
+            camera: Camera {
+                world_from_optical: camera.isometry_world_from_optical(),
+                intrinsics,
+            },
+            pose: &posed,
+            time_s: 1.0,
+        };
+        self.renderer.render(&stage, &input, &mut self.image);
+        self.image.rgb.clone()
+    }
 }
 
 /// A contact sheet of `tiles_rgb` (WIDTH × HEIGHT each) with `labels`, `columns` wide, written

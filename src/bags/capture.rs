@@ -428,7 +428,7 @@ pub struct Capture {
     /// The dataset's seed, from the `autoact.dataset` record.
     pub seed: Option<u64>,
     /// The spec's `[randomise]` as JSON, from the `autoact.dataset` record's
-    /// [`RANDOMISE_KEY`] (read by `crate::render::randomise::Randomise::recorded`); `None` for
+    /// [`RANDOMISE_KEY`] (read by `crate::dataset::randomise::Randomise::recorded`); `None` for
     /// bags written before it was recorded.
     pub randomise: Option<String>,
     /// The camera's lens as recorded.

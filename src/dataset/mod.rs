@@ -5,6 +5,7 @@ pub mod capture;
 pub mod clips;
 pub mod plan;
 pub mod plan_report;
+pub mod randomise;
 pub mod spec;
 
 use std::path::{Path, PathBuf};

@@ -13,9 +13,9 @@ use serde::{Deserialize, Serialize};
 
 use super::clips::{ClipPolicy, ClipsSection};
 use crate::camera::{CameraError, RcmRanges, Shot};
+use crate::dataset::randomise::Randomise;
 use crate::dsi::plan::{Threshold, ThresholdError};
 use crate::dsi::variants::{VariationBounds, VariationBoundsError};
-use crate::render::randomise::Randomise;
 use crate::scene::{SceneConfig, SceneError};
 
 /// What is wrong with a spec.

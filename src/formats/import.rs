@@ -66,19 +66,20 @@ impl InputFormat {
         })
     }
 
-    /// The format a pose bag's import record names (its `format`, as [`Imported::metadata`]
-    /// writes it), `None` for another name.
+    /// The name a pose bag's import record gives the format (its `format` key).
+    #[must_use]
+    pub fn record_name(self) -> String {
+        format!("{self:?}")
+    }
+
+    /// The format an import record names ([`InputFormat::record_name`]), `None` for another
+    /// name.
     #[must_use]
     pub fn from_record_name(name: &str) -> Option<InputFormat> {
-        [
-            InputFormat::Bvh,
-            InputFormat::Ntu,
-            InputFormat::H36mExpmap,
-            InputFormat::ZedMat,
-            InputFormat::MmposeJson,
-        ]
-        .into_iter()
-        .find(|f| format!("{f:?}") == name)
+        <InputFormat as clap::ValueEnum>::value_variants()
+            .iter()
+            .copied()
+            .find(|f| *f != InputFormat::Auto && f.record_name() == name)
     }
 }
 
@@ -502,7 +503,7 @@ impl Imported {
     ) -> BTreeMap<String, String> {
         let mut metadata = BTreeMap::new();
         metadata.insert("source".to_string(), crate::file_name(input));
-        metadata.insert("format".to_string(), format!("{:?}", self.format));
+        metadata.insert("format".to_string(), self.format.record_name());
         metadata.insert("layout".to_string(), self.layout.clone());
         metadata.insert("rate".to_string(), self.rate.clone());
         metadata.insert("category".to_string(), category.unwrap_or_default());
@@ -877,7 +878,7 @@ mod tests {
             InputFormat::ZedMat,
             InputFormat::MmposeJson,
         ] {
-            assert_eq!(InputFormat::from_record_name(&format!("{f:?}")), Some(f));
+            assert_eq!(InputFormat::from_record_name(&f.record_name()), Some(f));
         }
         assert_eq!(InputFormat::from_record_name("Auto"), None);
         assert!(InputFormat::from_record_name("ZedMat").is_some_and(InputFormat::is_camera_frame));

@@ -5,9 +5,9 @@ use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
-use super::randomise::{Randomise, RecordedRandomiseError};
 use super::session::{Outputs, RenderError, RenderSettings, RenderSummary, render_capture};
 use crate::bags::capture::{Capture, TimelineError};
+use crate::dataset::randomise::{Randomise, RecordedRandomiseError};
 use crate::progress::Progress;
 use crate::skeleton::rig::Rig;
 use crate::video::{Ffmpeg, VideoError};

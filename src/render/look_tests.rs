@@ -11,7 +11,7 @@ use super::{Camera, FrameInput, Image, Renderer, Stage};
 use crate::camera::{CameraPose, Intrinsics};
 use crate::scene::color::srgb_to_linear;
 use crate::scene::location::Location;
-use crate::scene::sky::{ClockTime, sun_position};
+use crate::scene::sky::ClockTime;
 use crate::scene::weather::{Precipitation, Weather};
 use crate::scene::{Scene, SceneConfig};
 use crate::skeleton::rig::Rig;
@@ -28,9 +28,7 @@ fn scene_at(location: &str, weather: Weather, clock: ClockTime, seed: u64) -> Sc
         ..SceneConfig::default()
     };
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut scene = config.draw(&mut rng, &[]).expect("a valid config draws");
-    scene.sun = sun_position(clock, config.latitude_deg, config.day_of_year);
-    scene
+    config.draw(&mut rng, &[]).expect("a valid config draws")
 }
 
 /// Renders `scene`'s character at rest, seen from `eye` looking at its chest, at `w`×`h`, at a
@@ -585,7 +583,8 @@ fn backdrops_of_one_location_vary_between_scenes_and_repeat_for_one_seed() {
 #[test]
 fn randomisation_changes_the_picture_but_not_the_labels() {
     use super::annotate::{SURFACE_LANDMARKS, annotate};
-    use super::randomise::{ImageEffects, Randomise};
+    use super::randomise::ImageEffects;
+    use crate::dataset::randomise::Randomise;
     use crate::skeleton::fk::landmark_position;
     let rig = Rig::standard();
     let scene = scene_at("street", Weather::Clear, ClockTime::NOON, 3);

@@ -143,7 +143,7 @@ pub struct RenderSettings {
     pub engine: Engine,
     /// Domain randomisation: colour jitter, sensor noise, motion blur
     /// ([`super::randomise`]; the CRF is `crf`, drawn by the caller).
-    pub randomise: super::randomise::Randomise,
+    pub randomise: crate::dataset::randomise::Randomise,
 }
 
 /// Where to write.
@@ -445,7 +445,7 @@ struct Plan<'a> {
     /// ([`pieces`]).
     first: usize,
     /// The image effects to apply in output order.
-    randomise: super::randomise::Randomise,
+    randomise: crate::dataset::randomise::Randomise,
     /// Timeline stamp of the render's timeline frame 0, nanoseconds.
     frame0_nanos: u64,
     /// Frames of the render's timeline when only some are drawn ([`Plan::keep_only`]); `None`:
@@ -1166,7 +1166,7 @@ mod tests {
             extra_keyframes: Vec::new(),
             only_frames: None,
             engine: Engine::Embedded,
-            randomise: crate::render::randomise::Randomise::default(),
+            randomise: crate::dataset::randomise::Randomise::default(),
         }
     }
 

@@ -1251,7 +1251,7 @@ fn face_features(sk: &Skeleton<'_>, dims: &Dims) -> Result<Vec<PartBuilder>, Bod
         let normal = Vector3::new(q.x / ax, q.y / front, q.z / az).normalize();
         let semi = semi.map(|v| v * hs);
         let mid = surface + normal * (out * semi[0]);
-        parts.push(blob(name, mid, semi, head_bone, material));
+        parts.push(blob(name, mid, semi, head_bone, material, BLOB));
     }
     parts.extend(brows_and_mouth(sk, dims)?);
     Ok(parts)
@@ -1320,45 +1320,28 @@ fn brows_and_mouth(sk: &Skeleton<'_>, dims: &Dims) -> Result<Vec<PartBuilder>, B
         let semi = semi.map(|v| v * hs);
         // Half out of the skin, so it shows from the front and the side.
         let mid = surface + normal * (0.3 * semi[1]);
-        parts.push(flat_blob(name, mid, semi, head_bone, material));
+        parts.push(blob(name, mid, semi, head_bone, material, FLAT_BLOB));
     }
     Ok(parts)
 }
 
+/// [`blob`]'s rings between its poles, plus one, and vertices around: a small ellipsoid (8
+/// around, 4 rings), for the eyes, ears and hair buns.
+const BLOB: (usize, usize) = (5, 8);
+
+/// A coarse [`blob`] (6 around, 3 rings: 36 triangles), for the brows and the mouth.
+const FLAT_BLOB: (usize, usize) = (4, 6);
+
 /// A small closed ellipsoid named `name` centred at `centre` with semi-axes `semi` (x, y, z),
-/// all on `bone`, of one `material`: 8 around, 4 rings.
+/// all on `bone`, of one `material`: `rings - 1` rings of `sides` vertices between its two poles
+/// ([`BLOB`], [`FLAT_BLOB`]).
 fn blob(
     name: &'static str,
     centre: Vector3<f64>,
     semi: [f64; 3],
     bone: usize,
     material: Material,
-) -> PartBuilder {
-    ellipsoid(name, centre, semi, bone, material, 5, 8)
-}
-
-/// A coarse closed ellipsoid like [`blob`] (6 around, 3 rings: 36 triangles), for the brows and
-/// the mouth.
-fn flat_blob(
-    name: &'static str,
-    centre: Vector3<f64>,
-    semi: [f64; 3],
-    bone: usize,
-    material: Material,
-) -> PartBuilder {
-    ellipsoid(name, centre, semi, bone, material, 4, 6)
-}
-
-/// A closed ellipsoid of `rings - 1` rings of `sides` vertices between its two poles, on one
-/// bone, of one material.
-fn ellipsoid(
-    name: &'static str,
-    centre: Vector3<f64>,
-    semi: [f64; 3],
-    bone: usize,
-    material: Material,
-    rings: usize,
-    sides: usize,
+    (rings, sides): (usize, usize),
 ) -> PartBuilder {
     let chain = Chain::new(
         vec![
@@ -1488,7 +1471,14 @@ fn bun(sk: &Skeleton<'_>, dims: &Dims) -> Result<PartBuilder, BodyMeshError> {
     let hs = dims.head;
     let centre = head_centre(sk, dims) + Vector3::new(0.0, -HEAD_SEMI_M[2] * 0.92, 0.035) * hs;
     let semi = [0.038, 0.034, 0.034].map(|v| v * hs);
-    Ok(blob("bun", centre, semi, sk.index("head")?, Material::Hair))
+    Ok(blob(
+        "bun",
+        centre,
+        semi,
+        sk.index("head")?,
+        Material::Hair,
+        BLOB,
+    ))
 }
 
 /// The fingers besides the thumb, and each one's radius at its base for the standard hand,

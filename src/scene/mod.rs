@@ -290,6 +290,26 @@ impl Default for SceneConfig {
 }
 
 impl SceneConfig {
+    /// The scene of `weather` at `clock` in `location` with `look`, the sun placed for this
+    /// configuration's latitude and day of the year.
+    #[must_use]
+    pub fn scene(
+        &self,
+        weather: Weather,
+        clock: ClockTime,
+        location: LocationInstance,
+        look: Look,
+    ) -> Scene {
+        Scene {
+            weather,
+            weather_params: weather.params(),
+            clock,
+            sun: sun_position(clock, self.latitude_deg, self.day_of_year),
+            location,
+            look,
+        }
+    }
+
     /// Checks every field.
     ///
     /// # Errors
@@ -362,14 +382,7 @@ impl SceneConfig {
         let place = suitable[rng.random_range(0..suitable.len())];
         let location = place.draw(rng, self.clear_radius_m);
         let look = self.population.draw(rng)?;
-        Ok(Scene {
-            weather,
-            weather_params: weather.params(),
-            clock,
-            sun: sun_position(clock, self.latitude_deg, self.day_of_year),
-            location,
-            look,
-        })
+        Ok(self.scene(weather, clock, location, look))
     }
 }
 

@@ -2,7 +2,7 @@
 //! capture's timeline (from the render bag beside it, or as given), cut with a progress bar, and
 //! say what was done.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
@@ -98,17 +98,14 @@ pub enum TrimJobError {
     /// The frame rate is not a positive number.
     #[error("frame rate {0}: must be a positive number")]
     FrameRate(f64),
-    /// The capture bag's recorded `[randomise]` holds no usable `jpeg_quality`.
-    #[error(
-        "`{}`: the `randomise` key of the autoact.dataset record has no usable `jpeg_quality` (pass `--jpeg-quality`)",
-        path.display()
-    )]
-    RecordedJpegQuality {
+    /// The capture bag's recorded `[randomise]`, whose `jpeg_quality` trim uses, is not usable.
+    #[error("`{}`: {source} (pass `--jpeg-quality`)", path.display())]
+    RecordedRandomise {
         /// The capture bag.
         path: PathBuf,
         /// What is wrong with it.
         #[source]
-        source: RecordedJpegQualityError,
+        source: crate::dataset::randomise::RecordedRandomiseError,
     },
     /// No render bag places the video on the timeline.
     #[error(
@@ -168,7 +165,14 @@ pub fn trim_job(job: &TrimJob, stop: &AtomicBool) -> Result<TrimReport, TrimJobE
         rawframes: job.rawframes,
         jpeg_quality: match job.jpeg_quality {
             Some(q) => q,
-            None => recorded_jpeg_quality(&capture.path, capture.randomise.as_deref())?,
+            None => {
+                crate::dataset::randomise::Randomise::recorded(capture.randomise.as_deref())
+                    .map_err(|source| TrimJobError::RecordedRandomise {
+                        path: capture.path.clone(),
+                        source,
+                    })?
+                    .jpeg_quality
+            }
         },
         planned: plan.as_ref().map(|p| p.items.clone()),
         qa: Thresholds::default(),
@@ -387,44 +391,6 @@ impl TrimReport {
     }
 }
 
-/// Why a recorded `jpeg_quality` cannot be used.
-#[derive(Debug, thiserror::Error)]
-pub enum RecordedJpegQualityError {
-    /// Not JSON with a `[min, max]` of whole numbers under that key.
-    #[error("not a [randomise] section with `jpeg_quality = [min, max]`")]
-    Json(#[source] serde_json::Error),
-    /// Out of range.
-    #[error(transparent)]
-    Range(#[from] crate::video::JpegQscaleError),
-}
-
-/// The rawframes' JPEG quality range the capture bag at `path` recorded (`json`, its
-/// `[randomise]`, whose `jpeg_quality` `generate` uses), the best (2) when it recorded none.
-///
-/// # Errors
-/// [`TrimJobError::RecordedJpegQuality`] when the record is there but not usable.
-fn recorded_jpeg_quality(path: &Path, json: Option<&str>) -> Result<[u8; 2], TrimJobError> {
-    /// The one key of the recorded `[randomise]` that trim needs (the renderer reads the rest).
-    #[derive(serde::Deserialize)]
-    struct Recorded {
-        #[serde(default)]
-        jpeg_quality: Option<[u8; 2]>,
-    }
-    let best = [crate::video::JPEG_QSCALE_BEST; 2];
-    let Some(json) = json else {
-        return Ok(best);
-    };
-    let error = |source| TrimJobError::RecordedJpegQuality {
-        path: path.to_path_buf(),
-        source,
-    };
-    let recorded: Recorded =
-        serde_json::from_str(json).map_err(|e| error(RecordedJpegQualityError::Json(e)))?;
-    let range = recorded.jpeg_quality.unwrap_or(best);
-    crate::video::check_jpeg_qscale(range).map_err(|e| error(e.into()))?;
-    Ok(range)
-}
-
 /// A `--split-ratios`, `--hold-out` or `--jpeg-quality` value that cannot be used, saying what
 /// is expected.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -509,31 +475,8 @@ impl crate::outcome::LostInput for TrimReport {
 
 #[cfg(test)]
 mod tests {
-    use super::{parse_hold_out, parse_jpeg_quality, parse_ratios, recorded_jpeg_quality};
+    use super::{parse_hold_out, parse_jpeg_quality, parse_ratios};
     use crate::trim::split::Key;
-
-    #[test]
-    fn the_recorded_jpeg_quality_is_read_or_refused_by_name() {
-        let bag = std::path::Path::new("c.capture.mcap");
-        assert_eq!(recorded_jpeg_quality(bag, None).unwrap(), [2, 2]);
-        let read = |json: &str| recorded_jpeg_quality(bag, Some(json));
-        assert_eq!(read(r#"{"sensor_noise": [0.0, 0.01]}"#).unwrap(), [2, 2]);
-        assert_eq!(
-            read(r#"{"jpeg_quality": [4, 9], "crf": [20, 24]}"#).unwrap(),
-            [4, 9]
-        );
-        for bad in [
-            r#"{"jpeg_quality": [40, 50]}"#,
-            r#"{"jpeg_quality": "x"}"#,
-            "{",
-        ] {
-            let e = read(bad).unwrap_err().to_string();
-            assert!(
-                e.contains("c.capture.mcap") && e.contains("jpeg_quality"),
-                "{e}"
-            );
-        }
-    }
 
     #[test]
     fn jpeg_qualities_parse_or_say_what_is_expected() {

@@ -1842,7 +1842,7 @@ fn a_render_of_some_frames_gives_its_clips_and_refuses_others() {
             .unwrap(),
         only_frames: Some(only),
         engine: autoact::render::blender::Engine::Embedded,
-        randomise: autoact::render::randomise::Randomise::default(),
+        randomise: autoact::dataset::randomise::Randomise::default(),
     };
     let outputs = Outputs {
         video: Some(video.clone()),
