@@ -12,15 +12,19 @@
 //! 2. **Finds contacts**: per side and sample the foot's points, each lowered by its height
 //!    above the sole in the rig's rest pose (so an ankle-only layout still reaches the floor),
 //!    kept when the foot is slow (≤ 20 % of the clip's 95th-percentile foot speed, at least
-//!    0.3 m/s, at most 1 m/s) and near the current floor estimate.
+//!    0.3 m/s, at most 1 m/s) and near the current floor estimate; of a foot's points, only
+//!    those within [`INLIER_M`] of its lowest (a raised heel is not on the floor).
 //! 3. **Fits the plane** robustly: RANSAC over the contact points (3 cm inliers, normals within
 //!    35° of the body's vertical), then a least-squares refit of the inliers regularised towards
 //!    the body's long-run vertical (the mean feet → neck direction over the frames where the body
-//!    is most extended). The prior weighs like a contact spread of [`PRIOR_SPREAD_M`]: a
-//!    straight walk puts its contacts on a line, which fixes the tilt along the line but hardly
-//!    about it (feet 20 cm apart, heights noisy by centimetres); there the body decides. Up is
-//!    the plane normal, towards the head; the floor's height is the median lowest foot point at
-//!    contact.
+//!    is most extended). The refit measures each landmark kind (ankle, heel, toe, …) about its
+//!    own mean: a source's ankle or toe joint sits at its own height above the sole, unlike the
+//!    rig's, so only distinct placements of one landmark may tilt the floor. The prior weighs
+//!    like a contact spread of [`PRIOR_SPREAD_M`]: a straight walk puts its contacts on a line,
+//!    which fixes the tilt along the line but hardly about it (feet 20 cm apart, heights noisy
+//!    by centimetres), and a standing clip's two planted feet fix only the tilt across them;
+//!    there the body decides. Up is the plane normal, towards the head; the floor's height is
+//!    the median lowest foot point at contact.
 //! 4. **Places the body**: tilt the normal onto +Z, turn about +Z so that the hip line of the
 //!    first sampled frames points along +X (the body faces +Y), and translate so that the plane
 //!    is `z = 0` and the first frame's pelvis is over the origin.
@@ -99,12 +103,15 @@ pub enum GroundError {
 /// A landmark as the mean of some of the data's joints.
 type Joints = Vec<usize>;
 
-/// One foot landmark: its joints and its height above the sole at rest, metres.
+/// One foot landmark: its joints and its kind (an index into [`FOOT_LANDMARKS`]).
 #[derive(Debug, Clone)]
 struct FootJoint {
     joints: Joints,
-    sole_offset_m: f64,
+    kind: usize,
 }
+
+/// A foot point and its landmark kind (an index into [`FOOT_LANDMARKS`]).
+type FootPoint = (Point3<f64>, usize);
 
 /// Which joints of the data give the points grounding needs.
 #[derive(Debug, Clone)]
@@ -119,8 +126,8 @@ struct BodyPoints {
 #[derive(Debug, Clone)]
 struct Sample {
     stamp_nanos: u64,
-    /// Per side, (point, sole offset) of every observed foot landmark.
-    feet: [Vec<(Point3<f64>, f64)>; 2],
+    /// Per side, every observed foot landmark.
+    feet: [Vec<FootPoint>; 2],
     pelvis: Option<Point3<f64>>,
     neck: Option<Point3<f64>>,
     /// (left, right) hip.
@@ -166,7 +173,10 @@ fn landmark_joints(layout: &Layout, joint_names: &[String], name: &str) -> Optio
 }
 
 /// The foot landmarks the rig knows, with their height above the sole at rest (metres, the
-/// rig's rest pose: `l_ankle` 0.08, `l_heel` 0.01, …).
+/// rig's rest pose: `l_ankle` 0.08, `l_heel` 0.01, …). A source's joints sit elsewhere in the
+/// foot (a BVH ankle about 10 cm up, a toe joint 4 cm up), so these heights only bring each
+/// landmark near the floor; the plane's tilt is fitted to each kind's own spread
+/// ([`refit`]), never to the differences between kinds.
 const FOOT_LANDMARKS: [(&str, f64); 5] = [
     ("ankle", 0.08),
     ("heel", 0.01),
@@ -181,11 +191,9 @@ impl BodyPoints {
         let foot = |side: &str| -> Vec<FootJoint> {
             FOOT_LANDMARKS
                 .iter()
-                .filter_map(|(n, off)| {
-                    find(&format!("{side}_{n}")).map(|joints| FootJoint {
-                        joints,
-                        sole_offset_m: *off,
-                    })
+                .enumerate()
+                .filter_map(|(kind, (n, _))| {
+                    find(&format!("{side}_{n}")).map(|joints| FootJoint { joints, kind })
                 })
                 .collect()
         };
@@ -250,9 +258,9 @@ impl GroundSampler {
     /// Adds one frame (frames must come in stamp order; any subset of a clip will do).
     pub fn push(&mut self, frame: &PoseFrame) {
         let b = &self.points;
-        let side = |feet: &[FootJoint]| -> Vec<(Point3<f64>, f64)> {
+        let side = |feet: &[FootJoint]| -> Vec<FootPoint> {
             feet.iter()
-                .filter_map(|f| point(frame, &f.joints).map(|p| (p, f.sole_offset_m)))
+                .filter_map(|f| point(frame, &f.joints).map(|p| (p, f.kind)))
                 .collect()
         };
         let get = |j: &Option<Joints>| j.as_deref().and_then(|j| point(frame, j));
@@ -315,7 +323,7 @@ impl GroundSampler {
             // The floor's height: the median lowest point of the feet at contact.
             lows = contacts
                 .iter()
-                .filter_map(|foot| foot.iter().map(|p| n.dot(&p.coords)).reduce(f64::min))
+                .filter_map(|foot| foot.iter().map(|(p, _)| n.dot(&p.coords)).reduce(f64::min))
                 .filter(|h| (h - fitted).abs() <= CONTACT_BAND_M)
                 .collect();
             lows.sort_by(f64::total_cmp);
@@ -374,7 +382,7 @@ pub fn angle_deg(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
 }
 
 /// The mean of a side's foot points, if it has any.
-fn foot_centre(foot: &[(Point3<f64>, f64)]) -> Option<Point3<f64>> {
+fn foot_centre(foot: &[FootPoint]) -> Option<Point3<f64>> {
     #[expect(clippy::cast_precision_loss, reason = "a handful of points")]
     let n = foot.len() as f64;
     (!foot.is_empty())
@@ -388,7 +396,7 @@ fn body_vertical(samples: &[Sample]) -> Vector3<f64> {
     let spans: Vec<Vector3<f64>> = samples
         .iter()
         .filter_map(|s| {
-            let feet: Vec<(Point3<f64>, f64)> = s.feet.concat();
+            let feet: Vec<FootPoint> = s.feet.concat();
             Some(s.neck? - foot_centre(&feet)?)
         })
         .collect();
@@ -467,24 +475,40 @@ fn speed_limit(speeds: &[[Option<f64>; 2]]) -> f64 {
 
 /// The contact candidates, one list per sample and side: the foot's points (lowered by their
 /// sole offsets) when the foot is slower than `speed_limit` (or its speed is unknown) and, once
-/// a floor `up·p = offset` is known, within [`CONTACT_BAND_M`] of it.
+/// a floor `up·p = offset` is known, within [`CONTACT_BAND_M`] of it. Of a foot's points only
+/// those within [`INLIER_M`] of its lowest one count: a foot on its ball (the back foot of a
+/// fighting stance, a heel raised) touches the floor at the toes, not at the heel or ankle.
 fn contact_points(
     samples: &[Sample],
     speeds: &[[Option<f64>; 2]],
     speed_limit: f64,
     up: Vector3<f64>,
     offset: f64,
-) -> Vec<Vec<Point3<f64>>> {
+) -> Vec<Vec<FootPoint>> {
     let mut out = Vec::new();
     for (s, v) in samples.iter().zip(speeds) {
         for side in [0, 1] {
             if v[side].is_some_and(|v| v > speed_limit) {
                 continue;
             }
-            let foot: Vec<Point3<f64>> = s.feet[side]
+            let lowered: Vec<(FootPoint, f64)> = s.feet[side]
                 .iter()
-                .map(|(p, sole_offset_m)| p - up * *sole_offset_m)
-                .filter(|p| !(offset.is_finite() && up.dot(&p.coords) - offset > CONTACT_BAND_M))
+                .map(|&(p, kind)| {
+                    let q = p - up * FOOT_LANDMARKS[kind].1;
+                    ((q, kind), up.dot(&q.coords))
+                })
+                .collect();
+            let lowest = lowered
+                .iter()
+                .map(|(_, h)| *h)
+                .fold(f64::INFINITY, f64::min);
+            if offset.is_finite() && lowest - offset > CONTACT_BAND_M {
+                continue;
+            }
+            let foot: Vec<FootPoint> = lowered
+                .into_iter()
+                .filter(|(_, h)| h - lowest <= INLIER_M)
+                .map(|(p, _)| p)
                 .collect();
             if !foot.is_empty() {
                 out.push(foot);
@@ -509,9 +533,11 @@ impl Xorshift {
     }
 }
 
-/// The floor through `points`: (unit normal towards `prior`, offset) with `normal·p = offset`.
-/// RANSAC picks the inliers, a least-squares fit regularised towards `prior` places the plane.
-fn fit_plane(points: &[Point3<f64>], prior: Vector3<f64>) -> (Vector3<f64>, f64) {
+/// The floor through `contacts`: (unit normal towards `prior`, offset) with `normal·p =
+/// offset`. RANSAC picks the inliers, a least-squares fit regularised towards `prior` places
+/// the plane.
+fn fit_plane(contacts: &[FootPoint], prior: Vector3<f64>) -> (Vector3<f64>, f64) {
+    let points: Vec<Point3<f64>> = contacts.iter().map(|(p, _)| *p).collect();
     let max_cos = MAX_TILT_FROM_TRUNK_DEG.to_radians().cos();
     let inliers_of = |n: &Vector3<f64>, c: f64| -> Vec<usize> {
         (0..points.len())
@@ -519,12 +545,17 @@ fn fit_plane(points: &[Point3<f64>], prior: Vector3<f64>) -> (Vector3<f64>, f64)
             .collect()
     };
     // Hypotheses: planes square to the trunk through each point, and through random triples.
+    // Of equals, the lowest plane (a lower envelope), its height measured along the trunk from
+    // the points' centroid: a camera's rotation or position then changes no choice.
+    #[expect(clippy::cast_precision_loss, reason = "point counts are small")]
+    let centroid = points.iter().map(|p| p.coords).sum::<Vector3<f64>>() / points.len() as f64;
+    let height = |n: &Vector3<f64>, c: f64| (c - n.dot(&centroid)) / n.dot(&prior);
     let mut best: (Vec<usize>, f64) = (Vec::new(), f64::INFINITY);
     let mut consider = |n: Vector3<f64>, c: f64| {
-        // The most inliers; of equals, the lowest plane (a lower envelope).
         let inl = inliers_of(&n, c);
-        if inl.len() > best.0.len() || (inl.len() == best.0.len() && c < best.1) {
-            best = (inl, c);
+        let h = height(&n, c);
+        if inl.len() > best.0.len() || (inl.len() == best.0.len() && h < best.1) {
+            best = (inl, h);
         }
     };
     for p in points.iter().step_by(points.len().div_ceil(200).max(1)) {
@@ -550,27 +581,37 @@ fn fit_plane(points: &[Point3<f64>], prior: Vector3<f64>) -> (Vector3<f64>, f64)
             consider(n, n.dot(&a.coords));
         }
     }
-    let chosen: Vec<Point3<f64>> = best.0.iter().map(|&i| points[i]).collect();
+    let chosen: Vec<FootPoint> = best.0.iter().map(|&i| contacts[i]).collect();
     refit(&chosen, prior)
 }
 
-/// The least-squares plane through `points`, its normal pulled towards `prior` as if the points
-/// spread [`PRIOR_SPREAD_M`] in every direction square to it: (unit normal, offset).
-fn refit(points: &[Point3<f64>], prior: Vector3<f64>) -> (Vector3<f64>, f64) {
-    if points.is_empty() {
+/// The least-squares plane through `contacts`, its normal pulled towards `prior` as if the
+/// points spread [`PRIOR_SPREAD_M`] in every direction square to it: (unit normal, offset).
+///
+/// Each landmark kind gets a height of its own above the floor: the scatter is taken about each
+/// kind's own mean, so only distinct placements of one landmark (the left and the right heel,
+/// the heel of one step and of the next) tilt the plane, never the difference between an ankle
+/// and a toe, whose heights above the sole vary from source to source. Where the placements do
+/// not span the floor (both feet planted, a straight walk), the prior decides what they leave.
+fn refit(contacts: &[FootPoint], prior: Vector3<f64>) -> (Vector3<f64>, f64) {
+    if contacts.is_empty() {
         return (prior, 0.0);
+    }
+    let mut sums = [(Vector3::zeros(), 0.0_f64); FOOT_LANDMARKS.len()];
+    for (p, kind) in contacts {
+        sums[*kind].0 += p.coords;
+        sums[*kind].1 += 1.0;
+    }
+    let mut scatter = Matrix3::zeros();
+    for (p, kind) in contacts {
+        let d = p.coords - sums[*kind].0 / sums[*kind].1;
+        scatter += d * d.transpose();
     }
     #[expect(
         clippy::cast_precision_loss,
         reason = "point counts are far below 2^52"
     )]
-    let count = points.len() as f64;
-    let mean = points.iter().map(|p| p.coords).sum::<Vector3<f64>>() / count;
-    let mut scatter = Matrix3::zeros();
-    for p in points {
-        let d = p.coords - mean;
-        scatter += d * d.transpose();
-    }
+    let count = contacts.len() as f64;
     scatter /= count;
     let penalty = (Matrix3::identity() - prior * prior.transpose()) * PRIOR_SPREAD_M.powi(2);
     let eigen = (scatter + penalty).symmetric_eigen();
@@ -584,7 +625,7 @@ fn refit(points: &[Point3<f64>], prior: Vector3<f64>) -> (Vector3<f64>, f64) {
         n = -n;
     }
     let n = n.try_normalize(1e-12).unwrap_or(prior);
-    let mut offsets: Vec<f64> = points.iter().map(|p| n.dot(&p.coords)).collect();
+    let mut offsets: Vec<f64> = contacts.iter().map(|(p, _)| n.dot(&p.coords)).collect();
     offsets.sort_by(f64::total_cmp);
     (n, offsets[offsets.len() / 2])
 }
