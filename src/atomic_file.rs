@@ -367,7 +367,7 @@ mod tests {
         assert_eq!(std::fs::read(&path).unwrap(), b"one, two");
 
         let mut f = StreamedFile::create(&path).unwrap();
-        f.write_all(&[b'x'; 100_000]).unwrap();
+        f.write_all(&vec![b'x'; 100_000]).unwrap();
         assert!(temporary_sibling(&path).unwrap().exists());
         drop(f);
         assert_eq!(std::fs::read(&path).unwrap(), b"one, two", "the old file");
