@@ -8,7 +8,7 @@
 //! every complete clip's sidecar after every run, like the lists, so they stay whole and
 //! consistent as captures are trimmed into one folder one after another. They are written as
 //! streams, one sidecar held at a time ([`write_label_files`]), so the step's memory does not
-//! grow with the dataset.
+//! grow with the clips' frames.
 //!
 //! The keypoints are the rig's landmarks read through the built-in layouts
 //! ([`crate::skeleton::layout::Layout::builtin`] `coco-17` and `ntu-25`): each layout joint that
@@ -336,8 +336,8 @@ pub struct LabelSummary {
 /// sidecars of `clips` (the dataset's complete clips), split as `splits` says. `None` (and the
 /// files removed) when no clip has labels.
 ///
-/// Streamed, in bounded memory whatever the dataset's size: one clip's sidecar is held at a
-/// time. A first pass reads every sidecar and writes both pickles; a second writes the COCO
+/// Streamed: one clip's sidecar is held at a time, and beyond it only a few numbers per clip,
+/// never per frame. A first pass reads every sidecar and writes both pickles; a second writes the COCO
 /// files (their images from what the first pass kept of each clip, three numbers, then their
 /// annotations from the sidecars read again). Every file is written under its `.part` and put
 /// in place only once all five are complete, so a bad sidecar leaves the old files as they were.
