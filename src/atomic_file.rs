@@ -5,7 +5,7 @@
 //! complete-looking one. The one place that knows the convention.
 
 use std::ffi::OsString;
-use std::io::Write;
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 /// An output that is its input: writing it would destroy the data being read.
@@ -125,6 +125,74 @@ impl Drop for Part {
     }
 }
 
+/// A file written as a stream, piece by piece, into its temporary sibling through a buffer, and
+/// put in place by [`StreamedFile::commit`]: what [`write`] does for a file too large to hold
+/// in memory whole. Dropped without a commit (an error, a panic), the `.part` is removed and
+/// the file already at the path is left as it was. For regular files only (a device or a pipe
+/// is never renamed over: use [`write`]).
+#[derive(Debug)]
+pub struct StreamedFile {
+    /// The buffered writer into the part; declared before `part` so that it is dropped (and its
+    /// file closed) before the part is removed.
+    writer: BufWriter<std::fs::File>,
+    part: Part,
+}
+
+impl StreamedFile {
+    /// Starts writing `path` (a stale `.part` from an earlier run is replaced).
+    ///
+    /// # Errors
+    /// The I/O error of creating the part, or [`std::io::ErrorKind::InvalidInput`] when `path`
+    /// has no file name.
+    pub fn create(path: &Path) -> std::io::Result<StreamedFile> {
+        let part = Part::new(path).ok_or_else(no_file_name)?;
+        let file = std::fs::File::create(part.temporary())?;
+        Ok(StreamedFile {
+            writer: BufWriter::new(file),
+            part,
+        })
+    }
+
+    /// Where the file goes when complete.
+    #[must_use]
+    pub fn target(&self) -> &Path {
+        &self.part.target
+    }
+
+    /// Flushes the buffer, syncs the part and renames it over the final path.
+    ///
+    /// # Errors
+    /// The I/O error of the flush, the sync or the rename; the part is then removed and the
+    /// final path left as it was.
+    pub fn commit(self) -> std::io::Result<()> {
+        let StreamedFile { writer, part } = self;
+        let file = writer
+            .into_inner()
+            .map_err(std::io::IntoInnerError::into_error)?;
+        drop(file);
+        part.commit()
+    }
+}
+
+impl Write for StreamedFile {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.writer.write(buf)
+    }
+
+    fn write_all(&mut self, buf: &[u8]) -> std::io::Result<()> {
+        self.writer.write_all(buf)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.writer.flush()
+    }
+}
+
+/// The error of a path without a file name, which has no temporary sibling.
+fn no_file_name() -> std::io::Error {
+    std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file name")
+}
+
 /// Removes a file or a folder if it is there (best effort: it is only ever a `.part`).
 fn remove_any(path: &Path) {
     if path.is_dir() {
@@ -242,8 +310,7 @@ fn write_through_sibling(
     bytes: &[u8],
     commit: impl FnOnce(&Path) -> std::io::Result<()>,
 ) -> std::io::Result<()> {
-    let part = temporary_sibling(path)
-        .ok_or_else(|| std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file name"))?;
+    let part = temporary_sibling(path).ok_or_else(no_file_name)?;
     let result = (|| {
         let mut file = std::fs::File::create(&part)?;
         file.write_all(bytes)?;
@@ -282,5 +349,32 @@ mod tests {
         assert_eq!(std::fs::read(&path).unwrap(), b"two");
         write_new(&dir.path().join("c.csv"), b"new").unwrap();
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+    }
+
+    #[test]
+    fn a_streamed_file_appears_on_commit_and_a_dropped_one_leaves_the_old_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("big.json");
+        let mut f = StreamedFile::create(&path).unwrap();
+        assert_eq!(f.target(), path);
+        f.write_all(b"one, ").unwrap();
+        f.write_all(b"two").unwrap();
+        assert!(
+            !path.exists(),
+            "nothing under the final name before the commit"
+        );
+        f.commit().unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"one, two");
+
+        let mut f = StreamedFile::create(&path).unwrap();
+        f.write_all(&vec![b'x'; 100_000]).unwrap();
+        assert!(temporary_sibling(&path).unwrap().exists());
+        drop(f);
+        assert_eq!(std::fs::read(&path).unwrap(), b"one, two", "the old file");
+        let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+        assert_eq!(names.len(), 1, "no .part left: {names:?}");
+        let missing = dir.path().join("no/such/dir/b.json");
+        assert!(StreamedFile::create(&missing).is_err());
+        assert!(StreamedFile::create(Path::new("/")).is_err());
     }
 }

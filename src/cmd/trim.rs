@@ -51,11 +51,12 @@ Layout of DATASET_DIR (MMAction2's data_prefix; every path in the lists is relat
                                            visibility: 0 out of the image, 1 hidden, 2 seen)
   manifest.jsonl                           journal of complete clips
 Splits are not in the paths: they are decided over every clip of the dataset's plan (plan.json,
-beside the capture bags), so a clip's split does not depend on which captures are trimmed yet or
-in what order, and several captures can be trimmed into one folder (without a plan: over the
-clips in the folder so far, which may move clips between splits as captures arrive). A class
-with fewer groups than splits to fill is grouped more finely (variant, then scene, then clip),
-with a warning saying what leaks; clips.jsonl records each clip's `split_by`.
+beside the capture bags, or one folder up as `generate` keeps it), so a clip's split does not
+depend on which captures are trimmed yet or in what order, and several captures can be trimmed
+into one folder (without a plan: over the clips in the folder so far, which may move clips
+between splits as captures arrive). A class with fewer groups than splits to fill is grouped
+more finely (variant, then scene, then clip), with a warning saying what leaks; clips.jsonl
+records each clip's `split_by`.
 Clips are cut frame-exact: by stream copy when the clip starts on a keyframe (autoact's renders
 put one on every segment boundary), by re-encoding otherwise.
 A re-run skips complete clips and rewrites the lists; lists never name a clip that is not
@@ -85,7 +86,8 @@ pub struct Args {
     #[command(flatten)]
     pub split: SplitArgs,
     /// The dataset's plan, to decide the splits over (default: `plan.json` beside the capture
-    /// bag, as `convert --spec` writes it, when it is this capture's).
+    /// bag, as `convert --spec` writes it, or one folder up, as `generate` does, when it is this
+    /// capture's).
     #[arg(long, value_name = "PLAN_JSON")]
     pub plan: Option<PathBuf>,
     /// How clips are cut.

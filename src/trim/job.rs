@@ -44,7 +44,7 @@ pub struct TrimJob {
     /// Values whose clips all go to test.
     pub hold_out: Vec<(Key, String)>,
     /// The dataset's plan, to decide the splits over; default: `plan.json` beside the capture
-    /// bag, when there is one.
+    /// bag or one folder up ([`PlannedClips::find`]), when there is one.
     pub plan: Option<PathBuf>,
     /// Re-encode every clip.
     pub force_reencode: bool,
@@ -232,22 +232,23 @@ pub fn trim_job(job: &TrimJob, stop: &AtomicBool) -> Result<TrimReport, TrimJobE
 }
 
 /// The plan to decide the splits over: `--plan`, which must be this capture's; else
-/// `plan.json` beside the capture bag when it is this capture's. Without one, says on stderr
-/// that the splits are drawn over the clips trimmed so far.
+/// `plan.json` beside the capture bag, or one folder up as `generate` keeps it
+/// ([`PlannedClips::find`]), when it is this capture's. Without one, says on stderr that the
+/// splits are drawn over the clips trimmed so far.
 fn planned_clips(job: &TrimJob, capture: &Capture) -> Result<Option<PlannedClips>, TrimJobError> {
     if let Some(path) = &job.plan {
         let plan = PlannedClips::read(path)?;
         plan.check(capture)?;
         return Ok(Some(plan));
     }
-    let path = PlannedClips::beside(&job.capture);
+    let path = PlannedClips::find(&job.capture);
     let so_far = format!(
         "splits are drawn over the clips in `{}` so far, and a clip's split may change as other captures of the dataset are trimmed into it",
         job.output.display()
     );
     if !path.is_file() {
         tracing::warn!(
-            "no `{}` beside the capture bag: {so_far} (pass the dataset's plan with --plan)",
+            "no `{}` beside the capture bag, nor one folder up: {so_far} (pass the dataset's plan with --plan)",
             path.display()
         );
         return Ok(None);

@@ -6,7 +6,9 @@
 //! ([`super::qa::measure_clips`]) and kept beside the clip as a sidecar,
 //! `labels/<label>/<clip_id>.json` ([`ClipLabels`]); the dataset-wide files are rewritten from
 //! every complete clip's sidecar after every run, like the lists, so they stay whole and
-//! consistent as captures are trimmed into one folder one after another.
+//! consistent as captures are trimmed into one folder one after another. They are written as
+//! streams, one sidecar held at a time ([`write_label_files`]), so the step's memory does not
+//! grow with the clips' frames.
 //!
 //! The keypoints are the rig's landmarks read through the built-in layouts
 //! ([`crate::skeleton::layout::Layout::builtin`] `coco-17` and `ntu-25`): each layout joint that
@@ -23,14 +25,16 @@
 //!   ([`kinect_from_optical`]).
 
 use std::collections::BTreeMap;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
 use super::lists::{ANNOTATIONS_DIR, write_atomic};
-use super::pickle::{Py, to_bytes};
+use super::pickle::{DictEndingInList, Py};
 use super::split::{Assignment, Split};
 use super::{ClipRecord, TrimError};
+use crate::atomic_file::StreamedFile;
 use crate::ros::autoact_msgs::FrameAnnotation;
 use crate::ros::geometry_msgs::Point;
 use crate::skeleton::layout::{JointExpr, Layout};
@@ -332,6 +336,12 @@ pub struct LabelSummary {
 /// sidecars of `clips` (the dataset's complete clips), split as `splits` says. `None` (and the
 /// files removed) when no clip has labels.
 ///
+/// Streamed: one clip's sidecar is held at a time, and beyond it only a few numbers per clip,
+/// never per frame. A first pass reads every sidecar and writes both pickles; a second writes the COCO
+/// files (their images from what the first pass kept of each clip, three numbers, then their
+/// annotations from the sidecars read again). Every file is written under its `.part` and put
+/// in place only once all five are complete, so a bad sidecar leaves the old files as they were.
+///
 /// # Errors
 /// [`TrimError`] for a sidecar that cannot be read or a file that cannot be written.
 pub fn write_label_files(
@@ -340,13 +350,16 @@ pub fn write_label_files(
     splits: &Assignment,
 ) -> Result<Option<LabelSummary>, TrimError> {
     let ann = dir.join(ANNOTATIONS_DIR);
-    let mut labelled: Vec<(&ClipRecord, Split, ClipLabels)> = Vec::new();
-    for c in clips.values() {
-        let (Some(rel), Some(split)) = (&c.labels, splits.splits.get(&c.clip_id)) else {
-            continue;
-        };
-        labelled.push((c, *split, read_sidecar(dir, rel)?));
-    }
+    let labelled: Vec<Labelled<'_>> = clips
+        .values()
+        .filter_map(|c| {
+            Some(Labelled {
+                clip: c,
+                split: *splits.splits.get(&c.clip_id)?,
+                sidecar: c.labels.as_deref()?,
+            })
+        })
+        .collect();
     let files: Vec<PathBuf> = [SKELETON_2D_FILE, SKELETON_3D_FILE]
         .into_iter()
         .map(str::to_owned)
@@ -365,24 +378,76 @@ pub fn write_label_files(
         return Ok(None);
     }
     std::fs::create_dir_all(&ann).map_err(TrimError::io("create", &ann))?;
-    write_atomic(
-        &files[0],
-        &to_bytes(&skeleton_pickle(&labelled, Skeleton::Coco2d)),
-    )?;
-    write_atomic(
-        &files[1],
-        &to_bytes(&skeleton_pickle(&labelled, Skeleton::Ntu3d)),
-    )?;
-    for (split, path) in Split::ALL.into_iter().zip(&files[2..]) {
-        let json = coco_json(labelled.iter().filter(|(_, s, _)| *s == split));
-        let text = serde_json::to_string(&json).map_err(TrimError::json(path))?;
-        write_atomic(path, format!("{text}\n").as_bytes())?;
+    let (pickles, sizes) = write_skeleton_pickles(dir, &labelled, [&files[0], &files[1]])?;
+    let coco = write_coco_files(dir, &labelled, &sizes, &files[2..])?;
+    for file in pickles.into_iter().chain(coco) {
+        let path = file.target().to_path_buf();
+        file.commit().map_err(TrimError::io("write", &path))?;
     }
     Ok(Some(LabelSummary {
         clips: labelled.len(),
         without: clips.len() - labelled.len(),
         files,
     }))
+}
+
+/// A clip with labels: its record, its split and its sidecar (relative to the dataset folder).
+#[derive(Debug, Clone, Copy)]
+struct Labelled<'a> {
+    clip: &'a ClipRecord,
+    split: Split,
+    sidecar: &'a str,
+}
+
+/// What the COCO images of a clip need of its sidecar.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct ClipSize {
+    frames: usize,
+    width: u32,
+    height: u32,
+}
+
+/// Starts writing `path` through its `.part` ([`StreamedFile`]).
+fn create_streamed(path: &Path) -> Result<StreamedFile, TrimError> {
+    StreamedFile::create(path).map_err(TrimError::io("write", path))
+}
+
+/// Writes both skeleton pickles in one pass over the sidecars of `labelled`, which reads and
+/// checks every one of them. The files are complete but not yet in place; with each clip's
+/// size.
+fn write_skeleton_pickles(
+    dir: &Path,
+    labelled: &[Labelled<'_>],
+    paths: [&Path; 2],
+) -> Result<(Vec<StreamedFile>, Vec<ClipSize>), TrimError> {
+    let which = [Skeleton::Coco2d, Skeleton::Ntu3d];
+    let head = [(Py::str("split"), split_dict(labelled))];
+    let mut pickles = Vec::with_capacity(2);
+    for path in paths {
+        let file = create_streamed(path)?;
+        let p = DictEndingInList::open(file, &head, &Py::str("annotations"))
+            .map_err(TrimError::io("write", path))?;
+        pickles.push(p);
+    }
+    let mut sizes = Vec::with_capacity(labelled.len());
+    for l in labelled {
+        let labels = read_sidecar(dir, l.sidecar)?;
+        for ((p, which), path) in pickles.iter_mut().zip(which).zip(paths) {
+            p.push(&skeleton_annotation(l.clip, &labels, which))
+                .map_err(TrimError::io("write", path))?;
+        }
+        sizes.push(ClipSize {
+            frames: labels.frames.len(),
+            width: labels.width,
+            height: labels.height,
+        });
+    }
+    let files = pickles
+        .into_iter()
+        .zip(paths)
+        .map(|(p, path)| p.finish().map_err(TrimError::io("write", path)))
+        .collect::<Result<_, _>>()?;
+    Ok((files, sizes))
 }
 
 /// Which skeleton file.
@@ -394,29 +459,22 @@ enum Skeleton {
     Ntu3d,
 }
 
-/// The MMAction2/PYSKL annotation dict: `split` (every split, possibly empty, clip ids) and
-/// `annotations` (one dict per clip, `keypoint` `1 × T × V × C`, and in 2-D `keypoint_score`
-/// `1 × T × V`, both `float32`).
-fn skeleton_pickle(labelled: &[(&ClipRecord, Split, ClipLabels)], which: Skeleton) -> Py {
+/// The `split` entry of the MMAction2/PYSKL annotation dict: every split, possibly empty, with
+/// its clip ids. The dict's other entry, `annotations`, is one dict per clip
+/// ([`skeleton_annotation`]).
+fn split_dict(labelled: &[Labelled<'_>]) -> Py {
     let split = Split::ALL
         .into_iter()
         .map(|s| {
             let ids = labelled
                 .iter()
-                .filter(|(_, t, _)| *t == s)
-                .map(|(c, _, _)| Py::str(&c.clip_id))
+                .filter(|l| l.split == s)
+                .map(|l| Py::str(&l.clip.clip_id))
                 .collect();
             (Py::str(s.name()), Py::List(ids))
         })
         .collect();
-    let annotations = labelled
-        .iter()
-        .map(|(c, _, l)| skeleton_annotation(c, l, which))
-        .collect();
-    Py::Dict(vec![
-        (Py::str("split"), Py::Dict(split)),
-        (Py::str("annotations"), Py::List(annotations)),
-    ])
+    Py::Dict(split)
 }
 
 /// One clip's annotation dict. A frame without labels has zeros (and score 0). 2-D scores: 1 for a
@@ -489,65 +547,181 @@ fn skeleton_annotation(c: &ClipRecord, l: &ClipLabels, which: Skeleton) -> Py {
     Py::Dict(dict)
 }
 
-/// COCO keypoint JSON over the clips of one split: an image per frame (`file_name` as
-/// `--rawframes` names it), an annotation per frame that shows the character.
-fn coco_json<'a>(
-    clips: impl Iterator<Item = &'a (&'a ClipRecord, Split, ClipLabels)>,
-) -> serde_json::Value {
-    let (mut images, mut annotations) = (Vec::new(), Vec::new());
-    let mut image_id = 0u64;
-    for (c, _, l) in clips {
-        for (k, f) in l.frames.iter().enumerate() {
-            image_id += 1;
-            images.push(serde_json::json!({
-                "id": image_id,
-                "file_name": format!("{}/{}/{}/img_{:05}.jpg", super::run::RAWFRAMES_DIR, c.label_dir, c.clip_id, k + 1),
-                "width": l.width,
-                "height": l.height,
-                "clip_id": c.clip_id,
-                "frame_index": k,
-                "video": c.video,
-                "label_id": c.label_id,
-            }));
-            let Some(f) = f else { continue };
-            let Some([x, y, w, h]) = f.bbox else { continue };
-            let mut keypoints = Vec::with_capacity(3 * COCO17_JOINTS);
-            let mut shown = 0u32;
-            for p in f.coco17.chunks_exact(3) {
-                if p[2] > 0.0 {
-                    shown += 1;
-                    keypoints.extend([f64::from(p[0]), f64::from(p[1]), f64::from(p[2])]);
-                } else {
-                    keypoints.extend([0.0, 0.0, 0.0]);
-                }
+/// The COCO document's description.
+const COCO_DESCRIPTION: &str = "autoact: rendered frames with their rendering's exact labels";
+
+/// One COCO image: a frame of a clip (`file_name` as `--rawframes` names it). Its fields are in
+/// the order the files have always had them.
+#[derive(Debug, Serialize)]
+struct CocoImage<'a> {
+    id: u64,
+    file_name: String,
+    width: u32,
+    height: u32,
+    clip_id: &'a str,
+    frame_index: usize,
+    video: &'a str,
+    label_id: u32,
+}
+
+/// One COCO annotation: a frame that shows the character.
+#[derive(Debug, Serialize)]
+struct CocoAnnotation {
+    id: u64,
+    image_id: u64,
+    category_id: u32,
+    iscrowd: u32,
+    keypoints: Vec<f64>,
+    num_keypoints: u32,
+    bbox: [u32; 4],
+    area: u32,
+}
+
+impl CocoAnnotation {
+    /// Frame `f`'s annotation as image `image_id`; `None` when the character is unseen. Hidden
+    /// and out-of-image points are `0, 0, 0`, as COCO has unlabelled ones.
+    fn new(image_id: u64, f: &FrameLabels) -> Option<CocoAnnotation> {
+        let [x, y, w, h] = f.bbox?;
+        let mut keypoints = Vec::with_capacity(3 * COCO17_JOINTS);
+        let mut shown = 0u32;
+        for p in f.coco17.chunks_exact(3) {
+            if p[2] > 0.0 {
+                shown += 1;
+                keypoints.extend([f64::from(p[0]), f64::from(p[1]), f64::from(p[2])]);
+            } else {
+                keypoints.extend([0.0, 0.0, 0.0]);
             }
-            annotations.push(serde_json::json!({
-                "id": image_id,
-                "image_id": image_id,
-                "category_id": 1,
-                "iscrowd": 0,
-                "keypoints": keypoints,
-                "num_keypoints": shown,
-                "bbox": [x, y, w, h],
-                "area": f.area,
-            }));
         }
+        Some(CocoAnnotation {
+            id: image_id,
+            image_id,
+            category_id: 1,
+            iscrowd: 0,
+            keypoints,
+            num_keypoints: shown,
+            bbox: [x, y, w, h],
+            area: f.area,
+        })
     }
-    let names = Layout::builtin("coco-17")
-        .map(|l| l.joints)
-        .unwrap_or_default();
-    serde_json::json!({
-        "info": {"description": "autoact: rendered frames with their rendering's exact labels"},
-        "images": images,
-        "annotations": annotations,
-        "categories": [{
+}
+
+/// One split's COCO file being written: an image per frame, an annotation per frame that shows
+/// the character, as one JSON line.
+struct CocoWriter {
+    file: StreamedFile,
+    /// The last image id given (ids count the split's frames from 1).
+    image_id: u64,
+    /// Whether the array being written has an element yet.
+    any: bool,
+}
+
+impl CocoWriter {
+    /// Starts the document: its description, then the images array.
+    fn open(path: &Path) -> Result<CocoWriter, TrimError> {
+        let mut w = CocoWriter {
+            file: create_streamed(path)?,
+            image_id: 0,
+            any: false,
+        };
+        w.raw(b"{\"info\":")?;
+        w.json(&serde_json::json!({ "description": COCO_DESCRIPTION }))?;
+        w.raw(b",\"images\":[")?;
+        Ok(w)
+    }
+
+    fn raw(&mut self, bytes: &[u8]) -> Result<(), TrimError> {
+        self.file
+            .write_all(bytes)
+            .map_err(TrimError::io("write", self.file.target()))
+    }
+
+    fn json(&mut self, value: &impl Serialize) -> Result<(), TrimError> {
+        serde_json::to_writer(&mut self.file, value).map_err(TrimError::json(self.file.target()))
+    }
+
+    /// One element of the array being written.
+    fn element(&mut self, value: &impl Serialize) -> Result<(), TrimError> {
+        if std::mem::replace(&mut self.any, true) {
+            self.raw(b",")?;
+        }
+        self.json(value)
+    }
+
+    /// Ends the images array and starts the annotations; image ids count again from 1.
+    fn start_annotations(&mut self) -> Result<(), TrimError> {
+        (self.image_id, self.any) = (0, false);
+        self.raw(b"],\"annotations\":[")
+    }
+
+    /// Ends the annotations array with the person category; the file, complete, to commit.
+    fn finish(mut self) -> Result<StreamedFile, TrimError> {
+        self.raw(b"],\"categories\":")?;
+        let names = Layout::builtin("coco-17")
+            .map(|l| l.joints)
+            .unwrap_or_default();
+        self.json(&serde_json::json!([{
             "id": 1,
             "name": "person",
             "supercategory": "person",
             "keypoints": names,
             "skeleton": COCO_SKELETON,
-        }],
-    })
+        }]))?;
+        self.raw(b"}\n")?;
+        Ok(self.file)
+    }
+}
+
+/// Writes the COCO keypoint file of every split (`paths`, in [`Split::ALL`]'s order): the
+/// images of every file from `sizes`, then the annotations in one more pass over the sidecars.
+/// The files are complete but not yet in place.
+fn write_coco_files(
+    dir: &Path,
+    labelled: &[Labelled<'_>],
+    sizes: &[ClipSize],
+    paths: &[PathBuf],
+) -> Result<Vec<StreamedFile>, TrimError> {
+    let mut writers = paths
+        .iter()
+        .map(|p| CocoWriter::open(p))
+        .collect::<Result<Vec<_>, _>>()?;
+    let writer_of = |split: Split| Split::ALL.iter().position(|s| *s == split).unwrap_or(0);
+    for (l, size) in labelled.iter().zip(sizes) {
+        let w = &mut writers[writer_of(l.split)];
+        for k in 0..size.frames {
+            w.image_id += 1;
+            let c = l.clip;
+            w.element(&CocoImage {
+                id: w.image_id,
+                file_name: format!(
+                    "{}/{}/{}/img_{:05}.jpg",
+                    super::run::RAWFRAMES_DIR,
+                    c.label_dir,
+                    c.clip_id,
+                    k + 1
+                ),
+                width: size.width,
+                height: size.height,
+                clip_id: &c.clip_id,
+                frame_index: k,
+                video: &c.video,
+                label_id: c.label_id,
+            })?;
+        }
+    }
+    for w in &mut writers {
+        w.start_annotations()?;
+    }
+    for l in labelled {
+        let labels = read_sidecar(dir, l.sidecar)?;
+        let w = &mut writers[writer_of(l.split)];
+        for f in &labels.frames {
+            w.image_id += 1;
+            if let Some(a) = f.as_ref().and_then(|f| CocoAnnotation::new(w.image_id, f)) {
+                w.element(&a)?;
+            }
+        }
+    }
+    writers.into_iter().map(CocoWriter::finish).collect()
 }
 
 #[cfg(test)]
@@ -555,13 +729,16 @@ mod tests {
     use std::collections::BTreeMap;
 
     use super::{
-        ClipLabels, FrameLabels, LabelCollector, coco_file, layout_landmarks, sidecar_path,
-        write_label_files, write_sidecar,
+        ClipLabels, FrameLabels, LabelCollector, Labelled, Skeleton, coco_file, layout_landmarks,
+        read_sidecar, sidecar_path, skeleton_annotation, split_dict, write_label_files,
+        write_sidecar,
     };
     use crate::ros::autoact_msgs::FrameAnnotation;
     use crate::ros::geometry_msgs::Point;
     use crate::skeleton::layout::Layout;
     use crate::skeleton::rig::Rig;
+    use crate::trim::ClipRecord;
+    use crate::trim::pickle::{Py, to_bytes};
     use crate::trim::split::tests::record;
     use crate::trim::split::{Assignment, Split};
 
@@ -698,5 +875,170 @@ mod tests {
                 .is_none()
         );
         assert!(!ann.join(super::SKELETON_3D_FILE).exists());
+    }
+
+    /// Three clips, one per split: `a` (train) of two frames, the first seen with its odd
+    /// points hidden and the second unlabelled; `b` (val) of one frame with the character unseen;
+    /// `c` (test) of one seen frame. Written as sidecars into `dir`.
+    fn three_clips(dir: &std::path::Path) -> (BTreeMap<String, ClipRecord>, Assignment) {
+        let seen = FrameLabels {
+            coco17: (0..17)
+                .flat_map(|i| {
+                    [
+                        i as f32 + 0.25,
+                        2.0 * i as f32,
+                        if i % 2 == 0 { 2.0 } else { 0.0 },
+                    ]
+                })
+                .collect(),
+            ntu25: (0..75).map(|i| i as f32 * 0.01).collect(),
+            bbox: Some([1, 2, 30, 40]),
+            area: 900,
+        };
+        let unseen = FrameLabels {
+            bbox: None,
+            area: 0,
+            ..seen.clone()
+        };
+        let sidecars = [
+            ("a", Split::Train, vec![Some(seen.clone()), None]),
+            ("b", Split::Val, vec![Some(unseen)]),
+            ("c", Split::Test, vec![Some(seen)]),
+        ];
+        let (mut clips, mut splits) = (BTreeMap::new(), Assignment::default());
+        for (id, split, frames) in sidecars {
+            let mut r = record(id, "wave", id, "CLEAR");
+            let rel = sidecar_path("wave", id);
+            let labels = ClipLabels {
+                width: 320,
+                height: 240,
+                frames,
+            };
+            write_sidecar(dir, &rel, &labels).unwrap();
+            r.labels = Some(rel);
+            clips.insert(id.to_owned(), r);
+            splits.splits.insert(id.to_owned(), split);
+        }
+        (clips, splits)
+    }
+
+    #[test]
+    fn the_streamed_pickles_are_the_whole_dicts_pickled() {
+        let dir = tempfile::tempdir().unwrap();
+        let (clips, splits) = three_clips(dir.path());
+        write_label_files(dir.path(), &clips, &splits).unwrap();
+        let labelled: Vec<Labelled<'_>> = clips
+            .values()
+            .map(|c| Labelled {
+                clip: c,
+                split: splits.splits[&c.clip_id],
+                sidecar: c.labels.as_deref().unwrap(),
+            })
+            .collect();
+        for (file, which) in [
+            (super::SKELETON_2D_FILE, Skeleton::Coco2d),
+            (super::SKELETON_3D_FILE, Skeleton::Ntu3d),
+        ] {
+            let annotations = labelled
+                .iter()
+                .map(|l| {
+                    let labels = read_sidecar(dir.path(), l.sidecar).unwrap();
+                    skeleton_annotation(l.clip, &labels, which)
+                })
+                .collect();
+            let whole = Py::Dict(vec![
+                (Py::str("split"), split_dict(&labelled)),
+                (Py::str("annotations"), Py::List(annotations)),
+            ]);
+            let written = std::fs::read(dir.path().join("annotations").join(file)).unwrap();
+            assert_eq!(written, to_bytes(&whole), "{file}");
+        }
+    }
+
+    #[test]
+    fn the_streamed_coco_file_is_serde_jsons_document_key_for_key() {
+        let dir = tempfile::tempdir().unwrap();
+        let (clips, splits) = three_clips(dir.path());
+        write_label_files(dir.path(), &clips, &splits).unwrap();
+        let read = |split| {
+            let path = dir.path().join("annotations").join(coco_file(split));
+            std::fs::read_to_string(path).unwrap()
+        };
+        let image = |id: u64, clip: &str, k: usize| {
+            serde_json::json!({
+                "id": id,
+                "file_name": format!("rawframes/wave/{clip}/img_{:05}.jpg", k + 1),
+                "width": 320, "height": 240, "clip_id": clip, "frame_index": k,
+                "video": format!("videos/wave/{clip}.mp4"), "label_id": 0,
+            })
+        };
+        // Even points shown (v = 2), odd ones hidden: written as 0, 0, 0.
+        let keypoints: Vec<f64> = (0..17)
+            .flat_map(|i| {
+                if i % 2 == 0 {
+                    [f64::from(i as f32 + 0.25), 2.0 * f64::from(i), 2.0]
+                } else {
+                    [0.0; 3]
+                }
+            })
+            .collect();
+        let annotation = serde_json::json!({
+            "id": 1, "image_id": 1, "category_id": 1, "iscrowd": 0, "keypoints": keypoints,
+            "num_keypoints": 9, "bbox": [1, 2, 30, 40], "area": 900,
+        });
+        let document = |images: Vec<serde_json::Value>, annotations: Vec<serde_json::Value>| {
+            let names = Layout::builtin("coco-17").unwrap().joints;
+            let doc = serde_json::json!({
+                "info": {"description": "autoact: rendered frames with their rendering's exact labels"},
+                "images": images,
+                "annotations": annotations,
+                "categories": [{"id": 1, "name": "person", "supercategory": "person",
+                    "keypoints": names, "skeleton": super::COCO_SKELETON}],
+            });
+            format!("{}\n", serde_json::to_string(&doc).unwrap())
+        };
+        let train = document(
+            vec![image(1, "a", 0), image(2, "a", 1)],
+            vec![annotation.clone()],
+        );
+        assert_eq!(read(Split::Train), train);
+        assert_eq!(read(Split::Val), document(vec![image(1, "b", 0)], vec![]));
+        assert_eq!(
+            read(Split::Test),
+            document(vec![image(1, "c", 0)], vec![annotation])
+        );
+    }
+
+    #[test]
+    fn a_bad_sidecar_stops_the_export_and_leaves_every_old_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let (clips, splits) = three_clips(dir.path());
+        write_label_files(dir.path(), &clips, &splits).unwrap();
+        let ann = dir.path().join("annotations");
+        let before = |dir: &std::path::Path| {
+            let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
+                .unwrap()
+                .map(|e| {
+                    let e = e.unwrap();
+                    let name = e.file_name().to_string_lossy().into_owned();
+                    (name, std::fs::read(e.path()).unwrap())
+                })
+                .collect();
+            files.sort();
+            files
+        };
+        let old = before(&ann);
+        assert_eq!(
+            old.len(),
+            5,
+            "{:?}",
+            old.iter().map(|f| &f.0).collect::<Vec<_>>()
+        );
+        // The last clip's sidecar goes bad: both pickles are half written when it is read.
+        let last = dir.path().join(clips["c"].labels.as_deref().unwrap());
+        std::fs::write(&last, b"{\"width\": 1").unwrap();
+        let e = write_label_files(dir.path(), &clips, &splits).unwrap_err();
+        assert!(e.to_string().contains("c.json"), "{e}");
+        assert_eq!(before(&ann), old, "the old files, and no .part beside them");
     }
 }

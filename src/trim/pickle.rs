@@ -47,13 +47,80 @@ impl Py {
     }
 }
 
+/// `PROTO 4`: every pickle's first bytes.
+const PROTOCOL_4: [u8; 2] = [0x80, 4];
+/// `STOP`: every pickle's last byte.
+const STOP: u8 = b'.';
+
 /// `value` pickled with protocol 4 (Python 3.4+).
 #[must_use]
 pub fn to_bytes(value: &Py) -> Vec<u8> {
-    let mut out = vec![0x80, 4];
+    let mut out = PROTOCOL_4.to_vec();
     write(&mut out, value);
-    out.push(b'.');
+    out.push(STOP);
     out
+}
+
+/// A pickled dict whose last value is a list, written as a stream: the dict's other entries
+/// first, then the list's items one at a time, so that the list is never held whole. The bytes
+/// are [`to_bytes`]'s of the whole dict.
+#[derive(Debug)]
+pub struct DictEndingInList<W: std::io::Write> {
+    out: W,
+    /// Items written so far.
+    items: u64,
+    /// One item's bytes, reused.
+    buffer: Vec<u8>,
+}
+
+impl<W: std::io::Write> DictEndingInList<W> {
+    /// Starts the pickle of the dict `entries` followed by `last_key: [...]`, into `out`.
+    ///
+    /// # Errors
+    /// The I/O error of `out`.
+    pub fn open(mut out: W, entries: &[(Py, Py)], last_key: &Py) -> std::io::Result<Self> {
+        let mut head = PROTOCOL_4.to_vec();
+        head.extend_from_slice(b"}(");
+        for (k, v) in entries {
+            write(&mut head, k);
+            write(&mut head, v);
+        }
+        write(&mut head, last_key);
+        head.push(b']');
+        out.write_all(&head)?;
+        Ok(DictEndingInList {
+            out,
+            items: 0,
+            buffer: Vec::new(),
+        })
+    }
+
+    /// Appends `item` to the list.
+    ///
+    /// # Errors
+    /// The I/O error of the writer.
+    pub fn push(&mut self, item: &Py) -> std::io::Result<()> {
+        self.buffer.clear();
+        if self.items == 0 {
+            self.buffer.push(b'('); // MARK: the list's items follow
+        }
+        write(&mut self.buffer, item);
+        self.out.write_all(&self.buffer)?;
+        self.items += 1;
+        Ok(())
+    }
+
+    /// Closes the list, the dict and the pickle; gives the writer back.
+    ///
+    /// # Errors
+    /// The I/O error of the writer.
+    pub fn finish(mut self) -> std::io::Result<W> {
+        if self.items > 0 {
+            self.out.write_all(b"e")?; // APPENDS
+        }
+        self.out.write_all(&[b'u', STOP])?; // SETITEMS, STOP
+        Ok(self.out)
+    }
 }
 
 fn write(out: &mut Vec<u8>, value: &Py) {
@@ -163,7 +230,41 @@ fn write_array(out: &mut Vec<u8>, shape: &[usize], data: &[f32]) {
 
 #[cfg(test)]
 mod tests {
-    use super::{Py, to_bytes};
+    use super::{DictEndingInList, Py, to_bytes};
+
+    #[test]
+    fn a_streamed_dict_ending_in_a_list_is_the_whole_dicts_pickle() {
+        let entries = vec![
+            (
+                Py::str("split"),
+                Py::Dict(vec![(Py::str("train"), Py::List(vec![]))]),
+            ),
+            (Py::str("n"), Py::Int(3)),
+        ];
+        let item = |i: usize| {
+            Py::Dict(vec![
+                (Py::str("frame_dir"), Py::Str(format!("clip{i}"))),
+                (
+                    Py::str("keypoint"),
+                    Py::F32Array {
+                        shape: vec![1, i, 2],
+                        data: (0..2 * i).map(|v| v as f32 * 0.5).collect(),
+                    },
+                ),
+            ])
+        };
+        for n in [0, 1, 3] {
+            let items: Vec<Py> = (0..n).map(item).collect();
+            let mut whole = entries.clone();
+            whole.push((Py::str("annotations"), Py::List(items.clone())));
+            let mut s =
+                DictEndingInList::open(Vec::new(), &entries, &Py::str("annotations")).unwrap();
+            for i in &items {
+                s.push(i).unwrap();
+            }
+            assert_eq!(s.finish().unwrap(), to_bytes(&Py::Dict(whole)), "{n} items");
+        }
+    }
 
     #[test]
     fn values_pickle_to_pythons_opcodes() {

@@ -113,6 +113,23 @@ impl PlannedClips {
         bag.parent().unwrap_or(Path::new("")).join(PLAN_FILE)
     }
 
+    /// Where the plan of the capture bag `bag` is: `plan.json` beside it (`convert --spec`'s
+    /// layout), else one folder up (`generate`'s: `DIR/plan.json` over `DIR/captures/`); the
+    /// path beside it when neither is there.
+    #[must_use]
+    pub fn find(bag: &Path) -> PathBuf {
+        let beside = PlannedClips::beside(bag);
+        if beside.is_file() {
+            return beside;
+        }
+        let above = bag
+            .parent()
+            .and_then(Path::parent)
+            .map(|d| d.join(PLAN_FILE))
+            .filter(|p| p.is_file());
+        above.unwrap_or(beside)
+    }
+
     /// Reads the plan at `path`.
     ///
     /// # Errors
@@ -208,5 +225,27 @@ impl PlannedClips {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{PLAN_FILE, PlannedClips};
+
+    #[test]
+    fn the_plan_is_found_beside_the_bag_else_one_folder_up() {
+        let dir = tempfile::tempdir().unwrap();
+        let captures = dir.path().join("captures");
+        std::fs::create_dir(&captures).unwrap();
+        let bag = captures.join("s.capture.mcap");
+        let beside = captures.join(PLAN_FILE);
+        // Neither: the path beside the bag, which the warning names.
+        assert_eq!(PlannedClips::find(&bag), beside);
+        // `generate`'s layout: DIR/plan.json over DIR/captures/.
+        std::fs::write(dir.path().join(PLAN_FILE), "{}").unwrap();
+        assert_eq!(PlannedClips::find(&bag), dir.path().join(PLAN_FILE));
+        // `convert --spec`'s: beside the bag, which wins.
+        std::fs::write(&beside, "{}").unwrap();
+        assert_eq!(PlannedClips::find(&bag), beside);
     }
 }

@@ -511,3 +511,43 @@ fn runs_killed_with_sigkill_at_random_moments_then_rerun_equal_an_uninterrupted_
     }
     assert!(kills >= 5, "only {kills} runs were killed before finishing");
 }
+
+/// Standalone `autoact trim` of a `generate` output's captures and renders finds the plan
+/// where `generate` keeps it (`DIR/plan.json`, one folder above `DIR/captures/`), so its splits
+/// are `generate`'s: every split list the same, and no warning that the splits are drawn over
+/// the clips so far.
+#[test]
+fn standalone_trim_of_a_generate_output_splits_as_generate_did() {
+    let Some((dir, _, single)) = reference() else {
+        return;
+    };
+    let out = dir.path().join("trimmed-standalone");
+    let mut captures: Vec<PathBuf> = std::fs::read_dir(single.join("captures"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    captures.sort();
+    assert_eq!(captures.len(), 4, "{captures:?}");
+    for bag in &captures {
+        let name = bag.file_name().unwrap().to_string_lossy();
+        let session = name.strip_suffix(".capture.mcap").unwrap();
+        let video = single.join("renders").join(format!("{session}.mp4"));
+        let o = autoact(&["trim", arg(bag), arg(&video), "-o", arg(&out)]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(
+            !stderr(&o).contains("so far"),
+            "{name}: the plan was not found: {}",
+            stderr(&o)
+        );
+    }
+    for split in ["train", "val", "test"] {
+        let list = format!("annotations/{split}_list_videos.txt");
+        let want = std::fs::read_to_string(single.join("dataset").join(&list)).unwrap();
+        assert!(!want.is_empty(), "{list}");
+        assert_eq!(
+            std::fs::read_to_string(out.join(&list)).unwrap(),
+            want,
+            "{list}"
+        );
+    }
+}
