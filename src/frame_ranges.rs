@@ -44,7 +44,7 @@ impl FrameRanges {
     /// Every frame of `0..len`.
     #[must_use]
     pub fn all(len: u64) -> FrameRanges {
-        FrameRanges::new([0..len])
+        FrameRanges::new(std::iter::once(0..len))
     }
 
     /// How many frames.

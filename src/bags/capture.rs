@@ -628,6 +628,17 @@ enum FrameMessage {
     Camera(u64, Isometry3<f64>),
 }
 
+/// The error of message `m` (of the bag at `path`) that does not decode.
+fn decode_error(path: &Path, m: &BagMessage) -> impl FnOnce(CdrError) -> TimelineError + use<> {
+    let (path, topic, stamp_nanos) = (path.to_path_buf(), m.channel.topic.clone(), m.log_time);
+    move |source| TimelineError::Decode {
+        path,
+        topic,
+        stamp_nanos,
+        source,
+    }
+}
+
 /// Decodes `m` when it is an animation frame or a camera pose (`None` for other topics).
 fn frame_message(
     rig: &Rig,
@@ -636,12 +647,7 @@ fn frame_message(
 ) -> Result<Option<FrameMessage>, TimelineError> {
     let topic = m.channel.topic.as_str();
     let stamp = m.log_time;
-    let decode_error = |source: CdrError| TimelineError::Decode {
-        path: path.to_path_buf(),
-        topic: topic.to_owned(),
-        stamp_nanos: stamp,
-        source,
-    };
+    let decode_error = decode_error(path, m);
     match (topic, m.channel.schema_name()) {
         (_, BoneFrame::TYPE_NAME) => {
             let f: BoneFrame = cdr::decode(&m.data).map_err(decode_error)?;
@@ -718,12 +724,7 @@ impl Found {
     fn take(&mut self, rig: &Rig, m: &BagMessage, path: &Path) -> Result<(), TimelineError> {
         let topic = m.channel.topic.as_str();
         let stamp = m.log_time;
-        let decode_error = |source: CdrError| TimelineError::Decode {
-            path: path.to_path_buf(),
-            topic: topic.to_owned(),
-            stamp_nanos: stamp,
-            source,
-        };
+        let decode_error = decode_error(path, m);
         match frame_message(rig, m, path)? {
             Some(FrameMessage::Pose(at, _)) => {
                 self.logged_at_stamps &= at == stamp;

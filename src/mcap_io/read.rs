@@ -749,7 +749,7 @@ impl Messages<'_> {
     fn message(&mut self, m: &records::Message<'_>) -> Result<BagMessage, ReadIssue> {
         let Some(channel) = self.channel(m.channel_id) else {
             return Err(ReadIssue::UnknownChannel {
-                path: self.reader.path.to_path_buf(),
+                path: self.reader.path.clone(),
                 channel_id: m.channel_id,
                 log_time: m.log_time,
             });
@@ -864,7 +864,7 @@ impl Messages<'_> {
             let messages = self.count_lost(bytes, at);
             self.count_indexes = messages.is_none();
             self.held = Some(ReadIssue::CorruptChunk {
-                path: self.reader.path.to_path_buf(),
+                path: self.reader.path.clone(),
                 chunk: number,
                 offset: at as u64,
                 start_nanos,
@@ -913,7 +913,7 @@ impl Messages<'_> {
         }
         self.count_indexes = messages.is_none();
         self.held = Some(ReadIssue::Damaged {
-            path: self.reader.path.to_path_buf(),
+            path: self.reader.path.clone(),
             from_byte: at as u64,
             to_byte: resumed as u64,
             messages,
@@ -977,7 +977,7 @@ impl Messages<'_> {
         if !is_index && let Some(issue) = self.held.take() {
             self.pending.push_back(Err(issue));
         }
-        let path = self.reader.path.to_path_buf();
+        let path = self.reader.path.clone();
         match step {
             Step::Record { at, framed } => {
                 let damaged = match framed.opcode {

@@ -168,7 +168,7 @@ pub enum TrimError {
     },
     /// The capture's poses could not be read again (to find a clip policy's instances).
     #[error(transparent)]
-    CaptureFrames(#[from] crate::bags::capture::TimelineError),
+    CaptureFrames(Box<crate::bags::capture::TimelineError>),
     /// A clip has no split (the split assignment missed it).
     #[error("clip `{clip_id}` was given no split")]
     NoSplit {
