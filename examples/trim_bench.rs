@@ -27,7 +27,7 @@ fn main() -> Result<()> {
     std::fs::create_dir_all(&work)?;
     let ffmpeg = Ffmpeg::locate()?;
     let capture = Capture::read(&Rig::standard(), &bag)?;
-    let n = capture.frames.len() as u64;
+    let n = capture.frame_count() as u64;
     let (w, h) = (640_u32, 360_u32);
     let video = work.join("capture.mp4");
     let started = Instant::now();
@@ -53,7 +53,7 @@ fn main() -> Result<()> {
         started.elapsed().as_secs_f64()
     );
     let fps = Rational::from_f64(capture.fps).context("fps")?;
-    let first = capture.frames.first().map_or(0, |f| f.stamp_nanos);
+    let first = capture.stamps.first().unwrap_or(0);
     let source = VideoSource {
         path: &video,
         frame0_nanos: i128::from(first),

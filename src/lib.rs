@@ -20,6 +20,7 @@ pub mod dataset;
 pub mod dsi;
 pub mod export;
 pub mod formats;
+pub mod frame_ranges;
 pub mod fuzz;
 pub mod generate;
 pub mod hash;

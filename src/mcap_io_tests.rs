@@ -493,3 +493,88 @@ fn corrupt_string_and_size_fields_cost_an_issue_not_an_allocation() {
         "{issue}"
     );
 }
+
+/// The messages `messages_where(lo..=hi)` reads, and its issues.
+fn read_window(reader: &BagReader, lo: u64, hi: u64) -> (Vec<BagMessage>, Vec<ReadIssue>) {
+    let (mut msgs, mut issues) = (Vec::new(), Vec::new());
+    for item in reader.messages_where(lo..=hi) {
+        match item {
+            Ok(m) => msgs.push(m),
+            Err(i) => issues.push(i),
+        }
+    }
+    (msgs, issues)
+}
+
+/// A full pass's messages logged in `lo..=hi`.
+fn filtered(msgs: &[BagMessage], lo: u64, hi: u64) -> Vec<BagMessage> {
+    msgs.iter()
+        .filter(|m| (lo..=hi).contains(&m.log_time))
+        .cloned()
+        .collect()
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(48))]
+    /// A window reads what a full pass filtered by log time reads, indexes on their channels
+    /// included, with and without the summary (which it uses to skip chunks).
+    #[test]
+    fn a_window_reads_the_messages_a_filtered_full_pass_reads(
+        lo in 900u64..1_700,
+        len in 0u64..400,
+        zstd in proptest::bool::ANY,
+    ) {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("w.mcap");
+        let compression = if zstd { Compression::Zstd } else { Compression::None };
+        write_bag(&path, 600, compression, 1024);
+        let hi = lo + len;
+        let (all, _) = read_all(&path);
+        let reader = BagReader::open(&path).unwrap();
+        let (msgs, issues) = read_window(&reader, lo, hi);
+        proptest::prop_assert!(issues.is_empty());
+        proptest::prop_assert_eq!(&msgs, &filtered(&all, lo, hi));
+        // Without its summary: the whole file is read, and it says it was not finished.
+        let bytes = std::fs::read(&path).unwrap();
+        let cut = dir.path().join("cut.mcap");
+        std::fs::write(&cut, &bytes[..data_end(&bytes)]).unwrap();
+        let (all_cut, _) = read_all(&cut);
+        let (msgs, issues) = read_window(&BagReader::open(&cut).unwrap(), lo, hi);
+        proptest::prop_assert_eq!(&msgs, &filtered(&all_cut, lo, hi));
+        let unfinished = matches!(issues.as_slice(), [ReadIssue::NoSummary { .. }]);
+        proptest::prop_assert!(unfinished);
+    }
+}
+
+#[test]
+fn a_window_skips_the_chunks_outside_it_undecompressed() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("w.mcap");
+    write_bag(&path, 600, Compression::Zstd, 1024);
+    let mut bytes = std::fs::read(&path).unwrap();
+    let chunks = indexed_chunks(&bytes);
+    assert!(chunks.len() > 6, "{}", chunks.len());
+    // Damage the records of the second chunk (its compressed bytes, near its end).
+    let (_, end, _) = chunks[1];
+    bytes[end - 8] ^= 0xff;
+    bytes[end - 9] ^= 0xff;
+    std::fs::write(&path, &bytes).unwrap();
+    let (all, issues) = read_all(&path);
+    assert_eq!(issues.len(), 1, "{issues:?}");
+    let reader = BagReader::open(&path).unwrap();
+    // A window over the last messages never opens the damaged chunk: no issue, and the same
+    // messages (and indexes) as the full pass, which counted the lost chunk from its index.
+    let (msgs, issues) = read_window(&reader, 1_500, 1_599);
+    assert!(issues.is_empty(), "{issues:?}");
+    assert_eq!(msgs.len(), 100 + 10);
+    assert_eq!(msgs, filtered(&all, 1_500, 1_599));
+    // A window over the damaged chunk reports it.
+    let (_, issues) = read_window(&reader, 1_000, 1_599);
+    assert!(
+        matches!(
+            issues.as_slice(),
+            [ReadIssue::CorruptChunk { chunk: 2, .. }]
+        ),
+        "{issues:?}"
+    );
+}

@@ -29,7 +29,9 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion};
 
 use crate::atomic_file::Part;
 use crate::bags;
-use crate::bags::animation::{BonePoseError, TF_STATIC_TOPIC, TF_TOPIC, TrackWriter};
+use crate::bags::animation::{
+    ANIMATION_TOPIC, BonePoseError, TF_STATIC_TOPIC, TF_TOPIC, TrackWriter,
+};
 use crate::camera::Intrinsics;
 use crate::camera::{CAMERA_FRAME, CameraPose, DISTORTION_MODEL};
 use crate::mcap_io::{BagMessage, BagReader, ReadIssue};
@@ -47,6 +49,10 @@ use crate::scene::Scene;
 use crate::skeleton::fk::BonePose;
 use crate::skeleton::frames::WORLD_FRAME;
 use crate::skeleton::rig::Rig;
+
+mod stamps;
+
+pub use stamps::{Stamps, StampsBuilder};
 
 /// Suffix of a capture bag's file name.
 pub const SUFFIX: &str = ".capture.mcap";
@@ -413,7 +419,9 @@ pub struct CaptureFrame {
     pub world_from_optical: Isometry3<f64>,
 }
 
-/// A capture bag, read for rendering.
+/// A capture bag, read for rendering: what is said once (scenes, clips, the lens) and the
+/// timeline's stamps as runs ([`Stamps`]); the frames themselves (pose, camera) are read from
+/// the bag a stretch at a time ([`Capture::frames`]), so memory does not grow with the session.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Capture {
     /// The bag.
@@ -437,12 +445,17 @@ pub struct Capture {
     pub scenes: Vec<CaptureScene>,
     /// Clips in time order.
     pub segments: Vec<Segment>,
-    /// Every frame, in stamp order.
-    pub frames: Vec<CaptureFrame>,
+    /// Every frame's stamp (the `/animation` frames'), in order.
+    pub stamps: Stamps,
+    /// Whether every frame's messages are logged at its stamp, so that a stretch of frames is
+    /// read by log time ([`BagReader::messages_where`]); else by a pass over the whole bag.
+    logged_at_stamps: bool,
 }
 
 impl Capture {
-    /// Reads the capture bag at `path` (an MCAP file or a rosbag2 folder).
+    /// Reads the capture bag at `path` (an MCAP file or a rosbag2 folder) in one pass: every
+    /// message is checked (the frames [`Capture::frames`] reads later were all read once), and
+    /// what is kept does not grow with the frames.
     ///
     /// # Errors
     /// [`TimelineError`] naming the file and, for a bad message, its topic and stamp.
@@ -452,7 +465,8 @@ impl Capture {
             source,
         })?;
         let record = DatasetRecord::read(&readers, path)?;
-        let mut found = Found::default();
+        let fps = record.fps.filter(|f| f.is_finite() && *f > 0.0);
+        let mut found = Found::new(fps);
         for m in readers.iter().flat_map(|r| r.messages()) {
             let m = m.map_err(|source| TimelineError::Read {
                 path: path.to_path_buf(),
@@ -460,51 +474,88 @@ impl Capture {
             })?;
             found.take(rig, &m, path)?;
         }
-        let Found {
-            mut scenes,
-            mut segments,
-            poses,
-            cameras,
-            intrinsics,
-            session,
-        } = found;
-        let missing = |what: &str| TimelineError::Missing {
-            path: path.to_path_buf(),
-            what: what.to_owned(),
+        drop(readers);
+        found.finish(path, fps, record)
+    }
+
+    /// How many frames the timeline has.
+    #[must_use]
+    pub fn frame_count(&self) -> usize {
+        self.stamps.len()
+    }
+
+    /// The scene that stamp `t` falls in (the last to start at or before it; the first for a
+    /// stamp before every scene).
+    #[must_use]
+    pub fn scene_at(&self, t: u64) -> usize {
+        self.scenes
+            .partition_point(|s| s.start_nanos <= t)
+            .saturating_sub(1)
+    }
+
+    /// Frames `range` of the timeline (clamped to it), read from the bag: only the chunks that
+    /// hold them when the bag has a summary.
+    ///
+    /// # Errors
+    /// [`TimelineError`] when the bag cannot be read again as it was by [`Capture::read`].
+    pub fn frames(
+        &self,
+        rig: &Rig,
+        range: std::ops::Range<usize>,
+    ) -> Result<Vec<CaptureFrame>, TimelineError> {
+        let range = range.start..range.end.min(self.frame_count());
+        let (Some(first), Some(last)) = (
+            self.stamps.get(range.start),
+            range.end.checked_sub(1).and_then(|k| self.stamps.get(k)),
+        ) else {
+            return Ok(Vec::new());
         };
-        if poses.is_empty() {
-            return Err(missing("animation (autoact_msgs/BoneFrame on /animation)"));
+        let path = &self.path;
+        let readers = BagReader::open_all(path).map_err(|source| TimelineError::Open {
+            path: path.clone(),
+            source,
+        })?;
+        let mut poses: BTreeMap<u64, BonePose> = BTreeMap::new();
+        let mut cameras: BTreeMap<u64, Isometry3<f64>> = BTreeMap::new();
+        for reader in &readers {
+            let messages = if self.logged_at_stamps {
+                reader.messages_where(first..=last)
+            } else {
+                reader.messages()
+            };
+            for m in messages {
+                let m = m.map_err(|source| TimelineError::Read {
+                    path: path.clone(),
+                    source,
+                })?;
+                match frame_message(rig, &m, path)? {
+                    Some(FrameMessage::Pose(t, pose)) if (first..=last).contains(&t) => {
+                        poses.insert(t, pose);
+                    }
+                    Some(FrameMessage::Camera(t, camera)) if (first..=last).contains(&t) => {
+                        cameras.insert(t, camera);
+                    }
+                    _ => {}
+                }
+            }
         }
-        if cameras.is_empty() {
-            return Err(missing(&format!("camera path ({CAMERA_POSE_TOPIC})")));
-        }
-        let intrinsics = intrinsics
-            .ok_or_else(|| missing(&format!("camera calibration ({CAMERA_INFO_TOPIC})")))?;
-        if scenes.is_empty() {
-            return Err(missing(&format!("scene ({SCENE_TOPIC})")));
-        }
-        scenes.sort_by_key(|s| s.start_nanos);
-        segments.sort_by_key(|s| s.start.to_nanos().unwrap_or(0));
-        // Without the dataset record, the median spacing of the frames.
-        let stamps: Vec<u64> = poses.keys().copied().collect();
-        let fps = crate::skeleton::pose::frame_rate(
-            record.fps.filter(|f| f.is_finite() && *f > 0.0),
-            &stamps,
-        )
-        .ok_or_else(|| missing("frame rate (the autoact.dataset record's fps, or two frames)"))?;
-        let frames = timeline_frames(path, poses, &cameras, &scenes)?;
-        Ok(Capture {
-            path: path.to_path_buf(),
-            session,
-            fps,
-            labels: record.labels,
-            seed: record.seed,
-            randomise: record.randomise,
-            intrinsics,
-            scenes,
-            segments,
-            frames,
-        })
+        range
+            .map(|k| {
+                let stamp_nanos = self.stamps.get(k).unwrap_or(last);
+                let changed = || TimelineError::Bad {
+                    path: path.clone(),
+                    topic: ANIMATION_TOPIC.to_owned(),
+                    stamp_nanos,
+                    message: "frame not found when read again: the bag changed while in use".into(),
+                };
+                Ok(CaptureFrame {
+                    stamp_nanos,
+                    scene: self.scene_at(stamp_nanos),
+                    pose: poses.remove(&stamp_nanos).ok_or_else(changed)?,
+                    world_from_optical: *cameras.get(&stamp_nanos).ok_or_else(changed)?,
+                })
+            })
+            .collect()
     }
 
     /// Indices of the frames where a segment or its animation starts or ends (the keyframes
@@ -517,7 +568,7 @@ impl Capture {
             .iter()
             .flat_map(|s| [s.start, s.content_start, s.content_end, s.end])
             .filter_map(crate::ros::builtin_interfaces::Time::to_nanos)
-            .filter_map(|t| self.frames.binary_search_by_key(&t, |f| f.stamp_nanos).ok())
+            .filter_map(|t| self.stamps.position(t))
             .map(|i| i as u64)
             .collect();
         out.push(0);
@@ -569,37 +620,125 @@ impl DatasetRecord {
     }
 }
 
-/// What the messages of a capture bag carry, as read (unsorted, unchecked).
-#[derive(Debug, Default)]
+/// A frame's message of a capture bag, decoded and checked.
+enum FrameMessage {
+    /// An animation frame at its stamp.
+    Pose(u64, BonePose),
+    /// A camera pose at its stamp.
+    Camera(u64, Isometry3<f64>),
+}
+
+/// The error of message `m` (of the bag at `path`) that does not decode.
+fn decode_error(path: &Path, m: &BagMessage) -> impl FnOnce(CdrError) -> TimelineError + use<> {
+    let (path, topic, stamp_nanos) = (path.to_path_buf(), m.channel.topic.clone(), m.log_time);
+    move |source| TimelineError::Decode {
+        path,
+        topic,
+        stamp_nanos,
+        source,
+    }
+}
+
+/// Decodes `m` when it is an animation frame or a camera pose (`None` for other topics).
+fn frame_message(
+    rig: &Rig,
+    m: &BagMessage,
+    path: &Path,
+) -> Result<Option<FrameMessage>, TimelineError> {
+    let topic = m.channel.topic.as_str();
+    let stamp = m.log_time;
+    let decode_error = decode_error(path, m);
+    match (topic, m.channel.schema_name()) {
+        (_, BoneFrame::TYPE_NAME) => {
+            let f: BoneFrame = cdr::decode(&m.data).map_err(decode_error)?;
+            let pose =
+                bags::animation::bone_pose(rig, &f).map_err(|source| TimelineError::Pose {
+                    path: path.to_path_buf(),
+                    topic: topic.to_owned(),
+                    stamp_nanos: stamp,
+                    source: Box::new(source),
+                })?;
+            Ok(Some(FrameMessage::Pose(
+                bags::animation::frame_stamp(&f, stamp),
+                pose,
+            )))
+        }
+        (CAMERA_POSE_TOPIC, PoseStamped::TYPE_NAME) => {
+            let p: PoseStamped = cdr::decode(&m.data).map_err(decode_error)?;
+            let q = UnitQuaternion::try_from(p.pose.orientation).map_err(|source| {
+                TimelineError::Orientation {
+                    path: path.to_path_buf(),
+                    topic: topic.to_owned(),
+                    stamp_nanos: stamp,
+                    source,
+                }
+            })?;
+            let o = p.pose.position;
+            if ![o.x, o.y, o.z].iter().all(|v| v.is_finite()) {
+                return Err(TimelineError::Bad {
+                    path: path.to_path_buf(),
+                    topic: topic.to_owned(),
+                    stamp_nanos: stamp,
+                    message: "camera position is not finite".into(),
+                });
+            }
+            Ok(Some(FrameMessage::Camera(
+                p.header.stamp.to_nanos().unwrap_or(stamp),
+                Isometry3::from_parts(Translation3::new(o.x, o.y, o.z), q),
+            )))
+        }
+        _ => Ok(None),
+    }
+}
+
+/// What the messages of a capture bag carry, as read: scenes and segments (unsorted), the stamps
+/// of the animation frames and of the camera poses, the first calibration.
+#[derive(Debug)]
 struct Found {
     scenes: Vec<CaptureScene>,
     segments: Vec<Segment>,
-    poses: BTreeMap<u64, BonePose>,
-    cameras: BTreeMap<u64, Isometry3<f64>>,
+    poses: StampsBuilder,
+    cameras: StampsBuilder,
+    logged_at_stamps: bool,
     intrinsics: Option<Intrinsics>,
     session: String,
 }
 
 impl Found {
+    /// Ready to read a bag whose frames are `fps` apart, if it says.
+    fn new(fps: Option<f64>) -> Found {
+        let clock = fps.unwrap_or(30.0);
+        Found {
+            scenes: Vec::new(),
+            segments: Vec::new(),
+            poses: StampsBuilder::new(clock),
+            cameras: StampsBuilder::new(clock),
+            logged_at_stamps: true,
+            intrinsics: None,
+            session: String::new(),
+        }
+    }
+
     /// Takes in one message: a scene, a segment, an animation frame, a camera pose or the first
     /// camera calibration; other topics are ignored.
     fn take(&mut self, rig: &Rig, m: &BagMessage, path: &Path) -> Result<(), TimelineError> {
         let topic = m.channel.topic.as_str();
-        let schema = m.channel.schema_name();
         let stamp = m.log_time;
-        let bad = |stamp_nanos: u64, message: String| TimelineError::Bad {
-            path: path.to_path_buf(),
-            topic: topic.to_owned(),
-            stamp_nanos,
-            message,
-        };
-        let decode_error = |source: CdrError| TimelineError::Decode {
-            path: path.to_path_buf(),
-            topic: topic.to_owned(),
-            stamp_nanos: stamp,
-            source,
-        };
-        match (topic, schema) {
+        let decode_error = decode_error(path, m);
+        match frame_message(rig, m, path)? {
+            Some(FrameMessage::Pose(at, _)) => {
+                self.logged_at_stamps &= at == stamp;
+                self.poses.push(at);
+                return Ok(());
+            }
+            Some(FrameMessage::Camera(at, _)) => {
+                self.logged_at_stamps &= at == stamp;
+                self.cameras.push(at);
+                return Ok(());
+            }
+            None => {}
+        }
+        match (topic, m.channel.schema_name()) {
             (SCENE_TOPIC, SceneState::TYPE_NAME) => {
                 let s: SceneState = cdr::decode(&m.data).map_err(decode_error)?;
                 let scene: Scene = serde_json::from_str(&s.parameters_json).map_err(|source| {
@@ -622,90 +761,99 @@ impl Found {
                 self.segments
                     .push(cdr::decode::<Segment>(&m.data).map_err(decode_error)?);
             }
-            (_, BoneFrame::TYPE_NAME) => {
-                let f: BoneFrame = cdr::decode(&m.data).map_err(decode_error)?;
-                let pose =
-                    bags::animation::bone_pose(rig, &f).map_err(|source| TimelineError::Pose {
-                        path: path.to_path_buf(),
-                        topic: topic.to_owned(),
-                        stamp_nanos: stamp,
-                        source: Box::new(source),
-                    })?;
-                let at = bags::animation::frame_stamp(&f, stamp);
-                if self.poses.insert(at, pose).is_some() {
-                    return Err(bad(at, "two animation frames at one stamp (several tracks or variants: a capture bag has one)".into()));
-                }
-            }
-            (CAMERA_POSE_TOPIC, PoseStamped::TYPE_NAME) => {
-                let p: PoseStamped = cdr::decode(&m.data).map_err(decode_error)?;
-                let q = UnitQuaternion::try_from(p.pose.orientation).map_err(|source| {
-                    TimelineError::Orientation {
-                        path: path.to_path_buf(),
-                        topic: topic.to_owned(),
-                        stamp_nanos: stamp,
-                        source,
-                    }
-                })?;
-                let o = p.pose.position;
-                if ![o.x, o.y, o.z].iter().all(|v| v.is_finite()) {
-                    return Err(bad(stamp, "camera position is not finite".into()));
-                }
-                let at = p.header.stamp.to_nanos().unwrap_or(stamp);
-                self.cameras.insert(
-                    at,
-                    Isometry3::from_parts(Translation3::new(o.x, o.y, o.z), q),
-                );
-            }
             (CAMERA_INFO_TOPIC, CameraInfo::TYPE_NAME) if self.intrinsics.is_none() => {
                 let c: CameraInfo = cdr::decode(&m.data).map_err(decode_error)?;
-                self.intrinsics = Some(
-                    Intrinsics::from_ros(c.width, c.height, &c.k)
-                        .ok_or_else(|| bad(stamp, format!("unusable camera matrix {:?}", c.k)))?,
-                );
+                self.intrinsics = Some(Intrinsics::from_ros(c.width, c.height, &c.k).ok_or_else(
+                    || TimelineError::Bad {
+                        path: path.to_path_buf(),
+                        topic: topic.to_owned(),
+                        stamp_nanos: stamp,
+                        message: format!("unusable camera matrix {:?}", c.k),
+                    },
+                )?);
             }
             _ => {}
         }
         Ok(())
     }
-}
 
-/// The timeline: one frame per animation frame, in stamp order, each with the camera pose at
-/// its stamp and the scene it falls in (`scenes` sorted by start).
-fn timeline_frames(
-    path: &Path,
-    poses: BTreeMap<u64, BonePose>,
-    cameras: &BTreeMap<u64, Isometry3<f64>>,
-    scenes: &[CaptureScene],
-) -> Result<Vec<CaptureFrame>, TimelineError> {
-    let bad = |topic: &str, stamp_nanos: u64, message: String| TimelineError::Bad {
-        path: path.to_path_buf(),
-        topic: topic.to_owned(),
-        stamp_nanos,
-        message,
-    };
-    let mut frames = Vec::with_capacity(poses.len());
-    for (stamp_nanos, pose) in poses {
-        let world_from_optical = *cameras.get(&stamp_nanos).ok_or_else(|| {
-            bad(
-                CAMERA_POSE_TOPIC,
-                stamp_nanos,
-                "no camera pose at this animation frame's stamp".into(),
-            )
-        })?;
-        let scene = scenes.partition_point(|s| s.start_nanos <= stamp_nanos);
-        if scene == 0 {
+    /// The capture: what was found, checked (every frame has its camera pose and a scene).
+    fn finish(
+        self,
+        path: &Path,
+        fps: Option<f64>,
+        record: DatasetRecord,
+    ) -> Result<Capture, TimelineError> {
+        let missing = |what: &str| TimelineError::Missing {
+            path: path.to_path_buf(),
+            what: what.to_owned(),
+        };
+        let bad = |topic: &str, stamp_nanos: u64, message: &str| TimelineError::Bad {
+            path: path.to_path_buf(),
+            topic: topic.to_owned(),
+            stamp_nanos,
+            message: message.to_owned(),
+        };
+        let (stamps, twice) = self.poses.finish();
+        if let Some(t) = twice {
             return Err(bad(
-                SCENE_TOPIC,
-                stamp_nanos,
-                "an animation frame comes before the first scene starts".into(),
+                ANIMATION_TOPIC,
+                t,
+                "two animation frames at one stamp (several tracks or variants: a capture bag has one)",
             ));
         }
-        frames.push(CaptureFrame {
-            stamp_nanos,
-            scene: scene - 1,
-            pose,
-            world_from_optical,
-        });
+        let (cameras, _) = self.cameras.finish();
+        if stamps.is_empty() {
+            return Err(missing("animation (autoact_msgs/BoneFrame on /animation)"));
+        }
+        if cameras.is_empty() {
+            return Err(missing(&format!("camera path ({CAMERA_POSE_TOPIC})")));
+        }
+        let intrinsics = self
+            .intrinsics
+            .ok_or_else(|| missing(&format!("camera calibration ({CAMERA_INFO_TOPIC})")))?;
+        let mut scenes = self.scenes;
+        if scenes.is_empty() {
+            return Err(missing(&format!("scene ({SCENE_TOPIC})")));
+        }
+        scenes.sort_by_key(|s| s.start_nanos);
+        let mut segments = self.segments;
+        segments.sort_by_key(|s| s.start.to_nanos().unwrap_or(0));
+        // Without the dataset record, the median spacing of the frames.
+        let fps = match fps {
+            Some(fps) => Some(fps),
+            None => crate::skeleton::pose::frame_rate(None, &stamps.iter().collect::<Vec<u64>>()),
+        }
+        .ok_or_else(|| missing("frame rate (the autoact.dataset record's fps, or two frames)"))?;
+        let first_scene = scenes[0].start_nanos;
+        for t in stamps.iter() {
+            if cameras.position(t).is_none() {
+                return Err(bad(
+                    CAMERA_POSE_TOPIC,
+                    t,
+                    "no camera pose at this animation frame's stamp",
+                ));
+            }
+            if t < first_scene {
+                return Err(bad(
+                    SCENE_TOPIC,
+                    t,
+                    "an animation frame comes before the first scene starts",
+                ));
+            }
+        }
+        Ok(Capture {
+            path: path.to_path_buf(),
+            session: self.session,
+            fps,
+            labels: record.labels,
+            seed: record.seed,
+            randomise: record.randomise,
+            intrinsics,
+            scenes,
+            segments,
+            stamps,
+            logged_at_stamps: self.logged_at_stamps,
+        })
     }
-    Ok(frames)
 }

@@ -163,16 +163,36 @@ impl SceneContext {
             source: Box::new(source),
         })?;
         let mut world_from_optical = Vec::with_capacity(clip.stamps_nanos.len());
+        let mut at = Vec::with_capacity(clip.stamps_nanos.len());
         for &stamp in &clip.stamps_nanos {
-            let k = capture
-                .frames
-                .binary_search_by_key(&stamp, |f| f.stamp_nanos)
-                .map_err(|_| ExportError::NoCameraPose {
-                    path: path.to_path_buf(),
-                    key: clip.key,
-                    stamp_nanos: stamp,
-                })?;
-            world_from_optical.push(capture.frames[k].world_from_optical);
+            at.push(
+                capture
+                    .stamps
+                    .position(stamp)
+                    .ok_or_else(|| ExportError::NoCameraPose {
+                        path: path.to_path_buf(),
+                        key: clip.key,
+                        stamp_nanos: stamp,
+                    })?,
+            );
+        }
+        // The clip's stretch of the capture, read for its cameras alone.
+        let first = at.iter().copied().min().unwrap_or(0);
+        let end = at.iter().copied().max().map_or(0, |k| k + 1);
+        let frames = capture
+            .frames(rig, first..end)
+            .map_err(|source| ExportError::Capture {
+                path: path.to_path_buf(),
+                key: clip.key,
+                source: Box::new(source),
+            })?;
+        for k in at {
+            let frame = frames.get(k - first).ok_or(ExportError::NoCameraPose {
+                path: path.to_path_buf(),
+                key: clip.key,
+                stamp_nanos: capture.stamps.get(k).unwrap_or(0),
+            })?;
+            world_from_optical.push(frame.world_from_optical);
         }
         let i = &capture.intrinsics;
         let camera = CameraPath {
@@ -183,10 +203,9 @@ impl SceneContext {
         capture_extras(&capture, clip, &mut extras);
         let first = clip.stamps_nanos.first().copied().unwrap_or(0);
         let look = capture
-            .frames
-            .iter()
-            .find(|f| f.stamp_nanos >= first)
-            .map(|f| capture.scenes[f.scene].scene.look.clone());
+            .stamps
+            .get(capture.stamps.count_before(first))
+            .map(|t| capture.scenes[capture.scene_at(t)].scene.look.clone());
         Ok(SceneContext {
             camera: Some(camera),
             look,

@@ -69,6 +69,11 @@ pub struct Settings {
     pub rawframes: bool,
     /// A contact sheet per capture.
     pub previews: bool,
+    /// Captures and renders kept (`--keep-intermediates`): a render then draws every frame of
+    /// its timeline, else only the frames its clips use, so the two make other renders (absent
+    /// in journals from before it was recorded, which are refused rather than mixed).
+    #[serde(default)]
+    pub keep_intermediates: Option<bool>,
 }
 
 /// The journal of one output folder.

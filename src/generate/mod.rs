@@ -332,6 +332,7 @@ impl GenerateJob {
             reencode: c.reencode,
             rawframes: c.rawframes,
             previews: self.previews,
+            keep_intermediates: Some(self.keep_intermediates),
         }
     }
 }
@@ -537,7 +538,7 @@ pub fn generate(job: &GenerateJob, stop: &AtomicBool) -> Result<GenerateSummary,
         shard: job.shard,
         sessions: mine.len(),
         already_done: mine.len() - journal.unfinished().len(),
-        clips: usize::try_from(totals.clips).unwrap_or(usize::MAX),
+        clips: 0,
         frames_rendered: 0,
         seconds,
         total_seconds: 0.0,
@@ -550,7 +551,10 @@ pub fn generate(job: &GenerateJob, stop: &AtomicBool) -> Result<GenerateSummary,
         .try_for_each(|i| run.session(i, &mut journal, &mut summary));
     run.progress.finish();
     result?;
-    run.finish_dataset()?;
+    if let Some(lists) = run.finish_dataset()? {
+        summary.clips = lists.clips.values().sum();
+        summary.lists = Some(lists);
+    }
     run.remove_run_dirs(true)?;
     summary.total_seconds = started.elapsed().as_secs_f64();
     Ok(summary)
@@ -649,7 +653,8 @@ impl Run<'_> {
         summary.truncated += trimmed.truncated.len();
         summary.lists = Some(trimmed.lists);
         journal.record(dir, name, Stage::Clips)?;
-        self.progress.session_done(clips);
+        let cut = trimmed.copied + trimmed.reencoded + trimmed.skipped;
+        self.progress.session_done(clips, cut as u64);
         self.hook.event();
         if !self.job.keep_intermediates {
             paths.remove_intermediates()?;
@@ -736,7 +741,10 @@ impl Run<'_> {
             self.hook.event();
         };
         let session = &capture.session;
-        let drawing = |first: u64, n: u64| self.log_drawn(session, first, n);
+        let drawing = |first: u64, n: u64| {
+            self.progress.drawing(n);
+            self.log_drawn(session, first, n);
+        };
         let pieces = PieceJob {
             dir: paths.pieces.clone(),
             scratch: run_dir.join(paths.pieces.file_name().unwrap_or_default()),
@@ -774,7 +782,7 @@ impl Run<'_> {
             }
         }
         // Timeline frames, as the plan's totals count them (drawn or not).
-        let timeline = crate::render::session::output_stamps(capture, r.fps).count() as u64;
+        let timeline = crate::render::session::output_timeline(capture, r.fps).len() as u64;
         self.progress.rendered(timeline);
         Ok(summary.frames_drawn)
     }
@@ -825,14 +833,14 @@ impl Run<'_> {
         crate::trim::plan::VideoTiming,
         crate::trim::policy::ClipPolicies,
     )> {
-        let (Some(planned), Some(first)) = (&self.planned, capture.frames.first()) else {
+        let (Some(planned), Some(first)) = (&self.planned, capture.stamps.first()) else {
             return None;
         };
         let fps = Rational::from_f64(self.job.render.fps.unwrap_or(capture.fps))?;
         let frame_count =
-            crate::render::session::output_stamps(capture, self.job.render.fps).count() as u64;
+            crate::render::session::output_timeline(capture, self.job.render.fps).len() as u64;
         let timing = crate::trim::plan::VideoTiming {
-            frame0_nanos: i128::from(first.stamp_nanos),
+            frame0_nanos: i128::from(first),
             fps,
             frame_count,
         };
@@ -867,10 +875,10 @@ impl Run<'_> {
 
     /// The dataset's lists rewritten once more, now with every class's contact sheet, once every
     /// session is done: what `merge` does over the parts too, so both give the same files.
-    fn finish_dataset(&self) -> Result<(), GenerateError> {
+    fn finish_dataset(&self) -> Result<Option<ListSummary>, GenerateError> {
         let path = self.job.output.join(PLAN_FILE);
         if !path.is_file() {
-            return Ok(());
+            return Ok(None);
         }
         let planned = PlannedClips::read(&path)?;
         let options = TrimOptions {
@@ -878,8 +886,8 @@ impl Run<'_> {
             ..trim_options(&self.job.clips, &planned)
         };
         let dataset = self.job.output.join(DATASET_DIR);
-        crate::trim::run::relist(&self.ffmpeg, &dataset, &planned.labels, &options)?;
-        Ok(())
+        let lists = crate::trim::run::relist(&self.ffmpeg, &dataset, &planned.labels, &options)?;
+        Ok(Some(lists))
     }
 
     /// Cuts `capture`'s clips out of its video into the dataset.
@@ -907,8 +915,11 @@ impl Run<'_> {
             annotations: Some(&paths.render_bag),
             drawn: rendered.drawn.as_ref(),
         };
-        let progress = |done: usize, _total: usize| {
-            self.progress.trimming(done as u64);
+        // The plan's segments of this capture; its clips are `total` (a policy that cuts
+        // windows or instances makes more, or fewer).
+        let segments = capture.segments.len() as u64;
+        let progress = |done: usize, total: usize| {
+            self.progress.trimming(done as u64, total as u64, segments);
             if done > 0 {
                 self.hook.event();
             }

@@ -1,10 +1,10 @@
-//! Progress of a whole dataset: captures and clips done of their totals, frames rendered per
-//! second and the time left. A bar on a terminal; otherwise (a log file, a Slurm job's output) a
+//! Progress of a whole dataset: captures and clips done of their totals, timeline frames done,
+//! frames drawn per second and the time left (the timeline left at this run's pace). A bar on a terminal; otherwise (a log file, a Slurm job's output) a
 //! plain line every few seconds. Nothing with `-q`.
 
 use std::io::IsTerminal;
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicI64, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 /// Seconds between two plain progress lines.
@@ -15,7 +15,8 @@ const LINE_EVERY: Duration = Duration::from_secs(5);
 pub struct Totals {
     /// Capture sessions.
     pub captures: u64,
-    /// Clips.
+    /// Clips, as the plan counts them (one a segment; a policy that cuts windows or instances
+    /// makes more or fewer, counted as each capture is cut).
     pub clips: u64,
     /// Frames to render.
     pub frames: u64,
@@ -33,6 +34,12 @@ pub struct DatasetProgress {
     frames_now: AtomicU64,
     /// Clips of the session being trimmed.
     clips_now: AtomicU64,
+    /// Real clips less the plan's segments, of the sessions cut by this run.
+    clips_extra: AtomicI64,
+    /// The same of the session being trimmed.
+    clips_extra_now: AtomicI64,
+    /// Frames drawn by this run (a render of some frames skips the others).
+    drawn: AtomicU64,
     /// Frames done when this run started (they do not count in the rate).
     frames_at_start: AtomicU64,
     started: Instant,
@@ -67,6 +74,9 @@ impl DatasetProgress {
             frames_before: AtomicU64::new(0),
             frames_now: AtomicU64::new(0),
             clips_now: AtomicU64::new(0),
+            clips_extra: AtomicI64::new(0),
+            clips_extra_now: AtomicI64::new(0),
+            drawn: AtomicU64::new(0),
             frames_at_start: AtomicU64::new(0),
             started: now,
             bar,
@@ -99,18 +109,36 @@ impl DatasetProgress {
         self.show(false);
     }
 
-    /// `k` clips of the session being trimmed are done.
-    pub fn trimming(&self, k: u64) {
+    /// `n` frames are about to be drawn.
+    pub fn drawing(&self, n: u64) {
+        self.drawn.fetch_add(n, Ordering::Relaxed);
+    }
+
+    /// `k` of the `total` clips of the session being trimmed are done; the plan has `segments`
+    /// for it.
+    pub fn trimming(&self, k: u64, total: u64, segments: u64) {
         self.clips_now.store(k, Ordering::Relaxed);
+        self.clips_extra_now
+            .store(difference(total, segments), Ordering::Relaxed);
         self.show(false);
     }
 
-    /// The session being trimmed is done: `clips` in all.
-    pub fn session_done(&self, clips: u64) {
+    /// The session being trimmed is done: `clips` cut of the plan's `segments`.
+    pub fn session_done(&self, segments: u64, clips: u64) {
         self.clips_now.store(0, Ordering::Relaxed);
+        self.clips_extra_now.store(0, Ordering::Relaxed);
+        self.clips_extra
+            .fetch_add(difference(clips, segments), Ordering::Relaxed);
         self.clips.fetch_add(clips, Ordering::Relaxed);
         self.captures.fetch_add(1, Ordering::Relaxed);
         self.show(false);
+    }
+
+    /// Clips in all: the plan's, corrected by the sessions cut (done or under way).
+    fn clips_total(&self) -> u64 {
+        let extra =
+            self.clips_extra.load(Ordering::Relaxed) + self.clips_extra_now.load(Ordering::Relaxed);
+        self.totals.clips.saturating_add_signed(extra)
     }
 
     /// Removes the bar and writes a last line (the summary follows on stdout).
@@ -121,12 +149,16 @@ impl DatasetProgress {
         self.show(true);
     }
 
-    /// Frames rendered by this run per second of its wall time.
-    fn rate(&self, frames: u64) -> f64 {
+    /// Timeline frames done by this run, and frames drawn, per second of its wall time.
+    fn rates(&self, frames: u64) -> (f64, f64) {
         let new = frames.saturating_sub(self.frames_at_start.load(Ordering::Relaxed));
+        let seconds = self.started.elapsed().as_secs_f64().max(1e-3);
         #[expect(clippy::cast_precision_loss, reason = "display only")]
-        let rate = new as f64 / self.started.elapsed().as_secs_f64().max(1e-3);
-        rate
+        let rates = (
+            new as f64 / seconds,
+            self.drawn.load(Ordering::Relaxed) as f64 / seconds,
+        );
+        rates
     }
 
     fn show(&self, last: bool) {
@@ -134,12 +166,12 @@ impl DatasetProgress {
             self.frames_before.load(Ordering::Relaxed) + self.frames_now.load(Ordering::Relaxed);
         let clips = self.clips.load(Ordering::Relaxed) + self.clips_now.load(Ordering::Relaxed);
         let t = self.totals;
-        let rate = self.rate(frames);
+        let (rate, drawn) = self.rates(frames);
         let text = format!(
-            "captures {}/{}, clips {clips}/{}, frames {frames}/{} ({rate:.0} frames/s)",
+            "captures {}/{}, clips {clips}/{}, frames {frames}/{} ({drawn:.0} drawn/s)",
             self.captures.load(Ordering::Relaxed),
             t.captures,
-            t.clips,
+            self.clips_total().max(clips),
             t.frames
         );
         if let Some(bar) = &self.bar {
@@ -175,5 +207,38 @@ impl DatasetProgress {
             elapsed / 60,
             elapsed % 60
         ));
+    }
+}
+
+/// `a - b`, signed (saturating).
+fn difference(a: u64, b: u64) -> i64 {
+    let wide = i128::from(a) - i128::from(b);
+    i64::try_from(wide).unwrap_or(if wide < 0 { i64::MIN } else { i64::MAX })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A windows policy cuts more clips than the plan has segments: the total grows with them,
+    /// so the counter never reads "205/100".
+    #[test]
+    fn the_clip_total_follows_the_clips_cut() {
+        let p = DatasetProgress::new(Totals {
+            captures: 2,
+            clips: 100,
+            frames: 1_000,
+        });
+        p.trimming(205, 210, 50);
+        let seen = p.clips.load(Ordering::Relaxed) + p.clips_now.load(Ordering::Relaxed);
+        assert_eq!((seen, p.clips_total()), (205, 260));
+        p.session_done(50, 210);
+        p.trimming(10, 20, 50);
+        assert_eq!(p.clips_total(), 210 + 20);
+        p.session_done(50, 20);
+        assert_eq!(
+            (p.clips.load(Ordering::Relaxed), p.clips_total()),
+            (230, 230)
+        );
     }
 }

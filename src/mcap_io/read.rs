@@ -380,12 +380,15 @@ impl BagReader {
     }
 
     /// Streams the messages in file order, with issues in place of what could not be read.
+    /// The pages read are given back every few megabytes ([`BagReader::release_pages`]), so a
+    /// whole-file pass keeps resident what it holds, not the file.
     #[must_use]
     pub fn messages(&self) -> Messages<'_> {
         Messages {
-            path: &self.path,
+            reader: self,
             walker: Walker::new(&self.map, self.summary.as_ref()),
             summary: self.summary.as_ref(),
+            window: None,
             pending: VecDeque::new(),
             held: None,
             count_indexes: false,
@@ -394,7 +397,21 @@ impl BagReader {
             counts: BTreeMap::new(),
             chunk: 0,
             read: 0,
+            released_at: 0,
             done: false,
+        }
+    }
+
+    /// The messages logged within `log_times` (inclusive), in file order, with every issue met
+    /// on the way: the messages of a full [`BagReader::messages`] pass in that range, with the
+    /// same indexes on their channels. A file with a summary skips, undecompressed, every chunk
+    /// its chunk index places outside the range (its messages still counted from its message
+    /// indexes); a file without one is read whole and filtered.
+    #[must_use]
+    pub fn messages_where(&self, log_times: std::ops::RangeInclusive<u64>) -> Messages<'_> {
+        Messages {
+            window: Some(log_times),
+            ..self.messages()
         }
     }
 }
@@ -650,9 +667,11 @@ fn opcode_name(opcode: u8) -> String {
 
 /// The message stream of a [`BagReader`].
 pub struct Messages<'a> {
-    path: &'a Path,
+    reader: &'a BagReader,
     walker: Walker<'a>,
     summary: Option<&'a Summary>,
+    /// Only messages logged in this range ([`BagReader::messages_where`]).
+    window: Option<std::ops::RangeInclusive<u64>>,
     pending: VecDeque<Result<BagMessage, ReadIssue>>,
     /// The loss of a chunk, held until the message index records after it are counted.
     held: Option<ReadIssue>,
@@ -666,13 +685,15 @@ pub struct Messages<'a> {
     /// Chunks met, read or lost.
     chunk: usize,
     read: u64,
+    /// Where the walk was when the pages were last given back.
+    released_at: usize,
     done: bool,
 }
 
 impl std::fmt::Debug for Messages<'_> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Messages")
-            .field("path", &self.path)
+            .field("path", &self.reader.path)
             .field("read", &self.read)
             .finish_non_exhaustive()
     }
@@ -728,7 +749,7 @@ impl Messages<'_> {
     fn message(&mut self, m: &records::Message<'_>) -> Result<BagMessage, ReadIssue> {
         let Some(channel) = self.channel(m.channel_id) else {
             return Err(ReadIssue::UnknownChannel {
-                path: self.path.to_path_buf(),
+                path: self.reader.path.clone(),
                 channel_id: m.channel_id,
                 log_time: m.log_time,
             });
@@ -843,7 +864,7 @@ impl Messages<'_> {
             let messages = self.count_lost(bytes, at);
             self.count_indexes = messages.is_none();
             self.held = Some(ReadIssue::CorruptChunk {
-                path: self.path.to_path_buf(),
+                path: self.reader.path.clone(),
                 chunk: number,
                 offset: at as u64,
                 start_nanos,
@@ -892,7 +913,7 @@ impl Messages<'_> {
         }
         self.count_indexes = messages.is_none();
         self.held = Some(ReadIssue::Damaged {
-            path: self.path.to_path_buf(),
+            path: self.reader.path.clone(),
             from_byte: at as u64,
             to_byte: resumed as u64,
             messages,
@@ -900,8 +921,45 @@ impl Messages<'_> {
         });
     }
 
+    /// Whether the chunk at byte `at` is outside the window by the summary's chunk index (its
+    /// messages then counted from its message indexes, as for a lost chunk); `false` without a
+    /// window, an index entry or countable message indexes: the chunk is read.
+    fn skip_chunk(&mut self, bytes: &[u8], at: usize) -> bool {
+        let (Some(window), Some(summary)) = (&self.window, self.summary) else {
+            return false;
+        };
+        let Ok(i) = summary
+            .chunks
+            .binary_search_by_key(&(at as u64), |c| c.chunk_start_offset)
+        else {
+            return false;
+        };
+        let c = &summary.chunks[i];
+        if c.message_start_time <= *window.end() && *window.start() <= c.message_end_time {
+            return false;
+        }
+        let Some(counts) = self.indexed_counts(bytes, at) else {
+            return false;
+        };
+        self.chunk += 1;
+        for (channel, n) in counts {
+            *self.counts.entry(channel).or_insert(0) += n;
+        }
+        true
+    }
+
+    /// Gives the pages walked back every [`RELEASE_EVERY_BYTES`].
+    fn release_walked(&mut self) {
+        #[cfg(unix)]
+        if self.walker.at.saturating_sub(self.released_at) >= RELEASE_EVERY_BYTES {
+            self.reader.release_pages();
+            self.released_at = self.walker.at;
+        }
+    }
+
     /// Reads the next top-level record into `pending`.
     fn step(&mut self, bytes: &[u8]) {
+        self.release_walked();
         let Some(step) = self.walker.next() else {
             self.done = true;
             return;
@@ -919,12 +977,14 @@ impl Messages<'_> {
         if !is_index && let Some(issue) = self.held.take() {
             self.pending.push_back(Err(issue));
         }
-        let path = self.path.to_path_buf();
+        let path = self.reader.path.clone();
         match step {
             Step::Record { at, framed } => {
                 let damaged = match framed.opcode {
                     op::CHUNK => {
-                        self.take_chunk(bytes, at, framed.body);
+                        if !self.skip_chunk(bytes, at) {
+                            self.take_chunk(bytes, at, framed.body);
+                        }
                         Ok(())
                     }
                     op::MESSAGE_INDEX => {
@@ -1175,6 +1235,14 @@ impl Iterator for Messages<'_> {
     fn next(&mut self) -> Option<Self::Item> {
         loop {
             if let Some(item) = self.pending.pop_front() {
+                let outside = |m: &BagMessage| {
+                    self.window
+                        .as_ref()
+                        .is_some_and(|w| !w.contains(&m.log_time))
+                };
+                if matches!(&item, Ok(m) if outside(m)) {
+                    continue;
+                }
                 return Some(item);
             }
             if self.done {

@@ -268,6 +268,9 @@ pub(super) fn message_index(body: &[u8]) -> Result<(u16, u64), ParseError> {
 /// A chunk index record: where its chunk is, and where its message indexes are.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub(super) struct ChunkIndex {
+    /// First and last message log time in the chunk, nanoseconds.
+    pub(super) message_start_time: u64,
+    pub(super) message_end_time: u64,
     pub(super) chunk_start_offset: u64,
     /// Offsets of the chunk's message index records.
     pub(super) message_index_offsets: Vec<u64>,
@@ -275,8 +278,8 @@ pub(super) struct ChunkIndex {
 
 pub(super) fn chunk_index(body: &[u8]) -> Result<ChunkIndex, ParseError> {
     let mut f = Fields::new(body);
-    let _start = f.u64("chunk index start time")?;
-    let _end = f.u64("chunk index end time")?;
+    let message_start_time = f.u64("chunk index start time")?;
+    let message_end_time = f.u64("chunk index end time")?;
     let chunk_start_offset = f.u64("chunk index offset")?;
     let _length = f.u64("chunk index length")?;
     let mut offsets = Fields::new(f.bytes32("chunk index message index offsets")?);
@@ -286,6 +289,8 @@ pub(super) fn chunk_index(body: &[u8]) -> Result<ChunkIndex, ParseError> {
         message_index_offsets.push(offsets.u64("message index offset")?);
     }
     Ok(ChunkIndex {
+        message_start_time,
+        message_end_time,
         chunk_start_offset,
         message_index_offsets,
     })

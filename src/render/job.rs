@@ -175,7 +175,7 @@ pub fn render_job(job: &RenderJob, stop: &AtomicBool) -> Result<RenderReport, Re
     };
     let total = job
         .limit
-        .map_or(capture.frames.len(), |n| n.min(capture.frames.len()));
+        .map_or(capture.frame_count(), |n| n.min(capture.frame_count()));
     let bar = Progress::bar("rendering", "frames", true, total as u64);
     let started = Instant::now();
     let progress = |k: u64| bar.set_done(k);

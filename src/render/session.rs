@@ -7,7 +7,6 @@
 
 pub mod pieces;
 
-use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, PoisonError};
@@ -20,9 +19,10 @@ use super::blender::{BlenderError, BlenderFrame, BlenderFrames, BlenderJob, Engi
 use super::cpu::CpuRenderer;
 use super::passes::{FramePasses, PassDirs, Wanted};
 use super::{Camera, FrameInput, Image, Renderer, Stage};
-use crate::bags::capture::Capture;
+use crate::bags::capture::{Capture, CaptureFrame, Stamps, TimelineError};
 use crate::bags::{self, render::RenderBagError};
 use crate::camera::{CAMERA_FRAME, Intrinsics};
+use crate::frame_ranges::FrameRanges;
 use crate::ros::autoact_msgs::{FrameAnnotation, VideoInfo};
 use crate::ros::builtin_interfaces::Time;
 use crate::ros::foxglove_msgs::CompressedVideo;
@@ -95,6 +95,9 @@ pub enum RenderError {
     /// The Blender engine failed.
     #[error(transparent)]
     Blender(#[from] BlenderError),
+    /// The capture's frames could not be read again.
+    #[error(transparent)]
+    Capture(#[from] TimelineError),
     /// A finished piece of a render made in pieces ([`pieces`]) cannot be read back.
     #[error("render piece `{}`: {detail}", path.display())]
     Piece {
@@ -192,142 +195,74 @@ pub struct RenderSummary {
     pub unknown_prop_kinds: Vec<String>,
 }
 
-/// One output frame: when, which scene, the pose and the camera. The pose is the capture's own
-/// (borrowed, so the plan adds no pose per frame) unless resampling blends two.
-#[derive(Debug, Clone)]
-struct Sample<'a> {
+/// Where one output frame is, without its pose: what the sinks need of it.
+#[derive(Debug, Clone, Copy)]
+struct Spot {
     /// Its index on the render's timeline (the frame a render of every frame puts it at).
     frame: usize,
     stamp_nanos: u64,
     scene: usize,
-    pose: Cow<'a, BonePose>,
-    world_from_optical: Isometry3<f64>,
     segment: Option<usize>,
 }
+
+/// One output frame: where it is, the pose and the camera.
+#[derive(Debug, Clone)]
+struct Sample {
+    spot: Spot,
+    pose: BonePose,
+    world_from_optical: Isometry3<f64>,
+}
+
+/// Output frames read from the capture at a time (their poses and cameras are held only while
+/// they are drawn, so memory does not grow with the session).
+const SAMPLE_BLOCK: usize = 512;
 
 /// The stamps of the output frames of a render of `capture` at `fps` (`None`: its own rate):
 /// the capture's own frames at its own rate, else every 1/`fps` from its first frame to its last.
 /// The one place that knows a render's timeline; `generate` counts frames with it too.
 #[must_use]
-pub fn output_stamps(capture: &Capture, fps: Option<f64>) -> Box<dyn Iterator<Item = u64> + '_> {
-    let same_rate = fps.is_none_or(|f| (f - capture.fps).abs() < 1e-9);
-    let (Some(first), Some(last)) = (capture.frames.first(), capture.frames.last()) else {
-        return Box::new(std::iter::empty());
-    };
-    if same_rate {
-        return Box::new(capture.frames.iter().map(|f| f.stamp_nanos));
+pub fn output_timeline(capture: &Capture, fps: Option<f64>) -> Stamps {
+    if same_rate(capture, fps) {
+        return capture.stamps.clone();
     }
     let fps = fps.unwrap_or(capture.fps);
-    let (first, last) = (first.stamp_nanos, last.stamp_nanos);
-    Box::new(
-        (0..)
-            .map(move |k| first + crate::skeleton::pose::stamp_nanos_at(k, fps))
-            .take_while(move |&t| t <= last),
-    )
+    match (capture.stamps.first(), capture.stamps.last()) {
+        (Some(first), Some(last)) => Stamps::clock_until(first, fps, last),
+        _ => Stamps::new(fps),
+    }
 }
 
-/// Output frames ([`output_stamps`]): the capture's own, or resampled at `fps` (poses slerped
-/// between the two neighbouring frames; the camera interpolated only within one clip, so cuts
-/// stay cuts).
-fn samples(capture: &Capture, fps: Option<f64>, limit: Option<usize>) -> Vec<Sample<'_>> {
-    let segment_at = |t: u64| {
-        capture.segments.iter().position(|s| {
-            let (a, b) = (
-                s.start.to_nanos().unwrap_or(0),
-                s.end.to_nanos().unwrap_or(0),
-            );
-            (a..b).contains(&t)
-        })
-    };
-    let frames = &capture.frames;
-    let max = limit.unwrap_or(usize::MAX);
-    let same_rate = fps.is_none_or(|f| (f - capture.fps).abs() < 1e-9);
-    if same_rate {
-        return frames
-            .iter()
-            .take(max)
-            .enumerate()
-            .map(|(frame, f)| Sample {
-                frame,
-                stamp_nanos: f.stamp_nanos,
-                scene: f.scene,
-                pose: Cow::Borrowed(&f.pose),
-                world_from_optical: f.world_from_optical,
-                segment: segment_at(f.stamp_nanos),
-            })
-            .collect();
-    }
-    let mut out = Vec::new();
-    let mut i = 0;
-    for t in output_stamps(capture, fps).take(max) {
-        while i + 1 < frames.len() && frames[i + 1].stamp_nanos <= t {
-            i += 1;
-        }
-        let a = &frames[i];
-        let b = frames.get(i + 1).unwrap_or(a);
-        let span = b.stamp_nanos.saturating_sub(a.stamp_nanos);
-        let alpha = if span == 0 {
-            0.0
-        } else {
-            (t - a.stamp_nanos) as f64 / span as f64
-        };
-        let blend = a.scene == b.scene;
-        let pose = if blend {
-            Cow::Owned(BonePose {
-                root_translation_m: a
-                    .pose
-                    .root_translation_m
-                    .lerp(&b.pose.root_translation_m, alpha),
-                local_rotations: a
-                    .pose
-                    .local_rotations
-                    .iter()
-                    .zip(&b.pose.local_rotations)
-                    .map(|(p, q)| p.slerp(q, alpha))
-                    .collect(),
-            })
-        } else {
-            Cow::Borrowed(&a.pose)
-        };
-        let segment = segment_at(t);
-        let camera = if blend && segment == segment_at(b.stamp_nanos) {
-            let ta = a.world_from_optical.translation.vector;
-            let tb = b.world_from_optical.translation.vector;
-            Isometry3::from_parts(
-                Translation3::from(ta.lerp(&tb, alpha)),
-                a.world_from_optical
-                    .rotation
-                    .slerp(&b.world_from_optical.rotation, alpha),
-            )
-        } else {
-            a.world_from_optical
-        };
-        out.push(Sample {
-            frame: out.len(),
-            stamp_nanos: t,
-            scene: a.scene,
-            pose,
-            world_from_optical: camera,
-            segment,
-        });
-    }
-    out
+/// Whether a render at `fps` draws the capture's own frames.
+fn same_rate(capture: &Capture, fps: Option<f64>) -> bool {
+    fps.is_none_or(|f| (f - capture.fps).abs() < 1e-9)
+}
+
+/// The first clip (`/segments`) whose span holds stamp `t`.
+fn segment_at(capture: &Capture, t: u64) -> Option<usize> {
+    capture.segments.iter().position(|s| {
+        let (a, b) = (
+            s.start.to_nanos().unwrap_or(0),
+            s.end.to_nanos().unwrap_or(0),
+        );
+        (a..b).contains(&t)
+    })
 }
 
 /// Output frames where a segment or its animation starts or ends (where `trim`'s `whole` clips
 /// start, with or without the leads): the first frame at or after each boundary.
-fn keyframes(capture: &Capture, samples: &[Sample<'_>], extra: &[u64]) -> Vec<u64> {
+fn keyframes(capture: &Capture, timeline: &Stamps, extra: &[u64]) -> Vec<u64> {
+    let len = timeline.len() as u64;
     let mut out = vec![0u64];
     for s in &capture.segments {
         let boundaries = [s.start, s.content_start, s.content_end, s.end];
         for t in boundaries.into_iter().filter_map(Time::to_nanos) {
-            let k = samples.partition_point(|f| f.stamp_nanos < t);
-            if k < samples.len() {
-                out.push(k as u64);
+            let k = timeline.count_before(t) as u64;
+            if k < len {
+                out.push(k);
             }
         }
     }
-    out.extend(extra.iter().filter(|&&k| k < samples.len() as u64));
+    out.extend(extra.iter().filter(|&&k| k < len));
     out.sort_unstable();
     out.dedup();
     out
@@ -371,11 +306,7 @@ pub fn render_capture(
     {
         // A preview alone renders only the sampled frames.
         if let Some(path) = &outputs.preview {
-            let picks: Vec<&Sample<'_>> = plan
-                .preview_picks
-                .iter()
-                .map(|&k| &plan.samples[k])
-                .collect();
+            let picks = plan.samples(rig, capture, &plan.preview_picks)?;
             let blender = scenes.blender(settings, &picks, Wanted::default(), progress, stop)?;
             summary.frames =
                 render_preview_only(&scenes, &picks, blender.as_ref(), path, settings)?;
@@ -387,8 +318,9 @@ pub fn render_capture(
         depth: outputs.depth_dir.is_some(),
         mask: outputs.mask_dir.is_some(),
     };
-    let all: Vec<&Sample<'_>> = plan.samples.iter().collect();
+    let all = plan.blender_samples(rig, capture, settings)?;
     let blender = scenes.blender(settings, &all, wanted, progress, stop)?;
+    drop(all);
     let renderer = blender
         .as_ref()
         .map_or_else(|| "autoact cpu".to_owned(), |b| b.description.clone());
@@ -431,17 +363,22 @@ fn check_resolution(settings: &RenderSettings) -> Result<(), RenderError> {
     Ok(())
 }
 
-/// The output frames and what is special about them.
-struct Plan<'a> {
-    /// Every output frame, in order.
-    samples: Vec<Sample<'a>>,
+/// The output frames and what is special about them: the frames drawn as ranges of the
+/// render's timeline, whose stamps are runs ([`Stamps`]); nothing is kept per frame.
+struct Plan {
+    /// The render's timeline: every output frame's stamp, drawn or not.
+    timeline: Stamps,
+    /// Whether the timeline is the capture's own frames (else it is resampled at `fps`).
+    same_rate: bool,
+    /// The timeline frames this plan draws, in order.
+    drawn: FrameRanges,
     /// Output frames where a clip starts or ends (they become keyframes).
     keyframes: Vec<u64>,
     /// Output frames shown on the contact sheet.
     preview_picks: Vec<usize>,
     /// The output frame rate.
     fps: f64,
-    /// The index in the render's video of `samples[0]`: 0, or where a piece starts
+    /// The index in the render's video of this plan's frame 0: 0, or where a piece starts
     /// ([`pieces`]).
     first: usize,
     /// The image effects to apply in output order.
@@ -453,34 +390,63 @@ struct Plan<'a> {
     timeline_of_some: Option<u64>,
 }
 
-impl<'a> Plan<'a> {
+impl Plan {
     /// The frames `settings` ask of `capture`.
-    fn new(capture: &'a Capture, settings: &RenderSettings) -> Result<Plan<'a>, RenderError> {
-        let samples = samples(capture, settings.fps, settings.limit);
-        if samples.is_empty() {
+    fn new(capture: &Capture, settings: &RenderSettings) -> Result<Plan, RenderError> {
+        let mut timeline = output_timeline(capture, settings.fps);
+        if let Some(limit) = settings.limit {
+            timeline.truncate(limit);
+        }
+        let Some(frame0_nanos) = timeline.first() else {
             return Err(RenderError::NoFrames {
                 limit: settings.limit,
             });
-        }
+        };
         let mut plan = Plan {
-            keyframes: keyframes(capture, &samples, &settings.extra_keyframes),
-            preview_picks: preview_frames(capture, &samples),
+            keyframes: keyframes(capture, &timeline, &settings.extra_keyframes),
+            preview_picks: preview_frames(capture, &timeline),
+            same_rate: same_rate(capture, settings.fps),
+            drawn: FrameRanges::all(timeline.len() as u64),
+            timeline,
             fps: settings.fps.unwrap_or(capture.fps),
-            frame0_nanos: samples[0].stamp_nanos,
-            samples,
+            frame0_nanos,
             first: 0,
             randomise: settings.randomise.clone(),
             timeline_of_some: None,
         };
         if let Some(only) = &settings.only_frames {
             plan.keep_only(only);
-            if plan.samples.is_empty() {
+            if plan.drawn.is_empty() {
                 return Err(RenderError::NoFrames {
                     limit: settings.limit,
                 });
             }
         }
         Ok(plan)
+    }
+
+    /// How many frames this plan draws.
+    fn len(&self) -> usize {
+        usize::try_from(self.drawn.len()).unwrap_or(usize::MAX)
+    }
+
+    /// The timeline frame this plan draws as its `k`-th.
+    fn frame(&self, k: usize) -> usize {
+        self.drawn
+            .nth(k as u64)
+            .and_then(|f| usize::try_from(f).ok())
+            .unwrap_or(usize::MAX)
+    }
+
+    /// The stamp of this plan's `k`-th frame.
+    fn stamp(&self, k: usize) -> u64 {
+        self.timeline.get(self.frame(k)).unwrap_or(u64::MAX)
+    }
+
+    /// How many of this plan's frames come before stamp `t`.
+    fn count_before(&self, t: u64) -> usize {
+        let frames = self.drawn.rank(self.timeline.count_before(t) as u64);
+        usize::try_from(frames).unwrap_or(usize::MAX)
     }
 
     /// Keeps only the timeline frames in `only` (sorted, disjoint ranges). The keyframes are the
@@ -491,53 +457,47 @@ impl<'a> Plan<'a> {
     /// keyframe, draw every kept frame as that render does. A contact sheet's pick not kept moves
     /// to the next kept frame.
     fn keep_only(&mut self, only: &[std::ops::Range<u64>]) {
-        let timeline = self.samples.len() as u64;
-        let kept = |k: u64| {
-            let i = only.partition_point(|r| r.end <= k);
-            only.get(i).is_some_and(|r| r.contains(&k))
-        };
-        let samples: Vec<Sample<'a>> = std::mem::take(&mut self.samples)
-            .into_iter()
-            .filter(|s| kept(s.frame as u64))
-            .collect();
-        let at = |frame: usize| samples.partition_point(|s| s.frame < frame);
+        let timeline = self.timeline.len() as u64;
+        let drawn = FrameRanges::new(
+            only.iter()
+                .map(|r| r.start.min(timeline)..r.end.min(timeline)),
+        );
         let mut keyframes: Vec<u64> = self
             .keyframes
             .iter()
-            .filter(|&&k| kept(k))
-            .map(|&k| at(usize::try_from(k).unwrap_or(usize::MAX)) as u64)
+            .filter(|&&k| drawn.contains(k))
+            .map(|&k| drawn.rank(k))
+            .chain(drawn.range_starts())
             .collect();
-        keyframes.extend((0..samples.len()).filter_map(|j| {
-            let after_gap = j == 0 || samples[j - 1].frame + 1 != samples[j].frame;
-            after_gap.then_some(j as u64)
-        }));
         keyframes.sort_unstable();
         keyframes.dedup();
         self.keyframes = keyframes;
-        let last = samples.len().saturating_sub(1);
+        let last = drawn.len().saturating_sub(1);
         let mut picks: Vec<usize> = self
             .preview_picks
             .iter()
-            .map(|&k| at(k).min(last))
+            .map(|&k| usize::try_from(drawn.rank(k as u64).min(last)).unwrap_or(usize::MAX))
             .collect();
         picks.dedup();
         self.preview_picks = picks;
-        self.samples = samples;
+        self.drawn = drawn;
         self.timeline_of_some = Some(timeline);
     }
 
     /// Frames of the render's timeline, drawn or not (of a whole render's plan, not a piece's).
     fn timeline_frames(&self) -> u64 {
         self.timeline_of_some
-            .unwrap_or_else(|| (self.first + self.samples.len()) as u64)
+            .unwrap_or_else(|| (self.first + self.len()) as u64)
     }
 
     /// Frames `range` of this plan as a plan of their own (keyframes and preview picks counted
     /// from the range's start, [`Plan::first`] its start).
-    fn piece(&self, range: std::ops::Range<usize>) -> Plan<'a> {
+    fn piece(&self, range: std::ops::Range<usize>) -> Plan {
         let within = |k: u64| (range.start as u64..range.end as u64).contains(&k);
         Plan {
-            samples: self.samples[range.clone()].to_vec(),
+            timeline: self.timeline.clone(),
+            same_rate: self.same_rate,
+            drawn: self.drawn.slice(range.start as u64..range.end as u64),
             keyframes: self
                 .keyframes
                 .iter()
@@ -556,6 +516,163 @@ impl<'a> Plan<'a> {
             frame0_nanos: self.frame0_nanos,
             timeline_of_some: self.timeline_of_some,
         }
+    }
+
+    /// The capture frame timeline frame `frame` shows (at or before its stamp; with the next one,
+    /// the two a resampled frame blends).
+    fn capture_frame(&self, capture: &Capture, frame: usize) -> usize {
+        if self.same_rate {
+            return frame;
+        }
+        let t = self.timeline.get(frame).unwrap_or(u64::MAX);
+        capture
+            .stamps
+            .count_before(t.saturating_add(1))
+            .saturating_sub(1)
+    }
+
+    /// The scene this plan's `k`-th frame is drawn in.
+    fn scene(&self, capture: &Capture, k: usize) -> usize {
+        let i = self.capture_frame(capture, self.frame(k));
+        capture.scene_at(capture.stamps.get(i).unwrap_or(0))
+    }
+
+    /// The samples of this plan's frames `ks` (ascending), their poses and cameras read from the
+    /// capture a stretch of neighbouring frames at a time.
+    fn samples(
+        &self,
+        rig: &Rig,
+        capture: &Capture,
+        ks: &[usize],
+    ) -> Result<Vec<Sample>, TimelineError> {
+        let frames = capture.frame_count();
+        // The capture frames timeline frame `f` needs.
+        let span = |f: usize| {
+            let i = self.capture_frame(capture, f);
+            i..(i + if self.same_rate { 1 } else { 2 }).min(frames)
+        };
+        let mut out = Vec::with_capacity(ks.len());
+        let mut group: Vec<usize> = Vec::new();
+        let mut read = 0..0;
+        for f in ks.iter().map(|&k| self.frame(k)) {
+            let need = span(f);
+            let near = (read.start..=read.end + SAMPLE_BLOCK / 2).contains(&need.start)
+                && need.end.max(read.end) - read.start <= 2 * SAMPLE_BLOCK;
+            if group.is_empty() || !near {
+                self.sample_group(rig, capture, &group, read.clone(), &mut out)?;
+                group.clear();
+                read = need.clone();
+            }
+            read.end = read.end.max(need.end);
+            group.push(f);
+        }
+        self.sample_group(rig, capture, &group, read, &mut out)?;
+        Ok(out)
+    }
+
+    /// The samples of timeline frames `group`, whose capture frames are all in `read`.
+    fn sample_group(
+        &self,
+        rig: &Rig,
+        capture: &Capture,
+        group: &[usize],
+        read: std::ops::Range<usize>,
+        out: &mut Vec<Sample>,
+    ) -> Result<(), TimelineError> {
+        if group.is_empty() {
+            return Ok(());
+        }
+        let frames = capture.frames(rig, read.clone())?;
+        for &f in group {
+            let i = self.capture_frame(capture, f) - read.start;
+            let (Some(a), Some(t)) = (frames.get(i), self.timeline.get(f)) else {
+                continue;
+            };
+            out.push(self.sample(capture, f, t, a, frames.get(i + 1).unwrap_or(a)));
+        }
+        Ok(())
+    }
+
+    /// Timeline frame `f` at stamp `t`: capture frame `a` as it is (at the capture's own rate),
+    /// else resampled between `a` and the next frame `b` (poses slerped within a scene; the
+    /// camera interpolated only within one clip, so cuts stay cuts).
+    fn sample(
+        &self,
+        capture: &Capture,
+        f: usize,
+        t: u64,
+        a: &CaptureFrame,
+        b: &CaptureFrame,
+    ) -> Sample {
+        let segment = segment_at(capture, t);
+        let spot = Spot {
+            frame: f,
+            stamp_nanos: t,
+            scene: a.scene,
+            segment,
+        };
+        if self.same_rate {
+            return Sample {
+                spot,
+                pose: a.pose.clone(),
+                world_from_optical: a.world_from_optical,
+            };
+        }
+        let span = b.stamp_nanos.saturating_sub(a.stamp_nanos);
+        let alpha = if span == 0 {
+            0.0
+        } else {
+            (t - a.stamp_nanos) as f64 / span as f64
+        };
+        let blend = a.scene == b.scene;
+        let pose = if blend {
+            BonePose {
+                root_translation_m: a
+                    .pose
+                    .root_translation_m
+                    .lerp(&b.pose.root_translation_m, alpha),
+                local_rotations: a
+                    .pose
+                    .local_rotations
+                    .iter()
+                    .zip(&b.pose.local_rotations)
+                    .map(|(p, q)| p.slerp(q, alpha))
+                    .collect(),
+            }
+        } else {
+            a.pose.clone()
+        };
+        let camera = if blend && segment == segment_at(capture, b.stamp_nanos) {
+            let ta = a.world_from_optical.translation.vector;
+            let tb = b.world_from_optical.translation.vector;
+            Isometry3::from_parts(
+                Translation3::from(ta.lerp(&tb, alpha)),
+                a.world_from_optical
+                    .rotation
+                    .slerp(&b.world_from_optical.rotation, alpha),
+            )
+        } else {
+            a.world_from_optical
+        };
+        Sample {
+            spot,
+            pose,
+            world_from_optical: camera,
+        }
+    }
+
+    /// Every sample, when the Blender engine draws them (it is handed them all at once);
+    /// nothing for the embedded engine, which reads them a block at a time.
+    fn blender_samples(
+        &self,
+        rig: &Rig,
+        capture: &Capture,
+        settings: &RenderSettings,
+    ) -> Result<Vec<Sample>, TimelineError> {
+        if !matches!(settings.engine, Engine::Blender(_)) {
+            return Ok(Vec::new());
+        }
+        self.samples(rig, capture, &(0..self.len()).collect::<Vec<_>>())
     }
 }
 
@@ -622,15 +739,15 @@ impl<'a> Scenes<'a> {
     }
 
     /// Sample `s`'s posed skeleton, camera and seconds since its scene started.
-    fn frame_of(&self, s: &Sample<'_>) -> (WorldPose, Camera, f64) {
-        let posed = forward(self.rig, &self.characters[s.scene], &s.pose, 1.0);
+    fn frame_of(&self, s: &Sample) -> (WorldPose, Camera, f64) {
+        let posed = forward(self.rig, &self.characters[s.spot.scene], &s.pose, 1.0);
         let camera = Camera {
             world_from_optical: s.world_from_optical,
             intrinsics: self.intrinsics,
         };
-        let scene_start = self.capture.scenes[s.scene].start_nanos;
+        let scene_start = self.capture.scenes[s.spot.scene].start_nanos;
         let time_s =
-            crate::skeleton::pose::nanos_to_secs(s.stamp_nanos.saturating_sub(scene_start));
+            crate::skeleton::pose::nanos_to_secs(s.spot.stamp_nanos.saturating_sub(scene_start));
         (posed, camera, time_s)
     }
 
@@ -639,7 +756,7 @@ impl<'a> Scenes<'a> {
     fn blender(
         &self,
         settings: &RenderSettings,
-        picks: &[&Sample<'_>],
+        picks: &[Sample],
         wanted: Wanted,
         progress: &(dyn Fn(u64) + Sync),
         stop: &AtomicBool,
@@ -655,14 +772,14 @@ impl<'a> Scenes<'a> {
             wanted,
         };
         let frame = |k: usize| {
-            let s = picks[k];
+            let s = &picks[k];
             let (posed, camera, time_s) = self.frame_of(s);
-            let stage = &self.stages[s.scene];
+            let stage = &self.stages[s.spot.scene];
             let skinning = crate::scene::body_mesh::Skinning::new(&stage.rest_pose, &posed);
             let (mut body_m, mut normals) = (Vec::new(), Vec::new());
             stage.body.skin_into(&skinning, &mut body_m, &mut normals);
             BlenderFrame {
-                scene: s.scene,
+                scene: s.spot.scene,
                 time_s,
                 camera,
                 body_m,
@@ -676,15 +793,15 @@ impl<'a> Scenes<'a> {
     }
 
     /// Renders sample `s` into `image` and returns its labels.
-    fn render(&self, renderer: &mut CpuRenderer, image: &mut Image, s: &Sample<'_>) -> Annotation {
+    fn render(&self, renderer: &mut CpuRenderer, image: &mut Image, s: &Sample) -> Annotation {
         let (posed, camera, time_s) = self.frame_of(s);
         let input = FrameInput {
             camera,
             pose: &posed,
             time_s,
         };
-        renderer.render(&self.stages[s.scene], &input, image);
-        let character = &self.characters[s.scene];
+        renderer.render(&self.stages[s.spot.scene], &input, image);
+        let character = &self.characters[s.spot.scene];
         let landmarks: Vec<_> = (0..self.rig.landmarks.len())
             .map(|l| landmark_position(self.rig, character, &posed, l))
             .collect();
@@ -695,8 +812,8 @@ impl<'a> Scenes<'a> {
     /// depth and surfaces) and its labels, in order.
     fn render_each<T: Send>(
         &self,
-        picks: &[&Sample<'_>],
-        keep: impl Fn(&Image, Annotation, &Sample<'_>) -> T + Sync,
+        picks: &[Sample],
+        keep: impl Fn(&Image, Annotation, &Sample) -> T + Sync,
     ) -> Vec<T> {
         let pool = || {
             self.renderers
@@ -722,13 +839,16 @@ impl<'a> Scenes<'a> {
 /// frames were rendered.
 fn render_preview_only(
     scenes: &Scenes<'_>,
-    picks: &[&Sample<'_>],
+    picks: &[Sample],
     blender: Option<&BlenderFrames>,
     path: &Path,
     settings: &RenderSettings,
 ) -> Result<u64, RenderError> {
     let mut tiles = scenes.render_each(picks, |image, _, s| {
-        (image.rgb.clone(), preview_label(scenes.capture, s))
+        (
+            image.rgb.clone(),
+            preview_label(scenes.capture, s.spot.scene),
+        )
     });
     if let Some(b) = blender {
         for (k, tile) in tiles.iter_mut().enumerate() {
@@ -757,7 +877,7 @@ struct FrameSinks<'a> {
 impl<'a> FrameSinks<'a> {
     /// Creates the frames folder and starts the encoder, as `outputs` ask.
     fn open(
-        plan: &Plan<'_>,
+        plan: &Plan,
         outputs: &'a Outputs,
         settings: &RenderSettings,
         ffmpeg: Option<&Ffmpeg>,
@@ -797,34 +917,33 @@ impl<'a> FrameSinks<'a> {
         &mut self,
         k: usize,
         frame: RenderedImage,
-        plan: &Plan<'_>,
+        plan: &Plan,
         capture: &Capture,
     ) -> Result<(), RenderError> {
         let RenderedImage {
             rgb,
             passes,
             annotation,
+            spot,
         } = frame;
         if let Some(enc) = self.encoder.as_mut() {
             enc.write_frame(&rgb)?;
         }
         // `k` counts this plan's frames; files and labels are numbered by the render's timeline
         // (as a render of every frame numbers them, whatever frames are drawn).
-        let frame = plan.samples[k].frame;
+        let frame = spot.frame;
         self.passes.write(frame, self.width, self.height, &passes)?;
         if let Some(dir) = self.frames_dir {
             let path = crate::bags::render::frame_file(dir, frame as u64);
             crate::video::write_png(&path, self.width, self.height, &rgb)?;
         }
         if plan.preview_picks.contains(&k) {
-            let label = preview_label(capture, &plan.samples[k]);
+            let label = preview_label(capture, spot.scene);
             self.preview_tiles.push((rgb, label));
         }
         if let Some(labels) = self.labels.as_mut() {
-            let message = labels.message(frame, &plan.samples[k], &annotation, capture);
-            labels
-                .writer
-                .annotation(plan.samples[k].stamp_nanos, &message)?;
+            let message = labels.message(&spot, &annotation, capture);
+            labels.writer.annotation(spot.stamp_nanos, &message)?;
         }
         self.taken += 1;
         Ok(())
@@ -835,7 +954,7 @@ impl<'a> FrameSinks<'a> {
 fn start_encoder(
     ffmpeg: &Ffmpeg,
     path: &Path,
-    plan: &Plan<'_>,
+    plan: &Plan,
     settings: &RenderSettings,
 ) -> Result<VideoEncoder, RenderError> {
     let mut enc = EncodeSettings::new(settings.width, settings.height, plan.fps)
@@ -853,13 +972,14 @@ struct RenderedImage {
     rgb: Vec<u8>,
     passes: FramePasses,
     annotation: Annotation,
+    spot: Spot,
 }
 
 /// Draws every frame of `plan` into `sinks` ([`render_in_order`]), then commits the passes and
 /// finishes the video; on failure the encoder is stopped and nothing is committed.
 fn draw_all(
     scenes: &Scenes<'_>,
-    plan: &Plan<'_>,
+    plan: &Plan,
     sinks: &mut FrameSinks<'_>,
     blender: Option<&BlenderFrames>,
     progress: &(dyn Fn(u64) + Sync),
@@ -884,41 +1004,36 @@ fn draw_all(
 /// than planned came through.
 fn render_in_order(
     scenes: &Scenes<'_>,
-    plan: &Plan<'_>,
+    plan: &Plan,
     sinks: &mut FrameSinks<'_>,
     blender: Option<&BlenderFrames>,
     progress: &(dyn Fn(u64) + Sync),
     drawing: &(dyn Fn(u64, u64) + Sync),
     stop: &AtomicBool,
 ) -> Result<(), RenderError> {
-    let batch = 4 * rayon::current_num_threads().max(1);
     let wanted = sinks.passes.wanted();
-    let (sender, receiver) = std::sync::mpsc::sync_channel::<Vec<RenderedImage>>(2);
+    let (sender, receiver) =
+        std::sync::mpsc::sync_channel::<Result<Vec<RenderedImage>, RenderError>>(2);
     std::thread::scope(|scope| {
         let producer = scope.spawn(|| {
             // Owned here, so the channel closes when rendering ends.
             let sender = sender;
-            for (i, chunk) in plan.samples.chunks(batch).enumerate() {
-                if stop.load(Ordering::Relaxed) {
-                    break;
-                }
-                let chunk: Vec<&Sample<'_>> = chunk.iter().collect();
-                drawing((plan.first + i * batch) as u64, chunk.len() as u64);
-                let frames = scenes.render_each(&chunk, |image, annotation, _| RenderedImage {
+            let draw = |first: usize, chunk: &[Sample]| {
+                drawing((plan.first + first) as u64, chunk.len() as u64);
+                scenes.render_each(chunk, |image, annotation, s| RenderedImage {
                     rgb: image.rgb.clone(),
                     passes: FramePasses::of(image, wanted),
                     annotation,
-                });
-                if sender.send(frames).is_err() {
-                    break;
-                }
-            }
+                    spot: s.spot,
+                })
+            };
+            produce(scenes, plan, stop, &draw, &sender);
         });
         let mut consume = || -> Result<(), RenderError> {
             let mut k = 0usize;
             let mut effects = super::randomise::ImageEffects::new(&plan.randomise);
             for frames in &receiver {
-                for frame in frames {
+                for frame in frames? {
                     if stop.load(Ordering::Relaxed) {
                         return Err(RenderError::Interrupted);
                     }
@@ -935,11 +1050,11 @@ fn render_in_order(
                         None => frame,
                     };
                     let cut = plan.keyframes.binary_search(&(k as u64)).is_ok();
-                    let seed = scenes.stages[plan.samples[k].scene].seed;
+                    let seed = scenes.stages[frame.spot.scene].seed;
                     // The frame's index on the render's timeline, not the piece's or the
                     // video's: a render made in pieces, or of only some frames, draws the same
                     // noise as one made whole.
-                    let frame_index = plan.samples[k].frame as u64;
+                    let frame_index = frame.spot.frame as u64;
                     effects.apply(frame_index, seed, cut, &mut frame.rgb);
                     sinks.take(k, frame, plan, scenes.capture)?;
                     k += 1;
@@ -954,10 +1069,43 @@ fn render_in_order(
         let _ = producer.join();
         outcome
     })?;
-    if stop.load(Ordering::Relaxed) || sinks.taken < plan.samples.len() {
+    if stop.load(Ordering::Relaxed) || sinks.taken < plan.len() {
         return Err(RenderError::Interrupted);
     }
     Ok(())
+}
+
+/// The producer of [`render_in_order`]: reads the plan's samples a block at a time and sends
+/// them, drawn by `draw` a batch at a time, until done, stopped or no longer received; a read
+/// that fails is sent as the error.
+fn produce(
+    scenes: &Scenes<'_>,
+    plan: &Plan,
+    stop: &AtomicBool,
+    draw: &(dyn Fn(usize, &[Sample]) -> Vec<RenderedImage> + Sync),
+    sender: &std::sync::mpsc::SyncSender<Result<Vec<RenderedImage>, RenderError>>,
+) {
+    let batch = 4 * rayon::current_num_threads().max(1);
+    // Whole batches, so that they are the same as without blocks.
+    let block_len = SAMPLE_BLOCK.div_ceil(batch) * batch;
+    for block in (0..plan.len()).step_by(block_len) {
+        let ks: Vec<usize> = (block..(block + block_len).min(plan.len())).collect();
+        let samples = match plan.samples(scenes.rig, scenes.capture, &ks) {
+            Ok(samples) => samples,
+            Err(e) => {
+                let _ = sender.send(Err(e.into()));
+                return;
+            }
+        };
+        for (i, chunk) in samples.chunks(batch).enumerate() {
+            if stop.load(Ordering::Relaxed) {
+                return;
+            }
+            if sender.send(Ok(draw(block + i * batch, chunk))).is_err() {
+                return;
+            }
+        }
+    }
 }
 
 /// The encoded video's access units, one per frame, when `settings` embed the video into the
@@ -986,18 +1134,19 @@ fn embedded_units(
 }
 
 /// Frames for the contact sheet: the middle of each clip's animation, at most 12, evenly chosen.
-fn preview_frames(capture: &Capture, samples: &[Sample<'_>]) -> Vec<usize> {
+fn preview_frames(capture: &Capture, timeline: &Stamps) -> Vec<usize> {
+    let len = timeline.len();
     let mut mids: Vec<usize> = capture
         .segments
         .iter()
         .filter_map(|s| {
             let (a, b) = (s.content_start.to_nanos()?, s.content_end.to_nanos()?);
-            let k = samples.partition_point(|f| f.stamp_nanos < a / 2 + b / 2);
-            (k < samples.len()).then_some(k)
+            let k = timeline.count_before(a / 2 + b / 2);
+            (k < len).then_some(k)
         })
         .collect();
     if mids.is_empty() {
-        mids = (0..12).map(|i| i * samples.len() / 12).collect();
+        mids = (0..12).map(|i| i * len / 12).collect();
     }
     let n = mids.len();
     let mut picks: Vec<usize> = (0..n.min(12)).map(|i| mids[i * n / n.min(12)]).collect();
@@ -1005,8 +1154,8 @@ fn preview_frames(capture: &Capture, samples: &[Sample<'_>]) -> Vec<usize> {
     picks
 }
 
-fn preview_label(capture: &Capture, s: &Sample<'_>) -> String {
-    let scene = &capture.scenes[s.scene].scene;
+fn preview_label(capture: &Capture, scene: usize) -> String {
+    let scene = &capture.scenes[scene].scene;
     format!(
         "{} {} {}",
         scene.weather.name(),
@@ -1056,18 +1205,19 @@ impl LabelSink {
         video: Option<&EncodedVideo>,
         ffmpeg: Option<&Ffmpeg>,
         settings: &RenderSettings,
-        plan: &Plan<'_>,
+        plan: &Plan,
     ) -> Result<(), RenderError> {
-        let units = embedded_units(video, ffmpeg, settings, plan.samples.len())?;
+        let units = embedded_units(video, ffmpeg, settings, plan.len())?;
         let embed = settings.embed_video.unwrap_or_default();
-        for (sample, unit) in plan.samples.iter().zip(units.iter().flatten()) {
+        for (k, unit) in units.iter().flatten().enumerate() {
+            let stamp = plan.stamp(k);
             let message = CompressedVideo {
-                timestamp: Time::from_nanos(sample.stamp_nanos),
+                timestamp: Time::from_nanos(stamp),
                 frame_id: CAMERA_FRAME.to_owned(),
                 data: unit.data.clone(),
                 format: "h264".into(),
             };
-            self.writer.video(sample.stamp_nanos, &message, embed)?;
+            self.writer.video(stamp, &message, embed)?;
         }
         self.writer.finish()?;
         Ok(())
@@ -1079,7 +1229,7 @@ impl LabelSink {
         video: &Path,
         capture: &Capture,
         settings: &RenderSettings,
-        plan: &Plan<'_>,
+        plan: &Plan,
         rig: &Rig,
         renderer: &str,
     ) -> Result<LabelSink, RenderError> {
@@ -1104,7 +1254,7 @@ impl LabelSink {
             container: "mp4".into(),
             codec: "h264".into(),
             fps: plan.fps,
-            frame_count: plan.samples.len() as u64,
+            frame_count: plan.len() as u64,
             width: settings.width,
             height: settings.height,
             forced_keyframes: plan.keyframes.clone(),
@@ -1117,21 +1267,16 @@ impl LabelSink {
         })
     }
 
-    /// Output frame `k`'s labels as a render-bag message.
-    fn message(
-        &self,
-        k: usize,
-        sample: &Sample<'_>,
-        a: &Annotation,
-        capture: &Capture,
-    ) -> FrameAnnotation {
+    /// The labels of the output frame at `spot` as a render-bag message (numbered by the
+    /// render's timeline).
+    fn message(&self, spot: &Spot, a: &Annotation, capture: &Capture) -> FrameAnnotation {
         FrameAnnotation {
             header: Header {
-                stamp: Time::from_nanos(sample.stamp_nanos),
+                stamp: Time::from_nanos(spot.stamp_nanos),
                 frame_id: CAMERA_FRAME.to_owned(),
             },
-            frame_index: k as u64,
-            segment_id: sample
+            frame_index: spot.frame as u64,
+            segment_id: spot
                 .segment
                 .map(|i| capture.segments[i].id.clone())
                 .unwrap_or_default(),

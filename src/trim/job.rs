@@ -279,7 +279,7 @@ fn place_video(
         if !start_s.is_finite() {
             return Err(TrimJobError::VideoStart(start_s));
         }
-        let first = capture.frames.first().map_or(0, |f| f.stamp_nanos);
+        let first = capture.stamps.first().unwrap_or(0);
         #[expect(
             clippy::cast_possible_truncation,
             reason = "seconds of video fit in i128 ns"

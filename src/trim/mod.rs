@@ -166,6 +166,9 @@ pub enum TrimError {
         /// The capture bag (file name) of this run.
         bag: String,
     },
+    /// The capture's poses could not be read again (to find a clip policy's instances).
+    #[error(transparent)]
+    CaptureFrames(Box<crate::bags::capture::TimelineError>),
     /// A clip has no split (the split assignment missed it).
     #[error("clip `{clip_id}` was given no split")]
     NoSplit {

@@ -12,7 +12,7 @@ use std::ops::Range;
 use nalgebra::{Matrix3, Vector3};
 
 use super::plan::VideoTiming;
-use crate::bags::capture::Capture;
+use crate::bags::capture::{Capture, TimelineError};
 
 use crate::skeleton::character::Character;
 use crate::skeleton::fk::{BonePose, WorldPose, forward_into};
@@ -109,35 +109,37 @@ impl SpeedMeter {
 }
 
 /// The body-frame joint speeds of the video frames `frames` (one a frame), from the poses of
-/// `capture` each shows (the capture frame nearest its instant), each on its scene's drawn body.
-/// Only the speeds are kept, not the poses: 8 bytes a frame.
-#[must_use]
+/// `capture` each shows (the capture frame nearest its instant, read from the bag for these
+/// frames alone), each on its scene's drawn body. Only the speeds are kept: 8 bytes a frame.
+///
+/// # Errors
+/// [`TimelineError`] when the capture's frames cannot be read again.
 pub fn video_frame_speeds(
     rig: &Rig,
     capture: &Capture,
     timing: &VideoTiming,
     frames: Range<u64>,
-) -> Vec<f64> {
+) -> Result<Vec<f64>, TimelineError> {
     let fps = timing.fps.as_f64();
-    let mut meter = SpeedMeter::new(rig);
-    let mut bodies: BTreeMap<usize, Character> = BTreeMap::new();
-    let mut out = Vec::with_capacity(usize::try_from(frames.end - frames.start).unwrap_or(0));
-    for k in frames {
+    let stamps = &capture.stamps;
+    let nearest = |k: u64| {
         let stamp = timing.frame0_nanos + i128::from(timing.fps.frame_time_nanos(k));
         let stamp = u64::try_from(stamp.max(0)).unwrap_or(u64::MAX);
-        let at = capture.frames.partition_point(|f| f.stamp_nanos < stamp);
-        let nearest = [
-            at.saturating_sub(1),
-            at.min(capture.frames.len().saturating_sub(1)),
-        ]
-        .into_iter()
-        .min_by_key(|&i| {
-            capture
-                .frames
-                .get(i)
-                .map_or(u64::MAX, |f| f.stamp_nanos.abs_diff(stamp))
-        });
-        let Some(frame) = nearest.and_then(|i| capture.frames.get(i)) else {
+        let at = stamps.count_before(stamp);
+        [at.saturating_sub(1), at.min(stamps.len().saturating_sub(1))]
+            .into_iter()
+            .min_by_key(|&i| stamps.get(i).map_or(u64::MAX, |t| t.abs_diff(stamp)))
+            .filter(|&i| i < stamps.len())
+    };
+    let picks: Vec<Option<usize>> = frames.map(nearest).collect();
+    let first = picks.iter().flatten().min().copied().unwrap_or(0);
+    let end = picks.iter().flatten().max().map_or(0, |&i| i + 1);
+    let read = capture.frames(rig, first..end)?;
+    let mut meter = SpeedMeter::new(rig);
+    let mut bodies: BTreeMap<usize, Character> = BTreeMap::new();
+    let mut out = Vec::with_capacity(picks.len());
+    for pick in picks {
+        let Some(frame) = pick.and_then(|i| read.get(i - first)) else {
             out.push(0.0);
             continue;
         };
@@ -160,7 +162,7 @@ pub fn video_frame_speeds(
             *v = 0.0;
         }
     }
-    out
+    Ok(out)
 }
 
 /// How instances are told from rests in a speed series.

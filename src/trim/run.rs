@@ -375,7 +375,9 @@ fn clip_ranges(
             })?;
         let policy = policies.of(label)?;
         let speeds = (policy.policy == ClipMode::Instances)
-            .then(|| video_frame_speeds(&rig, capture, timing, range.action.clone()));
+            .then(|| video_frame_speeds(&rig, capture, timing, range.action.clone()))
+            .transpose()
+            .map_err(|e| TrimError::CaptureFrames(Box::new(e)))?;
         let clips = clips_of(range, &policy, speeds.as_deref());
         if clips.is_empty() {
             tracing::warn!(

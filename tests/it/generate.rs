@@ -346,11 +346,28 @@ fn three_shards_merged_equal_one_run_byte_for_byte() {
         "{}",
         stderr(&o)
     );
+    // Parts made with and without --keep-intermediates are not merged: the setting is named.
+    let other = dir.path().join("other1");
+    let o = generate(spec, &other, &["--shard", "1/3"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = autoact(&[
+        "merge",
+        arg(&parts[0]),
+        arg(&other),
+        arg(&parts[2]),
+        "-o",
+        arg(&dir.path().join("m3")),
+    ]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("keep_intermediates"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 #[test]
 fn a_run_killed_at_many_points_then_rerun_equals_an_uninterrupted_one() {
-    let (Some((_keep, spec, single)), Some((_dir, skipped, _))) = (reference(), skipping()) else {
+    let (Some((_keep, spec, _)), Some((_dir, skipped, _))) = (reference(), skipping()) else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
@@ -380,8 +397,9 @@ fn a_run_killed_at_many_points_then_rerun_equals_an_uninterrupted_one() {
     runs.push(drawn_since(&log, &mut from));
     assert_no_frame_redrawn_beyond_the_interrupted_segment(&runs, killed, &out, "--abort-after");
     assert_same_tree(&skipped.join("dataset"), &out.join("dataset"));
+    // The same as the uninterrupted run with the same settings (keep_intermediates included).
     for file in ["plan.json", "generate.json"] {
-        let (a, b) = (single.join(file), out.join(file));
+        let (a, b) = (skipped.join(file), out.join(file));
         assert_eq!(
             std::fs::read(a).unwrap(),
             std::fs::read(b).unwrap(),
@@ -415,6 +433,14 @@ fn a_run_killed_at_many_points_then_rerun_equals_an_uninterrupted_one() {
     ]);
     assert!(!o.status.success(), "{}", stdout(&o));
     assert!(stderr(&o).contains("resolution"), "{}", stderr(&o));
+    // So is the other `--keep-intermediates` (its renders draw other frames), by its name.
+    let o = generate(spec, &out, &["--keep-intermediates"]);
+    assert!(!o.status.success(), "{}", stdout(&o));
+    assert!(
+        stderr(&o).contains("keep_intermediates was false, now true"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 /// A real `kill -9` (SIGKILL: no handler, no clean-up, its ffmpeg orphaned) at seeded random
@@ -427,7 +453,7 @@ fn a_run_killed_at_many_points_then_rerun_equals_an_uninterrupted_one() {
 fn runs_killed_with_sigkill_at_random_moments_then_rerun_equal_an_uninterrupted_one() {
     use std::process::{Command, Stdio};
     use std::time::{Duration, Instant};
-    let (Some((_keep, spec, single)), Some((_dir, skipped, _))) = (reference(), skipping()) else {
+    let (Some((_keep, spec, _)), Some((_dir, skipped, _))) = (reference(), skipping()) else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
@@ -497,7 +523,7 @@ fn runs_killed_with_sigkill_at_random_moments_then_rerun_equal_an_uninterrupted_
         assert_same_tree(&skipped.join("dataset"), &out.join("dataset"));
         for file in ["plan.json", "generate.json"] {
             assert_eq!(
-                std::fs::read(single.join(file)).unwrap(),
+                std::fs::read(skipped.join(file)).unwrap(),
                 std::fs::read(out.join(file)).unwrap(),
                 "seed {seed}: {file}"
             );

@@ -469,10 +469,7 @@ fn frames_of(
 ) -> Vec<(String, u64, u64)> {
     let index = |t: Time| {
         let ns = t.to_nanos().unwrap();
-        capture
-            .frames
-            .binary_search_by_key(&ns, |f| f.stamp_nanos)
-            .map_or_else(|i| i as u64, |i| i as u64)
+        capture.stamps.count_before(ns) as u64
     };
     capture
         .segments
@@ -502,7 +499,7 @@ impl Setup {
     /// every boundary (what `autoact render` makes).
     fn coded_capture_video(&self, ffmpeg: &Ffmpeg) -> PathBuf {
         let video = self.dir.path().join("capture.mp4");
-        let frames = self.capture.frames.len() as u64;
+        let frames = self.capture.frame_count() as u64;
         coded_video(ffmpeg, &video, frames, &self.capture.boundary_frames());
         video
     }
@@ -670,7 +667,7 @@ fn trim_reencodes_a_foreign_video_placed_with_video_start() {
     let s = setup("wave");
     // A "screen recording" that starts 10 frames into the timeline, keyframes every 2 s only.
     let video = s.dir.path().join("recording.mp4");
-    let n = s.capture.frames.len() as u64;
+    let n = s.capture.frame_count() as u64;
     let settings = EncodeSettings::new(W, H, 30.0);
     let mut enc = VideoEncoder::start(&ffmpeg, &video, &settings).unwrap();
     for k in 10..n {
@@ -836,7 +833,7 @@ fn trim_gives_each_clip_its_own_depth_and_mask_frames() {
     };
     let s = setup("wave");
     let video = s.coded_capture_video(&ffmpeg);
-    let frames = s.capture.frames.len();
+    let frames = s.capture.frame_count();
     // What `render --depth --masks` leaves beside the video; each file names its frame.
     for pass in ["capture.depth", "capture.mask"] {
         let dir = s.dir.path().join(pass);
@@ -970,7 +967,7 @@ fn trim_places_the_video_by_its_render_bag_and_refuses_another_captures() {
             fps: s.capture.fps,
             ..VideoInfo::default()
         };
-        let first = s.capture.frames[0].stamp_nanos;
+        let first = s.capture.stamps.first().unwrap();
         info.header.stamp = Time::from_nanos(first);
         let mut w = BagWriter::create(&render_bag_beside(&video), WriteConfig::default()).unwrap();
         w.write(VIDEO_TOPIC, first, &info).unwrap();
@@ -1144,7 +1141,7 @@ fn two_trims_into_one_folder_take_turns_and_list_every_clip() {
         coded_video(
             &ffmpeg,
             &video,
-            capture.frames.len() as u64,
+            capture.frame_count() as u64,
             &capture.boundary_frames(),
         );
         runs.push((bag, video));
@@ -1226,7 +1223,7 @@ fn splits_come_from_the_plan_whatever_order_the_captures_are_trimmed_in() {
             coded_video(
                 &ffmpeg,
                 &video,
-                capture.frames.len() as u64,
+                capture.frame_count() as u64,
                 &capture.boundary_frames(),
             );
             video
@@ -1365,7 +1362,7 @@ fn write_qa_render_bag(s: &Setup, video: &Path) -> String {
     use autoact::ros::sensor_msgs::RegionOfInterest;
 
     let names = ["pelvis", "l_thigh", "r_thigh", "neck", "l_hand", "r_hand"];
-    let first = s.capture.frames[0].stamp_nanos;
+    let first = s.capture.stamps.first().unwrap();
     let mut info = VideoInfo {
         session: s.capture.session.clone(),
         fps: s.capture.fps,
@@ -1383,7 +1380,7 @@ fn write_qa_render_bag(s: &Setup, video: &Path) -> String {
         .find(|(_, seg)| seg.action != "walk")
         .map(|((id, a, b), _)| (id.clone(), *a, *b))
         .unwrap();
-    for (k, frame) in s.capture.frames.iter().enumerate() {
+    for (k, stamp) in s.capture.stamps.iter().enumerate() {
         let k = k as u64;
         let seg = segments.iter().position(|(_, a, b)| (*a..*b).contains(&k));
         let waving = seg.is_some_and(|i| s.capture.segments[i].action != "walk");
@@ -1415,8 +1412,7 @@ fn write_qa_render_bag(s: &Setup, video: &Path) -> String {
             silhouette_pixels: if out_of_sight { 0 } else { 900 },
             ..FrameAnnotation::default()
         };
-        w.write(ANNOTATIONS_TOPIC, frame.stamp_nanos, &annotation)
-            .unwrap();
+        w.write(ANNOTATIONS_TOPIC, stamp, &annotation).unwrap();
     }
     w.finish().unwrap();
     autoact::trim::clip_id(&hidden.0)
@@ -1763,15 +1759,16 @@ fn real_instances(rel: &str) -> ((u64, u64), Vec<InstanceClip>) {
     let bag = common::capture_bag_from_spec(dir.path(), &spec);
     let capture = Capture::read(&Rig::standard(), &bag).unwrap();
     let timing = VideoTiming {
-        frame0_nanos: i128::from(capture.frames[0].stamp_nanos),
+        frame0_nanos: i128::from(capture.stamps.first().unwrap()),
         fps: autoact::video::Rational::new(30, 1).unwrap(),
-        frame_count: capture.frames.len() as u64,
+        frame_count: capture.frame_count() as u64,
     };
     let (segments, truncated) = frame_ranges(&capture.segments, &timing);
     assert!(truncated.is_empty());
     assert_eq!(segments.len(), 1);
     let seg = &segments[0];
-    let speeds = video_frame_speeds(&Rig::standard(), &capture, &timing, seg.action.clone());
+    let speeds =
+        video_frame_speeds(&Rig::standard(), &capture, &timing, seg.action.clone()).unwrap();
     let policy = ClipPolicy {
         policy: ClipMode::Instances,
         ..ClipPolicy::default()
@@ -1820,9 +1817,9 @@ fn a_render_of_some_frames_gives_its_clips_and_refuses_others() {
     let rig = Rig::standard();
     let capture = Capture::read(&rig, &bag).unwrap();
     let timing = autoact::trim::plan::VideoTiming {
-        frame0_nanos: i128::from(capture.frames[0].stamp_nanos),
+        frame0_nanos: i128::from(capture.stamps.first().unwrap()),
         fps: Rational::from_f64(capture.fps).unwrap(),
-        frame_count: capture.frames.len() as u64,
+        frame_count: capture.frame_count() as u64,
     };
     let policies = autoact::trim::policy::ClipPolicies::default();
     let only = autoact::trim::run::clip_frames(&capture, &timing, &policies).unwrap();

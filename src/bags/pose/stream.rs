@@ -29,27 +29,6 @@ pub const SAMPLE_CAP: usize = 512;
 /// Frame steps kept per track in pass 1 to measure its frame period (median step).
 const STEP_SAMPLE_CAP: usize = 1024;
 
-/// Bytes read between two releases of the input's pages ([`BagReader::release_pages`]).
-const RELEASE_EVERY_BYTES: usize = 4 << 20;
-
-/// Releases the pages of a memory-mapped input every [`RELEASE_EVERY_BYTES`] read: the pages
-/// read would otherwise stay resident up to the size of the file.
-#[derive(Debug, Default)]
-struct Releaser {
-    since: usize,
-}
-
-impl Releaser {
-    /// Counts `bytes` more read from `reader` (and 256 for the record around them).
-    fn read(&mut self, reader: &BagReader, bytes: usize) {
-        self.since += bytes + 256;
-        if self.since >= RELEASE_EVERY_BYTES {
-            reader.release_pages();
-            self.since = 0;
-        }
-    }
-}
-
 /// What pass 1 learned of one track without keeping its frames.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TrackScan {
@@ -230,7 +209,6 @@ pub fn scan_pose_topics(
     let mut seen_topics = BTreeMap::new();
     let mut skeleton = SkeletonReader::default();
     for (reader_index, reader) in readers.iter().enumerate() {
-        let mut releaser = Releaser::default();
         for item in reader.messages() {
             let msg = match item {
                 Ok(msg) => msg,
@@ -239,7 +217,6 @@ pub fn scan_pose_topics(
                     continue;
                 }
             };
-            releaser.read(reader, msg.data.len());
             let people = match take_message(
                 &msg,
                 reader,
@@ -549,12 +526,10 @@ pub fn stream_pose_frames<E: From<PoseBagError>>(
         .collect();
     let mut skeleton = SkeletonReader::default();
     for (reader_index, reader) in readers.iter().enumerate() {
-        let mut releaser = Releaser::default();
         for item in reader.messages() {
             let Ok(msg) = item else {
                 continue;
             };
-            releaser.read(reader, msg.data.len());
             let Ok(Taken::People(people)) =
                 take_message(&msg, reader, topic, layout, &mut skeleton, None)
             else {

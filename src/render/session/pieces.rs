@@ -25,8 +25,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use serde::{Deserialize, Serialize};
 
 use super::{
-    FrameSinks, LabelSink, Outputs, Plan, RenderError, RenderSettings, RenderSummary, Sample,
-    Scenes, check_resolution, draw_all, preview_label, render_capture, write_preview,
+    FrameSinks, LabelSink, Outputs, Plan, RenderError, RenderSettings, RenderSummary, Scenes,
+    check_resolution, draw_all, preview_label, render_capture, write_preview,
 };
 use crate::bags::capture::Capture;
 use crate::bags::render::{ANNOTATIONS_TOPIC, decode_annotation};
@@ -121,7 +121,7 @@ pub fn render_in_pieces(
     check_resolution(settings)?;
     let plan = Plan::new(capture, settings)?;
     let starts = piece_starts(capture, &plan, job.min_frames);
-    let ranges = ranges(&starts, plan.samples.len());
+    let ranges = ranges(&starts, plan.len());
     let mut journal = resume(&job.dir, &starts, &plan)?;
     let resumed = journal.done;
     let scenes = Scenes::prepare(rig, capture, settings);
@@ -168,14 +168,13 @@ pub fn render_in_pieces(
 /// A piece starts only at a keyframe of the plan (a render of every frame makes each segment's
 /// first frame one; a render of some frames, the first drawn frame of a segment that starts a
 /// clip), so that the image effects, which start afresh in each piece, draw as one render does.
-fn piece_starts(capture: &Capture, plan: &Plan<'_>, min_frames: u64) -> Vec<u64> {
-    let samples = &plan.samples;
-    let len = samples.len() as u64;
+fn piece_starts(capture: &Capture, plan: &Plan, min_frames: u64) -> Vec<u64> {
+    let len = plan.len() as u64;
     let mut bounds: Vec<u64> = capture
         .segments
         .iter()
         .filter_map(|s| s.start.to_nanos())
-        .map(|t| samples.partition_point(|f| f.stamp_nanos < t) as u64)
+        .map(|t| plan.count_before(t) as u64)
         .filter(|&k| k > 0 && k < len && plan.keyframes.binary_search(&k).is_ok())
         .collect();
     bounds.sort_unstable();
@@ -205,10 +204,10 @@ fn ranges(starts: &[u64], len: usize) -> Vec<Range<usize>> {
 
 /// The journal of the pieces in `dir` when it is of this render (the same frames and bounds),
 /// else a fresh one, with `dir` emptied and created.
-fn resume(dir: &Path, starts: &[u64], plan: &Plan<'_>) -> Result<Journal, RenderError> {
+fn resume(dir: &Path, starts: &[u64], plan: &Plan) -> Result<Journal, RenderError> {
     let fresh = Journal {
         version: VERSION,
-        frames: plan.samples.len() as u64,
+        frames: plan.len() as u64,
         starts: starts.to_vec(),
         done: 0,
         renderer: String::new(),
@@ -268,7 +267,7 @@ fn tile_file(k: usize) -> String {
 )]
 fn render_piece(
     scenes: &Scenes<'_>,
-    piece: &Plan<'_>,
+    piece: &Plan,
     i: usize,
     job: &PieceJob<'_>,
     settings: &RenderSettings,
@@ -293,10 +292,11 @@ fn render_piece(
         depth: staged.depth_dir.is_some(),
         mask: staged.mask_dir.is_some(),
     };
-    let picks: Vec<&Sample<'_>> = piece.samples.iter().collect();
+    let picks = piece.blender_samples(scenes.rig, scenes.capture, settings)?;
     let first = piece.first as u64;
     let blender_progress = |k: u64| progress(first + k);
     let blender = scenes.blender(settings, &picks, wanted, &blender_progress, stop)?;
+    drop(picks);
     let renderer = blender
         .as_ref()
         .map_or_else(|| "autoact cpu".to_owned(), |b| b.description.clone());
@@ -336,7 +336,7 @@ fn render_piece(
 /// Moves a finished piece's files from `scratch` into the pieces' folder `dir`.
 fn keep_piece(
     staged: &Outputs,
-    piece: &Plan<'_>,
+    piece: &Plan,
     i: usize,
     dir: &Path,
     scratch: &Path,
@@ -374,7 +374,7 @@ fn join_video(
     dir: &Path,
     count: usize,
     video: &Path,
-    plan: &Plan<'_>,
+    plan: &Plan,
 ) -> Result<EncodedVideo, RenderError> {
     let unreadable = |path: &Path| RenderError::Piece {
         path: path.to_path_buf(),
@@ -387,13 +387,13 @@ fn join_video(
     }
     let bytes = crate::video::concat_mp4(&parts, video)?;
     let joined = Mp4Source::open(video)?.ok_or_else(|| unreadable(video))?;
-    if joined.frame_count() != plan.samples.len() as u64 {
+    if joined.frame_count() != plan.len() as u64 {
         return Err(RenderError::Piece {
             path: video.to_path_buf(),
             detail: format!(
                 "{} frames joined, {} rendered",
                 joined.frame_count(),
-                plan.samples.len()
+                plan.len()
             ),
         });
     }
@@ -419,13 +419,13 @@ fn join_labels(
     settings: &RenderSettings,
     outputs: &Outputs,
     job: &PieceJob<'_>,
-    plan: &Plan<'_>,
+    plan: &Plan,
     journal: &Journal,
     video: EncodedVideo,
     ffmpeg: Option<&Ffmpeg>,
 ) -> Result<RenderSummary, RenderError> {
     let mut summary = RenderSummary {
-        frames: plan.samples.len() as u64,
+        frames: plan.len() as u64,
         video: None,
         render_bag: None,
         preview: None,
@@ -478,7 +478,7 @@ fn join_labels(
         let mut tiles = Vec::with_capacity(plan.preview_picks.len());
         for &k in &plan.preview_picks {
             let (_, _, rgb) = crate::video::read_png(&job.dir.join(tile_file(k)))?;
-            tiles.push((rgb, preview_label(capture, &plan.samples[k])));
+            tiles.push((rgb, preview_label(capture, plan.scene(capture, k))));
         }
         write_preview(path, &tiles, settings)?;
         summary.preview = Some(path.clone());
