@@ -711,8 +711,17 @@ fn write_coco_files(
     for w in &mut writers {
         w.start_annotations()?;
     }
-    for l in labelled {
+    for (l, size) in labelled.iter().zip(sizes) {
         let labels = read_sidecar(dir, l.sidecar)?;
+        // The images were numbered from the first reading: a sidecar rewritten since would
+        // give annotations that point at the wrong images.
+        if labels.frames.len() != size.frames {
+            return Err(TrimError::LabelsChanged {
+                path: dir.join(l.sidecar),
+                frames: size.frames,
+                now: labels.frames.len(),
+            });
+        }
         let w = &mut writers[writer_of(l.split)];
         for f in &labels.frames {
             w.image_id += 1;
@@ -729,9 +738,9 @@ mod tests {
     use std::collections::BTreeMap;
 
     use super::{
-        ClipLabels, FrameLabels, LabelCollector, Labelled, Skeleton, coco_file, layout_landmarks,
-        read_sidecar, sidecar_path, skeleton_annotation, split_dict, write_label_files,
-        write_sidecar,
+        ClipLabels, ClipSize, FrameLabels, LabelCollector, Labelled, Skeleton, coco_file,
+        layout_landmarks, read_sidecar, sidecar_path, skeleton_annotation, split_dict,
+        write_coco_files, write_label_files, write_sidecar,
     };
     use crate::ros::autoact_msgs::FrameAnnotation;
     use crate::ros::geometry_msgs::Point;
@@ -1040,5 +1049,42 @@ mod tests {
         let e = write_label_files(dir.path(), &clips, &splits).unwrap_err();
         assert!(e.to_string().contains("c.json"), "{e}");
         assert_eq!(before(&ann), old, "the old files, and no .part beside them");
+    }
+
+    /// The COCO images are numbered from the first reading of the sidecars: one that has other
+    /// frames when read again for the annotations is refused, naming it, with no file left.
+    #[test]
+    fn a_sidecar_changed_between_the_passes_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let (clips, splits) = three_clips(dir.path());
+        let labelled: Vec<Labelled<'_>> = clips
+            .values()
+            .map(|c| Labelled {
+                clip: c,
+                split: splits.splits[&c.clip_id],
+                sidecar: c.labels.as_deref().unwrap(),
+            })
+            .collect();
+        // As the first pass saw them, but clip `a` had 3 frames then (it has 2 on disk).
+        let sizes: Vec<ClipSize> = [3, 1, 1]
+            .into_iter()
+            .map(|frames| ClipSize {
+                frames,
+                width: 320,
+                height: 240,
+            })
+            .collect();
+        let ann = dir.path().join("annotations");
+        std::fs::create_dir_all(&ann).unwrap();
+        let paths: Vec<std::path::PathBuf> = crate::trim::split::Split::ALL
+            .into_iter()
+            .map(|s| ann.join(coco_file(s)))
+            .collect();
+        let Err(e) = write_coco_files(dir.path(), &labelled, &sizes, &paths) else {
+            panic!("a changed sidecar was not noticed");
+        };
+        assert!(e.to_string().contains("a.json"), "{e}");
+        assert!(e.to_string().contains("3 frames, 2 when read again"), "{e}");
+        assert_eq!(std::fs::read_dir(&ann).unwrap().count(), 0, "no .part left");
     }
 }

@@ -267,6 +267,18 @@ pub enum TrimError {
         /// The file.
         path: PathBuf,
     },
+    /// A clip's label sidecar changed while the label files were being written from it.
+    #[error(
+        "`{path}` changed while the label files were written ({frames} frames, {now} when read again): nothing was replaced; run again"
+    )]
+    LabelsChanged {
+        /// The file.
+        path: PathBuf,
+        /// Its frames when first read.
+        frames: usize,
+        /// Its frames when read again.
+        now: usize,
+    },
     /// The clip policy, with `trim`'s options over the plan's, cannot cut clips.
     #[error("the clip policy of class `{label}`: {source}")]
     ClipPolicy {
