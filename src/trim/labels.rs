@@ -181,48 +181,81 @@ pub fn layout_landmarks(layout: &Layout) -> Vec<String> {
         .collect()
 }
 
-/// Collects each clip's labels from the render bag's annotations, frame by frame.
+/// Collects each clip's labels from the render bag's annotations, frame by frame. A clip whose
+/// every frame is in is serialised at once (its sidecar's text) into a [`LabelSpool`], so only
+/// the clips the pass is inside of are held in memory, not a whole capture's.
 #[derive(Debug)]
 pub struct LabelCollector {
     coco: LayoutIndex,
     ntu: LayoutIndex,
-    /// Per clip: its first frame and its labels so far.
-    clips: Vec<(u64, Option<ClipLabels>)>,
+    clips: Vec<CollectedClip>,
+    spool: LabelSpool,
+    /// The first error writing or reading the spool.
+    error: Option<TrimError>,
     /// Annotations without the landmarks the layouts need.
     pub without_landmarks: u64,
 }
 
+/// Where one clip's labels are during the pass.
+#[derive(Debug)]
+enum CollectedClip {
+    /// No frame of it seen yet.
+    Waiting { start: u64, frames: u64 },
+    /// Being filled; `missing` frames have no labels yet.
+    Open {
+        start: u64,
+        labels: ClipLabels,
+        missing: usize,
+    },
+    /// Every frame in: its sidecar text is in the spool.
+    Spooled { start: u64, text: SpoolRange },
+}
+
+impl CollectedClip {
+    fn start(&self) -> u64 {
+        match self {
+            CollectedClip::Waiting { start, .. }
+            | CollectedClip::Open { start, .. }
+            | CollectedClip::Spooled { start, .. } => *start,
+        }
+    }
+}
+
 impl LabelCollector {
-    /// A collector for clips of `(start_frame, frame_count)`.
-    #[must_use]
-    pub fn new(ranges: impl IntoIterator<Item = (u64, u64)>) -> LabelCollector {
-        LabelCollector {
+    /// A collector for clips of `(start_frame, frame_count)`, spooling finished clips into an
+    /// unnamed temporary file in `dir` (the dataset folder: gone when the run ends, however
+    /// it ends).
+    ///
+    /// # Errors
+    /// [`TrimError::Io`] when the temporary file cannot be made in `dir`.
+    pub fn new(
+        ranges: impl IntoIterator<Item = (u64, u64)>,
+        dir: &Path,
+    ) -> Result<LabelCollector, TrimError> {
+        Ok(LabelCollector {
             coco: LayoutIndex::new("coco-17"),
             ntu: LayoutIndex::new("ntu-25"),
             clips: ranges
                 .into_iter()
-                .map(|(start, count)| {
-                    let frames = usize::try_from(count).unwrap_or(0);
-                    let labels = ClipLabels {
-                        width: 0,
-                        height: 0,
-                        frames: vec![None; frames],
-                    };
-                    (start, Some(labels))
-                })
+                .map(|(start, frames)| CollectedClip::Waiting { start, frames })
                 .collect(),
+            spool: LabelSpool::new(dir)?,
+            error: None,
             without_landmarks: 0,
-        }
+        })
     }
 
     /// Takes in frame `a` of clip `clip`, from an image of `[width, height]`.
     pub fn push(&mut self, clip: usize, a: &FrameAnnotation, [width, height]: [u32; 2]) {
-        let Some((start, Some(labels))) = self.clips.get_mut(clip) else {
+        if self.error.is_some() {
+            return;
+        }
+        let Some(start) = self.clips.get(clip).map(CollectedClip::start) else {
             return;
         };
         let Some(k) = a
             .frame_index
-            .checked_sub(*start)
+            .checked_sub(start)
             .and_then(|k| usize::try_from(k).ok())
         else {
             return;
@@ -237,10 +270,14 @@ impl LabelCollector {
         let ok = a.landmarks_3d.len() == a.landmark_names.len()
             && a.landmarks_2d.len() == 2 * a.landmark_names.len()
             && a.landmark_visibility.len() == a.landmark_names.len();
-        let Some(slot) = labels.frames.get_mut(k).filter(|_| ok) else {
-            return;
+        let frames = match &self.clips[clip] {
+            CollectedClip::Waiting { frames, .. } => usize::try_from(*frames).unwrap_or(0),
+            CollectedClip::Open { labels, .. } => labels.frames.len(),
+            CollectedClip::Spooled { text, .. } => text.frames,
         };
-        (labels.width, labels.height) = (width, height);
+        if !ok || k >= frames {
+            return;
+        }
         let mut coco17 = Vec::with_capacity(3 * coco.len());
         for &i in &coco {
             let (x, y) = (a.landmarks_2d[2 * i], a.landmarks_2d[2 * i + 1]);
@@ -256,21 +293,197 @@ impl LabelCollector {
             .flat_map(|&i| kinect_from_optical(&a.landmarks_3d[i]).map(|v| v as f32))
             .collect();
         let b = &a.bbox;
-        *slot = Some(FrameLabels {
+        let frame = FrameLabels {
             coco17,
             ntu25,
             bbox: (a.silhouette_pixels > 0).then_some([b.x_offset, b.y_offset, b.width, b.height]),
             area: a.silhouette_pixels,
-        });
+        };
+        if let Err(e) = self.fill(clip, k, frame, [width, height]) {
+            self.error = Some(e);
+        }
     }
 
-    /// Each clip's labels: `None` for a clip without one labelled frame.
-    #[must_use]
-    pub fn finish(self) -> Vec<Option<ClipLabels>> {
+    /// Puts `frame` at `k` of clip `clip` (opening it, or reading it back from the spool when
+    /// a frame comes again after the clip was complete: the last one wins, as for any frame),
+    /// and spools the clip when that was its last missing frame.
+    fn fill(
+        &mut self,
+        clip: usize,
+        k: usize,
+        frame: FrameLabels,
+        [width, height]: [u32; 2],
+    ) -> Result<(), TrimError> {
+        let slot = &mut self.clips[clip];
+        let start = slot.start();
+        let (mut labels, mut missing) =
+            match std::mem::replace(slot, CollectedClip::Waiting { start, frames: 0 }) {
+                CollectedClip::Waiting { frames, .. } => {
+                    let frames = usize::try_from(frames).unwrap_or(0);
+                    let labels = ClipLabels {
+                        width: 0,
+                        height: 0,
+                        frames: vec![None; frames],
+                    };
+                    (labels, frames)
+                }
+                CollectedClip::Open {
+                    labels, missing, ..
+                } => (labels, missing),
+                CollectedClip::Spooled { text, .. } => {
+                    let labels = self.spool.read(text)?;
+                    let missing = labels.frames.iter().filter(|f| f.is_none()).count();
+                    (labels, missing)
+                }
+            };
+        (labels.width, labels.height) = (width, height);
+        let slot_frame = &mut labels.frames[k];
+        if slot_frame.is_none() {
+            missing -= 1;
+        }
+        *slot_frame = Some(frame);
+        self.clips[clip] = if missing == 0 {
+            CollectedClip::Spooled {
+                start,
+                text: self.spool.write(&labels)?,
+            }
+        } else {
+            CollectedClip::Open {
+                start,
+                labels,
+                missing,
+            }
+        };
+        Ok(())
+    }
+
+    /// Clips being filled, held in memory.
+    #[cfg(test)]
+    fn open_clips(&self) -> usize {
         self.clips
-            .into_iter()
-            .map(|(_, l)| l.filter(|l| l.frames.iter().any(Option::is_some)))
-            .collect()
+            .iter()
+            .filter(|c| matches!(c, CollectedClip::Open { .. }))
+            .count()
+    }
+
+    /// Each clip's labels, spooled: none for a clip without one labelled frame.
+    ///
+    /// # Errors
+    /// [`TrimError::Io`] when the spool could not be written or read back.
+    pub fn finish(mut self) -> Result<SpooledLabels, TrimError> {
+        if let Some(e) = self.error {
+            return Err(e);
+        }
+        let mut texts = Vec::with_capacity(self.clips.len());
+        for clip in std::mem::take(&mut self.clips) {
+            texts.push(match clip {
+                CollectedClip::Waiting { .. } => None,
+                CollectedClip::Open { labels, .. } => labels
+                    .frames
+                    .iter()
+                    .any(Option::is_some)
+                    .then(|| self.spool.write(&labels))
+                    .transpose()?,
+                CollectedClip::Spooled { text, .. } => Some(text),
+            });
+        }
+        Ok(SpooledLabels {
+            spool: self.spool,
+            texts,
+        })
+    }
+}
+
+/// A clip's sidecar text in the spool.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct SpoolRange {
+    offset: u64,
+    bytes: usize,
+    /// The clip's frame count.
+    frames: usize,
+}
+
+/// Sidecar texts, one after another, in an unnamed temporary file (deleted by the system when
+/// closed, even if the process is killed).
+#[derive(Debug)]
+struct LabelSpool {
+    file: std::fs::File,
+    /// The folder the file is in, for errors.
+    dir: PathBuf,
+    end: u64,
+}
+
+impl LabelSpool {
+    fn new(dir: &Path) -> Result<LabelSpool, TrimError> {
+        let file = tempfile::tempfile_in(dir).map_err(TrimError::io(
+            "make the pose labels' temporary file in",
+            dir,
+        ))?;
+        Ok(LabelSpool {
+            file,
+            dir: dir.to_path_buf(),
+            end: 0,
+        })
+    }
+
+    fn write(&mut self, labels: &ClipLabels) -> Result<SpoolRange, TrimError> {
+        use std::io::{Seek, SeekFrom};
+        let text = sidecar_text(labels, &self.dir)?;
+        let offset = self.end;
+        (&self.file)
+            .seek(SeekFrom::Start(offset))
+            .and_then(|_| (&self.file).write_all(text.as_bytes()))
+            .map_err(TrimError::io(
+                "write the pose labels' temporary file in",
+                &self.dir,
+            ))?;
+        self.end += text.len() as u64;
+        Ok(SpoolRange {
+            offset,
+            bytes: text.len(),
+            frames: labels.frames.len(),
+        })
+    }
+
+    fn read_text(&self, at: SpoolRange) -> Result<Vec<u8>, TrimError> {
+        use std::io::{Read, Seek, SeekFrom};
+        let mut text = vec![0; at.bytes];
+        (&self.file)
+            .seek(SeekFrom::Start(at.offset))
+            .and_then(|_| (&self.file).read_exact(&mut text))
+            .map_err(TrimError::io(
+                "read back the pose labels' temporary file in",
+                &self.dir,
+            ))?;
+        Ok(text)
+    }
+
+    fn read(&self, at: SpoolRange) -> Result<ClipLabels, TrimError> {
+        let text = self.read_text(at)?;
+        serde_json::from_slice(&text).map_err(TrimError::json(&self.dir))
+    }
+}
+
+/// Every clip's labels of one pass over a render bag, as their sidecars' text, read back one
+/// clip at a time.
+#[derive(Debug)]
+pub struct SpooledLabels {
+    spool: LabelSpool,
+    texts: Vec<Option<SpoolRange>>,
+}
+
+impl SpooledLabels {
+    /// The sidecar text of clip `clip`, `None` when it has no labelled frame.
+    ///
+    /// # Errors
+    /// [`TrimError::Io`] when the spool cannot be read back.
+    pub fn sidecar_text(&self, clip: usize) -> Result<Option<Vec<u8>>, TrimError> {
+        self.texts
+            .get(clip)
+            .copied()
+            .flatten()
+            .map(|at| self.spool.read_text(at))
+            .transpose()
     }
 }
 
@@ -285,12 +498,27 @@ pub fn sidecar_path(label_dir: &str, clip_id: &str) -> String {
 /// # Errors
 /// [`TrimError::Io`] or [`TrimError::Json`].
 pub fn write_sidecar(dir: &Path, rel: &str, labels: &ClipLabels) -> Result<(), TrimError> {
+    let text = sidecar_text(labels, &dir.join(rel))?;
+    write_sidecar_text(dir, rel, text.as_bytes())
+}
+
+/// Writes a sidecar's text ([`sidecar_text`]) as the sidecar `rel` (relative to `dir`),
+/// atomically.
+///
+/// # Errors
+/// [`TrimError::Io`].
+pub fn write_sidecar_text(dir: &Path, rel: &str, text: &[u8]) -> Result<(), TrimError> {
     let path = dir.join(rel);
     if let Some(parent) = path.parent() {
         std::fs::create_dir_all(parent).map_err(TrimError::io("create", parent))?;
     }
-    let text = serde_json::to_string(labels).map_err(TrimError::json(&path))?;
-    write_atomic(&path, format!("{text}\n").as_bytes())
+    write_atomic(&path, text)
+}
+
+/// A sidecar file's text: `labels` as one line of JSON (`path` names it in an error).
+fn sidecar_text(labels: &ClipLabels, path: &Path) -> Result<String, TrimError> {
+    let text = serde_json::to_string(labels).map_err(TrimError::json(path))?;
+    Ok(format!("{text}\n"))
 }
 
 /// Reads the sidecar `rel` of the dataset folder `dir`.
@@ -738,9 +966,9 @@ mod tests {
     use std::collections::BTreeMap;
 
     use super::{
-        ClipLabels, ClipSize, FrameLabels, LabelCollector, Labelled, Skeleton, coco_file,
-        layout_landmarks, read_sidecar, sidecar_path, skeleton_annotation, split_dict,
-        write_coco_files, write_label_files, write_sidecar,
+        ClipLabels, ClipSize, FrameLabels, LabelCollector, Labelled, Skeleton, SpooledLabels,
+        TrimError, coco_file, layout_landmarks, read_sidecar, sidecar_path, skeleton_annotation,
+        split_dict, write_coco_files, write_label_files, write_sidecar,
     };
     use crate::ros::autoact_msgs::FrameAnnotation;
     use crate::ros::geometry_msgs::Point;
@@ -799,19 +1027,30 @@ mod tests {
         }
     }
 
+    /// Clip `clip`'s labels as `finish` hands them on: the sidecar text, parsed.
+    fn spooled(out: &SpooledLabels, clip: usize) -> Option<ClipLabels> {
+        out.sidecar_text(clip)
+            .unwrap()
+            .map(|t| serde_json::from_slice(&t).unwrap())
+    }
+
     #[test]
     fn collected_labels_are_the_layouts_landmarks_in_kinect_space() {
         let rig = Rig::standard();
-        let mut c = LabelCollector::new([(10, 3), (20, 2)]);
+        let dir = tempfile::tempdir().unwrap();
+        let mut c = LabelCollector::new([(10, 3), (20, 2)], dir.path()).unwrap();
         c.push(0, &frame(11), [320, 240]);
         c.push(1, &frame(25), [320, 240]); // past the clip: left out
         let mut old = frame(12);
         old.landmark_names.clear();
         c.push(0, &old, [320, 240]);
         assert_eq!(c.without_landmarks, 1);
-        let out = c.finish();
-        assert!(out[1].is_none(), "no frame of clip 1 was labelled");
-        let l = out[0].as_ref().unwrap();
+        let out = c.finish().unwrap();
+        assert!(
+            spooled(&out, 1).is_none(),
+            "no frame of clip 1 was labelled"
+        );
+        let l = spooled(&out, 0).unwrap();
         assert_eq!((l.width, l.height, l.frames.len()), (320, 240, 3));
         assert!(l.frames[0].is_none() && l.frames[2].is_none());
         let f = l.frames[1].as_ref().unwrap();
@@ -825,6 +1064,76 @@ mod tests {
         assert_eq!(f.coco17[..3], [nose, 2.0 * nose, v]);
         let base = rig.landmark_index("pelvis").unwrap() as f32;
         assert_eq!(f.ntu25[..3], [-base, -2.0 * base, 5.0]);
+        // What the cut writes is the sidecar `write_sidecar` makes of the same labels.
+        write_sidecar(dir.path(), "a.json", &l).unwrap();
+        assert_eq!(
+            std::fs::read(dir.path().join("a.json")).unwrap(),
+            out.sidecar_text(0).unwrap().unwrap()
+        );
+        // The spool is an unnamed file: nothing is left in the dataset folder.
+        drop(out);
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            1,
+            "only a.json"
+        );
+    }
+
+    #[test]
+    fn a_clip_leaves_memory_when_its_last_frame_is_in_and_a_frame_given_again_still_wins() {
+        let dir = tempfile::tempdir().unwrap();
+        // Overlapping windows, as `windows` with a stride shorter than the window cuts them.
+        let mut c = LabelCollector::new([(0, 4), (2, 4), (4, 4)], dir.path()).unwrap();
+        for k in 0..4 {
+            c.push(0, &frame(k), [320, 240]);
+            if k >= 2 {
+                c.push(1, &frame(k), [320, 240]);
+            }
+        }
+        assert_eq!(
+            c.open_clips(),
+            1,
+            "clip 0 is complete and spooled; clip 1 is open"
+        );
+        for k in 4..8 {
+            if k < 6 {
+                c.push(1, &frame(k), [320, 240]);
+            }
+            c.push(2, &frame(k), [320, 240]);
+        }
+        assert_eq!(
+            c.open_clips(),
+            0,
+            "every clip complete: none held in memory"
+        );
+        // Frame 1 of clip 0 again, from another image size and with another box: read back,
+        // replaced, spooled again (the last annotation of a frame wins, as before spooling).
+        let mut again = frame(1);
+        again.silhouette_pixels = 77;
+        c.push(0, &again, [640, 480]);
+        assert_eq!(c.open_clips(), 0);
+        let out = c.finish().unwrap();
+        let first = spooled(&out, 0).unwrap();
+        assert_eq!((first.width, first.height), (640, 480));
+        assert_eq!(first.frames[1].as_ref().unwrap().area, 77);
+        assert_eq!(first.frames[0].as_ref().unwrap().area, 10);
+        for clip in 1..3 {
+            let l = spooled(&out, clip).unwrap();
+            assert!(l.frames.iter().all(Option::is_some), "clip {clip}");
+            assert_eq!((l.width, l.height), (320, 240));
+        }
+    }
+
+    #[test]
+    fn a_dataset_folder_the_spool_cannot_be_made_in_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let missing = dir.path().join("not-there");
+        let e = LabelCollector::new([(0, 1)], &missing).unwrap_err();
+        assert!(
+            matches!(&e, TrimError::Io { path, .. } if *path == missing),
+            "{e}"
+        );
+        assert!(e.to_string().contains("not-there"), "{e}");
     }
 
     #[test]

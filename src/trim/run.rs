@@ -6,7 +6,8 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::labels::{
-    ClipLabels, LabelCollector, LabelSummary, sidecar_path, write_label_files, write_sidecar,
+    LabelCollector, LabelSummary, SpooledLabels, sidecar_path, write_label_files,
+    write_sidecar_text,
 };
 use super::lists::{ListSummary, ensure_classes, write_lists};
 use super::manifest::Manifest;
@@ -179,13 +180,13 @@ pub fn trim_capture(
             .map(|(w, h)| format!("{w}x{h}"))
             .unwrap_or_default(),
     };
-    let (qa, labels) = source
-        .annotations
-        .map(|bag| measure_run(bag, &ids, &ranges, &options.qa))
-        .unwrap_or_default();
+    let (qa, labels) = match source.annotations {
+        Some(bag) => measure_run(bag, dir, &ids, &ranges, &options.qa)?,
+        None => (Vec::new(), None),
+    };
     let measured = Measured {
         qa: &qa,
-        labels: &labels,
+        labels: labels.as_ref(),
     };
     let result = run.cut_all(
         &clips,
@@ -482,18 +483,24 @@ const FLAGGED_CLIPS_NAMED: usize = 10;
 /// What the render bag says of each range's clip: its quality measurements and its labels.
 struct Measured<'a> {
     qa: &'a [Option<ClipQa>],
-    labels: &'a [Option<ClipLabels>],
+    labels: Option<&'a SpooledLabels>,
 }
 
 /// Each range's quality measurements and labels from render bag `bag`, the flagged clips said
-/// on stderr (empty, also said, when the bag cannot be read: the clips are cut all the same).
+/// on stderr (none, also said, when the bag cannot be read: the clips are cut all the same).
+/// The labels wait for their clips in a temporary file in the dataset folder `dir`.
+///
+/// # Errors
+/// [`TrimError::Io`] when that file cannot be made, written or read.
 fn measure_run(
     bag: &Path,
+    dir: &Path,
     ids: &[String],
     ranges: &[FrameRange],
     thresholds: &Thresholds,
-) -> (Vec<Option<ClipQa>>, Vec<Option<ClipLabels>>) {
-    let mut collector = LabelCollector::new(ranges.iter().map(|r| (r.start_frame, r.frame_count)));
+) -> Result<(Vec<Option<ClipQa>>, Option<SpooledLabels>), TrimError> {
+    let mut collector =
+        LabelCollector::new(ranges.iter().map(|r| (r.start_frame, r.frame_count)), dir)?;
     let measured = measure_clips(bag, ranges, thresholds, &mut |i, a, size| {
         collector.push(i, a, size);
     });
@@ -504,8 +511,8 @@ fn measure_run(
             collector.without_landmarks
         );
     }
-    let labels = collector.finish();
-    match measured {
+    let labels = collector.finish()?;
+    Ok(match measured {
         Ok((qa, undecodable)) => {
             if undecodable > 0 {
                 tracing::warn!(
@@ -536,13 +543,13 @@ fn measure_run(
                     flagged.len() - FLAGGED_CLIPS_NAMED
                 );
             }
-            (qa, labels)
+            (qa, Some(labels))
         }
         Err(e) => {
             tracing::warn!("no quality checks or pose labels for this capture's clips: {e}");
-            (Vec::new(), Vec::new())
+            (Vec::new(), None)
         }
-    }
+    })
 }
 
 /// What [`rewrite_lists`] wrote.
@@ -678,9 +685,14 @@ impl Run<'_> {
             record.depth = passes.depth;
             record.masks = passes.masks;
             record.qa = measured.qa.get(done).cloned().flatten();
-            if let Some(labels) = measured.labels.get(done).and_then(Option::as_ref) {
+            if let Some(text) = measured
+                .labels
+                .map(|l| l.sidecar_text(done))
+                .transpose()?
+                .flatten()
+            {
                 let rel = sidecar_path(&record.label_dir, &record.clip_id);
-                write_sidecar(self.dir, &rel, labels)?;
+                write_sidecar_text(self.dir, &rel, &text)?;
                 record.labels = Some(rel);
             }
             manifest.append(record)?;
