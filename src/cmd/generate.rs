@@ -123,6 +123,7 @@ pub fn run(args: Args) -> Result<Outcome> {
             crf: engine.crf,
             preset: engine.preset,
             gop_frames: engine.gop,
+            encoder_threads: engine.encoder_threads,
             passes: args.passes.wanted(),
             engine: engine.engine,
             blender: crate::render::blender::BlenderSettings {

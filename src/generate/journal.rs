@@ -45,6 +45,11 @@ pub struct Settings {
     pub preset: String,
     /// Longest keyframe interval, frames.
     pub gop_frames: Option<u32>,
+    /// x264 threads of the captures (absent in journals from before it was fixed, when x264
+    /// took the machine's count: 0, which no run now has, so such a folder is refused rather
+    /// than mixed).
+    #[serde(default)]
+    pub encoder_threads: u8,
     /// The depth and mask passes rendered (absent in journals of earlier versions: none).
     #[serde(default)]
     pub passes: crate::render::passes::Wanted,

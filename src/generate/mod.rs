@@ -76,6 +76,8 @@ pub struct RenderChoice {
     pub preset: String,
     /// Longest keyframe interval, frames.
     pub gop_frames: Option<u32>,
+    /// x264 threads (the videos' bytes depend on it).
+    pub encoder_threads: u8,
     /// The depth and mask passes to render, for every clip's `depth/` and `masks/` frames.
     pub passes: crate::render::passes::Wanted,
     /// The engine asked for (`None`: the spec's `[dataset] engine`).
@@ -318,6 +320,7 @@ impl GenerateJob {
             crf: r.crf,
             preset: r.preset.clone(),
             gop_frames: r.gop_frames,
+            encoder_threads: r.encoder_threads,
             passes: r.passes,
             piece_frames: r.piece_frames,
             engine: r.engine,
@@ -705,6 +708,7 @@ impl Run<'_> {
             ),
             preset: r.preset.clone(),
             gop_frames: r.gop_frames,
+            encoder_threads: r.encoder_threads,
             embed_video: None,
             randomise: self.spec.file.randomise.clone(),
             engine: r.engine(self.spec.file.dataset.engine),

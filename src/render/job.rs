@@ -31,6 +31,8 @@ pub struct RenderJob {
     pub preset: String,
     /// Longest keyframe interval, frames.
     pub gop_frames: Option<u32>,
+    /// x264 threads.
+    pub encoder_threads: u8,
     /// Put the encoded stream into the render bag, as which viewer's message.
     pub embed_video: Option<crate::bags::render::EmbedVideo>,
     /// Replace outputs that exist.
@@ -167,6 +169,7 @@ pub fn render_job(job: &RenderJob, stop: &AtomicBool) -> Result<RenderReport, Re
         crf: randomise.capture_crf(job.crf, capture.seed.unwrap_or(0), &capture.session),
         preset: job.preset.clone(),
         gop_frames: job.gop_frames,
+        encoder_threads: job.encoder_threads,
         embed_video: job.embed_video,
         engine: job.engine.clone(),
         extra_keyframes: Vec::new(),

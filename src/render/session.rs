@@ -131,6 +131,8 @@ pub struct RenderSettings {
     pub preset: String,
     /// Largest keyframe interval, frames (`None`: the encoder's default).
     pub gop_frames: Option<u32>,
+    /// x264 threads ([`crate::video::DEFAULT_ENCODER_THREADS`]).
+    pub encoder_threads: u8,
     /// Put the encoded stream into the render bag, as which viewer's message.
     pub embed_video: Option<crate::bags::render::EmbedVideo>,
     /// Output frames to make keyframes besides the segment boundaries: where planned clips
@@ -961,6 +963,7 @@ fn start_encoder(
         .with_keyframes(plan.keyframes.iter().copied());
     enc.crf = settings.crf;
     enc.preset.clone_from(&settings.preset);
+    enc.threads = settings.encoder_threads;
     if let Some(g) = settings.gop_frames {
         enc.gop_frames = g;
     }
@@ -1307,6 +1310,7 @@ mod tests {
             crf: 23,
             preset: "superfast".into(),
             gop_frames: None,
+            encoder_threads: crate::video::DEFAULT_ENCODER_THREADS,
             embed_video: None,
             extra_keyframes: Vec::new(),
             only_frames: None,

@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 
 use ffmpeg_sidecar::command::FfmpegCommand;
 
-use super::encode::{container_for, remove_part};
+use super::encode::{DEFAULT_ENCODER_THREADS, container_for, remove_part};
 use super::probe::probe_packets;
 use super::stderr_tail::tail_of_text;
 use super::tools::{ffmpeg_path_arg, run};
@@ -191,6 +191,8 @@ pub fn cut(
                 .preset(&reencode.preset)
                 .crf(u32::from(reencode.crf))
                 .pix_fmt("yuv420p")
+                // A fixed count, so the clip's bytes do not depend on the machine.
+                .args(["-threads".to_owned(), DEFAULT_ENCODER_THREADS.to_string()])
                 .args(["-bf", "0"]);
         }
     }

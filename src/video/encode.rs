@@ -30,6 +30,17 @@ use super::{Ffmpeg, InvalidSetting, Rational, VideoError};
 /// halves the size again but takes another ~1 ms per frame at 640×360 from the renderer, whose
 /// budget at 120 frames/s on 2 cores is 16.7 ms of CPU per frame.
 pub const DEFAULT_PRESET: &str = "superfast";
+/// The default number of x264 threads. Always passed (`-threads`): x264's own default is 1.5 ×
+/// the machine's cores, and its output depends on its thread count, so a dataset's videos would
+/// depend on the machine that encoded them (shards of one dataset on different machines would
+/// not give one machine's bytes). One thread also costs the least CPU: on 2 cores, 1,500 frames
+/// of a capture at 320×240 took 2.45–2.55 s of ffmpeg CPU with 1 thread, 2.85–2.95 s with 2
+/// and 2.94–3.48 s with x264's default, at the same wall time (ffmpeg's input side is the limit
+/// there, about 600 frames/s). At 1280×720 one thread encodes about 59 frames/s (x264's
+/// default 103 on 2 cores): more threads pay only when the renderer draws faster than that.
+pub const DEFAULT_ENCODER_THREADS: u8 = 1;
+/// The most x264 threads accepted.
+pub const MAX_ENCODER_THREADS: u8 = 64;
 /// The default constant rate factor (x264's own default).
 pub const DEFAULT_CRF: u8 = 23;
 /// The default longest keyframe interval, in seconds of video.
@@ -76,6 +87,9 @@ pub struct EncodeSettings {
     pub preset: String,
     /// The longest run of frames without a keyframe (`-g`), ≥ 1.
     pub gop_frames: u32,
+    /// x264 threads, 1 ..= [`MAX_ENCODER_THREADS`] ([`DEFAULT_ENCODER_THREADS`]): the output's
+    /// bytes depend on it.
+    pub threads: u8,
     /// Frame indices that must be IDR keyframes (any order; duplicates are fine). Frame 0
     /// always is one.
     pub keyframes: Vec<u64>,
@@ -93,6 +107,7 @@ impl EncodeSettings {
             crf: DEFAULT_CRF,
             preset: DEFAULT_PRESET.to_owned(),
             gop_frames: default_gop_frames(fps),
+            threads: DEFAULT_ENCODER_THREADS,
             keyframes: Vec::new(),
         }
     }
@@ -201,7 +216,7 @@ pub struct EncodedVideo {
 /// ffmpeg -hide_banner -nostats -loglevel level+warning
 ///        -f rawvideo -pix_fmt rgb24 -video_size WxH -framerate NUM/DEN -i -
 ///        -map 0:v:0 -an -sn -dn
-///        -c:v libx264 -preset P -crf C -pix_fmt yuv420p
+///        -c:v libx264 -preset P -crf C -pix_fmt yuv420p -threads T
 ///        -bf 0 -g GOP -sc_threshold 0 -forced-idr 1 [-force_key_frames T1,T2,…]
 ///        -f mp4 -y DIR/.NAME.part
 /// ```
@@ -627,6 +642,8 @@ fn encode_command(ffmpeg: &Ffmpeg, settings: &EncodeSettings, plan: &EncodePlan)
         .crf(u32::from(settings.crf))
         .pix_fmt("yuv420p")
         .args([
+            "-threads".to_owned(),
+            settings.threads.to_string(),
             "-bf".to_owned(),
             "0".to_owned(),
             "-g".to_owned(),
@@ -741,6 +758,7 @@ fn validate(settings: &EncodeSettings) -> Result<Rational, InvalidSetting> {
         crf,
         preset,
         gop_frames,
+        threads,
         ..
     } = settings;
     let (width, height) = (*width, *height);
@@ -768,6 +786,9 @@ fn validate(settings: &EncodeSettings) -> Result<Rational, InvalidSetting> {
     }
     if *gop_frames == 0 {
         return Err(InvalidSetting::GopZero);
+    }
+    if !(1..=MAX_ENCODER_THREADS).contains(threads) {
+        return Err(InvalidSetting::Threads { threads: *threads });
     }
     Ok(rate)
 }
@@ -806,7 +827,10 @@ fn command_line(command: &mut FfmpegCommand) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::{EncodeSettings, container_for, force_key_frames_arg, keyframe_time, validate};
+    use super::{
+        DEFAULT_ENCODER_THREADS, EncodePlan, EncodeSettings, MAX_ENCODER_THREADS, container_for,
+        encode_command, force_key_frames_arg, keyframe_time, validate,
+    };
     use crate::video::InvalidSetting;
     use crate::video::Rational;
 
@@ -941,8 +965,52 @@ mod tests {
                 gop_frames: 0,
                 ..ok.clone()
             },
+            EncodeSettings {
+                threads: 0,
+                ..ok.clone()
+            },
+            EncodeSettings {
+                threads: MAX_ENCODER_THREADS + 1,
+                ..ok.clone()
+            },
         ] {
             assert!(validate(&bad).is_err(), "{bad:?}");
         }
+    }
+
+    #[test]
+    fn x264_gets_the_thread_count_asked_not_the_machines() {
+        // x264's output depends on its thread count, and left alone it takes 1.5 × the cores.
+        let dir = tempfile::tempdir().unwrap();
+        let ffmpeg = crate::video::Ffmpeg::from_paths("ffmpeg", "ffprobe");
+        let output = dir.path().join("a.mp4");
+        for threads in [DEFAULT_ENCODER_THREADS, 3] {
+            let settings = EncodeSettings {
+                threads,
+                ..EncodeSettings::new(64, 48, 30.0)
+            };
+            let plan = EncodePlan::check(&output, &settings).unwrap();
+            let mut command = encode_command(&ffmpeg, &settings, &plan);
+            let args: Vec<String> = command
+                .as_inner_mut()
+                .get_args()
+                .map(|a| a.to_string_lossy().into_owned())
+                .collect();
+            let at = args.iter().position(|a| a == "-threads").expect("-threads");
+            assert_eq!(args[at + 1], threads.to_string(), "{args:?}");
+            assert!(
+                at > args.iter().position(|a| a == "-i").unwrap(),
+                "an output option: {args:?}"
+            );
+        }
+        assert_eq!(
+            validate(&EncodeSettings {
+                threads: 0,
+                ..EncodeSettings::new(64, 48, 30.0)
+            })
+            .unwrap_err()
+            .to_string(),
+            "0 encoder threads; use 1 to 64"
+        );
     }
 }

@@ -58,8 +58,8 @@ pub use cut::{
     ReencodeSettings, check_jpeg_qscale, cut, extract_frames, jpeg_qscale, keyframe_frames,
 };
 pub use encode::{
-    DEFAULT_CRF, DEFAULT_GOP_SECS, DEFAULT_PRESET, EncodeSettings, EncodedVideo, VideoEncoder,
-    force_key_frames_arg,
+    DEFAULT_CRF, DEFAULT_ENCODER_THREADS, DEFAULT_GOP_SECS, DEFAULT_PRESET, EncodeSettings,
+    EncodedVideo, MAX_ENCODER_THREADS, VideoEncoder, force_key_frames_arg,
 };
 pub use image::{PngPixels, Tile, contact_sheet, read_png, write_png, write_png_as};
 pub use probe::{ProbedFrame, ProbedPacket, VideoProbe, probe, probe_packets, probe_size};
@@ -261,6 +261,11 @@ pub enum InvalidSetting {
     },
     /// The longest keyframe interval is 0.
     GopZero,
+    /// The x264 thread count is 0 or over [`MAX_ENCODER_THREADS`].
+    Threads {
+        /// The asked count.
+        threads: u8,
+    },
     /// The output's extension names no container we write.
     Extension {
         /// The extension (`None`: the path has none).
@@ -356,6 +361,10 @@ impl std::fmt::Display for InvalidSetting {
                 known.join(", ")
             ),
             InvalidSetting::GopZero => f.write_str("gop_frames is 0; it must be at least 1"),
+            InvalidSetting::Threads { threads } => write!(
+                f,
+                "{threads} encoder threads; use 1 to {MAX_ENCODER_THREADS}"
+            ),
             InvalidSetting::Extension { extension } => write!(
                 f,
                 "unsupported file extension `{}`; use `.mp4`, `.mov` or `.mkv`",

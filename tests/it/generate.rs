@@ -441,6 +441,14 @@ fn a_run_killed_at_many_points_then_rerun_equals_an_uninterrupted_one() {
         "{}",
         stderr(&o)
     );
+    // And another x264 thread count: the videos' bytes depend on it.
+    let o = generate(spec, &out, &["--encoder-threads", "2"]);
+    assert!(!o.status.success(), "{}", stdout(&o));
+    assert!(
+        stderr(&o).contains("encoder_threads was 1, now 2"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 /// A real `kill -9` (SIGKILL: no handler, no clean-up, its ffmpeg orphaned) at seeded random

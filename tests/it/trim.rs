@@ -1834,6 +1834,7 @@ fn a_render_of_some_frames_gives_its_clips_and_refuses_others() {
         crf: 23,
         preset: "ultrafast".into(),
         gop_frames: None,
+        encoder_threads: autoact::video::DEFAULT_ENCODER_THREADS,
         embed_video: None,
         extra_keyframes: autoact::trim::run::clip_start_frames(&capture, &timing, &policies)
             .unwrap(),
