@@ -200,7 +200,7 @@ pub struct LabelCollector {
 #[derive(Debug)]
 enum CollectedClip {
     /// No frame of it seen yet.
-    Waiting { start: u64, frames: u64 },
+    Waiting { start: u64, frames: usize },
     /// Being filled; `missing` frames have no labels yet.
     Open {
         start: u64,
@@ -237,7 +237,10 @@ impl LabelCollector {
             ntu: LayoutIndex::new("ntu-25"),
             clips: ranges
                 .into_iter()
-                .map(|(start, frames)| CollectedClip::Waiting { start, frames })
+                .map(|(start, frames)| CollectedClip::Waiting {
+                    start,
+                    frames: usize::try_from(frames).unwrap_or(0),
+                })
                 .collect(),
             spool: LabelSpool::new(dir)?,
             error: None,
@@ -271,7 +274,7 @@ impl LabelCollector {
             && a.landmarks_2d.len() == 2 * a.landmark_names.len()
             && a.landmark_visibility.len() == a.landmark_names.len();
         let frames = match &self.clips[clip] {
-            CollectedClip::Waiting { frames, .. } => usize::try_from(*frames).unwrap_or(0),
+            CollectedClip::Waiting { frames, .. } => *frames,
             CollectedClip::Open { labels, .. } => labels.frames.len(),
             CollectedClip::Spooled { text, .. } => text.frames,
         };
@@ -319,7 +322,6 @@ impl LabelCollector {
         let (mut labels, mut missing) =
             match std::mem::replace(slot, CollectedClip::Waiting { start, frames: 0 }) {
                 CollectedClip::Waiting { frames, .. } => {
-                    let frames = usize::try_from(frames).unwrap_or(0);
                     let labels = ClipLabels {
                         width: 0,
                         height: 0,

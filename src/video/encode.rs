@@ -37,7 +37,8 @@ pub const DEFAULT_PRESET: &str = "superfast";
 /// of a capture at 320×240 took 2.45–2.55 s of ffmpeg CPU with 1 thread, 2.85–2.95 s with 2
 /// and 2.94–3.48 s with x264's default, at the same wall time (ffmpeg's input side is the limit
 /// there, about 600 frames/s). At 1280×720 one thread encodes about 59 frames/s (x264's
-/// default 103 on 2 cores): more threads pay only when the renderer draws faster than that.
+/// default 103 on 2 cores): more threads pay only when the renderer draws faster than that. In
+/// `generate` on 2 cores the saving is about 1 % of the chain's CPU (`docs/performance.md`).
 pub const DEFAULT_ENCODER_THREADS: u8 = 1;
 /// The most x264 threads accepted.
 pub const MAX_ENCODER_THREADS: u8 = 64;
