@@ -518,15 +518,16 @@ impl Capture {
         })?;
         let mut poses: BTreeMap<u64, BonePose> = BTreeMap::new();
         let mut cameras: BTreeMap<u64, Isometry3<f64>> = BTreeMap::new();
-        let logged = self
+        // No window: no frame message is stamped there, and every frame below is missing.
+        let window = self
             .log_times
             .as_ref()
             .map_or(Some(first..=last), |l| l.window(first..=last));
-        for reader in &readers {
-            let Some(logged) = logged.clone() else {
-                break;
-            };
-            for m in reader.messages_where(logged) {
+        for (reader, window) in readers
+            .iter()
+            .filter_map(|r| window.clone().map(|w| (r, w)))
+        {
+            for m in reader.messages_where(window) {
                 let m = m.map_err(|source| TimelineError::Read {
                     path: path.clone(),
                     source,
@@ -557,6 +558,38 @@ impl Capture {
                     pose: poses.remove(&stamp_nanos).ok_or_else(changed)?,
                     world_from_optical: *cameras.get(&stamp_nanos).ok_or_else(changed)?,
                 })
+            })
+            .collect()
+    }
+
+    /// The timeline frames `picks` (indices, any order, repeats allowed), in that order: read
+    /// as one stretch from the first to the last of them.
+    ///
+    /// # Errors
+    /// As [`Capture::frames`]; a pick beyond the timeline is a frame not found.
+    pub fn frames_at(
+        &self,
+        rig: &Rig,
+        picks: &[usize],
+    ) -> Result<Vec<CaptureFrame>, TimelineError> {
+        let (Some(&first), Some(&last)) = (picks.iter().min(), picks.iter().max()) else {
+            return Ok(Vec::new());
+        };
+        let read = self.frames(rig, first..last + 1)?;
+        picks
+            .iter()
+            .map(|&k| {
+                read.get(k - first)
+                    .cloned()
+                    .ok_or_else(|| TimelineError::Bad {
+                        path: self.path.clone(),
+                        topic: ANIMATION_TOPIC.to_owned(),
+                        stamp_nanos: self.stamps.last().unwrap_or(0),
+                        message: format!(
+                            "frame {k} is beyond the timeline's {}",
+                            self.frame_count()
+                        ),
+                    })
             })
             .collect()
     }
@@ -669,13 +702,16 @@ enum FrameMessage {
     Camera(u64, Isometry3<f64>),
 }
 
-/// The error of message `m` (of the bag at `path`) that does not decode.
-fn decode_error(path: &Path, m: &BagMessage) -> impl FnOnce(CdrError) -> TimelineError + use<> {
-    let (path, topic, stamp_nanos) = (path.to_path_buf(), m.channel.topic.clone(), m.log_time);
+/// The error of message `m` (of the bag at `path`) that does not decode (nothing is copied
+/// unless it is called: it is made for every message read).
+fn decode_error<'a>(
+    path: &'a Path,
+    m: &'a BagMessage,
+) -> impl FnOnce(CdrError) -> TimelineError + 'a {
     move |source| TimelineError::Decode {
-        path,
-        topic,
-        stamp_nanos,
+        path: path.to_path_buf(),
+        topic: m.channel.topic.clone(),
+        stamp_nanos: m.log_time,
         source,
     }
 }
@@ -865,11 +901,11 @@ impl Found {
         let mut segments = self.segments;
         segments.sort_by_key(|s| s.start.to_nanos().unwrap_or(0));
         // Without the dataset record, the median spacing of the frames.
-        let fps = match fps {
-            Some(fps) => Some(fps),
-            None => crate::skeleton::pose::frame_rate(None, &stamps.iter().collect::<Vec<u64>>()),
-        }
-        .ok_or_else(|| missing("frame rate (the autoact.dataset record's fps, or two frames)"))?;
+        let fps = fps
+            .or_else(|| crate::skeleton::pose::frame_rate(None, &stamps.iter().collect::<Vec<_>>()))
+            .ok_or_else(|| {
+                missing("frame rate (the autoact.dataset record's fps, or two frames)")
+            })?;
         let first_scene = scenes[0].start_nanos;
         for t in stamps.iter() {
             if cameras.position(t).is_none() {

@@ -177,23 +177,14 @@ impl SceneContext {
             );
         }
         // The clip's stretch of the capture, read for its cameras alone.
-        let first = at.iter().copied().min().unwrap_or(0);
-        let end = at.iter().copied().max().map_or(0, |k| k + 1);
         let frames = capture
-            .frames(rig, first..end)
+            .frames_at(rig, &at)
             .map_err(|source| ExportError::Capture {
                 path: path.to_path_buf(),
                 key: clip.key,
                 source: Box::new(source),
             })?;
-        for k in at {
-            let frame = frames.get(k - first).ok_or(ExportError::NoCameraPose {
-                path: path.to_path_buf(),
-                key: clip.key,
-                stamp_nanos: capture.stamps.get(k).unwrap_or(0),
-            })?;
-            world_from_optical.push(frame.world_from_optical);
-        }
+        world_from_optical.extend(frames.iter().map(|f| f.world_from_optical));
         let i = &capture.intrinsics;
         let camera = CameraPath {
             yfov_rad: 2.0 * (f64::from(i.height_px) / (2.0 * i.fy_px)).atan(),

@@ -361,11 +361,7 @@ impl BagReader {
         // it goes, so that a long bag does not become resident at once (a 233 MB bag did).
         let mut released_at = 0;
         while let Some(step) = walker.next() {
-            #[cfg(unix)]
-            if walker.at - released_at >= RELEASE_EVERY_BYTES {
-                self.release_pages();
-                released_at = walker.at;
-            }
+            self.release_walked(walker.at, &mut released_at);
             if let Step::Record {
                 framed: Framed { opcode, body },
                 ..
@@ -441,6 +437,17 @@ pub fn mcap_files_in(dir: &Path) -> Result<Vec<PathBuf>, McapIoError> {
 const RELEASE_EVERY_BYTES: usize = 4 << 20;
 
 impl BagReader {
+    /// Gives the pages back when a walk now at byte `at` has gone [`RELEASE_EVERY_BYTES`] since
+    /// `released_at` (then moved to `at`): how every walk over the file keeps it from becoming
+    /// resident.
+    fn release_walked(&self, at: usize, released_at: &mut usize) {
+        #[cfg(unix)]
+        if at.saturating_sub(*released_at) >= RELEASE_EVERY_BYTES {
+            self.release_pages();
+            *released_at = at;
+        }
+    }
+
     /// Drops the file's pages from this process's resident memory: a page touched again is read
     /// again (from the page cache, or the file). A long streaming read (`convert`) calls it now
     /// and then, so that its resident memory is what it holds, not the size of the file.
@@ -948,18 +955,10 @@ impl Messages<'_> {
         true
     }
 
-    /// Gives the pages walked back every [`RELEASE_EVERY_BYTES`].
-    fn release_walked(&mut self) {
-        #[cfg(unix)]
-        if self.walker.at.saturating_sub(self.released_at) >= RELEASE_EVERY_BYTES {
-            self.reader.release_pages();
-            self.released_at = self.walker.at;
-        }
-    }
-
     /// Reads the next top-level record into `pending`.
     fn step(&mut self, bytes: &[u8]) {
-        self.release_walked();
+        self.reader
+            .release_walked(self.walker.at, &mut self.released_at);
         let Some(step) = self.walker.next() else {
             self.done = true;
             return;

@@ -580,16 +580,7 @@ pub fn write_label_files(
     splits: &Assignment,
 ) -> Result<Option<LabelSummary>, TrimError> {
     let ann = dir.join(ANNOTATIONS_DIR);
-    let labelled: Vec<Labelled<'_>> = clips
-        .values()
-        .filter_map(|c| {
-            Some(Labelled {
-                clip: c,
-                split: *splits.splits.get(&c.clip_id)?,
-                sidecar: c.labels.as_deref()?,
-            })
-        })
-        .collect();
+    let labelled = labelled_clips(clips, splits);
     let files: Vec<PathBuf> = [SKELETON_2D_FILE, SKELETON_3D_FILE]
         .into_iter()
         .map(str::to_owned)
@@ -627,6 +618,23 @@ struct Labelled<'a> {
     clip: &'a ClipRecord,
     split: Split,
     sidecar: &'a str,
+}
+
+/// The clips of `clips` with a sidecar and a split, in the map's order.
+fn labelled_clips<'a>(
+    clips: &'a BTreeMap<String, ClipRecord>,
+    splits: &Assignment,
+) -> Vec<Labelled<'a>> {
+    clips
+        .values()
+        .filter_map(|c| {
+            Some(Labelled {
+                clip: c,
+                split: *splits.splits.get(&c.clip_id)?,
+                sidecar: c.labels.as_deref()?,
+            })
+        })
+        .collect()
 }
 
 /// What the COCO images of a clip need of its sidecar.
@@ -968,9 +976,9 @@ mod tests {
     use std::collections::BTreeMap;
 
     use super::{
-        ClipLabels, ClipSize, FrameLabels, LabelCollector, Labelled, Skeleton, SpooledLabels,
-        TrimError, coco_file, layout_landmarks, read_sidecar, sidecar_path, skeleton_annotation,
-        split_dict, write_coco_files, write_label_files, write_sidecar,
+        ClipLabels, ClipSize, FrameLabels, LabelCollector, Skeleton, SpooledLabels, TrimError,
+        coco_file, labelled_clips, layout_landmarks, read_sidecar, sidecar_path,
+        skeleton_annotation, split_dict, write_coco_files, write_label_files, write_sidecar,
     };
     use crate::ros::autoact_msgs::FrameAnnotation;
     use crate::ros::geometry_msgs::Point;
@@ -1247,14 +1255,8 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let (clips, splits) = three_clips(dir.path());
         write_label_files(dir.path(), &clips, &splits).unwrap();
-        let labelled: Vec<Labelled<'_>> = clips
-            .values()
-            .map(|c| Labelled {
-                clip: c,
-                split: splits.splits[&c.clip_id],
-                sidecar: c.labels.as_deref().unwrap(),
-            })
-            .collect();
+        let labelled = labelled_clips(&clips, &splits);
+        assert_eq!(labelled.len(), clips.len(), "every clip is labelled");
         for (file, which) in [
             (super::SKELETON_2D_FILE, Skeleton::Coco2d),
             (super::SKELETON_3D_FILE, Skeleton::Ntu3d),
@@ -1368,14 +1370,8 @@ mod tests {
     fn a_sidecar_changed_between_the_passes_is_refused() {
         let dir = tempfile::tempdir().unwrap();
         let (clips, splits) = three_clips(dir.path());
-        let labelled: Vec<Labelled<'_>> = clips
-            .values()
-            .map(|c| Labelled {
-                clip: c,
-                split: splits.splits[&c.clip_id],
-                sidecar: c.labels.as_deref().unwrap(),
-            })
-            .collect();
+        let labelled = labelled_clips(&clips, &splits);
+        assert_eq!(labelled.len(), clips.len(), "every clip is labelled");
         // As the first pass saw them, but clip `a` had 3 frames then (it has 2 on disk).
         let sizes: Vec<ClipSize> = [3, 1, 1]
             .into_iter()

@@ -132,14 +132,13 @@ pub fn video_frame_speeds(
             .filter(|&i| i < stamps.len())
     };
     let picks: Vec<Option<usize>> = frames.map(nearest).collect();
-    let first = picks.iter().flatten().min().copied().unwrap_or(0);
-    let end = picks.iter().flatten().max().map_or(0, |&i| i + 1);
-    let read = capture.frames(rig, first..end)?;
+    let wanted: Vec<usize> = picks.iter().flatten().copied().collect();
+    let mut read = capture.frames_at(rig, &wanted)?.into_iter();
     let mut meter = SpeedMeter::new(rig);
     let mut bodies: BTreeMap<usize, Character> = BTreeMap::new();
     let mut out = Vec::with_capacity(picks.len());
     for pick in picks {
-        let Some(frame) = pick.and_then(|i| read.get(i - first)) else {
+        let Some(frame) = pick.and_then(|_| read.next()) else {
             out.push(0.0);
             continue;
         };
