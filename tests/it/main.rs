@@ -3,7 +3,7 @@
 //!
 //! Each module is one area, run through the library or the `autoact` binary. The `*_real_data`
 //! modules read recordings from `../shared/data`, which is not part of the crate; their tests are
-//! `#[ignore]`d and `.ci/run` runs them with `cargo test --release -- --ignored` when the data
+//! `#[ignore]`d and `.ci/run` runs them with `cargo test -- --ignored` when the data
 //! exists. Run one area with a filter on its module, e.g. `cargo test --test it trim::`.
 
 mod common;

@@ -5,9 +5,9 @@
 - the file parses, and its joint names (in order), joint count, frame count and frame time are
   the ones autoact meant (`X.expected.json` beside `X.bvh`, from `--write-expected-json`);
 - every value line has one number per channel;
-- forward kinematics of every frame (channels read by `bvh`, each joint's rotation the product
-  of its rotation channels in the order listed, position channels replacing the offset) puts
-  every joint within 1 mm of where autoact's own forward kinematics put it.
+- forward kinematics of every frame (values and channel columns read by `bvh`, each joint's
+  rotation the product of its rotation channels in the order listed, position channels replacing
+  the offset) puts every joint within 1 mm of where autoact's own forward kinematics put it.
 
 Usage: check_bvh.py X.bvh ...   Prints `ok bvh X.bvh: ...` or `FAIL bvh X.bvh: ...` per file and
 exits 0 only if every file passes.
@@ -39,11 +39,16 @@ def axis_rotations(axis, degrees):
 def forward_kinematics(mocap, names):
     """World positions (F, J, 3) in file units of every joint in `names`."""
     frames = mocap.nframes
+    # The value lines as `bvh` split them, and each joint's first column as `bvh` counts it
+    # (`get_joint_channels_index`): what its `frames_joint_channels` does, without searching the
+    # joint tree again for every value of every frame (which took minutes on a capture's BVH).
+    table = np.array(mocap.frames, dtype=float).reshape(frames, -1)
     world_r, world_p = {}, {}
     out = np.zeros((frames, len(names), 3))
     for j, name in enumerate(names):
         channels = mocap.joint_channels(name)
-        values = np.array(mocap.frames_joint_channels(name, channels), dtype=float).reshape(frames, len(channels))
+        first = mocap.get_joint_channels_index(name)
+        values = table[:, first : first + len(channels)]
         translation = np.tile(np.array(mocap.joint_offset(name), dtype=float), (frames, 1))
         rotation = np.tile(np.eye(3), (frames, 1, 1))
         for k, channel in enumerate(channels):
