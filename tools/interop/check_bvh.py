@@ -42,7 +42,8 @@ def forward_kinematics(mocap, names):
     # The value lines as `bvh` split them, and each joint's first column as `bvh` counts it
     # (`get_joint_channels_index`): what its `frames_joint_channels` does, without searching the
     # joint tree again for every value of every frame (which took minutes on a capture's BVH).
-    table = np.array(mocap.frames, dtype=float).reshape(frames, -1)
+    width = sum(len(mocap.joint_channels(n)) for n in mocap.get_joints_names())
+    table = np.array(mocap.frames, dtype=float).reshape(frames, width)
     world_r, world_p = {}, {}
     out = np.zeros((frames, len(names), 3))
     for j, name in enumerate(names):
