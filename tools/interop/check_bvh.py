@@ -36,14 +36,18 @@ def axis_rotations(axis, degrees):
     return np.moveaxis(np.array(rows), -1, 0)
 
 
+def channel_count(mocap):
+    """Values per frame line: the channels of every joint."""
+    return sum(len(mocap.joint_channels(n)) for n in mocap.get_joints_names())
+
+
 def forward_kinematics(mocap, names):
     """World positions (F, J, 3) in file units of every joint in `names`."""
     frames = mocap.nframes
     # The value lines as `bvh` split them, and each joint's first column as `bvh` counts it
     # (`get_joint_channels_index`): what its `frames_joint_channels` does, without searching the
     # joint tree again for every value of every frame (which took minutes on a capture's BVH).
-    width = sum(len(mocap.joint_channels(n)) for n in mocap.get_joints_names())
-    table = np.array(mocap.frames, dtype=float).reshape(frames, width)
+    table = np.array(mocap.frames, dtype=float).reshape(frames, channel_count(mocap))
     world_r, world_p = {}, {}
     out = np.zeros((frames, len(names), 3))
     for j, name in enumerate(names):
@@ -85,7 +89,7 @@ def check(path):
         return f"Frames: {mocap.nframes} with {len(mocap.frames)} value lines, expected {expected['frames']}"
     if abs(mocap.frame_time - expected["frame_time_secs"]) > 1e-8:
         return f"Frame Time: {mocap.frame_time}, expected {expected['frame_time_secs']}"
-    width = sum(len(mocap.joint_channels(n)) for n in names)
+    width = channel_count(mocap)
     bad = [k for k, line in enumerate(mocap.frames) if len(line) != width]
     if bad:
         return f"frame {bad[0]} has {len(mocap.frames[bad[0]])} values, the channels want {width}"
