@@ -53,7 +53,7 @@ fn main() -> Result<()> {
     header();
     let mut worst: Vec<(String, RoundTrip)> = Vec::new();
     let mut root_relative: Vec<String> = Vec::new();
-    for dir in ["bvh/bandai_namco", "bvh/xia_style"] {
+    for dir in ["bvh/bandai_namco", "bvh/xia_style", "bvh/misc"] {
         for path in sorted_files(&data.join(dir), "bvh")? {
             let clip = bvh::read(&path).with_context(|| format!("reading {}", path.display()))?;
             let mapping = BvhMapping::detect(&clip)?;

@@ -16,7 +16,14 @@
 //! head = "head_top"
 //! ```
 //!
-//! Layout joints a mapping does not give are missing (NaN, confidence 0) in every frame.
+//! Layout joints a mapping does not give are missing (NaN, confidence 0) in every frame. A
+//! layout joint may also name alternatives, `{ first = ["LeftToeBase", "LeftFoot_End"] }`: the
+//! first the clip has is used, and the joint is missing when it has none (one table then serves
+//! a skeleton family whose files differ in their optional joints).
+//!
+//! Names are matched as written, or else without a namespace prefix: Mixamo's
+//! `mixamorig:LeftArm` (or `mixamorig1:LeftArm`) is `LeftArm` to a mapping, when no other joint
+//! of the clip has that name.
 //!
 //! Every built-in mapping has a table for `autoact-landmarks` (the rig's own landmarks, see
 //! `autoact rig --landmarks`), the layout a BVH import uses unless told otherwise
@@ -156,6 +163,26 @@ pub struct VirtualPoint {
     pub offset: [f64; 3],
 }
 
+/// Where a layout joint is in a BVH clip: a joint expression over joints and virtual points, or
+/// the first of several names the clip has.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(untagged)]
+pub enum BvhExpr {
+    /// The first of these names (joints, End Sites as `<joint>_End`, virtual points) that the
+    /// clip has; the layout joint is missing in every frame when it has none of them.
+    First(FirstOf),
+    /// A joint, virtual point, mean or point along a segment; every name must be in the clip.
+    Expr(JointExpr),
+}
+
+/// `{ first = [...] }`: see [`BvhExpr::First`].
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FirstOf {
+    /// Candidate names, in order of preference.
+    pub first: Vec<String>,
+}
+
 /// A BVH skeleton family's mapping onto keypoint layouts.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -173,10 +200,13 @@ pub struct BvhMapping {
     #[serde(default)]
     pub points: BTreeMap<String, VirtualPoint>,
     /// Per layout name: layout joint → expression over BVH joints and virtual points.
-    pub layouts: BTreeMap<String, BTreeMap<String, JointExpr>>,
+    pub layouts: BTreeMap<String, BTreeMap<String, BvhExpr>>,
 }
 
-const BUILTIN: [(&str, &str); 3] = [
+/// The built-in mappings, tried in this order: the first whose required joints a clip has is
+/// used, so a family whose names are a superset of another's (CMU's of the common humanoid
+/// names) comes first.
+const BUILTIN: [(&str, &str); 5] = [
     (
         "bandai-namco",
         include_str!("../skeleton/layouts/bvh/bandai-namco.toml"),
@@ -185,6 +215,14 @@ const BUILTIN: [(&str, &str); 3] = [
     (
         "autoact53",
         include_str!("../skeleton/layouts/bvh/autoact53.toml"),
+    ),
+    (
+        "biovision",
+        include_str!("../skeleton/layouts/bvh/biovision.toml"),
+    ),
+    (
+        "humanoid",
+        include_str!("../skeleton/layouts/bvh/humanoid.toml"),
     ),
 ];
 
@@ -228,11 +266,10 @@ impl BvhMapping {
     /// # Errors
     /// [`BvhMapError::MissingJoints`] naming the joints not found.
     pub fn check_fits(self, bvh: &Bvh) -> Result<BvhMapping, BvhMapError> {
-        let names = bvh.joint_names();
         let missing: Vec<&str> = self
             .required
             .iter()
-            .filter(|r| !names.contains(r))
+            .filter(|r| joint_named(bvh, r).is_none())
             .map(String::as_str)
             .collect();
         if missing.is_empty() {
@@ -263,14 +300,13 @@ impl BvhMapping {
     /// [`BvhMapError::NoMapping`].
     pub fn detect(bvh: &Bvh) -> Result<BvhMapping, BvhMapError> {
         let all = BvhMapping::builtins()?;
-        let names = bvh.joint_names();
         let known = all
             .iter()
             .map(|m| format!("{} (needs {})", m.skeleton, m.required.join(", ")))
             .collect::<Vec<_>>()
             .join("; ");
         all.into_iter()
-            .find(|m| m.required.iter().all(|r| names.contains(r)))
+            .find(|m| m.required.iter().all(|r| joint_named(bvh, r).is_some()))
             .ok_or_else(|| BvhMapError::NoMapping {
                 source_name: bvh.source.clone(),
                 known,
@@ -315,46 +351,49 @@ impl BvhMapping {
             });
         };
         bvh.check_translations(metres_per_unit, super::bvh::MAX_TRANSLATION_M)?;
-        // Resolve every name to (joint index, offset in the joint's frame).
-        let resolve = |name: &String| -> Result<(usize, Vector3<f64>), BvhMapError> {
-            if let Some(j) = bvh.joint_index(name) {
-                return Ok((j, Vector3::zeros()));
+        // Every name as (joint index, offset in the joint's frame), if the clip has it.
+        let find = |name: &String| -> Option<(usize, Vector3<f64>)> {
+            if let Some(j) = joint_named(bvh, name) {
+                return Some((j, Vector3::zeros()));
             }
-            self.points
-                .get(name)
-                .and_then(|p| Some((bvh.joint_index(&p.joint)?, Vector3::from(p.offset))))
-                .ok_or_else(|| BvhMapError::UnknownName {
-                    source_name: bvh.source.clone(),
-                    mapping: self.skeleton.clone(),
-                    name: name.clone(),
-                    joints: bvh.joint_names().join(", "),
-                })
+            let p = self.points.get(name)?;
+            Some((joint_named(bvh, &p.joint)?, Vector3::from(p.offset)))
+        };
+        let resolve = |name: &String| {
+            find(name).ok_or_else(|| BvhMapError::UnknownName {
+                source_name: bvh.source.clone(),
+                mapping: self.skeleton.clone(),
+                name: name.clone(),
+                joints: bvh.joint_names().join(", "),
+            })
         };
         let mut terms: Vec<Option<Terms>> = Vec::with_capacity(layout.joints.len());
         for joint in &layout.joints {
-            let Some(expr) = table.get(joint) else {
-                terms.push(None);
-                continue;
-            };
             #[expect(clippy::cast_precision_loss, reason = "a mean of a handful of joints")]
-            let t = match expr {
-                JointExpr::Joint(n) => {
+            let t = match table.get(joint) {
+                None => None,
+                Some(BvhExpr::First(FirstOf { first })) => {
+                    first.iter().find_map(find).map(|(j, o)| vec![(j, o, 1.0)])
+                }
+                Some(BvhExpr::Expr(JointExpr::Joint(n))) => {
                     let (j, o) = resolve(n)?;
-                    vec![(j, o, 1.0)]
+                    Some(vec![(j, o, 1.0)])
                 }
-                JointExpr::Mean { mean } => {
+                Some(BvhExpr::Expr(JointExpr::Mean { mean })) => {
                     let w = 1.0 / mean.len().max(1) as f64;
-                    mean.iter()
-                        .map(|n| resolve(n).map(|(j, o)| (j, o, w)))
-                        .collect::<Result<_, _>>()?
+                    Some(
+                        mean.iter()
+                            .map(|n| resolve(n).map(|(j, o)| (j, o, w)))
+                            .collect::<Result<_, _>>()?,
+                    )
                 }
-                JointExpr::Lerp { from, to, t } => {
+                Some(BvhExpr::Expr(JointExpr::Lerp { from, to, t })) => {
                     let (a, oa) = resolve(from)?;
                     let (b, ob) = resolve(to)?;
-                    vec![(a, oa, 1.0 - t), (b, ob, *t)]
+                    Some(vec![(a, oa, 1.0 - t), (b, ob, *t)])
                 }
             };
-            terms.push(Some(t));
+            terms.push(t);
         }
         let fps = bvh.fps();
         let frames = (0..bvh.frame_count())
@@ -423,6 +462,27 @@ pub fn mappings_json() -> serde_json::Value {
         })
         .collect();
     serde_json::Value::Array(v)
+}
+
+/// The joint of `bvh` called `name`: the one with exactly that name, else the only one whose
+/// name without its namespace prefix (up to the last `:`, as Mixamo's `mixamorig:`) is `name`.
+fn joint_named(bvh: &Bvh, name: &str) -> Option<usize> {
+    if let Some(j) = bvh.joint_index(name) {
+        return Some(j);
+    }
+    let mut found = bvh
+        .joints
+        .iter()
+        .enumerate()
+        .filter(|(_, joint)| {
+            joint
+                .name
+                .rsplit_once(':')
+                .is_some_and(|(_, local)| local == name)
+        })
+        .map(|(j, _)| j);
+    let first = found.next()?;
+    found.next().is_none().then_some(first)
 }
 
 /// The clip's joints, End Sites left out, comma-separated (for error messages).
@@ -624,6 +684,227 @@ mod tests {
                 && e.contains("--bvh-map FILE.toml"),
             "{e}"
         );
+    }
+
+    /// A humanoid-named skeleton (cm, Y up, T-pose): `(name, parent, offset)`, parents first,
+    /// and whether the joint (with everything below it) may be left out of a file.
+    const HUMANOID: [(&str, &str, [f64; 3], bool); 30] = [
+        ("Hips", "", [0.0, 95.0, 0.0], false),
+        ("Spine", "Hips", [0.0, 10.0, 0.0], false),
+        ("Spine1", "Spine", [0.0, 15.0, 0.0], true),
+        ("Spine2", "Spine1", [0.0, 15.0, 0.0], true),
+        ("Neck", "Spine2", [0.0, 15.0, 0.0], true),
+        ("Head", "Neck", [0.0, 10.0, 2.0], false),
+        ("HeadTop_End", "Head", [0.0, 18.0, 3.0], true),
+        ("LeftEye", "Head", [3.0, 7.0, 8.0], true),
+        ("RightEye", "Head", [-3.0, 7.0, 8.0], true),
+        ("LeftShoulder", "Spine2", [6.0, 12.0, 0.0], true),
+        ("LeftArm", "LeftShoulder", [12.0, 0.0, 0.0], false),
+        ("LeftForeArm", "LeftArm", [27.0, 0.0, 0.0], false),
+        ("LeftHand", "LeftForeArm", [26.0, 0.0, 0.0], false),
+        ("LeftHandIndex1", "LeftHand", [10.0, 0.0, 3.0], true),
+        ("LeftHandIndex2", "LeftHandIndex1", [4.0, 0.0, 0.0], true),
+        ("LeftHandPinky1", "LeftHand", [9.0, 0.0, -3.0], true),
+        ("RightShoulder", "Spine2", [-6.0, 12.0, 0.0], true),
+        ("RightArm", "RightShoulder", [-12.0, 0.0, 0.0], false),
+        ("RightForeArm", "RightArm", [-27.0, 0.0, 0.0], false),
+        ("RightHand", "RightForeArm", [-26.0, 0.0, 0.0], false),
+        ("RightHandIndex1", "RightHand", [-10.0, 0.0, 3.0], true),
+        ("RightHandPinky1", "RightHand", [-9.0, 0.0, -3.0], true),
+        ("LeftUpLeg", "Hips", [9.0, -5.0, 0.0], false),
+        ("LeftLeg", "LeftUpLeg", [0.0, -42.0, 0.0], false),
+        ("LeftFoot", "LeftLeg", [0.0, -42.0, 0.0], false),
+        ("LeftToeBase", "LeftFoot", [0.0, -6.0, 12.0], true),
+        ("RightUpLeg", "Hips", [-9.0, -5.0, 0.0], false),
+        ("RightLeg", "RightUpLeg", [0.0, -42.0, 0.0], false),
+        ("RightFoot", "RightLeg", [0.0, -42.0, 0.0], false),
+        ("RightToeBase", "RightFoot", [0.0, -6.0, 12.0], true),
+    ];
+
+    /// A one-frame BVH of the [`HUMANOID`] joints that `keep` keeps (the required ones are
+    /// always kept; a joint left out hands its children to its own parent, where they stay at
+    /// rest), each named `prefix` + its name; a joint without children gets an End Site. The
+    /// frame turns every joint a little.
+    fn humanoid_clip(prefix: &str, keep: impl Fn(usize) -> bool) -> Bvh {
+        use std::fmt::Write;
+        let parent = |i: usize| HUMANOID.iter().position(|h| h.0 == HUMANOID[i].1);
+        let rest: Vec<Vector3<f64>> = (0..HUMANOID.len())
+            .map(|i| {
+                let mut p = Vector3::from(HUMANOID[i].2);
+                let mut j = i;
+                while let Some(q) = parent(j) {
+                    p += Vector3::from(HUMANOID[q].2);
+                    j = q;
+                }
+                p
+            })
+            .collect();
+        let kept = |i: usize| keep(i) || !HUMANOID[i].3;
+        // The nearest kept ancestor.
+        let kept_parent = |i: usize| {
+            let mut j = parent(i);
+            while let Some(q) = j.filter(|&q| !kept(q)) {
+                j = parent(q);
+            }
+            j
+        };
+        let mut order = Vec::new();
+        let mut text = String::from("HIERARCHY\n");
+        let mut stack = vec![(0_usize, 0_usize)];
+        // Joints whose `{` is not closed yet.
+        let mut open = 0;
+        while let Some((i, depth)) = stack.pop() {
+            while open > depth {
+                open -= 1;
+                let _ = writeln!(text, "{}}}", "  ".repeat(open));
+            }
+            let pad = "  ".repeat(depth);
+            let o = rest[i] - kept_parent(i).map_or_else(Vector3::zeros, |p| rest[p]);
+            let (kind, channels) = if depth == 0 {
+                (
+                    "ROOT",
+                    "6 Xposition Yposition Zposition Zrotation Xrotation Yrotation",
+                )
+            } else {
+                ("JOINT", "3 Zrotation Xrotation Yrotation")
+            };
+            let _ = writeln!(
+                text,
+                "{pad}{kind} {prefix}{}\n{pad}{{\n{pad}  OFFSET {} {} {}\n{pad}  CHANNELS {channels}",
+                HUMANOID[i].0, o.x, o.y, o.z
+            );
+            order.push(i);
+            open += 1;
+            let children: Vec<usize> = (0..HUMANOID.len())
+                .filter(|&c| kept(c) && kept_parent(c) == Some(i))
+                .collect();
+            if children.is_empty() {
+                let _ = writeln!(
+                    text,
+                    "{pad}  End Site\n{pad}  {{\n{pad}    OFFSET 0 5 0\n{pad}  }}"
+                );
+            }
+            stack.extend(children.into_iter().rev().map(|c| (c, depth + 1)));
+        }
+        while open > 0 {
+            open -= 1;
+            let _ = writeln!(text, "{}}}", "  ".repeat(open));
+        }
+        let values: Vec<String> = (0..3 + 3 * order.len())
+            .map(|k| format!("{}", (k % 7) as f64 * 2.5))
+            .collect();
+        let _ = write!(
+            text,
+            "MOTION\nFrames: 1\nFrame Time: 0.0333333\n{}\n",
+            values.join(" ")
+        );
+        super::super::bvh::parse(&text, "h.bvh").unwrap()
+    }
+
+    #[test]
+    fn a_namespace_prefix_is_ignored_unless_two_joints_share_the_name() {
+        let clip = humanoid_clip("mixamorig:", |_| true);
+        assert_eq!(
+            joint_named(&clip, "LeftArm"),
+            clip.joint_index("mixamorig:LeftArm")
+        );
+        assert_eq!(joint_named(&clip, "Left"), None);
+        assert_eq!(BvhMapping::detect(&clip).unwrap().skeleton, "humanoid");
+        // Two namespaces holding the same name: neither is `Head`.
+        let text = "HIERARCHY\nROOT a:Head\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Xposition Yposition Zposition\n  JOINT b:Head\n  {\n    OFFSET 0 10 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n    End Site\n    {\n      OFFSET 0 1 0\n    }\n  }\n}\nMOTION\nFrames: 1\nFrame Time: 0.04\n0 0 0 0 0 0\n";
+        let two = super::super::bvh::parse(text, "two.bvh").unwrap();
+        assert_eq!(joint_named(&two, "Head"), None);
+        assert_eq!(joint_named(&two, "b:Head"), Some(1));
+    }
+
+    #[test]
+    fn the_first_alternative_the_clip_has_is_used_and_none_leaves_the_joint_missing() {
+        let clip = two_joint_clip();
+        let layout = Layout::load(DEFAULT_LAYOUT).unwrap();
+        let map = GOOD_MAP.to_string()
+            + "head_center = { first = [\"Eye\", \"top\", \"Head\"] }\nnose = { first = [\"Nose\", \"Nose_End\"] }\nl_eye = { first = [\"Head_End\"] }\n";
+        let seq = BvhMapping::from_toml(&map, "m")
+            .unwrap()
+            .keypoints(&clip, &layout)
+            .unwrap();
+        let at = |n: &str| seq.frames[0].positions_m[seq.joint_index(n).unwrap()];
+        // `Eye` is not in the clip; `top` (a virtual point) is.
+        assert_eq!(at("head_center"), at("head_top"));
+        assert!(at("nose").x.is_nan(), "no alternative: missing");
+        assert!(
+            at("l_eye").z > at("neck").z,
+            "an End Site by its `_End` name"
+        );
+        // A `first` with anything but its list is refused.
+        let bad = GOOD_MAP.to_string() + "nose = { first = [\"Head\"], t = 1.0 }\n";
+        assert!(BvhMapping::from_toml(&bad, "m").is_err());
+    }
+
+    #[test]
+    fn cmu_clips_keep_their_own_mapping_ahead_of_the_humanoid_names() {
+        // The CMU skeleton's names include every humanoid required name.
+        let cmu = BvhMapping::builtins()
+            .unwrap()
+            .into_iter()
+            .find(|m| m.skeleton == "cmu")
+            .unwrap();
+        let humanoid = BvhMapping::builtins()
+            .unwrap()
+            .into_iter()
+            .find(|m| m.skeleton == "humanoid")
+            .unwrap();
+        let mut text = String::from(
+            "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Xposition Yposition Zposition\n",
+        );
+        let mut names: Vec<&String> = cmu.required.iter().chain(&humanoid.required).collect();
+        names.sort();
+        names.dedup();
+        names.retain(|n| *n != "Hips");
+        for n in &names {
+            text += &format!(
+                "  JOINT {n}\n  {{\n    OFFSET 0 10 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n    End Site\n    {{\n      OFFSET 0 1 0\n    }}\n  }}\n"
+            );
+        }
+        text += &format!(
+            "}}\nMOTION\nFrames: 1\nFrame Time: 0.04\n{}\n",
+            vec!["0"; 3 + 3 * names.len()].join(" ")
+        );
+        let clip = super::super::bvh::parse(&text, "cmu.bvh").unwrap();
+        assert_eq!(BvhMapping::detect(&clip).unwrap().skeleton, "cmu");
+    }
+
+    proptest::proptest! {
+        /// Any humanoid-named file, whatever optional joints it lacks and whatever namespace
+        /// its names carry, is read by the built-in `humanoid` mapping: every landmark is there
+        /// exactly when one of its alternatives is, at that joint.
+        #[test]
+        fn any_humanoid_file_maps_each_landmark_it_has_the_joints_for(
+            keep in proptest::collection::vec(proptest::bool::ANY, HUMANOID.len()),
+            prefix in proptest::sample::select(vec!["", "mixamorig:", "mixamorig1:", "Char:"]),
+        ) {
+            let clip = humanoid_clip(prefix, |i| keep[i]);
+            let mapping = BvhMapping::detect(&clip).unwrap();
+            proptest::prop_assert_eq!(&mapping.skeleton, "humanoid");
+            let layout = Layout::load(DEFAULT_LAYOUT).unwrap();
+            let seq = mapping.keypoints(&clip, &layout).unwrap();
+            let world = clip.world_transforms(0);
+            let metres = clip.guess_metres_per_unit().unwrap();
+            for (landmark, expr) in &mapping.layouts[DEFAULT_LAYOUT] {
+                let got = seq.frames[0].positions_m[seq.joint_index(landmark).unwrap()];
+                let BvhExpr::First(FirstOf { first }) = expr else {
+                    proptest::prop_assert!(got.iter().all(|c| c.is_finite()), "{}", landmark);
+                    continue;
+                };
+                match first.iter().find_map(|n| joint_named(&clip, n)) {
+                    Some(j) => {
+                        let want = SourceAxes::YUp
+                            .point_to_autoact(Point3::from(world[j].0.coords * metres));
+                        proptest::prop_assert!((got - want).norm() < 1e-9, "{}", landmark);
+                    }
+                    None => proptest::prop_assert!(got.x.is_nan(), "{}", landmark),
+                }
+            }
+        }
     }
 
     #[test]
