@@ -13,7 +13,7 @@
 mod common;
 
 use anyhow::{Context, Result};
-use autoact::formats::{bvh, bvh_map::BvhMapping, h36m_expmap, ntu, zed_mat};
+use autoact::formats::{bvh, bvh_map::BvhMapping, h36m_expmap, ntu, utd_mat, zed_mat};
 use std::path::Path;
 
 use autoact::skeleton::convert::{ConvertOptions, Degeneracy, convert_sequence};
@@ -108,6 +108,13 @@ fn main() -> Result<()> {
         for seq in ntu::read(&path)?.to_pose_sequences(ntu::FPS) {
             sensors.push((file_name(&path), Layout::builtin("ntu-25")?, seq));
         }
+    }
+    for path in sorted_files(&data.join("utd_mhad_kinect1"), "mat")? {
+        sensors.push((
+            file_name(&path),
+            Layout::builtin("kinect-v1-20")?,
+            utd_mat::read(&path)?.to_pose_sequence(utd_mat::FPS),
+        ));
     }
     for (name, layout, seq) in &sensors {
         let rt = eval::round_trip(&rig, layout, seq, options)?;

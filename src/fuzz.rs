@@ -14,11 +14,12 @@ use crate::skeleton::frames::SourceAxes;
 use crate::skeleton::rig::Rig;
 
 /// The kinds of input there is an entry point for, by the name of their fuzz target.
-pub const TARGETS: [&str; 10] = [
+pub const TARGETS: [&str; 11] = [
     "bvh",
     "ntu",
     "h36m",
     "zed_mat",
+    "utd_mat",
     "mmpose_json",
     "spec",
     "layout",
@@ -48,6 +49,13 @@ pub fn run(target: &str, data: &[u8]) -> bool {
             None,
         ),
         "zed_mat" => import_bytes(data, "zed.mat", InputFormat::ZedMat, None, None),
+        "utd_mat" => import_bytes(
+            data,
+            "a1_s1_t1_skeleton.mat",
+            InputFormat::UtdMat,
+            None,
+            None,
+        ),
         "mmpose_json" => import_bytes(
             data,
             "poses.json",

@@ -112,7 +112,8 @@ def make_seeds(autoact, work):
         real = [("bvh", "bvh/bandai_namco/dataset-1_run_normal_001.bvh"),
                 ("bvh", "bvh/xia_style/angry_13_000.bvh"),
                 ("ntu", "ntu/S001C001P001R001A001.skeleton"),
-                ("zed_mat", "zed_body34/rzy_run1_HD1080_SN35745898_19-44-15.mat")]
+                ("zed_mat", "zed_body34/rzy_run1_HD1080_SN35745898_19-44-15.mat"),
+                ("utd_mat", "utd_mhad_kinect1/a1_s1_t2_skeleton.mat")]
         for kind, rel in real:
             path = DATA / rel
             if path.is_file():
@@ -211,7 +212,8 @@ def command(kind, path, out):
         return [["import", path, "-o", out, "--force"]]
     if kind == "h36m":
         return [["import", path, "-o", out, "--force", "--format", "h36m-expmap"]]
-    if kind == "zed_mat":
+    if kind in ("zed_mat", "utd_mat"):
+        # Auto-detected by their variables, as a user's .mat file is.
         return [["import", path, "-o", out, "--force"]]
     if kind == "mmpose_json":
         return [["import", path, "-o", out, "--force", "--layout", "coco-17", "--fps", "30"]]

@@ -19,7 +19,7 @@ use crate::skeleton::pose::PoseSequence;
 use spec::Spec;
 
 /// A spec source that is a dataset file `autoact import` reads rather than a bag — BVH,
-/// NTU `.skeleton`, Human3.6M `.txt`, ZED `.mat` — read with `import`'s defaults (grounded if
+/// NTU `.skeleton`, Human3.6M `.txt`, ZED or UTD-MHAD `.mat` — read with `import`'s defaults (grounded if
 /// it is estimator output); `None` for anything else (a bag, or MMPose JSON, which has no
 /// frame rate of its own: import it first).
 #[must_use]

@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 
 use crate::bags::pose::skeleton_message;
 use crate::formats::bvh_map::{self, BvhMapError, BvhMapping};
-use crate::formats::{bvh, h36m_expmap, mmpose_json, ntu, zed_mat};
+use crate::formats::{bvh, h36m_expmap, mmpose_json, ntu, utd_mat, zed_mat};
 use crate::skeleton::eval::LengthStability;
 use crate::skeleton::frames::SourceAxes;
 use crate::skeleton::ground::{self, GroundMode, Grounding};
@@ -27,7 +27,8 @@ use crate::skeleton::pose::{PoseFrame, PoseSequence};
 /// Input formats.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum InputFormat {
-    /// From the file extension: .bvh, .skeleton, .txt, .mat, .json.
+    /// From the file extension: .bvh, .skeleton, .txt, .mat (ZED or UTD-MHAD, by its variables),
+    /// .json.
     #[default]
     Auto,
     /// BVH motion capture.
@@ -38,6 +39,8 @@ pub enum InputFormat {
     H36mExpmap,
     /// ZED BODY_34 `.mat` (MATLAB v5).
     ZedMat,
+    /// UTD-MHAD Kinect v1 skeleton `.mat` (`d_skel`, 20 joints; MATLAB v5).
+    UtdMat,
     /// MMPose-style whole-body JSON (a list of frames of keypoint instances).
     MmposeJson,
 }
@@ -49,7 +52,7 @@ impl InputFormat {
     pub fn is_camera_frame(self) -> bool {
         matches!(
             self,
-            InputFormat::Ntu | InputFormat::ZedMat | InputFormat::MmposeJson
+            InputFormat::Ntu | InputFormat::ZedMat | InputFormat::UtdMat | InputFormat::MmposeJson
         )
     }
 
@@ -226,6 +229,9 @@ pub enum ImportError {
     /// A ZED file that does not read.
     #[error(transparent)]
     Zed(#[from] zed_mat::ZedError),
+    /// A UTD-MHAD file that does not read.
+    #[error(transparent)]
+    Utd(#[from] utd_mat::UtdError),
     /// An MMPose JSON file that does not read in the layout.
     #[error("reading {} as {layout}", path.display())]
     Json {
@@ -554,6 +560,11 @@ fn resolve_format(format: InputFormat, input: &Path) -> Result<InputFormat, Impo
         "bvh" => InputFormat::Bvh,
         "skeleton" => InputFormat::Ntu,
         "txt" => InputFormat::H36mExpmap,
+        // Both MAT formats: UTD-MHAD's files hold `d_skel`, ZED's `keypoints` (a file that
+        // cannot be read is left to the ZED reader, which names the problem).
+        "mat" if std::fs::read(input).is_ok_and(|b| utd_mat::holds_skeleton(&b)) => {
+            InputFormat::UtdMat
+        }
         "mat" => InputFormat::ZedMat,
         "json" => InputFormat::MmposeJson,
         _ => {
@@ -658,6 +669,12 @@ fn read_input(
             no_fps(fps, "ZED recordings carry their own timestamps")?;
             let seq = zed_mat::read(input)?.to_pose_sequence();
             Input::read(vec![seq], layout, "recorded timestamps".to_string())
+        }
+        InputFormat::UtdMat => {
+            let layout = fixed_layout("UTD-MHAD", "kinect-v1-20", layout)?;
+            let rate = fps.unwrap_or(utd_mat::FPS);
+            let seq = utd_mat::read(input)?.to_pose_sequence(rate);
+            Input::read(vec![seq], layout, format!("{rate} fps"))
         }
         InputFormat::MmposeJson => read_json(input, options)?,
     })
@@ -768,6 +785,73 @@ mod tests {
 
     fn error(path: &str, options: &ImportOptions) -> String {
         import(Path::new(path), options).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn a_mat_file_is_read_as_utd_mhad_when_it_holds_d_skel_and_imports_grounded() {
+        use crate::formats::matlab::test_files::Mat;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a1_s1_t1_skeleton.mat");
+        // Two frames of a person standing 3 m in front of a Kinect 0.8 m above the floor:
+        // the rows in UTD's order (head first), x y z in camera space (+Y up).
+        let rows: [[f64; 3]; 20] = [
+            [0.0, 0.8, 3.0],    // head
+            [0.0, 0.55, 3.0],   // shoulder centre
+            [0.0, 0.25, 3.0],   // spine
+            [0.0, 0.15, 3.0],   // hip centre
+            [-0.18, 0.5, 3.0],  // left shoulder (the person faces the sensor: their left at −x)
+            [-0.2, 0.22, 3.0],  // left elbow
+            [-0.2, -0.02, 3.0], // left wrist
+            [-0.2, -0.1, 3.0],  // left hand
+            [0.18, 0.5, 3.0],
+            [0.2, 0.22, 3.0],
+            [0.2, -0.02, 3.0],
+            [0.2, -0.1, 3.0],
+            [-0.1, 0.1, 3.0],    // left hip
+            [-0.1, -0.32, 3.0],  // left knee
+            [-0.1, -0.72, 3.0],  // left ankle
+            [-0.1, -0.78, 2.88], // left foot, towards the sensor
+            [0.1, 0.1, 3.0],
+            [0.1, -0.32, 3.0],
+            [0.1, -0.72, 3.0],
+            [0.1, -0.78, 2.88],
+        ];
+        // Column-major (row, coordinate, frame).
+        let frame: Vec<f64> = (0..3)
+            .flat_map(|c| rows.iter().map(move |r| r[c]))
+            .collect();
+        let data = [frame.clone(), frame].concat();
+        let m = Mat::new(false);
+        let bytes = Mat::new(false)
+            .push(m.matrix(6, &[20, 3, 2], "d_skel", 9, &m.f64s(&data)))
+            .bytes;
+        std::fs::write(&path, bytes).unwrap();
+        assert_eq!(
+            resolve_format(InputFormat::Auto, &path).unwrap(),
+            InputFormat::UtdMat
+        );
+        let imported = import(
+            &path,
+            &ImportOptions {
+                ground: GroundMode::Auto,
+                ..options(InputFormat::Auto, None, None)
+            },
+        )
+        .unwrap();
+        assert_eq!(imported.layout, "kinect-v1-20");
+        let seq = &imported.sequences[0];
+        assert_eq!(seq.frames[1].stamp_nanos, 33_333_333);
+        let z = |n: &str| seq.frames[0].positions_m[seq.joint_index(n).unwrap()].z;
+        // Grounded: the feet on the floor, the head 1.5 m above them.
+        assert!(z("FootLeft").abs() < 0.05, "{}", z("FootLeft"));
+        assert!((z("Head") - 1.55).abs() < 0.1, "{}", z("Head"));
+        // Any other .mat (or one that cannot be read) is left to the ZED reader.
+        let other = dir.path().join("other.mat");
+        std::fs::write(&other, Mat::new(false).bytes).unwrap();
+        assert_eq!(
+            resolve_format(InputFormat::Auto, &other).unwrap(),
+            InputFormat::ZedMat
+        );
     }
 
     #[test]

@@ -660,6 +660,18 @@ pub(crate) mod test_files {
             v.iter().flat_map(|x| self.u32(x.to_bits())).collect()
         }
 
+        pub(crate) fn f64s(&self, v: &[f64]) -> Vec<u8> {
+            v.iter()
+                .flat_map(|x| {
+                    if self.big {
+                        x.to_be_bytes()
+                    } else {
+                        x.to_le_bytes()
+                    }
+                })
+                .collect()
+        }
+
         pub(crate) fn i64s(&self, v: &[i64]) -> Vec<u8> {
             v.iter()
                 .flat_map(|x| {

@@ -206,7 +206,16 @@ pub fn bone_length_stability(
     let binding = layout.bind(rig).map_err(err)?;
     let order = layout.joint_order(&seq.joint_names).map_err(err)?;
     let mut out = Vec::new();
-    for m in &binding.measures(rig) {
+    let measures = binding.measures(rig);
+    for (k, m) in measures.iter().enumerate() {
+        // A segment that is both a bone and a width (the hip line; chest→shoulder where the
+        // layout has no clavicle) is reported once.
+        if measures[..k]
+            .iter()
+            .any(|o| o.from == m.from && o.to == m.to)
+        {
+            continue;
+        }
         let mut lengths = Vec::new();
         for f in &seq.frames {
             let frame = Layout::reorder(&order, f);

@@ -174,7 +174,7 @@ pub struct BoneOverride {
 }
 
 /// The built-in layouts: (name, aliases, TOML text).
-const BUILTIN: [(&str, &[&str], &str); 6] = [
+const BUILTIN: [(&str, &[&str], &str); 7] = [
     (
         "coco-wholebody-133",
         &["h3wb", "coco-wholebody"],
@@ -185,6 +185,11 @@ const BUILTIN: [(&str, &[&str], &str); 6] = [
         "ntu-25",
         &["ntu", "kinect-v2"],
         include_str!("layouts/ntu-25.toml"),
+    ),
+    (
+        "kinect-v1-20",
+        &["kinect-v1"],
+        include_str!("layouts/kinect-v1-20.toml"),
     ),
     ("h36m-17", &["h36m"], include_str!("layouts/h36m-17.toml")),
     ("h36m-32", &[], include_str!("layouts/h36m-32.toml")),

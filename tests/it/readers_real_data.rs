@@ -1,4 +1,5 @@
-//! Reader tests on real recordings: NTU RGB+D (Kinect v2) and ZED 2i BODY_34.
+//! Reader tests on real recordings: NTU RGB+D (Kinect v2), ZED 2i BODY_34 and UTD-MHAD (Kinect
+//! v1).
 //!
 //! The data is research-only and is never copied into this repository: the tests read it from
 //! `../shared/data` (see `SOURCES.md` there) and are ignored by default. Run them with
@@ -6,7 +7,7 @@
 
 use std::path::PathBuf;
 
-use autoact::formats::{ntu, zed_mat};
+use autoact::formats::{ntu, utd_mat, zed_mat};
 use autoact::skeleton::pose::{PoseSequence, stamp_nanos_at};
 use nalgebra::{Point3, Vector3};
 
@@ -14,6 +15,8 @@ const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data");
 const NTU_FILE: &str = "ntu/S001C001P001R001A001.skeleton";
 const ZED_WALK: &str = "zed_body34/rzy_walk1_HD1080_SN35745898_19-37-53.mat";
 const ZED_RUN: &str = "zed_body34/rzy_run1_HD1080_SN35745898_19-44-15.mat";
+/// UTD-MHAD action a1, "right arm swipe to the left", subject 1, trial 2.
+const UTD_SWIPE: &str = "utd_mhad_kinect1/a1_s1_t2_skeleton.mat";
 
 fn data(relative: &str) -> PathBuf {
     PathBuf::from(DATA).join(relative)
@@ -258,6 +261,68 @@ fn zed_run() {
     check_zed(ZED_RUN, 94);
 }
 
+/// UTD-MHAD's Kinect v1 file: every joint in every frame, body proportions, and the names
+/// checked against the data itself: the person's left is where their shoulders and their feet
+/// both say (facing from the shoulder line and up, against the ankle→foot direction), and in
+/// this "right arm swipe" the right wrist is the one that travels.
+#[test]
+#[ignore = "needs ../shared/data"]
+#[expect(clippy::print_stderr, reason = "reports what it measured")]
+fn utd_kinect_v1_joints_sides_and_proportions() {
+    let clip = utd_mat::read(data(UTD_SWIPE)).unwrap_or_else(|e| panic!("{e}"));
+    let seq = clip.to_pose_sequence(utd_mat::FPS);
+    assert_eq!(seq.frames.len(), 52);
+    assert_eq!(seq.joint_names, utd_mat::JOINT_NAMES);
+    assert_eq!(seq.frames[51].stamp_nanos, stamp_nanos_at(51, 30.0));
+    assert!(
+        seq.frames
+            .iter()
+            .all(|f| f.confidence.iter().all(|c| *c == 1.0)),
+        "a joint is missing"
+    );
+    let at = |f: usize, n: &str| seq.frames[f].positions_m[seq.joint_index(n).expect(n)];
+    // Adult proportions (Kinect v1 joints are noisy: medians, wide bounds).
+    for (a, b, lo, hi) in [
+        ("HipLeft", "KneeLeft", 0.30, 0.50),
+        ("HipRight", "KneeRight", 0.30, 0.50),
+        ("KneeLeft", "AnkleLeft", 0.30, 0.50),
+        ("ShoulderLeft", "ElbowLeft", 0.20, 0.35),
+        ("ElbowRight", "WristRight", 0.18, 0.32),
+    ] {
+        let m = median(lengths(&seq, a, b));
+        assert!((lo..=hi).contains(&m), "{a}→{b}: {m} m");
+    }
+    let mut agree = 0;
+    for f in 0..seq.frames.len() {
+        assert!(
+            at(f, "Head").z > at(f, "HipCenter").z + 0.4,
+            "frame {f}: +Z is up"
+        );
+        let facing = (at(f, "ShoulderLeft") - at(f, "ShoulderRight")).cross(&Vector3::z());
+        let feet =
+            (at(f, "FootLeft") - at(f, "AnkleLeft")) + (at(f, "FootRight") - at(f, "AnkleRight"));
+        if facing.dot(&feet) > 0.0 {
+            agree += 1;
+        }
+    }
+    assert!(
+        agree * 10 >= seq.frames.len() * 9,
+        "shoulders and feet face the same way in {agree} of {} frames",
+        seq.frames.len()
+    );
+    let travel = |n: &str| {
+        (1..seq.frames.len())
+            .map(|f| (at(f, n) - at(f - 1, n)).norm())
+            .sum::<f64>()
+    };
+    let (right, left) = (travel("WristRight"), travel("WristLeft"));
+    eprintln!(
+        "UTD swipe: shoulders and feet agree in {agree} of {} frames; wrist travel right {right:.2} m, left {left:.2} m",
+        seq.frames.len()
+    );
+    assert!(right > 3.0 * left, "right wrist {right} m, left {left} m");
+}
+
 /// Cutting the real files short anywhere gives an error, never a panic or a shorter clip.
 #[test]
 #[ignore = "needs ../shared/data"]
@@ -267,6 +332,13 @@ fn truncated_real_files_are_errors() {
         assert!(
             zed_mat::parse(&bytes[..k], "cut.mat").is_err(),
             "zed cut at {k} parsed"
+        );
+    }
+    let bytes = std::fs::read(data(UTD_SWIPE)).expect("utd swipe");
+    for k in (0..bytes.len()).step_by(37) {
+        assert!(
+            utd_mat::parse(&bytes[..k], "cut.mat").is_err(),
+            "utd cut at {k} parsed"
         );
     }
     let text = std::fs::read_to_string(data(NTU_FILE)).expect("ntu");
