@@ -660,28 +660,24 @@ pub(crate) mod test_files {
             v.iter().flat_map(|x| self.u32(x.to_bits())).collect()
         }
 
+        /// 8-byte words in the file's byte order.
+        fn words8(&self, v: impl Iterator<Item = u64>) -> Vec<u8> {
+            v.flat_map(|x| {
+                if self.big {
+                    x.to_be_bytes()
+                } else {
+                    x.to_le_bytes()
+                }
+            })
+            .collect()
+        }
+
         pub(crate) fn f64s(&self, v: &[f64]) -> Vec<u8> {
-            v.iter()
-                .flat_map(|x| {
-                    if self.big {
-                        x.to_be_bytes()
-                    } else {
-                        x.to_le_bytes()
-                    }
-                })
-                .collect()
+            self.words8(v.iter().map(|x| x.to_bits()))
         }
 
         pub(crate) fn i64s(&self, v: &[i64]) -> Vec<u8> {
-            v.iter()
-                .flat_map(|x| {
-                    if self.big {
-                        x.to_be_bytes()
-                    } else {
-                        x.to_le_bytes()
-                    }
-                })
-                .collect()
+            self.words8(v.iter().map(|&x| u64::from_ne_bytes(x.to_ne_bytes())))
         }
 
         pub(crate) fn push(mut self, element: Vec<u8>) -> Self {
