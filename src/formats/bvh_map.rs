@@ -143,7 +143,9 @@ pub enum BvhMapError {
     Values(#[from] super::bvh::BvhError),
     /// The clip's units cannot be guessed and the mapping does not state them.
     #[error(
-        "{source_name}: cannot tell the units of this BVH (rest skeleton {extent:.1} units tall); give metres per unit"
+        "{source_name}: cannot tell the units of this BVH (rest skeleton {extent:.1} units tall, \
+         not the size of a person in cm, m or inches); state them in a mapping file \
+         (`metres_per_unit = 0.01` for cm) and pass it with --bvh-map FILE.toml (see {MAPPING_DOCS})"
     )]
     UnknownUnits {
         /// The BVH file.
@@ -905,6 +907,29 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn units_that_cannot_be_guessed_are_refused_with_how_to_state_them() {
+        // 11 units tall: the size of no person in cm, m or inches.
+        let text = "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Xposition Yposition Zposition\n  End Site\n  {\n    OFFSET 0 11 0\n  }\n}\nMOTION\nFrames: 1\nFrame Time: 0.04\n0 0 0\n";
+        let bvh = super::super::bvh::parse(text, "tiny.bvh").unwrap();
+        let mapping = BvhMapping::from_toml(
+            "skeleton = \"one\"\nrequired = [\"Hips\"]\n[layouts.autoact-landmarks]\npelvis = \"Hips\"\n",
+            "one",
+        )
+        .unwrap();
+        let e = mapping
+            .keypoints(&bvh, &Layout::load(DEFAULT_LAYOUT).unwrap())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with(
+                "tiny.bvh: cannot tell the units of this BVH (rest skeleton 11.0 units tall"
+            ) && e.contains("metres_per_unit = 0.01")
+                && e.contains("--bvh-map"),
+            "{e}"
+        );
     }
 
     #[test]
