@@ -728,40 +728,17 @@ mod tests {
     /// rest), each named `prefix` + its name; a joint without children gets an End Site. The
     /// frame turns every joint a little.
     fn humanoid_clip(prefix: &str, keep: impl Fn(usize) -> bool) -> Bvh {
-        use std::fmt::Write;
-        let parent = |i: usize| HUMANOID.iter().position(|h| h.0 == HUMANOID[i].1);
-        let rest: Vec<Vector3<f64>> = (0..HUMANOID.len())
-            .map(|i| {
-                let mut p = Vector3::from(HUMANOID[i].2);
-                let mut j = i;
-                while let Some(q) = parent(j) {
-                    p += Vector3::from(HUMANOID[q].2);
-                    j = q;
-                }
-                p
-            })
-            .collect();
-        let kept = |i: usize| keep(i) || !HUMANOID[i].3;
-        // The nearest kept ancestor.
-        let kept_parent = |i: usize| {
-            let mut j = parent(i);
-            while let Some(q) = j.filter(|&q| !kept(q)) {
-                j = parent(q);
-            }
-            j
-        };
-        let mut order = Vec::new();
-        let mut text = String::from("HIERARCHY\n");
-        let mut stack = vec![(0_usize, 0_usize)];
-        // Joints whose `{` is not closed yet.
-        let mut open = 0;
-        while let Some((i, depth)) = stack.pop() {
-            while open > depth {
-                open -= 1;
-                let _ = writeln!(text, "{}}}", "  ".repeat(open));
-            }
+        /// Writes joint `i` at `depth` and, below it, the joints whose nearest kept ancestor
+        /// it is; `placed[j]` is that ancestor and `j`'s offset from it.
+        fn write(
+            text: &mut String,
+            i: usize,
+            depth: usize,
+            prefix: &str,
+            placed: &[Option<(Option<usize>, Vector3<f64>)>],
+        ) {
+            use std::fmt::Write;
             let pad = "  ".repeat(depth);
-            let o = rest[i] - kept_parent(i).map_or_else(Vector3::zeros, |p| rest[p]);
             let (kind, channels) = if depth == 0 {
                 (
                     "ROOT",
@@ -770,15 +747,14 @@ mod tests {
             } else {
                 ("JOINT", "3 Zrotation Xrotation Yrotation")
             };
+            let o = placed[i].map_or_else(Vector3::zeros, |(_, o)| o);
             let _ = writeln!(
                 text,
                 "{pad}{kind} {prefix}{}\n{pad}{{\n{pad}  OFFSET {} {} {}\n{pad}  CHANNELS {channels}",
                 HUMANOID[i].0, o.x, o.y, o.z
             );
-            order.push(i);
-            open += 1;
-            let children: Vec<usize> = (0..HUMANOID.len())
-                .filter(|&c| kept(c) && kept_parent(c) == Some(i))
+            let children: Vec<usize> = (0..placed.len())
+                .filter(|&c| placed[c].is_some_and(|(p, _)| p == Some(i)))
                 .collect();
             if children.is_empty() {
                 let _ = writeln!(
@@ -786,17 +762,33 @@ mod tests {
                     "{pad}  End Site\n{pad}  {{\n{pad}    OFFSET 0 5 0\n{pad}  }}"
                 );
             }
-            stack.extend(children.into_iter().rev().map(|c| (c, depth + 1)));
+            for c in children {
+                write(text, c, depth + 1, prefix, placed);
+            }
+            let _ = writeln!(text, "{pad}}}");
         }
-        while open > 0 {
-            open -= 1;
-            let _ = writeln!(text, "{}}}", "  ".repeat(open));
-        }
-        let values: Vec<String> = (0..3 + 3 * order.len())
+        let parent = |i: usize| HUMANOID.iter().position(|h| h.0 == HUMANOID[i].1);
+        let kept = |i: usize| keep(i) || !HUMANOID[i].3;
+        // A kept joint hangs from its nearest kept ancestor, the offsets of the joints left out
+        // between them added to its own (so every kept joint stays where it was at rest).
+        let placed: Vec<Option<(Option<usize>, Vector3<f64>)>> = (0..HUMANOID.len())
+            .map(|i| {
+                let mut offset = Vector3::from(HUMANOID[i].2);
+                let mut j = parent(i);
+                while let Some(q) = j.filter(|&q| !kept(q)) {
+                    offset += Vector3::from(HUMANOID[q].2);
+                    j = parent(q);
+                }
+                kept(i).then_some((j, offset))
+            })
+            .collect();
+        let mut text = String::from("HIERARCHY\n");
+        write(&mut text, 0, 0, prefix, &placed);
+        let joints = placed.iter().flatten().count();
+        let values: Vec<String> = (0..3 + 3 * joints)
             .map(|k| format!("{}", (k % 7) as f64 * 2.5))
             .collect();
-        let _ = write!(
-            text,
+        text += &format!(
             "MOTION\nFrames: 1\nFrame Time: 0.0333333\n{}\n",
             values.join(" ")
         );
@@ -909,20 +901,26 @@ mod tests {
         }
     }
 
+    /// The error of mapping BVH `text` (named `name`, with a `Hips` joint) onto the rig's
+    /// landmarks through a table that maps only the pelvis; `units` is the table's
+    /// `metres_per_unit` line, or nothing.
+    fn pelvis_only_error(text: &str, name: &str, units: &str) -> String {
+        let bvh = super::super::bvh::parse(text, name).unwrap();
+        let table = format!(
+            "skeleton = \"one\"\nrequired = [\"Hips\"]\n{units}[layouts.autoact-landmarks]\npelvis = \"Hips\"\n"
+        );
+        BvhMapping::from_toml(&table, "one")
+            .unwrap()
+            .keypoints(&bvh, &Layout::load(DEFAULT_LAYOUT).unwrap())
+            .unwrap_err()
+            .to_string()
+    }
+
     #[test]
     fn units_that_cannot_be_guessed_are_refused_with_how_to_state_them() {
         // 11 units tall: the size of no person in cm, m or inches.
         let text = "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Xposition Yposition Zposition\n  End Site\n  {\n    OFFSET 0 11 0\n  }\n}\nMOTION\nFrames: 1\nFrame Time: 0.04\n0 0 0\n";
-        let bvh = super::super::bvh::parse(text, "tiny.bvh").unwrap();
-        let mapping = BvhMapping::from_toml(
-            "skeleton = \"one\"\nrequired = [\"Hips\"]\n[layouts.autoact-landmarks]\npelvis = \"Hips\"\n",
-            "one",
-        )
-        .unwrap();
-        let e = mapping
-            .keypoints(&bvh, &Layout::load(DEFAULT_LAYOUT).unwrap())
-            .unwrap_err()
-            .to_string();
+        let e = pelvis_only_error(text, "tiny.bvh", "");
         assert!(
             e.starts_with(
                 "tiny.bvh: cannot tell the units of this BVH (rest skeleton 11.0 units tall"
@@ -936,16 +934,7 @@ mod tests {
     fn absurd_translations_are_refused_once_the_units_are_known() {
         // 2e6 cm is within the parser's bound but 20 km from the origin.
         let text = "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Xposition Yposition Zposition\n  End Site\n  {\n    OFFSET 0 10 0\n  }\n}\nMOTION\nFrames: 2\nFrame Time: 0.04\n0 90 0\n\n0 90 -2e6\n";
-        let bvh = super::super::bvh::parse(text, "far.bvh").unwrap();
-        let mapping = BvhMapping::from_toml(
-            "skeleton = \"one\"\nrequired = [\"Hips\"]\nmetres_per_unit = 0.01\n[layouts.autoact-landmarks]\npelvis = \"Hips\"\n",
-            "one",
-        )
-        .unwrap();
-        let e = mapping
-            .keypoints(&bvh, &Layout::load(DEFAULT_LAYOUT).unwrap())
-            .unwrap_err()
-            .to_string();
+        let e = pelvis_only_error(text, "far.bvh", "metres_per_unit = 0.01\n");
         assert_eq!(
             e,
             "far.bvh:16: frame 1, column 2 (Hips Zposition): value -2e6 is not physical (2.000e4 m at 0.01 m per unit; translations are at most 1e4 m)"

@@ -32,6 +32,15 @@ pub const MAX_DECOMPRESSED_BYTES: u64 = 1 << 29;
 #[derive(Debug, Error)]
 #[non_exhaustive]
 pub enum MatError {
+    /// The file could not be read.
+    #[error("{file}: cannot read the file: {error}")]
+    Io {
+        /// The file.
+        file: String,
+        /// The underlying error.
+        #[source]
+        error: std::io::Error,
+    },
     /// The 128-byte header is not that of a MAT v5 file.
     #[error("{file}: not a mat v5 file: header {field}: {message}")]
     NotMatV5 {
@@ -338,6 +347,19 @@ impl Ctx<'_> {
             data,
             next,
         })
+    }
+}
+
+/// The bytes of the file at `path`, and the path as errors show it: the one place the readers
+/// of MAT formats (ZED, UTD-MHAD) open their files.
+///
+/// # Errors
+/// [`MatError::Io`] naming the file.
+pub fn read_file(path: &std::path::Path) -> Result<(Vec<u8>, String), MatError> {
+    let file = path.display().to_string();
+    match std::fs::read(path) {
+        Ok(bytes) => Ok((bytes, file)),
+        Err(error) => Err(MatError::Io { file, error }),
     }
 }
 

@@ -33,7 +33,6 @@
 
 use std::path::Path;
 
-use nalgebra::Point3;
 use thiserror::Error;
 
 use super::matlab::{self as mat, MatError};
@@ -87,16 +86,7 @@ pub const UTD_ORDER: [usize; JOINT_COUNT] = [
 #[derive(Debug, Error)]
 #[non_exhaustive]
 pub enum UtdError {
-    /// The file could not be read.
-    #[error("{file}: cannot read the file: {error}")]
-    Io {
-        /// The file.
-        file: String,
-        /// The underlying error.
-        #[source]
-        error: std::io::Error,
-    },
-    /// The MAT-file itself is not valid: header, element layout or compression.
+    /// The MAT-file cannot be read, or is not valid: header, element layout or compression.
     #[error(transparent)]
     Mat(#[from] MatError),
     /// `d_skel` is absent, repeated, or not a (20, 3, T) real array.
@@ -132,16 +122,7 @@ impl UtdClip {
             .joints_m
             .iter()
             .enumerate()
-            .map(|(k, joints)| {
-                let mut frame = PoseFrame::missing(stamp_nanos_at(k, fps), JOINT_COUNT);
-                for (j, xyz) in joints.iter().enumerate() {
-                    if xyz.iter().all(|c| c.is_finite()) {
-                        frame.positions_m[j] = AXES.point_to_autoact(Point3::from(*xyz));
-                        frame.confidence[j] = 1.0;
-                    }
-                }
-                frame
-            })
+            .map(|(k, joints)| PoseFrame::from_source_points(stamp_nanos_at(k, fps), joints, AXES))
             .collect();
         PoseSequence {
             source: self.source.clone(),
@@ -162,21 +143,16 @@ pub fn holds_skeleton(bytes: &[u8]) -> bool {
 /// Reads a UTD-MHAD skeleton `.mat` file.
 ///
 /// # Errors
-/// [`UtdError::Io`] if the file cannot be read, otherwise as [`parse`].
+/// [`UtdError::Mat`] ([`MatError::Io`]) if the file cannot be read, otherwise as [`parse`].
 pub fn read(path: impl AsRef<Path>) -> Result<UtdClip, UtdError> {
-    let path = path.as_ref();
-    let file = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|error| UtdError::Io {
-        file: file.clone(),
-        error,
-    })?;
+    let (bytes, file) = mat::read_file(path.as_ref())?;
     parse(&bytes, &file)
 }
 
 /// Parses the bytes of a UTD-MHAD skeleton file; `source` names it in errors and the result.
 ///
 /// # Errors
-/// Any [`UtdError`] but `Io`; see the module docs.
+/// Any [`UtdError`] but [`MatError::Io`]; see the module docs.
 pub fn parse(bytes: &[u8], source: &str) -> Result<UtdClip, UtdError> {
     let bad = |problem: String| UtdError::Skeleton {
         file: source.to_owned(),
@@ -301,7 +277,10 @@ mod tests {
         assert_eq!(seq.frames[1].confidence[head], 0.0);
         // Frame 0's head: (0.5, 20.5, 40.5) camera space; +Y up becomes +Z up.
         let p = seq.frames[0].positions_m[head];
-        assert_eq!(p, AXES.point_to_autoact(Point3::new(0.5, 20.5, 40.5)));
+        assert_eq!(
+            p,
+            AXES.point_to_autoact(nalgebra::Point3::new(0.5, 20.5, 40.5))
+        );
         assert_eq!((p.z, seq.frames[0].confidence[head]), (20.5, 1.0));
     }
 
@@ -339,7 +318,7 @@ mod tests {
         ));
         assert!(matches!(
             read("/nonexistent/u.mat"),
-            Err(UtdError::Io { .. })
+            Err(UtdError::Mat(MatError::Io { .. }))
         ));
     }
 

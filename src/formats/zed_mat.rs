@@ -42,7 +42,6 @@
 
 use std::path::Path;
 
-use nalgebra::Point3;
 use thiserror::Error;
 
 use super::matlab::{self as mat, MatError};
@@ -143,16 +142,7 @@ pub use super::matlab::MAX_DECOMPRESSED_BYTES;
 #[derive(Debug, Error)]
 #[non_exhaustive]
 pub enum ZedError {
-    /// The file could not be read.
-    #[error("{file}: cannot read the file: {error}")]
-    Io {
-        /// The file.
-        file: String,
-        /// The underlying error.
-        #[source]
-        error: std::io::Error,
-    },
-    /// The MAT-file itself is not valid: header, element layout or compression.
+    /// The MAT-file cannot be read, or is not valid: header, element layout or compression.
     #[error(transparent)]
     Mat(#[from] MatError),
     /// A required variable is absent.
@@ -271,20 +261,7 @@ impl ZedRecording {
             .keypoints_m
             .iter()
             .zip(&self.stamps_nanos)
-            .map(|(joints, &stamp)| {
-                let mut frame = PoseFrame::missing(stamp, JOINT_COUNT);
-                for ((xyz, position), confidence) in joints
-                    .iter()
-                    .zip(&mut frame.positions_m)
-                    .zip(&mut frame.confidence)
-                {
-                    if xyz.iter().all(|c| c.is_finite()) {
-                        *position = AXES.point_to_autoact(Point3::from(*xyz));
-                        *confidence = 1.0;
-                    }
-                }
-                frame
-            })
+            .map(|(joints, &stamp)| PoseFrame::from_source_points(stamp, joints, AXES))
             .collect();
         PoseSequence {
             source: self.source.clone(),
@@ -299,14 +276,9 @@ impl ZedRecording {
 ///
 /// # Errors
 ///
-/// [`ZedError::Io`] if the file cannot be read, otherwise as [`parse`].
+/// [`ZedError::Mat`] ([`MatError::Io`]) if the file cannot be read, otherwise as [`parse`].
 pub fn read(path: impl AsRef<Path>) -> Result<ZedRecording, ZedError> {
-    let path = path.as_ref();
-    let file = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|error| ZedError::Io {
-        file: file.clone(),
-        error,
-    })?;
+    let (bytes, file) = mat::read_file(path.as_ref())?;
     parse(&bytes, &file)
 }
 
@@ -314,7 +286,7 @@ pub fn read(path: impl AsRef<Path>) -> Result<ZedRecording, ZedError> {
 ///
 /// # Errors
 ///
-/// Any [`ZedError`] but `Io`; see the module docs.
+/// Any [`ZedError`] but [`MatError::Io`]; see the module docs.
 pub fn parse(bytes: &[u8], source: &str) -> Result<ZedRecording, ZedError> {
     let arrays = mat::read_arrays(bytes, source, &[KEYPOINTS_VARIABLE, TIMESTAMPS_VARIABLE])?;
     let mut keypoints = None;
@@ -558,7 +530,8 @@ mod tests {
         assert_eq!(seq.frames[1].confidence[4], 1.0);
         // converted once through AXES (Y up): source +Y becomes autoact +Z
         let p = seq.frames[2].positions_m[10];
-        let camera = Point3::new(value(2, 10, 0), value(2, 10, 1), value(2, 10, 2)).cast::<f64>();
+        let camera =
+            nalgebra::Point3::new(value(2, 10, 0), value(2, 10, 1), value(2, 10, 2)).cast::<f64>();
         assert_eq!(p, AXES.point_to_autoact(camera));
         assert_eq!(p.z, camera.y);
     }
@@ -747,7 +720,7 @@ mod tests {
     fn read_reports_io() {
         assert!(matches!(
             read("/nonexistent/x.mat"),
-            Err(ZedError::Io { .. })
+            Err(ZedError::Mat(MatError::Io { .. }))
         ));
         let dir = std::env::temp_dir().join(format!("autoact-zed-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("temp dir");

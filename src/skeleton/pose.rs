@@ -42,6 +42,25 @@ impl PoseFrame {
             confidence: vec![0.0; joint_count],
         }
     }
+
+    /// A frame of points given in the `axes` convention (metres), converted once to the autoact
+    /// frame: a point with a coordinate that is not finite is missing, every other one has
+    /// confidence 1 (for sources that keep no per-joint confidence).
+    #[must_use]
+    pub fn from_source_points(
+        stamp_nanos: u64,
+        points_m: &[[f64; 3]],
+        axes: crate::skeleton::frames::SourceAxes,
+    ) -> Self {
+        let mut frame = PoseFrame::missing(stamp_nanos, points_m.len());
+        for (j, xyz) in points_m.iter().enumerate() {
+            if xyz.iter().all(|c| c.is_finite()) {
+                frame.positions_m[j] = axes.point_to_autoact(Point3::from(*xyz));
+                frame.confidence[j] = 1.0;
+            }
+        }
+        frame
+    }
 }
 
 impl PoseSequence {
