@@ -52,9 +52,10 @@ pub enum Command {
     /// Turn a dataset file into a pose bag: skeleton messages at the source's own stamps.
     ///
     /// Reads BVH (through a built-in mapping of its skeleton onto a layout), NTU RGB+D
-    /// `.skeleton`, Human3.6M exponential-map `.txt`, ZED BODY_34 and UTD-MHAD (Kinect v1) `.mat`
-    /// and MMPose-style whole-body `.json`. The label (`--category`, `--action`) and the provenance go into the
-    /// bag's `autoact` metadata record.
+    /// `.skeleton`, Human3.6M exponential-map `.txt`, ZED BODY_34 and UTD-MHAD (Kinect v1) `.mat`,
+    /// MMPose-style whole-body `.json` and CMU Panoptic `body3DScene` `.json` (a file, or a
+    /// sequence's folder of them). The label (`--category`, `--action`) and the provenance go
+    /// into the bag's `autoact` metadata record.
     Import(crate::cmd::import::Args),
     /// Turn a pose bag into an animation bag: bone rotations on the 53-bone rig, TF and a
     /// marker skeleton, at an explicit frame rate.

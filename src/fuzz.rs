@@ -14,13 +14,14 @@ use crate::skeleton::frames::SourceAxes;
 use crate::skeleton::rig::Rig;
 
 /// The kinds of input there is an entry point for, by the name of their fuzz target.
-pub const TARGETS: [&str; 11] = [
+pub const TARGETS: [&str; 12] = [
     "bvh",
     "ntu",
     "h36m",
     "zed_mat",
     "utd_mat",
     "mmpose_json",
+    "panoptic_json",
     "spec",
     "layout",
     "cdr",
@@ -62,6 +63,13 @@ pub fn run(target: &str, data: &[u8]) -> bool {
             InputFormat::MmposeJson,
             Some("coco-17"),
             Some(30.0),
+        ),
+        "panoptic_json" => import_bytes(
+            data,
+            "body3DScene_00000001.json",
+            InputFormat::PanopticJson,
+            None,
+            None,
         ),
         "spec" => spec(data),
         "layout" => layout(data),

@@ -81,6 +81,18 @@ def mmpose_json(frames=5, joints=17):
     return json.dumps(out).encode()
 
 
+def panoptic_json(bodies=2):
+    """A CMU Panoptic scene file: centimetres, +Y down, 19 joints of (x, y, z, score)."""
+    out = []
+    for b in range(bodies):
+        joints = []
+        for j in range(19):
+            joints += [20.0 * b + 3.0 * (j % 4), -170.0 + 9.0 * j, 5.0 * (j % 3), 0.4 + 0.02 * j]
+        out.append({"id": b, "joints19": joints})
+    return json.dumps({"version": 0.7, "univTime": 1000.0, "fpsType": "hd_29_97",
+                       "bodies": out}).encode()
+
+
 def make_seeds(autoact, work):
     """Returns [(kind, name, bytes)]."""
     seeds = []
@@ -102,6 +114,7 @@ def make_seeds(autoact, work):
     seeds.append(("ntu", "S001C001P001R001A001.skeleton", ntu_text()))
     seeds.append(("h36m", "S1_walking_1.txt", h36m_text()))
     seeds.append(("mmpose_json", "poses.json", mmpose_json()))
+    seeds.append(("panoptic_json", "body3DScene_00000001.json", panoptic_json()))
     spec = (REPO / "examples" / "dataset.toml").read_bytes()
     # The mutants live elsewhere: the spec's sources are named by absolute paths.
     spec = spec.replace(b'"../bags/', b'"' + str(REPO / "bags").encode() + b"/")
@@ -113,7 +126,8 @@ def make_seeds(autoact, work):
                 ("bvh", "bvh/xia_style/angry_13_000.bvh"),
                 ("ntu", "ntu/S001C001P001R001A001.skeleton"),
                 ("zed_mat", "zed_body34/rzy_run1_HD1080_SN35745898_19-44-15.mat"),
-                ("utd_mat", "utd_mhad_kinect1/a1_s1_t2_skeleton.mat")]
+                ("utd_mat", "utd_mhad_kinect1/a1_s1_t2_skeleton.mat"),
+                ("panoptic_json", "panoptic/160906_band1_body3DScene_00000168.json")]
         for kind, rel in real:
             path = DATA / rel
             if path.is_file():
@@ -217,6 +231,8 @@ def command(kind, path, out):
         return [["import", path, "-o", out, "--force"]]
     if kind == "mmpose_json":
         return [["import", path, "-o", out, "--force", "--layout", "coco-17", "--fps", "30"]]
+    if kind == "panoptic_json":
+        return [["import", path, "-o", out, "--force", "--format", "panoptic-json"]]
     if kind == "spec":
         return [["plan", path, "--format", "csv"]]
     if kind == "layout":

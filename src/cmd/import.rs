@@ -35,32 +35,35 @@ impl From<Axes> for SourceAxes {
 /// Arguments of `autoact import`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The dataset file.
+    /// The dataset file, or a folder of CMU Panoptic `body3DScene_<frame>.json` files (one
+    /// sequence: its `hdPose3d_stage1_coco19` folder).
     pub input: PathBuf,
     /// Its format.
     #[arg(long, value_enum, default_value_t = InputFormat::Auto)]
     pub format: InputFormat,
     /// Keypoint layout of the output: for BVH the layout to map the mocap joints onto (default
     /// autoact-landmarks, the rig's own points, so every rig bone the mocap has a joint for is
-    /// driven), for JSON the layout of its keypoints (default coco-wholebody-133). NTU,
-    /// Human3.6M and ZED files have a layout of their own.
+    /// driven), for MMPose JSON the layout of its keypoints (default coco-wholebody-133). NTU,
+    /// Human3.6M, ZED, UTD-MHAD and CMU Panoptic files have a layout of their own.
     #[arg(long, value_name = "LAYOUT")]
     pub layout: Option<String>,
     /// For BVH: a mapping file (TOML) from the file's joints onto layouts, for a skeleton with no
     /// built-in mapping (see docs/convert.md, "BVH mapping files").
     #[arg(long, value_name = "FILE.toml")]
     pub bvh_map: Option<PathBuf>,
-    /// Frame rate, for formats that have none (JSON: required); overrides NTU's 30.
+    /// Frame rate, for formats that have none (MMPose JSON: required; CMU Panoptic files without
+    /// a known `fpsType`); overrides NTU's and UTD-MHAD's 30.
     #[arg(long)]
     pub fps: Option<f64>,
-    /// Axes of a JSON file's coordinates.
+    /// Axes of an MMPose JSON file's coordinates.
     #[arg(long, value_enum, default_value_t = Axes::YDown)]
     pub axes: Axes,
-    /// Metres per unit of a JSON file's coordinates (0.001 for millimetres).
+    /// Metres per unit of an MMPose JSON file's coordinates (0.001 for millimetres).
     #[arg(long, default_value_t = 1.0)]
     pub metres_per_unit: f64,
     /// Stand the body on z = 0 facing +Y, up and ground estimated from the feet: `auto` for
-    /// camera-frame sources (ZED, MMPose JSON, NTU), never for mocap (BVH, Human3.6M).
+    /// camera-frame sources (ZED, MMPose JSON, NTU, UTD-MHAD), never for world-frame ones (BVH,
+    /// Human3.6M, CMU Panoptic).
     #[arg(long, value_enum, default_value_t = GroundMode::Auto)]
     pub ground: GroundMode,
     /// Bone lengths: as `measured` per frame, or `fixed` at the clip's median with limbs

@@ -187,7 +187,7 @@ fn read_source(rig: &Rig, path: &Path, track: Option<u64>) -> Result<Source, Sou
             character: animation.character,
             coverage: animation.report.coverage,
             losses,
-            estimator: imported.format.is_camera_frame(),
+            estimator: imported.format.is_estimator_output(),
         });
     }
     let readers = BagReader::open_all(path).map_err(SourceError::Open)?;
@@ -212,7 +212,7 @@ fn read_source(rig: &Rig, path: &Path, track: Option<u64>) -> Result<Source, Sou
     }
     let estimator = readers
         .iter()
-        .any(|r| InputFormat::imported_from_camera(&r.metadata()));
+        .any(|r| InputFormat::imported_from_estimator(&r.metadata()));
     let topics = bags::pose::read_pose_topics(path, None, None)?;
     let mut losses = Losses::from_pose_topics(&topics);
     let (index, (topic, seq)) = topics

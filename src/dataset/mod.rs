@@ -19,18 +19,21 @@ use crate::skeleton::pose::PoseSequence;
 use spec::Spec;
 
 /// A spec source that is a dataset file `autoact import` reads rather than a bag — BVH,
-/// NTU `.skeleton`, Human3.6M `.txt`, ZED or UTD-MHAD `.mat` — read with `import`'s defaults (grounded if
-/// it is estimator output); `None` for anything else (a bag, or MMPose JSON, which has no
+/// NTU `.skeleton`, Human3.6M `.txt`, ZED or UTD-MHAD `.mat`, CMU Panoptic `.json` or a folder
+/// of them — read with `import`'s defaults (grounded if it is estimator output in a camera's
+/// frame); `None` for anything else (a bag or a rosbag2 folder, or MMPose JSON, which has no
 /// frame rate of its own: import it first).
 #[must_use]
 pub fn import_source(path: &Path) -> Option<Result<Imported, Box<ImportError>>> {
-    let ext = path.extension()?.to_str()?.to_ascii_lowercase();
-    if ext == "json" {
-        let path = path.to_path_buf();
-        return Some(Err(Box::new(ImportError::JsonInSpec { path })));
-    }
-    if !matches!(ext.as_str(), "bvh" | "skeleton" | "txt" | "mat") {
-        return None;
+    if !(path.is_dir() && crate::formats::panoptic::folder_holds_scenes(path)) {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        if !matches!(ext.as_str(), "bvh" | "skeleton" | "txt" | "mat" | "json") {
+            return None;
+        }
+        if ext == "json" && import::detect_format(path).ok()? != InputFormat::PanopticJson {
+            let path = path.to_path_buf();
+            return Some(Err(Box::new(ImportError::JsonInSpec { path })));
+        }
     }
     let options = ImportOptions {
         format: InputFormat::Auto,
@@ -59,7 +62,7 @@ pub fn imported_track(imported: &Imported, track: Option<u64>) -> Option<&PoseSe
 pub enum EstimateError {
     /// The source's bag cannot be opened.
     #[error(
-        "{key}: {source} (a source is a pose or animation bag, or a file `autoact import` reads: .bvh, .skeleton, .txt, .mat)"
+        "{key}: {source} (a source is a pose or animation bag, or a file `autoact import` reads: .bvh, .skeleton, .txt, .mat, a CMU Panoptic .json or folder)"
     )]
     Open {
         /// The spec key of the source, e.g. `class[2].sources[0]`.

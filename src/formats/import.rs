@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 
 use crate::bags::pose::skeleton_message;
 use crate::formats::bvh_map::{self, BvhMapError, BvhMapping};
-use crate::formats::{bvh, h36m_expmap, mmpose_json, ntu, utd_mat, zed_mat};
+use crate::formats::{bvh, h36m_expmap, mmpose_json, ntu, panoptic, utd_mat, zed_mat};
 use crate::skeleton::eval::LengthStability;
 use crate::skeleton::frames::SourceAxes;
 use crate::skeleton::ground::{self, GroundMode, Grounding};
@@ -28,7 +28,7 @@ use crate::skeleton::pose::{PoseFrame, PoseSequence};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum InputFormat {
     /// From the file extension: .bvh, .skeleton, .txt, .mat (ZED or UTD-MHAD, by its variables),
-    /// .json.
+    /// .json (CMU Panoptic or MMPose, by its first bytes); a folder of CMU Panoptic files.
     #[default]
     Auto,
     /// BVH motion capture.
@@ -43,11 +43,15 @@ pub enum InputFormat {
     UtdMat,
     /// MMPose-style whole-body JSON (a list of frames of keypoint instances).
     MmposeJson,
+    /// CMU Panoptic Studio 3D bodies: a `body3DScene_<frame>.json` file, or a folder of them
+    /// (`hdPose3d_stage1_coco19`; 19 joints, every person).
+    PanopticJson,
 }
 
 impl InputFormat {
     /// Whether the format's points are in a camera's frame (estimators, Kinect): what
-    /// `--ground auto` grounds. BVH and Human3.6M exp-map are mocap in a world frame.
+    /// `--ground auto` grounds. BVH, Human3.6M exp-map and CMU Panoptic are in a world frame
+    /// with a floor.
     #[must_use]
     pub fn is_camera_frame(self) -> bool {
         matches!(
@@ -56,16 +60,24 @@ impl InputFormat {
         )
     }
 
-    /// Whether a pose bag whose metadata records are `records` was imported from a camera-frame
-    /// format ([`InputFormat::is_camera_frame`]): estimator output, already grounded.
+    /// Whether the format holds a pose estimator's output (every camera-frame format, and CMU
+    /// Panoptic's triangulated detections) rather than motion capture: what `convert` smooths
+    /// as an estimator's ([`crate::dsi::SourceKind::Estimator`]).
     #[must_use]
-    pub fn imported_from_camera(records: &[(String, BTreeMap<String, String>)]) -> bool {
+    pub fn is_estimator_output(self) -> bool {
+        self.is_camera_frame() || self == InputFormat::PanopticJson
+    }
+
+    /// Whether a pose bag whose metadata records are `records` was imported from an estimator's
+    /// output ([`InputFormat::is_estimator_output`]).
+    #[must_use]
+    pub fn imported_from_estimator(records: &[(String, BTreeMap<String, String>)]) -> bool {
         records.iter().any(|(name, record)| {
             name == crate::bags::pose::METADATA_NAME
                 && record
                     .get("format")
                     .and_then(|f| InputFormat::from_record_name(f))
-                    .is_some_and(InputFormat::is_camera_frame)
+                    .is_some_and(InputFormat::is_estimator_output)
         })
     }
 
@@ -187,10 +199,12 @@ pub enum ImportError {
         why: &'static str,
     },
     /// No frame rate for a format without one.
-    #[error("{}: MMPose JSON has no frame rate: give --fps", path.display())]
+    #[error("{}: {why}: give --fps", path.display())]
     NoRate {
         /// The file.
         path: PathBuf,
+        /// Why there is none.
+        why: String,
     },
     /// MMPose JSON named as a dataset spec's source, where no frame rate can be given.
     #[error(
@@ -232,6 +246,9 @@ pub enum ImportError {
     /// A UTD-MHAD file that does not read.
     #[error(transparent)]
     Utd(#[from] utd_mat::UtdError),
+    /// A CMU Panoptic file or folder that does not read.
+    #[error(transparent)]
+    Panoptic(#[from] panoptic::PanopticError),
     /// An MMPose JSON file that does not read in the layout.
     #[error("reading {} as {layout}", path.display())]
     Json {
@@ -546,11 +563,24 @@ impl Imported {
     }
 }
 
+/// The format `import` reads `input` as when not told ([`InputFormat::Auto`]): from its
+/// extension, and for `.mat` and `.json` its contents; a folder is CMU Panoptic's.
+///
+/// # Errors
+/// [`ImportError::UnknownExtension`].
+pub fn detect_format(input: &Path) -> Result<InputFormat, ImportError> {
+    resolve_format(InputFormat::Auto, input)
+}
+
 /// The format to read `input` as: `format`, or for [`InputFormat::Auto`] the one its extension
 /// names.
 fn resolve_format(format: InputFormat, input: &Path) -> Result<InputFormat, ImportError> {
     if format != InputFormat::Auto {
         return Ok(format);
+    }
+    if input.is_dir() {
+        // The reader names a folder without Panoptic scene files.
+        return Ok(InputFormat::PanopticJson);
     }
     let ext = input
         .extension()
@@ -566,6 +596,11 @@ fn resolve_format(format: InputFormat, input: &Path) -> Result<InputFormat, Impo
             InputFormat::UtdMat
         }
         "mat" => InputFormat::ZedMat,
+        // Both JSON formats: a Panoptic scene is an object with `bodies` (a file that cannot be
+        // read is left to the MMPose reader, which names the problem).
+        "json" if file_head(input).is_some_and(|h| panoptic::looks_like_scene(&h)) => {
+            InputFormat::PanopticJson
+        }
         "json" => InputFormat::MmposeJson,
         _ => {
             return Err(ImportError::UnknownExtension {
@@ -574,6 +609,18 @@ fn resolve_format(format: InputFormat, input: &Path) -> Result<InputFormat, Impo
             });
         }
     })
+}
+
+/// The first 64 KiB of a file, `None` if it cannot be read.
+fn file_head(path: &Path) -> Option<Vec<u8>> {
+    use std::io::Read;
+    let mut head = Vec::new();
+    std::fs::File::open(path)
+        .ok()?
+        .take(64 * 1024)
+        .read_to_end(&mut head)
+        .ok()?;
+    Some(head)
 }
 
 /// The layout of a format that has its own (`own`): an error if another one was asked for.
@@ -677,6 +724,33 @@ fn read_input(
             Input::read(vec![seq], layout, format!("{rate} fps"))
         }
         InputFormat::MmposeJson => read_json(input, options)?,
+        InputFormat::PanopticJson => {
+            let layout = fixed_layout("CMU Panoptic", panoptic::LAYOUT, layout)?;
+            let clip = panoptic::read(input)?;
+            let (rate, how) = match (clip.fps(), fps) {
+                (Some(_), Some(_)) => {
+                    return Err(ImportError::FixedRate {
+                        why: "CMU Panoptic files state their own rate (fpsType)",
+                    });
+                }
+                (Some(rate), None) => {
+                    let named = clip.fps_type().unwrap_or_default();
+                    (rate, format!("{rate:.3} fps (fpsType {named})"))
+                }
+                (None, Some(rate)) => (rate, format!("{rate} fps")),
+                (None, None) => {
+                    let why = match clip.fps_type() {
+                        Some(t) => format!("CMU Panoptic fpsType `{t}` is not one autoact knows"),
+                        None => "these CMU Panoptic files state no fpsType".to_owned(),
+                    };
+                    return Err(ImportError::NoRate {
+                        path: input.to_path_buf(),
+                        why,
+                    });
+                }
+            };
+            Input::read(clip.to_pose_sequences(rate), layout, how)
+        }
     })
 }
 
@@ -687,6 +761,7 @@ fn read_json(input: &Path, options: &ImportOptions) -> Result<Input, ImportError
     let Some(fps) = options.fps else {
         return Err(ImportError::NoRate {
             path: input.to_path_buf(),
+            why: "MMPose JSON has no frame rate".to_owned(),
         });
     };
     let metres_per_unit = options.metres_per_unit;
@@ -879,6 +954,63 @@ mod tests {
     }
 
     #[test]
+    fn json_is_told_by_its_first_bytes_and_a_folder_is_panoptics() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let file = |name: &str, text: &str| {
+            let path = dir.path().join(name);
+            std::fs::write(&path, text).expect("write");
+            detect_format(&path).expect("a format")
+        };
+        assert_eq!(
+            file("a.json", "  {\"version\": 0.7, \"bodies\": []}"),
+            InputFormat::PanopticJson
+        );
+        assert_eq!(
+            file("b.json", "[{\"frame_id\": 0, \"instances\": []}]"),
+            InputFormat::MmposeJson
+        );
+        assert_eq!(
+            file("c.json", "{\"instance_info\": []}"),
+            InputFormat::MmposeJson
+        );
+        assert_eq!(
+            detect_format(dir.path()).expect("a format"),
+            InputFormat::PanopticJson
+        );
+        // A folder without scene files says what it reads, and that a rosbag2 folder is a bag.
+        let e = error(
+            &dir.path().display().to_string(),
+            &options(InputFormat::Auto, None, None),
+        );
+        assert!(
+            e.contains("holds no CMU Panoptic scene files") && e.contains("rosbag2"),
+            "{e}"
+        );
+        // Panoptic files without a known rate need --fps, and say so.
+        std::fs::write(
+            dir.path().join("body3DScene_00000001.json"),
+            "{\"fpsType\": \"hd_60\", \"bodies\": []}",
+        )
+        .expect("write");
+        let e = error(
+            &dir.path().display().to_string(),
+            &options(InputFormat::Auto, None, None),
+        );
+        assert!(
+            e.ends_with("CMU Panoptic fpsType `hd_60` is not one autoact knows: give --fps"),
+            "{e}"
+        );
+        let e = error(
+            &dir.path().display().to_string(),
+            &options(InputFormat::Auto, Some("coco-17"), None),
+        );
+        assert_eq!(
+            e,
+            "CMU Panoptic files are in the `panoptic-coco19` layout; drop --layout coco-17"
+        );
+    }
+
+    #[test]
     fn options_that_contradict_the_format_are_named_before_reading() {
         let auto = InputFormat::Auto;
         assert_eq!(
@@ -972,8 +1104,11 @@ mod tests {
                 BTreeMap::from([("format".to_string(), format.to_string())]),
             )]
         };
-        assert!(InputFormat::imported_from_camera(&record("Ntu")));
-        assert!(!InputFormat::imported_from_camera(&record("Bvh")));
-        assert!(!InputFormat::imported_from_camera(&[]));
+        assert!(InputFormat::imported_from_estimator(&record("Ntu")));
+        assert!(!InputFormat::imported_from_estimator(&record("Bvh")));
+        assert!(InputFormat::imported_from_estimator(&record(
+            "PanopticJson"
+        )));
+        assert!(!InputFormat::imported_from_estimator(&[]));
     }
 }

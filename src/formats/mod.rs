@@ -11,6 +11,7 @@ pub mod import;
 pub mod matlab;
 pub mod mmpose_json;
 pub mod ntu;
+pub mod panoptic;
 pub mod utd_mat;
 pub mod zed_mat;
 

@@ -469,10 +469,10 @@ fn prepare_people<'a>(
     prefixed: bool,
 ) -> Result<Vec<Person<'a>>, PipelineError> {
     let mut people = Vec::new();
-    // A pose bag that `import` wrote from a camera-frame format holds estimator output, already
-    // grounded (so its tracks are not grounded again) but smoothed as an estimator's.
-    let imported_from_camera =
-        crate::formats::import::InputFormat::imported_from_camera(&scan.metadata);
+    // A pose bag that `import` wrote from an estimator's output (grounded already if it was in a
+    // camera's frame, so its tracks are not grounded again) is smoothed as an estimator's.
+    let imported_from_estimator =
+        crate::formats::import::InputFormat::imported_from_estimator(&scan.metadata);
     for track in &scan.tracks {
         let layout = match given_layout {
             Some(l) => l.clone(),
@@ -526,7 +526,7 @@ fn prepare_people<'a>(
             writer,
             frames_out: 0,
             world_from_camera,
-            estimator: track.camera_frame || imported_from_camera,
+            estimator: track.camera_frame || imported_from_estimator,
         });
     }
     Ok(people)

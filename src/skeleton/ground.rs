@@ -55,7 +55,8 @@ const CONTACT_BAND_M: f64 = 0.10;
 /// When to ground a sequence (`--ground`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum GroundMode {
-    /// Camera-frame sources (estimators, Kinect) are grounded; mocap is left as it is.
+    /// Camera-frame sources (estimators, Kinect) are grounded; world-frame ones (mocap, CMU
+    /// Panoptic) are left as they are.
     #[default]
     Auto,
     /// Never ground: keep the source's frame.

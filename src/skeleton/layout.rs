@@ -174,7 +174,7 @@ pub struct BoneOverride {
 }
 
 /// The built-in layouts: (name, aliases, TOML text).
-const BUILTIN: [(&str, &[&str], &str); 7] = [
+const BUILTIN: [(&str, &[&str], &str); 8] = [
     (
         "coco-wholebody-133",
         &["h3wb", "coco-wholebody"],
@@ -190,6 +190,11 @@ const BUILTIN: [(&str, &[&str], &str); 7] = [
         "kinect-v1-20",
         &["kinect-v1"],
         include_str!("layouts/kinect-v1-20.toml"),
+    ),
+    (
+        "panoptic-coco19",
+        &["panoptic", "coco19"],
+        include_str!("layouts/panoptic-coco19.toml"),
     ),
     ("h36m-17", &["h36m"], include_str!("layouts/h36m-17.toml")),
     ("h36m-32", &[], include_str!("layouts/h36m-32.toml")),

@@ -414,3 +414,99 @@ fn a_spec_source_may_be_a_file_import_reads() {
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("autoact import"), "{}", stderr(&o));
 }
+
+/// A CMU Panoptic sequence folder (`body3DScene_<frame>.json`, centimetres, +Y down): one person,
+/// the rig's rest landmarks swaying sideways and raising the right wrist, 29.97 fps.
+fn panoptic_folder(dir: &Path, frames: usize) -> PathBuf {
+    use autoact::skeleton::layout::{JointExpr, Layout};
+    use autoact::skeleton::rig::Rig;
+    let rig = Rig::standard();
+    let layout = Layout::builtin("panoptic-coco19").unwrap();
+    let rest: Vec<Point3<f64>> = layout
+        .joints
+        .iter()
+        .map(|joint| {
+            let (landmark, _) = layout
+                .landmarks
+                .iter()
+                .find(|(_, e)| **e == JointExpr::Joint(joint.clone()))
+                .unwrap();
+            rig.landmarks[rig.landmark_index(landmark).unwrap()].rest_m
+        })
+        .collect();
+    let folder = dir.join("hdPose3d_stage1_coco19");
+    std::fs::create_dir(&folder).unwrap();
+    for k in 0..frames {
+        let t = k as f64 / 29.97;
+        let values: Vec<String> = rest
+            .iter()
+            .zip(&layout.joints)
+            .flat_map(|(p, joint)| {
+                let mut p = *p + nalgebra::Vector3::new(0.1 * t.sin(), 0.0, 0.0);
+                if joint == "rWrist" {
+                    p.z += 0.4 * (1.0 - (2.0 * t).cos());
+                }
+                // autoact (x, y, z) m, +Z up → Panoptic (x, −z, y) cm, +Y down.
+                [p.x * 100.0, -p.z * 100.0, p.y * 100.0, 0.6].map(|v| format!("{v:.3}"))
+            })
+            .collect();
+        let text = format!(
+            "{{ \"version\": 0.7, \"univTime\": {:.3}, \"fpsType\": \"hd_29_97\",\n\"bodies\": [{{ \"id\": 0, \"joints19\": [{}] }}] }}",
+            1000.0 + t * 1000.0,
+            values.join(", ")
+        );
+        std::fs::write(
+            folder.join(format!("body3DScene_{:08}.json", 100 + k)),
+            text,
+        )
+        .unwrap();
+    }
+    folder
+}
+
+#[test]
+fn a_spec_source_may_be_a_cmu_panoptic_folder() {
+    // A folder is not a bag: it is read as `import` reads it, at the files' own rate.
+    let dir = tempfile::tempdir().unwrap();
+    let folder = panoptic_folder(dir.path(), 90);
+    let text = spec_text(3, "variants = 1\nscenes = 1\nviewpoints = 1", "").replace(
+        &common::repo("bags/bandai_wave.pose.mcap"),
+        &folder.display().to_string(),
+    );
+    let spec = write(dir.path(), "s.toml", &text);
+    let o = autoact(&["plan", arg(&spec)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = dir.path().join("capture");
+    let o = autoact(&["convert", "--spec", arg(&spec), "-o", arg(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bags: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".capture.mcap"))
+        .collect();
+    assert_eq!(bags.len(), 2, "one capture bag per animation: {bags:?}");
+    // And `import` finds it by itself, keeping the files' rate and frame.
+    let bag = dir.path().join("p.pose.mcap");
+    let o = autoact(&["import", arg(&folder), "-o", arg(&bag)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("90 skeletons (1 track), layout panoptic-coco19, 2.97 s"),
+        "{}",
+        stdout(&o)
+    );
+    let o = autoact(&[
+        "import",
+        arg(&folder),
+        "-o",
+        arg(&bag),
+        "--force",
+        "--fps",
+        "30",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("state their own rate (fpsType); drop --fps"),
+        "{}",
+        stderr(&o)
+    );
+}

@@ -1,5 +1,5 @@
-//! Reader tests on real recordings: NTU RGB+D (Kinect v2), ZED 2i BODY_34 and UTD-MHAD (Kinect
-//! v1).
+//! Reader tests on real recordings: NTU RGB+D (Kinect v2), ZED 2i BODY_34, UTD-MHAD (Kinect
+//! v1) and CMU Panoptic Studio.
 //!
 //! The data is research-only and is never copied into this repository: the tests read it from
 //! `../shared/data` (see `SOURCES.md` there) and are ignored by default. Run them with
@@ -7,7 +7,7 @@
 
 use std::path::PathBuf;
 
-use autoact::formats::{ntu, utd_mat, zed_mat};
+use autoact::formats::{ntu, panoptic, utd_mat, zed_mat};
 use autoact::skeleton::pose::{PoseSequence, stamp_nanos_at};
 use nalgebra::{Point3, Vector3};
 
@@ -17,6 +17,9 @@ const ZED_WALK: &str = "zed_body34/rzy_walk1_HD1080_SN35745898_19-37-53.mat";
 const ZED_RUN: &str = "zed_body34/rzy_run1_HD1080_SN35745898_19-44-15.mat";
 /// UTD-MHAD action a1, "right arm swipe to the left", subject 1, trial 2.
 const UTD_SWIPE: &str = "utd_mhad_kinect1/a1_s1_t2_skeleton.mat";
+/// CMU Panoptic: two frames each of two sequences (`160906_band1`, `160906_band2`), renamed into
+/// one folder.
+const PANOPTIC: &str = "panoptic";
 
 fn data(relative: &str) -> PathBuf {
     PathBuf::from(DATA).join(relative)
@@ -323,6 +326,110 @@ fn utd_kinect_v1_joints_sides_and_proportions() {
     assert!(right > 3.0 * left, "right wrist {right} m, left {left} m");
 }
 
+/// CMU Panoptic (two sequences of seated musicians, three people each): the shared folder, which
+/// holds both sequences, is refused by name; each sequence, in a folder of its own, reads as
+/// one track per person, 1/29.97 s apart, in a right-handed frame with the floor at z = 0. The
+/// sides are checked against what the data says, not against our reading of Panoptic's axes:
+/// the facing from the shoulder line and up agrees with the nose (in front of the ears) and with
+/// the thighs (a seated person's knees are in front of the hips) in every body of every frame.
+#[test]
+#[ignore = "needs ../shared/data"]
+#[expect(clippy::print_stderr, reason = "reports what it measured")]
+fn panoptic_sequences_people_sides_floor_and_timing() {
+    let e = panoptic::read(data(PANOPTIC)).expect_err("two sequences in one folder");
+    assert!(
+        matches!(e, panoptic::PanopticError::MixedSequences { count: 2, .. }),
+        "{e}"
+    );
+    for sequence in ["160906_band1", "160906_band2"] {
+        let dir = tempfile::tempdir().expect("temp dir");
+        for entry in std::fs::read_dir(data(PANOPTIC)).expect("panoptic folder") {
+            let path = entry.expect("entry").path();
+            let name = path
+                .file_name()
+                .and_then(|n| n.to_str())
+                .unwrap_or_default();
+            if name.starts_with(sequence) {
+                std::fs::copy(&path, dir.path().join(name)).expect("copy");
+            }
+        }
+        let clip = panoptic::read(dir.path()).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(clip.fps_type(), Some("hd_29_97"));
+        let fps = clip.fps().expect("a known rate");
+        let seqs = clip.to_pose_sequences(fps);
+        assert_eq!(
+            seqs.iter().map(|s| s.track_id).collect::<Vec<_>>(),
+            [0, 1, 2]
+        );
+        let (mut ankles, mut checked) = (Vec::new(), 0);
+        for seq in &seqs {
+            assert_eq!(seq.frames.len(), 2, "{sequence} track {}", seq.track_id);
+            // 33.37 ms: the files' univTime differ by 33.356 ms.
+            assert_eq!(seq.frames[1].stamp_nanos, 33_366_667);
+            for f in &seq.frames {
+                let at = |n: &str| {
+                    let j = seq.joint_index(n).expect(n);
+                    (f.confidence[j] > 0.0).then(|| f.positions_m[j])
+                };
+                let (Some(l), Some(r)) = (at("lShoulder"), at("rShoulder")) else {
+                    panic!("{sequence} track {}: no shoulders", seq.track_id);
+                };
+                let facing = Vector3::z().cross(&(r - l));
+                if let (Some(nose), Some(le), Some(re)) = (at("Nose"), at("lEar"), at("rEar")) {
+                    let ahead = nose - Point3::from((le.coords + re.coords) / 2.0);
+                    assert!(
+                        facing.dot(&ahead) > 0.0,
+                        "{sequence} {}: nose behind",
+                        seq.track_id
+                    );
+                    checked += 1;
+                }
+                for (hip, knee) in [("lHip", "lKnee"), ("rHip", "rKnee")] {
+                    if let (Some(h), Some(k)) = (at(hip), at(knee)) {
+                        assert!(
+                            facing.dot(&(k - h)) > 0.0,
+                            "{sequence} {}: {knee}",
+                            seq.track_id
+                        );
+                        let thigh = (k - h).norm();
+                        assert!((0.3..0.55).contains(&thigh), "{hip}→{knee} {thigh} m");
+                        checked += 1;
+                    }
+                }
+                ankles.extend(
+                    ["lAnkle", "rAnkle"]
+                        .iter()
+                        .filter_map(|n| at(n))
+                        .map(|p| p.z),
+                );
+                let head = at("Nose").expect("nose").z;
+                assert!((0.7..1.5).contains(&head), "a seated head at {head} m");
+            }
+        }
+        // The ankle joint sits about 8 cm above the sole.
+        assert!(
+            ankles.iter().all(|z| (0.02..0.25).contains(z)),
+            "{sequence}: ankle heights {ankles:?}"
+        );
+        eprintln!(
+            "Panoptic {sequence}: sides agree in {checked} of {checked} checks; ankle heights {:.3}–{:.3} m",
+            ankles.iter().copied().fold(f64::INFINITY, f64::min),
+            ankles.iter().copied().fold(0.0, f64::max)
+        );
+        // Through `import` as a user runs it: found by its folder, not re-grounded.
+        let imported = importer::import(
+            dir.path(),
+            &options(InputFormat::Auto, None, None, LengthMode::Measured),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(imported.format, InputFormat::PanopticJson);
+        assert_eq!(imported.layout, panoptic::LAYOUT);
+        assert!(imported.groundings.iter().all(Option::is_none));
+        // The same frames (compared as text: a missing joint's NaN is not equal to itself).
+        assert_eq!(format!("{:?}", imported.sequences), format!("{seqs:?}"));
+    }
+}
+
 /// Cutting the real files short anywhere gives an error, never a panic or a shorter clip.
 #[test]
 #[ignore = "needs ../shared/data"]
@@ -339,6 +446,14 @@ fn truncated_real_files_are_errors() {
         assert!(
             utd_mat::parse(&bytes[..k], "cut.mat").is_err(),
             "utd cut at {k} parsed"
+        );
+    }
+    let file = "panoptic/160906_band1_body3DScene_00000168.json";
+    let bytes = std::fs::read(data(file)).expect("panoptic");
+    for k in (0..bytes.len()).step_by(37) {
+        assert!(
+            panoptic::parse(&bytes[..k], "cut.json").is_err(),
+            "panoptic cut at {k} parsed"
         );
     }
     let text = std::fs::read_to_string(data(NTU_FILE)).expect("ntu");
