@@ -10,7 +10,6 @@ use crate::formats::import::{ImportOptions, InputFormat, import};
 use crate::ros::autoact_msgs::{BoneFrame, SceneState, Segment, Skeleton3D};
 use crate::ros::cdr;
 use crate::ros::tf2_msgs::TFMessage;
-use crate::skeleton::frames::SourceAxes;
 use crate::skeleton::rig::Rig;
 
 /// The kinds of input there is an entry point for, by the name of their fuzz target.
@@ -112,8 +111,8 @@ fn import_bytes(
         format,
         layout: layout.map(str::to_string),
         fps,
-        axes: SourceAxes::YDown,
-        metres_per_unit: 1.0,
+        axes: None,
+        metres_per_unit: None,
         bvh_map: None,
         ground: crate::skeleton::ground::GroundMode::default(),
         lengths: crate::skeleton::lengths::LengthMode::default(),

@@ -11,12 +11,12 @@ use crate::skeleton::frames::SourceAxes;
 use crate::skeleton::ground::GroundMode;
 use crate::skeleton::lengths::LengthMode;
 
-/// Axis conventions a JSON file may use.
+/// Axis conventions a BVH or JSON file may use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Axes {
-    /// +Z up (autoact's own).
+    /// +Z up (autoact's own; 3ds Max and Blender scenes).
     ZUp,
-    /// +Y up (OpenGL, Kinect, ZED).
+    /// +Y up (OpenGL, Kinect, ZED; most BVH).
     YUp,
     /// +Y down (OpenCV camera frames; most 3D lifters).
     YDown,
@@ -55,12 +55,16 @@ pub struct Args {
     /// a known `fpsType`); overrides NTU's and UTD-MHAD's 30.
     #[arg(long)]
     pub fps: Option<f64>,
-    /// Axes of an MMPose JSON file's coordinates.
-    #[arg(long, value_enum, default_value_t = Axes::YDown)]
-    pub axes: Axes,
-    /// Metres per unit of an MMPose JSON file's coordinates (0.001 for millimetres).
-    #[arg(long, default_value_t = 1.0)]
-    pub metres_per_unit: f64,
+    /// Axes of the coordinates of a BVH or MMPose JSON file (other formats state theirs).
+    /// Default: MMPose JSON is y-down; a BVH file is z-up when its motion stands along +Z (and its
+    /// rest pose not along +Y), else y-up.
+    #[arg(long, value_enum)]
+    pub axes: Option<Axes>,
+    /// Metres per unit of the coordinates of a BVH or MMPose JSON file (0.001 for millimetres,
+    /// 0.0254 for inches; other formats state theirs). Default: MMPose JSON is in metres; a BVH
+    /// file's unit is its mapping file's, or else guessed from the size of its rest skeleton.
+    #[arg(long)]
+    pub metres_per_unit: Option<f64>,
     /// Stand the body on z = 0 facing +Y, up and ground estimated from the feet: `auto` for
     /// camera-frame sources (ZED, MMPose JSON, NTU, UTD-MHAD), never for world-frame ones (BVH,
     /// Human3.6M, CMU Panoptic).
@@ -112,7 +116,7 @@ pub fn run(args: Args) -> Result<Outcome> {
         layout,
         bvh_map,
         fps,
-        axes: axes.into(),
+        axes: axes.map(SourceAxes::from),
         metres_per_unit,
         ground,
         lengths,

@@ -12,7 +12,6 @@ use std::path::{Path, PathBuf};
 
 use crate::formats::import::{self, ImportError, ImportOptions, Imported, InputFormat};
 use crate::mcap_io::{BagReader, McapIoError};
-use crate::skeleton::frames::SourceAxes;
 use crate::skeleton::ground::GroundMode;
 use crate::skeleton::lengths::LengthMode;
 use crate::skeleton::pose::PoseSequence;
@@ -40,8 +39,8 @@ pub fn import_source(path: &Path) -> Option<Result<Imported, Box<ImportError>>> 
         layout: None,
         bvh_map: None,
         fps: None,
-        axes: SourceAxes::YDown,
-        metres_per_unit: 1.0,
+        axes: None,
+        metres_per_unit: None,
         ground: GroundMode::Auto,
         lengths: LengthMode::Measured,
     };

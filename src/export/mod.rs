@@ -161,6 +161,27 @@ pub struct Clip {
     pub scene: Option<ClipScene>,
 }
 
+impl Clip {
+    /// `poses` on the rig's standard character at `fps_hz`, as track 0's original animation,
+    /// frame `k` stamped `k / fps_hz` s after 0: a clip to write from poses made in code.
+    #[must_use]
+    pub fn from_poses(rig: &Rig, fps_hz: f64, poses: Vec<BonePose>) -> Clip {
+        Clip {
+            key: AnimationKey {
+                track_id: 0,
+                variant: 0,
+            },
+            fps_hz,
+            character: Character::standard(rig),
+            stamps_nanos: (0..poses.len())
+                .map(|k| crate::skeleton::pose::stamp_nanos_at(k, fps_hz))
+                .collect(),
+            poses,
+            scene: None,
+        }
+    }
+}
+
 /// The scene of a capture bag a [`Clip`] holds the frames of.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ClipScene {

@@ -17,9 +17,12 @@
 //! ```
 //!
 //! Layout joints a mapping does not give are missing (NaN, confidence 0) in every frame. A
-//! layout joint may also name alternatives, `{ first = ["LeftToeBase", "LeftFoot_End"] }`: the
-//! first the clip has is used, and the joint is missing when it has none (one table then serves
-//! a skeleton family whose files differ in their optional joints).
+//! point's offset is in its joint's frame as a Y-up file has it (nearly every BVH is Y-up); a
+//! file found or told to be in other axes ([`found_axes`], `import --axes`) gets the same body
+//! point, the offset turned into its axes. A layout joint may also name alternatives,
+//! `{ first = ["LeftToeBase", "LeftFoot_End"] }`: the first the clip has is used, and the joint
+//! is missing when it has none (one table then serves a skeleton family whose files differ in
+//! their optional joints).
 //!
 //! Names are matched as written, or else without a namespace prefix: Mixamo's
 //! `mixamorig:LeftArm` (or `mixamorig1:LeftArm`) is `LeftArm` to a mapping, when no other joint
@@ -34,7 +37,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use nalgebra::{Point3, Vector3};
+use nalgebra::{Point3, Rotation3, UnitQuaternion, Vector3};
 use serde::Deserialize;
 
 use super::bvh::Bvh;
@@ -144,8 +147,8 @@ pub enum BvhMapError {
     /// The clip's units cannot be guessed and the mapping does not state them.
     #[error(
         "{source_name}: cannot tell the units of this BVH (rest skeleton {extent:.1} units tall, \
-         not the size of a person in cm, m or inches); state them in a mapping file \
-         (`metres_per_unit = 0.01` for cm) and pass it with --bvh-map FILE.toml (see {MAPPING_DOCS})"
+         not the size of a person in cm, m or inches); state them: --metres-per-unit 0.01 for \
+         cm (or `metres_per_unit` in a mapping file given with --bvh-map, see {MAPPING_DOCS})"
     )]
     UnknownUnits {
         /// The BVH file.
@@ -316,15 +319,13 @@ impl BvhMapping {
             })
     }
 
-    /// Keypoints of `layout` for every frame of `bvh`, in metres in the autoact frame (BVH is
-    /// Y-up). Layout joints the mapping does not give are missing in every frame.
+    /// Per layout joint, the weighted (BVH joint, offset in its frame) terms that place it, or
+    /// `None` where the mapping does not give it.
     ///
     /// # Errors
-    /// [`BvhMapError`] when the mapping has no table for the layout, names an unknown joint, or
-    /// the units are unknown.
-    pub fn keypoints(&self, bvh: &Bvh, layout: &Layout) -> Result<PoseSequence, BvhMapError> {
-        // Per layout joint: (BVH joint, offset in its frame, weight) terms, or None if unmapped.
-        type Terms = Vec<(usize, Vector3<f64>, f64)>;
+    /// The mapping has no table for the layout, or names a layout joint or BVH name that is not
+    /// there.
+    fn terms(&self, bvh: &Bvh, layout: &Layout) -> Result<Vec<Option<Terms>>, BvhMapError> {
         let table = self
             .layouts
             .get(&layout.name)
@@ -345,14 +346,6 @@ impl BvhMapping {
                 },
             });
         }
-        let Some(metres_per_unit) = self.metres_per_unit.or_else(|| bvh.guess_metres_per_unit())
-        else {
-            return Err(BvhMapError::UnknownUnits {
-                source_name: bvh.source.clone(),
-                extent: bvh.rest_extent().max(),
-            });
-        };
-        bvh.check_translations(metres_per_unit, super::bvh::MAX_TRANSLATION_M)?;
         // Every name as (joint index, offset in the joint's frame), if the clip has it.
         let find = |name: &String| -> Option<(usize, Vector3<f64>)> {
             if let Some(j) = joint_named(bvh, name) {
@@ -397,32 +390,187 @@ impl BvhMapping {
             };
             terms.push(t);
         }
-        let fps = bvh.fps();
-        let frames = (0..bvh.frame_count())
-            .map(|f| {
-                let world = bvh.world_transforms(f);
-                let mut frame = PoseFrame::missing(stamp_nanos_at(f, fps), layout.joints.len());
-                for (k, t) in terms.iter().enumerate() {
-                    let Some(t) = t else { continue };
-                    let mut sum = Vector3::zeros();
-                    for &(j, offset, w) in t {
-                        let (p, q) = world[j];
-                        sum += (p.coords + q * offset) * w;
-                    }
-                    frame.positions_m[k] =
-                        SourceAxes::YUp.point_to_autoact(Point3::from(sum * metres_per_unit));
-                    frame.confidence[k] = 1.0;
+        Ok(terms)
+    }
+
+    /// Keypoints of `layout` for every frame of `bvh`, in metres in the autoact frame, the
+    /// file's axes found from the clip ([`found_axes`]). Layout joints the mapping does not give
+    /// are missing in every frame.
+    ///
+    /// # Errors
+    /// As [`BvhMapping::keypoints_in`].
+    pub fn keypoints(&self, bvh: &Bvh, layout: &Layout) -> Result<PoseSequence, BvhMapError> {
+        self.keypoints_in(bvh, layout, None, None)
+            .map(|(seq, _)| seq)
+    }
+
+    /// [`BvhMapping::keypoints`] with the file's axes given (`Some`) or found from the clip
+    /// (`None`, [`found_axes`]), and its unit given (`Some`) or else the mapping's or guessed
+    /// ([`Bvh::guess_metres_per_unit`]); returns the axes used too.
+    ///
+    /// # Errors
+    /// [`BvhMapError`] when the mapping has no table for the layout, names an unknown joint, or
+    /// the units are unknown.
+    pub fn keypoints_in(
+        &self,
+        bvh: &Bvh,
+        layout: &Layout,
+        axes: Option<SourceAxes>,
+        metres_per_unit: Option<f64>,
+    ) -> Result<(PoseSequence, SourceAxes), BvhMapError> {
+        let terms = self.terms(bvh, layout)?;
+        let Some(metres_per_unit) = metres_per_unit
+            .or(self.metres_per_unit)
+            .or_else(|| bvh.guess_metres_per_unit())
+        else {
+            return Err(BvhMapError::UnknownUnits {
+                source_name: bvh.source.clone(),
+                extent: bvh.rest_extent().max(),
+            });
+        };
+        bvh.check_translations(metres_per_unit, super::bvh::MAX_TRANSLATION_M)?;
+        // The layout's points in file axes (metres), from joints placed and turned as `world`,
+        // the points' offsets turned by `turn` (see below).
+        let points = |world: &[(Point3<f64>, UnitQuaternion<f64>)],
+                      turn: &Rotation3<f64>,
+                      frame: &mut PoseFrame| {
+            for (k, t) in terms.iter().enumerate() {
+                let Some(t) = t else { continue };
+                let mut sum = Vector3::zeros();
+                for &(j, offset, w) in t {
+                    let (p, q) = world[j];
+                    sum += (p.coords + q * (turn * offset)) * w;
                 }
-                frame
-            })
-            .collect();
-        Ok(PoseSequence {
+                frame.positions_m[k] = Point3::from(sum * metres_per_unit);
+                frame.confidence[k] = 1.0;
+            }
+        };
+        let fps = bvh.fps();
+        let all_frames = |turn: &Rotation3<f64>| -> Vec<PoseFrame> {
+            (0..bvh.frame_count())
+                .map(|f| {
+                    let mut frame = PoseFrame::missing(stamp_nanos_at(f, fps), layout.joints.len());
+                    points(&bvh.world_transforms(f), turn, &mut frame);
+                    frame
+                })
+                .collect()
+        };
+        let unturned = Rotation3::identity();
+        let mut frames = all_frames(&unturned);
+        let axes = axes.unwrap_or_else(|| {
+            // At rest every joint is unturned.
+            let rest: Vec<_> = (bvh.rest_positions().into_iter())
+                .map(|p| (p, UnitQuaternion::identity()))
+                .collect();
+            let mut rest_frame = PoseFrame::missing(0, layout.joints.len());
+            points(&rest, &unturned, &mut rest_frame);
+            found_axes(&bvh.source, layout, &rest_frame, &frames)
+        });
+        // A mapping's point offsets are written for Y-up files (as nearly every BVH is): in a
+        // file of other axes the same body point is the offset turned into them.
+        let has_offsets = terms
+            .iter()
+            .flatten()
+            .flatten()
+            .any(|(_, o, _)| *o != Vector3::zeros());
+        if axes != SourceAxes::YUp && has_offsets {
+            let file_from_y_up =
+                axes.autoact_from_source().inverse() * SourceAxes::YUp.autoact_from_source();
+            frames = all_frames(&file_from_y_up);
+        }
+        for p in frames.iter_mut().flat_map(|f| f.positions_m.iter_mut()) {
+            *p = axes.point_to_autoact(*p);
+        }
+        let seq = PoseSequence {
             source: bvh.source.clone(),
             track_id: 0,
             joint_names: layout.joints.clone(),
             frames,
-        })
+        };
+        Ok((seq, axes))
     }
+}
+
+/// Weighted (BVH joint, offset in its frame) terms whose sum places one layout joint.
+type Terms = Vec<(usize, Vector3<f64>, f64)>;
+
+/// The cosine of the largest angle between a body's up (pelvis to neck) and a file axis at which
+/// the body counts as standing along that axis: 45°.
+const UPRIGHT_COS: f64 = std::f64::consts::FRAC_1_SQRT_2;
+
+/// The axes of a BVH file, found from its clip: [`SourceAxes::ZUp`] when its motion (the mean
+/// of the body's up over the frames) stands along +Z within 45° and its rest pose does not stand
+/// along +Y, else [`SourceAxes::YUp`], BVH's usual convention. The motion decides because some
+/// rest poses lie down (Bandai-Namco's lies along X and its rotations raise it); a rest pose
+/// standing along +Y vetoes Z-up because a clip of a Y-up file may lie along Z throughout
+/// (push-ups). A body whose motion does not stand along the chosen axis is warned about, with
+/// the way to state the axes. The body's up is from the layout's pelvis to its neck (or chest,
+/// head centre, spine midpoint: the first it has), in file axes; `rest` and `frames` hold the
+/// layout's points in file axes.
+#[must_use]
+pub fn found_axes(
+    source: &str,
+    layout: &Layout,
+    rest: &PoseFrame,
+    frames: &[PoseFrame],
+) -> SourceAxes {
+    let rest_up = body_up(layout, rest);
+    let mut sum = Vector3::zeros();
+    for f in frames {
+        sum += body_up(layout, f).unwrap_or_else(Vector3::zeros);
+    }
+    let motion_up = sum.try_normalize(1e-9);
+    let along = |v: Option<Vector3<f64>>, axis: usize| v.is_some_and(|v| v[axis] > UPRIGHT_COS);
+    let axes = if along(motion_up, 2) && !along(rest_up, 1) {
+        SourceAxes::ZUp
+    } else {
+        SourceAxes::YUp
+    };
+    let up_axis = if axes == SourceAxes::ZUp { 2 } else { 1 };
+    if let Some(m) = motion_up
+        && !along(motion_up, up_axis)
+    {
+        tracing::warn!(
+            "{source}: the body's mean up (pelvis to neck) is ({:.2}, {:.2}, {:.2}) in the file's axes, {:.0}° from {}: read as {}; if the file's up is another axis, give --axes, or --ground on to stand the body on its feet",
+            m.x,
+            m.y,
+            m.z,
+            m[up_axis].clamp(-1.0, 1.0).acos().to_degrees(),
+            if up_axis == 2 { "+Z" } else { "+Y" },
+            if up_axis == 2 { "Z-up" } else { "Y-up" },
+        );
+    }
+    axes
+}
+
+/// The unit direction from a layout's pelvis to its neck (or chest, head centre or spine
+/// midpoint, the first it binds) in `frame`, if both are there.
+fn body_up(layout: &Layout, frame: &PoseFrame) -> Option<Vector3<f64>> {
+    let point = |landmark: &str| -> Option<Point3<f64>> {
+        let at = |joint: &String| {
+            let j = layout.joints.iter().position(|n| n == joint)?;
+            let p = frame.positions_m[j];
+            (frame.confidence[j] > 0.0 && p.coords.iter().all(|c| c.is_finite())).then_some(p)
+        };
+        match layout.landmarks.get(landmark)? {
+            JointExpr::Joint(j) => at(j),
+            JointExpr::Mean { mean } => {
+                let mut sum = Vector3::zeros();
+                for j in mean {
+                    sum += at(j)?.coords;
+                }
+                #[expect(clippy::cast_precision_loss, reason = "a handful of joints")]
+                let n = mean.len().max(1) as f64;
+                Some(Point3::from(sum / n))
+            }
+            JointExpr::Lerp { from, to, t } => Some(at(from)? + (at(to)? - at(from)?) * *t),
+        }
+    };
+    let pelvis = point("pelvis")?;
+    let top = ["neck", "chest", "head_center", "spine_mid"]
+        .iter()
+        .find_map(|l| point(l))?;
+    (top - pelvis).try_normalize(1e-9)
 }
 
 /// The built-in mappings as a table for `autoact layouts`: name, the joints that identify it,
@@ -924,8 +1072,8 @@ mod tests {
         assert!(
             e.starts_with(
                 "tiny.bvh: cannot tell the units of this BVH (rest skeleton 11.0 units tall"
-            ) && e.contains("metres_per_unit = 0.01")
-                && e.contains("--bvh-map"),
+            ) && e.contains("--metres-per-unit 0.01")
+                && e.contains("`metres_per_unit` in a mapping file given with --bvh-map"),
             "{e}"
         );
     }
@@ -943,8 +1091,7 @@ mod tests {
 
     #[test]
     fn autoacts_own_bvh_maps_onto_every_rig_landmark_where_the_rig_puts_it() {
-        use crate::export::{AnimationKey, Clip};
-        use crate::skeleton::character::Character;
+        use crate::export::Clip;
         use crate::skeleton::fk::{self, BonePose};
         use crate::skeleton::rig::Rig;
         use nalgebra::UnitQuaternion;
@@ -968,17 +1115,7 @@ mod tests {
                 pose
             })
             .collect();
-        let clip = Clip {
-            key: AnimationKey {
-                track_id: 0,
-                variant: 0,
-            },
-            fps_hz: 30.0,
-            character: Character::standard(&rig),
-            stamps_nanos: vec![0, 1, 2],
-            poses,
-            scene: None,
-        };
+        let clip = Clip::from_poses(&rig, 30.0, poses);
         let bvh =
             super::super::bvh::parse(&crate::export::bvh::write(&rig, &clip), "own.bvh").unwrap();
         let mapping = BvhMapping::detect(&bvh).unwrap();

@@ -112,10 +112,14 @@ pub struct ImportOptions {
     pub bvh_map: Option<PathBuf>,
     /// Frame rate, for formats that have none (JSON: required); overrides NTU's 30.
     pub fps: Option<f64>,
-    /// Axes of a JSON file's coordinates.
-    pub axes: SourceAxes,
-    /// Metres per unit of a JSON file's coordinates.
-    pub metres_per_unit: f64,
+    /// Axes of the file's coordinates, for BVH and MMPose JSON (other formats state theirs);
+    /// `None`: MMPose JSON is Y-down, and a BVH file's are found from its clip
+    /// ([`bvh_map::found_axes`]: Z-up or Y-up).
+    pub axes: Option<SourceAxes>,
+    /// Metres per unit of the file's coordinates, for BVH and MMPose JSON (other formats state
+    /// theirs); `None`: MMPose JSON is in metres, and a BVH file's unit is its mapping file's or
+    /// else guessed from its rest skeleton.
+    pub metres_per_unit: Option<f64>,
     /// Whether to stand the body on the ground (`auto`: camera-frame formats only).
     pub ground: GroundMode,
     /// Bone lengths as measured, or fixed by two-bone IK.
@@ -139,6 +143,9 @@ pub struct Imported {
     pub stability: Vec<Vec<LengthStability>>,
     /// Per sequence, what `--lengths fixed` did (`None`: lengths as measured).
     pub length_fixes: Vec<Option<LengthFix>>,
+    /// How the file's axes were decided, when not by its format alone (a BVH file found or told
+    /// to be other than Y-up).
+    pub axes: Option<String>,
     /// For a file read as a stream (MMPose JSON): the second reading still to do. The
     /// sequences then have no frames yet; [`Imported::for_each_frame`] reads them.
     replay: Option<Replay>,
@@ -192,6 +199,11 @@ pub enum ImportError {
     /// A BVH mapping file given for another format.
     #[error("--bvh-map is for BVH input only; drop it")]
     BvhMapNotBvh,
+    /// Axes or units given for a format that states its own.
+    #[error(
+        "--axes and --metres-per-unit are for BVH and MMPose JSON input only (other formats state their axes and units); drop them"
+    )]
+    FrameNotHere,
     /// A frame rate given for a format that states its own.
     #[error("{why}; drop --fps")]
     FixedRate {
@@ -294,12 +306,18 @@ pub fn measure(input: &Path, options: &ImportOptions) -> Result<Imported, Import
     {
         return Err(ImportError::BadFps(f));
     }
+    if let Some(m) = options.metres_per_unit
+        && !(m.is_finite() && m > 0.0)
+    {
+        return Err(ImportError::BadMetresPerUnit(m));
+    }
     let format = resolve_format(options.format, input)?;
     let Input {
         sequences,
         layout,
         rate,
         replay,
+        axes,
     } = read_input(input, format, options)?;
     if sequences.iter().all(|s| s.frames.is_empty()) {
         return Err(ImportError::NoFrames {
@@ -316,6 +334,7 @@ pub fn measure(input: &Path, options: &ImportOptions) -> Result<Imported, Import
         groundings: Vec::new(),
         stability: Vec::new(),
         length_fixes: Vec::new(),
+        axes,
         replay: None,
     };
     let grounded = options.ground.applies(format.is_camera_frame());
@@ -539,7 +558,10 @@ impl Imported {
     /// What was done to each track, one line each (grounding, fixed lengths), for people.
     #[must_use]
     pub fn notes(&self) -> String {
-        let mut out = String::new();
+        let mut out = self
+            .axes
+            .as_ref()
+            .map_or(String::new(), |a| format!("{a}\n"));
         for (i, seq) in self.sequences.iter().enumerate() {
             if let Some(Some(g)) = self.groundings.get(i) {
                 out += &format!("track {}: {}\n", seq.track_id, g.summary());
@@ -654,6 +676,8 @@ struct Input {
     layout: String,
     rate: String,
     replay: Option<(PathBuf, mmpose_json::JsonOptions)>,
+    /// How the axes were decided, when that is worth a line (not a format's fixed axes).
+    axes: Option<String>,
 }
 
 impl Input {
@@ -663,6 +687,7 @@ impl Input {
             layout,
             rate,
             replay: None,
+            axes: None,
         }
     }
 }
@@ -676,6 +701,13 @@ fn read_input(
     let (layout, fps) = (options.layout.as_deref(), options.fps);
     if format != InputFormat::Bvh && options.bvh_map.is_some() {
         return Err(ImportError::BvhMapNotBvh);
+    }
+    if !matches!(
+        format,
+        InputFormat::Auto | InputFormat::Bvh | InputFormat::MmposeJson
+    ) && (options.axes.is_some() || options.metres_per_unit.is_some())
+    {
+        return Err(ImportError::FrameNotHere);
     }
     Ok(match format {
         // `resolve_format` never returns `Auto`; read it as the extension says all the same.
@@ -692,11 +724,19 @@ fn read_input(
                 Some(m) => m.check_fits(&clip)?,
                 None => BvhMapping::detect(&clip)?,
             };
-            let seq = mapping
-                .keypoints(&clip, &layout)?
-                .without_unobserved_joints();
+            let (seq, axes) =
+                mapping.keypoints_in(&clip, &layout, options.axes, options.metres_per_unit)?;
             let rate = format!("{:.3} fps (BVH frame time)", clip.fps());
-            Input::read(vec![seq], layout.name, rate)
+            let mut input = Input::read(vec![seq.without_unobserved_joints()], layout.name, rate);
+            input.axes = match (options.axes, axes) {
+                (Some(given), _) => Some(format!("axes: {} (--axes)", given.name())),
+                (None, SourceAxes::YUp) => None,
+                (None, found) => Some(format!(
+                    "axes: {} (found: the body stands along its up through the clip)",
+                    found.name()
+                )),
+            };
+            input
         }
         InputFormat::Ntu => {
             let layout = fixed_layout("NTU", "ntu-25", layout)?;
@@ -764,14 +804,11 @@ fn read_json(input: &Path, options: &ImportOptions) -> Result<Input, ImportError
             why: "MMPose JSON has no frame rate".to_owned(),
         });
     };
-    let metres_per_unit = options.metres_per_unit;
-    if !(metres_per_unit.is_finite() && metres_per_unit > 0.0) {
-        return Err(ImportError::BadMetresPerUnit(metres_per_unit));
-    }
+    let metres_per_unit = options.metres_per_unit.unwrap_or(1.0);
     let json_options = mmpose_json::JsonOptions {
         fps,
         metres_per_unit,
-        axes: options.axes,
+        axes: options.axes.unwrap_or(SourceAxes::YDown),
         joint_names: layout.joints.clone(),
     };
     let source = input.display().to_string();
@@ -814,6 +851,7 @@ fn read_json(input: &Path, options: &ImportOptions) -> Result<Input, ImportError
         layout: layout.name,
         rate: format!("{fps} fps"),
         replay: Some((input.to_path_buf(), json_options)),
+        axes: None,
     })
 }
 
@@ -851,8 +889,8 @@ mod tests {
             layout: layout.map(str::to_string),
             bvh_map: None,
             fps,
-            axes: SourceAxes::YDown,
-            metres_per_unit: 1.0,
+            axes: None,
+            metres_per_unit: None,
             ground: GroundMode::Off,
             lengths: LengthMode::Measured,
         }
@@ -1034,11 +1072,52 @@ mod tests {
             "x.json: MMPose JSON has no frame rate: give --fps"
         );
         let mut bad_units = options(auto, Some("h36m-17"), Some(25.0));
-        bad_units.metres_per_unit = 0.0;
+        bad_units.metres_per_unit = Some(0.0);
         assert_eq!(
             error("x.json", &bad_units),
             "--metres-per-unit must be positive, not 0"
         );
+        for path in ["x.skeleton", "x.mat", "x.txt"] {
+            let mut axes = options(auto, None, None);
+            axes.axes = Some(SourceAxes::ZUp);
+            let mut units = options(auto, None, None);
+            units.metres_per_unit = Some(0.01);
+            for o in [axes, units] {
+                assert!(
+                    error(path, &o).starts_with(
+                        "--axes and --metres-per-unit are for BVH and MMPose JSON input only"
+                    ),
+                    "{path}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_bvh_unit_given_on_the_command_line_overrides_the_guess() {
+        // 11 units tall: no person's size in cm, m or inches, so the unit cannot be guessed.
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("tiny.bvh");
+        let text = "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Xposition Yposition Zposition\n  JOINT Head\n  {\n    OFFSET 0 11 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n    End Site\n    {\n      OFFSET 0 1 0\n    }\n  }\n}\nMOTION\nFrames: 1\nFrame Time: 0.04\n0 6 0 0 0 0\n";
+        std::fs::write(&path, text).expect("write");
+        let map = dir.path().join("map.toml");
+        std::fs::write(
+            &map,
+            "skeleton = \"tiny\"\nrequired = [\"Hips\", \"Head\"]\n[layouts.autoact-landmarks]\npelvis = \"Hips\"\nhead_center = \"Head\"\n",
+        )
+        .expect("write");
+        let mut o = options(InputFormat::Auto, None, None);
+        o.bvh_map = Some(map);
+        let e = error(&path.display().to_string(), &o);
+        assert!(
+            e.contains("cannot tell the units") && e.contains("--metres-per-unit 0.01"),
+            "{e}"
+        );
+        o.metres_per_unit = Some(0.15);
+        let imported = import(&path, &o).unwrap_or_else(|e| panic!("{e}"));
+        let head = imported.sequences[0].frames[0].positions_m[1];
+        // Head 11 units above the hips, 6 above the origin: 17 × 0.15 m, +Y up.
+        assert!((head.z - 2.55).abs() < 1e-9, "{head}");
     }
 
     #[test]

@@ -28,6 +28,16 @@ pub enum SourceAxes {
 }
 
 impl SourceAxes {
+    /// Its name, as `--axes` and serde write it.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            SourceAxes::ZUp => "z-up",
+            SourceAxes::YUp => "y-up",
+            SourceAxes::YDown => "y-down",
+        }
+    }
+
     /// The rotation `autoact_from_source`.
     #[must_use]
     pub fn autoact_from_source(self) -> Rotation3<f64> {

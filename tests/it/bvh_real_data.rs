@@ -367,8 +367,8 @@ fn bvh_fidelity_mm(path: &Path, layout: Option<&str>) -> Fidelity {
         layout: layout.map(str::to_owned),
         bvh_map: None,
         fps: None,
-        axes: SourceAxes::YUp,
-        metres_per_unit: 1.0,
+        axes: None,
+        metres_per_unit: None,
         ground: autoact::skeleton::ground::GroundMode::Auto,
         lengths: autoact::skeleton::lengths::LengthMode::Measured,
     };
@@ -712,8 +712,8 @@ fn motion_capture_in_tilted_cameras_is_grounded_within_3_degrees() {
         layout: None,
         bvh_map: None,
         fps: None,
-        axes: SourceAxes::YUp,
-        metres_per_unit: 1.0,
+        axes: None,
+        metres_per_unit: None,
         ground: GroundMode::Off,
         lengths: autoact::skeleton::lengths::LengthMode::Measured,
     };

@@ -161,8 +161,8 @@ fn import_defaults_formats_labels_and_output() {
     assert_eq!(args.layout, None);
     assert_eq!(args.bvh_map, None);
     assert_eq!(args.fps, None);
-    assert_eq!(args.axes, Axes::YDown);
-    assert_eq!(args.metres_per_unit, 1.0);
+    assert_eq!(args.axes, None);
+    assert_eq!(args.metres_per_unit, None);
     assert_eq!((args.category, args.action), (None, None));
     assert_eq!(args.output.output, Path::new("walk.pose.mcap"));
     assert_eq!(args.output.compression, Compression::Zstd);
@@ -197,8 +197,8 @@ fn import_defaults_formats_labels_and_output() {
     assert_eq!(args.format, InputFormat::MmposeJson);
     assert_eq!(args.layout.as_deref(), Some("coco-17"));
     assert_eq!(args.fps, Some(25.0));
-    assert_eq!(args.axes, Axes::ZUp);
-    assert_eq!(args.metres_per_unit, 0.001);
+    assert_eq!(args.axes, Some(Axes::ZUp));
+    assert_eq!(args.metres_per_unit, Some(0.001));
     assert_eq!(args.category.as_deref(), Some("daily"));
     assert_eq!(args.action.as_deref(), Some("wave"));
     assert_eq!(args.output.output, Path::new("out"));
@@ -228,7 +228,7 @@ fn import_defaults_formats_labels_and_output() {
         assert_eq!(args.format, format, "{name}");
     }
     let args = args_of!(Import, &["import", "f", "-o", "o", "--axes", "y-up"]);
-    assert_eq!(args.axes, Axes::YUp);
+    assert_eq!(args.axes, Some(Axes::YUp));
     assert_eq!(
         (args.ground, args.lengths),
         (GroundMode::Auto, LengthMode::Measured)

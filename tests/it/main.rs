@@ -8,6 +8,7 @@
 
 mod common;
 
+mod bvh_axes;
 mod bvh_real_data;
 mod cli;
 mod cli_args;

@@ -489,7 +489,6 @@ fn truncated_real_files_are_errors() {
 // contact when it is its frame's lower foot or within 5 cm of it.
 
 use autoact::formats::import::{self as importer, ImportOptions, InputFormat};
-use autoact::skeleton::frames::SourceAxes;
 use autoact::skeleton::ground::{GroundMode, angle_deg};
 use autoact::skeleton::lengths::{LengthMode, flexion_deg};
 
@@ -624,8 +623,8 @@ fn options(
         format,
         layout: layout.map(str::to_string),
         fps,
-        axes: SourceAxes::YDown,
-        metres_per_unit: 1.0,
+        axes: None,
+        metres_per_unit: None,
         bvh_map: None,
         ground: GroundMode::Auto,
         lengths,
