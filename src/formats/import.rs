@@ -1,14 +1,16 @@
 //! One dataset file in, its pose sequences out: what `autoact import` writes into a pose bag.
 //!
-//! [`import`] takes the format from the file's extension unless told, checks the options against
-//! what the format states itself (NTU, Human3.6M and ZED files have their own layout; BVH,
-//! Human3.6M and ZED files their own rate; MMPose JSON has none), reads the file and warns when a
-//! JSON body's size suggests wrong units.
+//! [`import`] takes the format from the file's extension (and for `.mat` and `.json` its
+//! contents; a folder is CMU Panoptic's) unless told, checks the options against what the format
+//! states itself (NTU, Human3.6M, ZED, UTD-MHAD and Panoptic files have their own layout; BVH,
+//! Human3.6M, ZED and Panoptic files their own rate; MMPose JSON has none; only BVH and MMPose
+//! JSON take axes and units), reads the file and warns when a JSON body's size suggests wrong
+//! units.
 //!
-//! Camera-frame sources — ZED, MMPose JSON and NTU (Kinect camera space) — are then grounded
-//! ([`crate::skeleton::ground`]: up from the feet, the body on `z = 0` facing +Y) unless
-//! `--ground off`; BVH and Human3.6M exp-map are motion capture in a world frame and are left as
-//! they are unless `--ground on`. Every sequence's bone-length spread is reported
+//! Camera-frame sources — ZED, MMPose JSON, NTU and UTD-MHAD (Kinect camera space) — are then
+//! grounded ([`crate::skeleton::ground`]: up from the feet, the body on `z = 0` facing +Y)
+//! unless `--ground off`; BVH, Human3.6M exp-map and CMU Panoptic are in a world frame with a
+//! floor and are left as they are unless `--ground on`. Every sequence's bone-length spread is reported
 //! ([`crate::skeleton::lengths`]), and `--lengths fixed` re-poses the limbs with fixed lengths.
 
 use std::collections::BTreeMap;
@@ -110,7 +112,8 @@ pub struct ImportOptions {
     /// For BVH: a mapping file to use instead of the built-in mapping of the skeleton family
     /// ([`BvhMapping::from_file`]); needed for a skeleton autoact does not know.
     pub bvh_map: Option<PathBuf>,
-    /// Frame rate, for formats that have none (JSON: required); overrides NTU's 30.
+    /// Frame rate, for formats that have none (MMPose JSON: required; Panoptic files without a
+    /// known `fpsType`); overrides NTU's and UTD-MHAD's 30.
     pub fps: Option<f64>,
     /// Axes of the file's coordinates, for BVH and MMPose JSON (other formats state theirs);
     /// `None`: MMPose JSON is Y-down, and a BVH file's are found from its clip
@@ -555,7 +558,8 @@ impl Imported {
 }
 
 impl Imported {
-    /// What was done to each track, one line each (grounding, fixed lengths), for people.
+    /// What was done to the file (axes found or given) and to each track (grounding, fixed
+    /// lengths), one line each, for people.
     #[must_use]
     pub fn notes(&self) -> String {
         let mut out = self
