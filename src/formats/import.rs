@@ -149,6 +149,9 @@ pub struct Imported {
     /// How the file's axes were decided, when not by its format alone (a BVH file found or told
     /// to be other than Y-up).
     pub axes: Option<String>,
+    /// The track whose feet the grounding was estimated on (every track is placed by it: one
+    /// camera, one floor); `None` when not grounded.
+    pub ground_track: Option<u64>,
     /// For a file read as a stream (MMPose JSON): the second reading still to do. The
     /// sequences then have no frames yet; [`Imported::for_each_frame`] reads them.
     replay: Option<Replay>,
@@ -338,16 +341,23 @@ pub fn measure(input: &Path, options: &ImportOptions) -> Result<Imported, Import
         stability: Vec::new(),
         length_fixes: Vec::new(),
         axes,
+        ground_track: None,
         replay: None,
     };
-    let grounded = options.ground.applies(format.is_camera_frame());
+    // One camera, one floor: every track is placed by the same grounding, so the people keep
+    // their places relative to each other.
+    let shared = if options.ground.applies(format.is_camera_frame()) {
+        shared_grounding(&sequences, &loaded)
+    } else {
+        None
+    };
+    imported.ground_track = shared.as_ref().map(|(track, _)| *track);
     let mut fixers = Vec::new();
     for mut seq in sequences {
-        let grounding = if grounded {
-            ground_one(&mut seq, &loaded)
-        } else {
-            None
-        };
+        let grounding = shared.as_ref().map(|(_, g)| {
+            g.apply(&mut seq);
+            g.clone()
+        });
         let stability = lengths::stability(&seq, &loaded).unwrap_or_default();
         warn_unstable(&seq.source, seq.track_id, &stability);
         let mut fixer = (options.lengths == LengthMode::Fixed)
@@ -499,27 +509,34 @@ impl From<mmpose_json::JsonError> for ReplayError {
     }
 }
 
-/// Grounds one sequence, warning when its feet at contact sit more than [`ground::INLIER_M`]
-/// off the plane (median); a sequence that cannot be grounded (no feet) stays in its source
-/// frame with a warning.
-fn ground_one(seq: &mut PoseSequence, layout: &Layout) -> Option<Grounding> {
-    match ground::ground(seq, layout) {
-        Ok(g) => {
-            if g.residual_median_m > ground::INLIER_M {
-                tracing::warn!(
-                    "{} track {}: the feet do not settle on one plane ({}); check the result or import with --ground off",
-                    seq.source,
-                    seq.track_id,
-                    g.summary()
-                );
+/// The grounding of a file's tracks, all seen by one camera: estimated on the track with the
+/// most frames (ties: the first), or the next that has feet, and its track id; warns when its
+/// feet at contact sit more than [`ground::INLIER_M`] off the plane (median). `None`, with a
+/// warning, when no track can be grounded: the tracks then stay in their source frame.
+fn shared_grounding(seqs: &[PoseSequence], layout: &Layout) -> Option<(u64, Grounding)> {
+    let mut order: Vec<&PoseSequence> = seqs.iter().collect();
+    order.sort_by_key(|s| std::cmp::Reverse(s.frames.len()));
+    let mut why = None;
+    for seq in order {
+        match ground::estimate(seq, layout, 1) {
+            Ok(g) => {
+                if g.residual_median_m > ground::INLIER_M {
+                    tracing::warn!(
+                        "{} track {}: the feet do not settle on one plane ({}); check the result or import with --ground off",
+                        seq.source,
+                        seq.track_id,
+                        g.summary()
+                    );
+                }
+                return Some((seq.track_id, g));
             }
-            Some(g)
-        }
-        Err(e) => {
-            tracing::warn!("{e}: track {} left in the source frame", seq.track_id);
-            None
+            Err(e) => why = why.or(Some(e)),
         }
     }
+    if let Some(e) = why {
+        tracing::warn!("{e}: left in the source frame");
+    }
+    None
 }
 
 /// Warns once per segment whose length varies by [`lengths::UNSTABLE_CV`] or more.
@@ -567,8 +584,17 @@ impl Imported {
             .as_ref()
             .map_or(String::new(), |a| format!("{a}\n"));
         for (i, seq) in self.sequences.iter().enumerate() {
-            if let Some(Some(g)) = self.groundings.get(i) {
-                out += &format!("track {}: {}\n", seq.track_id, g.summary());
+            match (self.groundings.get(i), self.ground_track) {
+                (Some(Some(g)), Some(t)) if t == seq.track_id => {
+                    out += &format!("track {}: {}\n", seq.track_id, g.summary());
+                }
+                (Some(Some(_)), Some(t)) => {
+                    out += &format!(
+                        "track {}: grounded with track {t} (one camera: one floor, places kept)\n",
+                        seq.track_id
+                    );
+                }
+                _ => {}
             }
             if let Some(Some(fix)) = self.length_fixes.get(i) {
                 for (limb, upper, lower) in &fix.limbs {
@@ -1095,6 +1121,67 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn the_people_of_one_camera_share_its_floor_and_keep_their_places() {
+        // Two people 1.2 m apart across the image, 4 m from a camera 1.2 m above the floor (y
+        // down), one facing it and one turned away: grounding each on its own would stand both
+        // on the origin facing +Y.
+        let joints: [(f64, f64, f64); 17] = [
+            (0.0, -1.55, -0.1),
+            (0.03, -1.6, -0.08),
+            (-0.03, -1.6, -0.08),
+            (0.07, -1.58, 0.0),
+            (-0.07, -1.58, 0.0),
+            (0.18, -1.4, 0.0),
+            (-0.18, -1.4, 0.0),
+            (0.2, -1.1, 0.0),
+            (-0.2, -1.1, 0.0),
+            (0.2, -0.85, 0.0),
+            (-0.2, -0.85, 0.0),
+            (0.1, -0.9, 0.0),
+            (-0.1, -0.9, 0.0),
+            (0.1, -0.5, 0.0),
+            (-0.1, -0.5, 0.0),
+            (0.1, -0.08, 0.0),
+            (-0.1, -0.08, 0.0),
+        ];
+        let person = |x_m: f64, turned: f64| {
+            let points: Vec<String> = joints
+                .iter()
+                .map(|(x, y, z)| {
+                    format!("[{}, {}, {}]", x_m + turned * x, y + 1.2, 4.0 + turned * z)
+                })
+                .collect();
+            format!("[{}]", points.join(", "))
+        };
+        let frames: Vec<String> = (0..20)
+            .map(|f| {
+                format!(
+                    "{{\"frame_id\": {f}, \"instances\": [{{\"keypoints\": {}, \"track_id\": 0}}, {{\"keypoints\": {}, \"track_id\": 1}}]}}",
+                    person(-0.6, 1.0),
+                    person(0.6, -1.0)
+                )
+            })
+            .collect();
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("two.json");
+        std::fs::write(&path, format!("[{}]", frames.join(",\n"))).expect("write");
+        let mut o = options(InputFormat::Auto, Some("coco-17"), Some(30.0));
+        o.ground = GroundMode::Auto;
+        let imported = import(&path, &o).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(imported.ground_track, Some(0));
+        let hips = |s: usize| {
+            let f = &imported.sequences[s].frames[0];
+            (f.positions_m[11], f.positions_m[12])
+        };
+        let ((l0, r0), (l1, r1)) = (hips(0), hips(1));
+        let (mid0, mid1) = (nalgebra::center(&l0, &r0), nalgebra::center(&l1, &r1));
+        assert!(((mid1 - mid0).norm() - 1.2).abs() < 1e-6, "{mid0} {mid1}");
+        // Turned away from each other: their hip lines point opposite ways.
+        assert!(((r0 - l0).normalize().dot(&(r1 - l1).normalize()) + 1.0).abs() < 1e-6);
+        assert!(imported.notes().contains("track 1: grounded with track 0"));
     }
 
     #[test]
