@@ -51,7 +51,6 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use nalgebra::Point3;
 use serde::Deserialize;
 use thiserror::Error;
 
@@ -237,19 +236,25 @@ impl PanopticClip {
     }
 }
 
-/// One body's joints as a frame: metres, autoact axes, scores as confidences.
+/// One body's joints as a frame: metres, autoact axes (through
+/// [`PoseFrame::from_source_points`]), scores as confidences; a negative score is missing.
 fn pose_frame(stamp_nanos: u64, joints: &[[f64; 4]; JOINT_COUNT]) -> PoseFrame {
-    let mut frame = PoseFrame::missing(stamp_nanos, JOINT_COUNT);
-    for (j, [x, y, z, score]) in joints.iter().enumerate() {
-        if *score >= 0.0 && [x, y, z].iter().all(|c| c.is_finite()) {
-            let cm = Point3::new(*x, *y, *z);
-            frame.positions_m[j] = AXES.point_to_autoact(cm * METRES_PER_UNIT);
+    let points_m = joints.map(|[x, y, z, score]| {
+        if score >= 0.0 {
+            [x, y, z].map(|c| c * METRES_PER_UNIT)
+        } else {
+            [f64::NAN; 3]
+        }
+    });
+    let mut frame = PoseFrame::from_source_points(stamp_nanos, &points_m, AXES);
+    for (c, [.., score]) in frame.confidence.iter_mut().zip(joints) {
+        if *c > 0.0 {
             #[expect(
                 clippy::cast_possible_truncation,
                 reason = "a score in f32 is as fine as it is used"
             )]
             let score = *score as f32;
-            frame.confidence[j] = confidence(score);
+            *c = confidence(score);
         }
     }
     frame
@@ -361,7 +366,7 @@ pub fn read(path: impl AsRef<Path>) -> Result<PanopticClip, PanopticError> {
         frames: Vec::with_capacity(files.len()),
     };
     // The first file that states a rate, for the error when another differs.
-    let mut rate_file: Option<String> = None;
+    let mut first_rate_file = String::new();
     for (frame, file) in files {
         let text = std::fs::read(&file).map_err(|source| PanopticError::Io {
             path: file.clone(),
@@ -369,22 +374,20 @@ pub fn read(path: impl AsRef<Path>) -> Result<PanopticClip, PanopticError> {
         })?;
         let name = file.display().to_string();
         let (bodies, fps_type) = parse(&text, &name)?;
-        if let Some(found) = fps_type {
-            match (&clip.fps_type, &rate_file) {
-                (Some(first), Some(first_file)) if *first != found => {
-                    return Err(PanopticError::MixedRates {
-                        file: name,
-                        found,
-                        first_file: first_file.clone(),
-                        first: first.clone(),
-                    });
-                }
-                (None, _) => {
-                    clip.fps_type = Some(found);
-                    rate_file = Some(name);
-                }
-                _ => {}
+        match (fps_type, &clip.fps_type) {
+            (Some(found), Some(first)) if found != *first => {
+                return Err(PanopticError::MixedRates {
+                    file: name,
+                    found,
+                    first_file: first_rate_file,
+                    first: first.clone(),
+                });
             }
+            (Some(found), None) => {
+                clip.fps_type = Some(found);
+                first_rate_file = name;
+            }
+            _ => {}
         }
         clip.frames.push(SceneFrame { frame, bodies });
     }
