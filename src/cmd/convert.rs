@@ -54,7 +54,8 @@ pub struct Args {
     pub max_gap: Option<f64>,
     /// Stand camera-frame tracks (marker and pose arrays, read with --layout) on z = 0 facing
     /// +Y, up and ground estimated from the feet: `auto` does so for those, never for skeleton
-    /// messages (`import` and `record` already wrote them in the world frame).
+    /// messages (`import` and `record` already wrote them in the world frame). The people of
+    /// one topic share one grounding (one camera), so they keep their places.
     #[arg(long, value_enum, default_value_t = GroundMode::Auto, conflicts_with = "spec")]
     pub ground: GroundMode,
     /// Degrees of freedom solved: `full` turns the pelvis in 3-D (tilt and roll under the

@@ -23,7 +23,7 @@ use crate::loss::{Loss, Losses, WARN_LIMIT};
 use crate::mcap_io::McapIoError;
 use crate::ros::tf2_msgs::TFMessage;
 use crate::skeleton::convert::{ConvertOptions, SequenceConverter};
-use crate::skeleton::ground::{GroundMode, GroundSampler};
+use crate::skeleton::ground::{GroundError, GroundMode, GroundSampler, Grounding};
 use crate::skeleton::layout::Layout;
 use crate::skeleton::pose::PoseFrame;
 use crate::skeleton::resample::Resampler;
@@ -266,35 +266,70 @@ pub(super) fn grounded<'f>(
 }
 
 /// Estimates the ground of a camera-frame track from its pass-1 sample (the frames must come in
-/// stamp order, which the sample's do). A track whose ground cannot be found is converted as it
-/// is, with a warning.
-fn ground_track(layout: &Layout, track: &bags::pose::TrackScan) -> Option<Isometry3<f64>> {
-    let estimate =
-        GroundSampler::new(layout, &track.joint_names, &track.source).and_then(|mut s| {
-            for frame in &track.sample {
-                s.push(frame);
-            }
-            s.estimate()
-        });
-    match estimate {
-        Ok(g) => {
-            tracing::info!(
-                "{} track {}: grounded (camera frame): {}",
-                track.topic,
-                track.track_id,
-                g.summary()
-            );
-            Some(g.world_from_camera)
-        }
-        Err(e) => {
-            tracing::warn!(
-                "{} track {}: not grounded, converted in its own frame: {e}",
-                track.topic,
-                track.track_id
-            );
-            None
+/// stamp order, which the sample's do).
+fn estimate_ground(
+    layout: &Layout,
+    track: &bags::pose::TrackScan,
+) -> Result<Grounding, GroundError> {
+    let mut sampler = GroundSampler::new(layout, &track.joint_names, &track.source)?;
+    for frame in &track.sample {
+        sampler.push(frame);
+    }
+    sampler.estimate()
+}
+
+/// The grounding of each track of `scan` (by index), for the tracks `job` grounds. The tracks
+/// of one topic are one estimator's people, seen by one camera: they share one grounding,
+/// estimated on the track with the most frames (or the next that has feet), so the people keep
+/// their places relative to each other. A topic whose ground cannot be found is converted as
+/// it is, with a warning.
+fn shared_groundings(
+    job: &ConvertJob,
+    scan: &PoseScan,
+    layouts: &[Layout],
+) -> Vec<Option<Isometry3<f64>>> {
+    let mut groundings = vec![None; scan.tracks.len()];
+    let mut topics: BTreeMap<&str, Vec<usize>> = BTreeMap::new();
+    for (i, track) in scan.tracks.iter().enumerate() {
+        if job.ground.applies(track.camera_frame) {
+            topics.entry(track.topic.as_str()).or_default().push(i);
         }
     }
+    for (topic, mut members) in topics {
+        members.sort_by_key(|&i| std::cmp::Reverse(scan.tracks[i].frames));
+        let mut why = None;
+        let found =
+            members
+                .iter()
+                .find_map(|&i| match estimate_ground(&layouts[i], &scan.tracks[i]) {
+                    Ok(g) => Some((scan.tracks[i].track_id, g)),
+                    Err(e) => {
+                        why.get_or_insert(e);
+                        None
+                    }
+                });
+        let Some((by, g)) = found else {
+            if let Some(e) = why {
+                tracing::warn!("{topic}: not grounded, converted in its own frame: {e}");
+            }
+            continue;
+        };
+        for &i in &members {
+            let track_id = scan.tracks[i].track_id;
+            if track_id == by {
+                tracing::info!(
+                    "{topic} track {track_id}: grounded (camera frame): {}",
+                    g.summary()
+                );
+            } else {
+                tracing::info!(
+                    "{topic} track {track_id}: grounded with track {by} (one camera: one floor, places kept)"
+                );
+            }
+            groundings[i] = Some(g.world_from_camera);
+        }
+    }
+    groundings
 }
 
 /// Converts a pose bag into an animation bag, in two passes over the input: the first learns
@@ -473,20 +508,20 @@ fn prepare_people<'a>(
     // camera's frame, so its tracks are not grounded again) is smoothed as an estimator's.
     let imported_from_estimator =
         crate::formats::import::InputFormat::imported_from_estimator(&scan.metadata);
-    for track in &scan.tracks {
-        let layout = match given_layout {
-            Some(l) => l.clone(),
+    let layouts = scan
+        .tracks
+        .iter()
+        .map(|track| match given_layout {
+            Some(l) => Ok(l.clone()),
             None => Layout::load(&track.layout).map_err(|source| PipelineError::TopicLayout {
                 topic: track.topic.clone(),
                 layout: track.layout.clone(),
                 source: Box::new(source),
-            })?,
-        };
-        let world_from_camera = job
-            .ground
-            .applies(track.camera_frame)
-            .then(|| ground_track(&layout, track))
-            .flatten();
+            }),
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let groundings = shared_groundings(job, scan, &layouts);
+    for ((track, layout), world_from_camera) in scan.tracks.iter().zip(layouts).zip(groundings) {
         let sample: Cow<'_, [PoseFrame]> = match &world_from_camera {
             None => Cow::Borrowed(&track.sample),
             Some(t) => track

@@ -1389,6 +1389,111 @@ fn pose_arrays_in_a_tilted_camera_frame_are_grounded() {
     assert!(!stderr(&o).contains("grounded"), "{}", stderr(&o));
 }
 
+/// The people of one marker topic were seen by one camera: `convert` stands them on one floor
+/// with one grounding, so they keep their places and headings relative to each other (grounded
+/// each on its own, both would stand on the origin facing +Y).
+#[test]
+fn the_people_of_one_camera_topic_keep_their_places() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("camera.mcap");
+    let camera_from_world = nalgebra::Isometry3::from_parts(
+        nalgebra::Translation3::new(0.3, -0.2, 4.0),
+        UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 20f64.to_radians()),
+    );
+    // Person "a" as `h36m_frame` walks, 0.6 m to the left; person "b" turned about +Z by 150°
+    // and 0.6 m to the right.
+    let turned = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 150f64.to_radians());
+    let world = |k: usize, ns: &str| -> Vec<nalgebra::Point3<f64>> {
+        h36m_frame(k)
+            .positions_m
+            .iter()
+            .map(|p| match ns {
+                "a" => p + Vector3::new(-0.6, 0.0, 0.0),
+                _ => turned * p + Vector3::new(0.6, 0.0, 0.0),
+            })
+            .collect()
+    };
+    let mut w = BagWriter::create(&path, WriteConfig::default()).unwrap();
+    for k in 0..60 {
+        let stamp = h36m_frame(k).stamp_nanos;
+        let header = Header {
+            stamp: Time::from_nanos(stamp),
+            frame_id: "camera".into(),
+        };
+        let markers = ["a", "b"]
+            .into_iter()
+            .flat_map(|ns| {
+                let header = header.clone();
+                world(k, ns)
+                    .into_iter()
+                    .enumerate()
+                    .map(move |(j, p)| Marker {
+                        header: header.clone(),
+                        ns: ns.into(),
+                        id: i32::try_from(j).unwrap(),
+                        type_: Marker::SPHERE,
+                        pose: Pose {
+                            position: Point::from(camera_from_world * p),
+                            ..Pose::default()
+                        },
+                        ..Marker::default()
+                    })
+            })
+            .collect();
+        w.write("/markers", stamp, &MarkerArray { markers })
+            .unwrap();
+    }
+    w.finish().unwrap();
+    let out = dir.path().join("out.mcap");
+    let o = autoact(&[
+        "-v",
+        "convert",
+        arg(&path),
+        "--layout",
+        "h36m-17",
+        "-o",
+        arg(&out),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("track 1: grounded with track 0"),
+        "{}",
+        stderr(&o)
+    );
+    let frames = bone_frames(&out);
+    let at = |k: usize, track: u64| {
+        frames
+            .iter()
+            .filter(|(_, f)| f.track_id == track && f.variant == 0)
+            .nth(k)
+            .map(|(_, f)| f.clone())
+            .unwrap()
+    };
+    let root = |f: &BoneFrame| {
+        let t = &f.root_translation;
+        Vector3::new(t.x, t.y, t.z)
+    };
+    let heading = |f: &BoneFrame| {
+        let q = &f.local_rotations[0];
+        let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q.w, q.x, q.y, q.z));
+        let forward = q * Vector3::y();
+        forward.y.atan2(forward.x)
+    };
+    // The pelvis (H36M joint 0) of both people in the world they were made in.
+    let pelvis_gap_m = |k: usize| (world(k, "b")[0] - world(k, "a")[0]).norm();
+    for k in [0, 30, 59] {
+        let (a, b) = (at(k, 0), at(k, 1));
+        let gap_m = (root(&b) - root(&a)).norm();
+        assert!(
+            (gap_m - pelvis_gap_m(k)).abs() < 0.05,
+            "frame {k}: {gap_m} m apart, made {} m apart",
+            pelvis_gap_m(k)
+        );
+        let turn = (heading(&b) - heading(&a)).to_degrees().rem_euclid(360.0);
+        assert!((turn - 150.0).abs() < 5.0, "frame {k}: turned {turn}°");
+    }
+}
+
 #[test]
 fn dsi_on_long_clips_of_several_people_is_written_in_one_stamp_order() {
     // Two people for 3,000 frames (more than one of DSI's 2,048-frame windows), person 8 with a
