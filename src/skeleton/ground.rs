@@ -49,6 +49,10 @@ pub const INLIER_M: f64 = 0.03;
 /// Largest angle between a candidate ground normal and the trunk direction, degrees.
 pub const MAX_TILT_FROM_TRUNK_DEG: f64 = 35.0;
 
+/// Contact spread across their line below which the trunk weighs four times the contacts in
+/// the tilt about it (the prior weighs like a spread of [`PRIOR_SPREAD_M`]), metres.
+pub const TRUNK_DECIDES_SPREAD_M: f64 = PRIOR_SPREAD_M / 2.0;
+
 /// Height above the fitted floor over which a slow foot is not a contact, metres.
 const CONTACT_BAND_M: f64 = 0.10;
 
@@ -161,6 +165,11 @@ pub struct Grounding {
     pub residual_p95_m: f64,
     /// Frames sampled.
     pub samples: usize,
+    /// How far the contacts spread across their main line, metres (the second principal
+    /// spread of the contact points about each landmark kind's mean; 0 for fewer than three).
+    /// Below [`TRUNK_DECIDES_SPREAD_M`] the trunk's direction, not the feet, set the tilt
+    /// about that line.
+    pub across_spread_m: f64,
 }
 
 /// The joints whose mean is landmark `name` of `layout`, as indices into `joint_names`.
@@ -311,6 +320,7 @@ impl GroundSampler {
         let mut up = prior;
         let mut offset = f64::NAN;
         let mut lows = Vec::new();
+        let mut across_spread_m = 0.0;
         for _ in 0..3 {
             let mut contacts = contact_points(&self.samples, &speeds, speed_limit, up, offset);
             if contacts.is_empty() {
@@ -320,7 +330,8 @@ impl GroundSampler {
             if contacts.is_empty() {
                 contacts = contact_points(&self.samples, &speeds, f64::INFINITY, up, f64::NAN);
             }
-            let (n, fitted) = fit_plane(&contacts.concat(), prior);
+            let (n, fitted, across) = fit_plane(&contacts.concat(), prior);
+            across_spread_m = across;
             // The floor's height: the median lowest point of the feet at contact.
             lows = contacts
                 .iter()
@@ -331,12 +342,19 @@ impl GroundSampler {
             up = n;
             offset = percentile(&lows, 0.5).unwrap_or(fitted);
         }
-        Ok(self.placed(up, offset, &lows))
+        Ok(self.placed(up, offset, &lows, across_spread_m))
     }
 
     /// The grounding for a floor `{p : up·p = offset}`, with its residuals at the feet's lowest
-    /// points at contact (`lows`: their heights along `up`).
-    fn placed(&self, up: Vector3<f64>, offset: f64, lows: &[f64]) -> Grounding {
+    /// points at contact (`lows`: their heights along `up`) and the contacts' spread across
+    /// their line.
+    fn placed(
+        &self,
+        up: Vector3<f64>,
+        offset: f64,
+        lows: &[f64],
+        across_spread_m: f64,
+    ) -> Grounding {
         let tilt = UnitQuaternion::rotation_between(&up, &Vector3::z()).unwrap_or_else(|| {
             UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI)
         });
@@ -372,6 +390,7 @@ impl GroundSampler {
             residual_median_m: pick(0.5),
             residual_p95_m: pick(0.95),
             samples: self.samples.len(),
+            across_spread_m,
         }
     }
 }
@@ -537,7 +556,7 @@ impl Xorshift {
 /// The floor through `contacts`: (unit normal towards `prior`, offset) with `normal·p =
 /// offset`. RANSAC picks the inliers, a least-squares fit regularised towards `prior` places
 /// the plane.
-fn fit_plane(contacts: &[FootPoint], prior: Vector3<f64>) -> (Vector3<f64>, f64) {
+fn fit_plane(contacts: &[FootPoint], prior: Vector3<f64>) -> (Vector3<f64>, f64, f64) {
     let points: Vec<Point3<f64>> = contacts.iter().map(|(p, _)| *p).collect();
     let max_cos = MAX_TILT_FROM_TRUNK_DEG.to_radians().cos();
     let inliers_of = |n: &Vector3<f64>, c: f64| -> Vec<usize> {
@@ -587,16 +606,17 @@ fn fit_plane(contacts: &[FootPoint], prior: Vector3<f64>) -> (Vector3<f64>, f64)
 }
 
 /// The least-squares plane through `contacts`, its normal pulled towards `prior` as if the
-/// points spread [`PRIOR_SPREAD_M`] in every direction square to it: (unit normal, offset).
+/// points spread [`PRIOR_SPREAD_M`] in every direction square to it: (unit normal, offset,
+/// the points' own spread across their main line in metres).
 ///
 /// Each landmark kind gets a height of its own above the floor: the scatter is taken about each
 /// kind's own mean, so only distinct placements of one landmark (the left and the right heel,
 /// the heel of one step and of the next) tilt the plane, never the difference between an ankle
 /// and a toe, whose heights above the sole vary from source to source. Where the placements do
 /// not span the floor (both feet planted, a straight walk), the prior decides what they leave.
-fn refit(contacts: &[FootPoint], prior: Vector3<f64>) -> (Vector3<f64>, f64) {
+fn refit(contacts: &[FootPoint], prior: Vector3<f64>) -> (Vector3<f64>, f64, f64) {
     if contacts.is_empty() {
-        return (prior, 0.0);
+        return (prior, 0.0, 0.0);
     }
     let mut sums = [(Vector3::zeros(), 0.0_f64); FOOT_LANDMARKS.len()];
     for (p, kind) in contacts {
@@ -614,6 +634,9 @@ fn refit(contacts: &[FootPoint], prior: Vector3<f64>) -> (Vector3<f64>, f64) {
     )]
     let count = contacts.len() as f64;
     scatter /= count;
+    let mut spreads: Vec<f64> = scatter.symmetric_eigenvalues().iter().copied().collect();
+    spreads.sort_by(|a, b| b.total_cmp(a));
+    let across_spread_m = spreads[1].max(0.0).sqrt();
     let penalty = (Matrix3::identity() - prior * prior.transpose()) * PRIOR_SPREAD_M.powi(2);
     let eigen = (scatter + penalty).symmetric_eigen();
     let mut n = eigen
@@ -628,7 +651,7 @@ fn refit(contacts: &[FootPoint], prior: Vector3<f64>) -> (Vector3<f64>, f64) {
     let n = n.try_normalize(1e-12).unwrap_or(prior);
     let mut offsets: Vec<f64> = contacts.iter().map(|(p, _)| n.dot(&p.coords)).collect();
     offsets.sort_by(f64::total_cmp);
-    (n, offsets[offsets.len() / 2])
+    (n, offsets[offsets.len() / 2], across_spread_m)
 }
 
 impl Grounding {
@@ -654,7 +677,20 @@ impl Grounding {
             self.contacts,
             self.samples,
             self.residual_median_m * 1000.0,
-            self.residual_p95_m * 1000.0
+            self.residual_p95_m * 1000.0,
+        ) + &self.trunk_note()
+    }
+
+    /// When the contacts lie on a line (both feet planted, a straight walk, a short clip), what
+    /// that means for the up: empty otherwise.
+    #[must_use]
+    pub fn trunk_note(&self) -> String {
+        if self.across_spread_m >= TRUNK_DECIDES_SPREAD_M {
+            return String::new();
+        }
+        format!(
+            "; the contacts spread {:.1} cm across their line, so the trunk set the tilt about it (a seated or leaning body reads as tilted)",
+            self.across_spread_m * 100.0
         )
     }
 }

@@ -253,6 +253,37 @@ fn a_tilted_walk_and_squat_are_grounded_in_both_layouts() {
     }
 }
 
+/// Two planted feet fix only the tilt along the line between them: the estimate says the trunk
+/// set the rest. Steps that wander sideways spread the contacts across the floor, and it does
+/// not.
+#[test]
+fn the_estimate_says_when_the_trunk_set_the_tilt() {
+    let layout = Layout::load("h36m-17").unwrap();
+    let cam = camera(15.0, 0.3, 1.0, Vector3::new(0.2, -1.0, 4.0));
+    let squat = check(&layout, Motion::Squat, &cam, 3.0);
+    assert!(
+        squat.across_spread_m < TRUNK_DECIDES_SPREAD_M,
+        "{}",
+        squat.summary()
+    );
+    assert!(squat.summary().contains("the trunk set the tilt"));
+    let wander = check(
+        &layout,
+        Motion::Walk {
+            lean_deg: 0.0,
+            side_step_m: 0.4,
+        },
+        &cam,
+        3.0,
+    );
+    assert!(
+        wander.across_spread_m >= TRUNK_DECIDES_SPREAD_M,
+        "{}",
+        wander.summary()
+    );
+    assert!(wander.trunk_note().is_empty());
+}
+
 /// A standing clip decides the floor from two planted feet whose joints sit at heights above
 /// the sole unlike the rig's, one of them on its ball: neither the heights nor the raised heel
 /// may tilt the floor (they did by 4.9° before each landmark kind was fitted about its own mean
