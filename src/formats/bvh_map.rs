@@ -457,6 +457,9 @@ impl BvhMapping {
         };
         let unturned = Rotation3::identity();
         let mut frames = all_frames(&unturned);
+        if let Some(given) = axes {
+            warn_unless_upright(&bvh.source, mean_body_up(layout, &frames), given, "--axes");
+        }
         let axes = axes.unwrap_or_else(|| {
             // At rest every joint is unturned.
             let rest: Vec<_> = (bvh.rest_positions().into_iter())
@@ -515,32 +518,56 @@ pub fn found_axes(
     frames: &[PoseFrame],
 ) -> SourceAxes {
     let rest_up = body_up(layout, rest);
-    let mut sum = Vector3::zeros();
-    for f in frames {
-        sum += body_up(layout, f).unwrap_or_else(Vector3::zeros);
-    }
-    let motion_up = sum.try_normalize(1e-9);
+    let motion_up = mean_body_up(layout, frames);
     let along = |v: Option<Vector3<f64>>, axis: usize| v.is_some_and(|v| v[axis] > UPRIGHT_COS);
     let axes = if along(motion_up, 2) && !along(rest_up, 1) {
         SourceAxes::ZUp
     } else {
         SourceAxes::YUp
     };
-    let up_axis = if axes == SourceAxes::ZUp { 2 } else { 1 };
-    if let Some(m) = motion_up
-        && !along(motion_up, up_axis)
-    {
+    warn_unless_upright(source, motion_up, axes, "read as");
+    axes
+}
+
+/// The mean over `frames` of the body's up ([`body_up`]), in the frames' axes, if any frame
+/// has one.
+fn mean_body_up(layout: &Layout, frames: &[PoseFrame]) -> Option<Vector3<f64>> {
+    frames
+        .iter()
+        .filter_map(|f| body_up(layout, f))
+        .sum::<Vector3<f64>>()
+        .try_normalize(1e-9)
+}
+
+/// Warns when the body's mean up `motion_up` (in file axes) is more than 45° from the file's up
+/// under `axes` (found, or given with `--axes`): the body would come out lying.
+fn warn_unless_upright(source: &str, motion_up: Option<Vector3<f64>>, axes: SourceAxes, how: &str) {
+    let Some(m) = motion_up else {
+        return;
+    };
+    let file_up = axes.autoact_from_source().inverse() * Vector3::z();
+    let cos = m.dot(&file_up);
+    if cos <= UPRIGHT_COS {
         tracing::warn!(
-            "{source}: the body's mean up (pelvis to neck) is ({:.2}, {:.2}, {:.2}) in the file's axes, {:.0}° from {}: read as {}; if the file's up is another axis, give --axes, or --ground on to stand the body on its feet",
+            "{source}: the body's mean up (pelvis to neck) is ({:.2}, {:.2}, {:.2}) in the file's axes, {:.0}° from the file's up ({}) under {how} {}: the body will not stand; if the file's up is another axis, give --axes, or --ground on to stand the body on its feet",
             m.x,
             m.y,
             m.z,
-            m[up_axis].clamp(-1.0, 1.0).acos().to_degrees(),
-            if up_axis == 2 { "+Z" } else { "+Y" },
-            if up_axis == 2 { "Z-up" } else { "Y-up" },
+            cos.clamp(-1.0, 1.0).acos().to_degrees(),
+            axis_name(&file_up),
+            axes.name(),
         );
     }
-    axes
+}
+
+/// A unit axis vector as text: `+Y`, `-Z`, ….
+fn axis_name(v: &Vector3<f64>) -> String {
+    let i = v.iamax();
+    format!(
+        "{}{}",
+        if v[i] < 0.0 { '-' } else { '+' },
+        ['X', 'Y', 'Z'][i]
+    )
 }
 
 /// The unit direction from a layout's pelvis to its neck (or chest, head centre or spine

@@ -249,3 +249,34 @@ fn a_y_up_clip_lying_along_z_stays_y_up() {
     let up = at("neck") - at("pelvis");
     assert!(up.y > 0.9 * up.norm(), "{up:?}");
 }
+
+/// Axes given with `--axes` are checked against how the body stands too: a Y-up file imported
+/// as Z-up would lie on its back, and `import` says so (and says nothing for the right axes).
+#[test]
+fn axes_given_that_lay_the_body_down_are_warned_about() {
+    use crate::common::{arg, autoact, stderr};
+    let rig = Rig::standard();
+    let poses = vec![BonePose::rest(&rig); 3];
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("standing.bvh");
+    std::fs::write(
+        &path,
+        bvh_export::write(&rig, &Clip::from_poses(&rig, 30.0, poses)),
+    )
+    .expect("write");
+    let out = dir.path().join("out.pose.mcap");
+    for (axes, warned) in [(Some("z-up"), true), (Some("y-up"), false), (None, false)] {
+        let mut args = vec!["import", arg(&path), "-o", arg(&out), "--force"];
+        if let Some(a) = axes {
+            args.extend(["--axes", a]);
+        }
+        let o = autoact(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert_eq!(
+            stderr(&o).contains("the body will not stand"),
+            warned,
+            "--axes {axes:?}: {}",
+            stderr(&o)
+        );
+    }
+}
