@@ -42,7 +42,7 @@ use serde::Deserialize;
 
 use super::bvh::Bvh;
 use crate::skeleton::frames::SourceAxes;
-use crate::skeleton::layout::{JointExpr, Layout};
+use crate::skeleton::layout::{JointExpr, Layout, terms_point};
 use crate::skeleton::pose::{PoseFrame, PoseSequence, stamp_nanos_at};
 
 /// The layout a BVH clip is mapped onto unless another is asked for: the rig's own landmarks,
@@ -573,25 +573,9 @@ fn axis_name(v: &Vector3<f64>) -> String {
 /// The unit direction from a layout's pelvis to its neck (or chest, head centre or spine
 /// midpoint, the first it binds) in `frame`, if both are there.
 fn body_up(layout: &Layout, frame: &PoseFrame) -> Option<Vector3<f64>> {
-    let point = |landmark: &str| -> Option<Point3<f64>> {
-        let at = |joint: &String| {
-            let j = layout.joints.iter().position(|n| n == joint)?;
-            let p = frame.positions_m[j];
-            (frame.confidence[j] > 0.0 && p.coords.iter().all(|c| c.is_finite())).then_some(p)
-        };
-        match layout.landmarks.get(landmark)? {
-            JointExpr::Joint(j) => at(j),
-            JointExpr::Mean { mean } => {
-                let mut sum = Vector3::zeros();
-                for j in mean {
-                    sum += at(j)?.coords;
-                }
-                #[expect(clippy::cast_precision_loss, reason = "a handful of joints")]
-                let n = mean.len().max(1) as f64;
-                Some(Point3::from(sum / n))
-            }
-            JointExpr::Lerp { from, to, t } => Some(at(from)? + (at(to)? - at(from)?) * *t),
-        }
+    let point = |landmark: &str| {
+        let terms = layout.landmarks.get(landmark)?.terms(&layout.joints)?;
+        terms_point(&terms, frame, f32::MIN_POSITIVE)
     };
     let pelvis = point("pelvis")?;
     let top = ["neck", "chest", "head_center", "spine_mid"]

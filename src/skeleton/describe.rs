@@ -326,11 +326,7 @@ pub fn layout_table(layout: &Layout, coverage: &Coverage) -> String {
             let used: Vec<&str> = layout
                 .landmarks
                 .iter()
-                .filter(|(_, e)| match e {
-                    JointExpr::Joint(x) => x == j,
-                    JointExpr::Mean { mean } => mean.contains(j),
-                    JointExpr::Lerp { from, to, .. } => from == j || to == j,
-                })
+                .filter(|(_, e)| e.joints().contains(&j))
                 .map(|(k, _)| k.as_str())
                 .collect();
             vec![

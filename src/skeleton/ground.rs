@@ -36,7 +36,7 @@
 
 use nalgebra::{Isometry3, Matrix3, Point3, Translation3, UnitQuaternion, Vector3};
 
-use crate::skeleton::layout::{JointExpr, Layout};
+use crate::skeleton::layout::{Layout, terms_point};
 use crate::skeleton::pose::{PoseFrame, PoseSequence, nanos_to_secs};
 
 /// How much the trunk's direction counts in the plane fit, as a spread of contacts (metres):
@@ -105,8 +105,8 @@ pub enum GroundError {
     },
 }
 
-/// A landmark as the mean of some of the data's joints.
-type Joints = Vec<usize>;
+/// A landmark as weighted joints of the data ([`JointExpr::terms`]).
+type Joints = Vec<(usize, f64)>;
 
 /// One foot landmark: its joints and its kind (an index into [`FOOT_LANDMARKS`]).
 #[derive(Debug, Clone)]
@@ -172,16 +172,6 @@ pub struct Grounding {
     pub across_spread_m: f64,
 }
 
-/// The joints whose mean is landmark `name` of `layout`, as indices into `joint_names`.
-fn landmark_joints(layout: &Layout, joint_names: &[String], name: &str) -> Option<Joints> {
-    let index = |j: &String| joint_names.iter().position(|n| n == j);
-    match layout.landmarks.get(name)? {
-        JointExpr::Joint(j) => index(j).map(|i| vec![i]),
-        JointExpr::Mean { mean } => mean.iter().map(index).collect(),
-        JointExpr::Lerp { .. } => None,
-    }
-}
-
 /// The foot landmarks the rig knows, with their height above the sole at rest (metres, the
 /// rig's rest pose: `l_ankle` 0.08, `l_heel` 0.01, …). A source's joints sit elsewhere in the
 /// foot (a BVH ankle about 10 cm up, a toe joint 4 cm up), so these heights only bring each
@@ -197,7 +187,7 @@ const FOOT_LANDMARKS: [(&str, f64); 5] = [
 
 impl BodyPoints {
     fn new(layout: &Layout, joint_names: &[String]) -> Self {
-        let find = |name: &str| landmark_joints(layout, joint_names, name);
+        let find = |name: &str| layout.landmarks.get(name)?.terms(joint_names);
         let foot = |side: &str| -> Vec<FootJoint> {
             FOOT_LANDMARKS
                 .iter()
@@ -221,23 +211,9 @@ impl BodyPoints {
     }
 }
 
-/// The mean of `joints` in `frame`, if all are observed.
-fn point(frame: &PoseFrame, joints: &[usize]) -> Option<Point3<f64>> {
-    if joints.is_empty() {
-        return None;
-    }
-    let mut sum = Vector3::zeros();
-    for &j in joints {
-        let p = frame.positions_m.get(j)?;
-        let seen = frame.confidence.get(j).is_some_and(|c| *c > 0.0);
-        if !seen || !p.coords.iter().all(|v| v.is_finite()) {
-            return None;
-        }
-        sum += p.coords;
-    }
-    #[expect(clippy::cast_precision_loss, reason = "a handful of joints")]
-    let n = joints.len() as f64;
-    Some(Point3::from(sum / n))
+/// Landmark `joints` in `frame`, if all are observed (confidence above 0).
+fn point(frame: &PoseFrame, joints: &[(usize, f64)]) -> Option<Point3<f64>> {
+    terms_point(joints, frame, f32::MIN_POSITIVE)
 }
 
 impl GroundSampler {

@@ -142,6 +142,62 @@ pub enum JointExpr {
     },
 }
 
+impl JointExpr {
+    /// The joints this expression names.
+    #[must_use]
+    pub fn joints(&self) -> Vec<&String> {
+        match self {
+            JointExpr::Joint(j) => vec![j],
+            JointExpr::Mean { mean } => mean.iter().collect(),
+            JointExpr::Lerp { from, to, .. } => vec![from, to],
+        }
+    }
+
+    /// This expression as `(joint index, weight)` terms over `joint_names` (the order of a
+    /// frame's joints): the point is the weighted sum. `None` when it names a joint not among
+    /// them. The one place a landmark expression becomes arithmetic: binding a layout to the rig,
+    /// grounding and the BVH up check all go through it.
+    #[must_use]
+    pub fn terms(&self, joint_names: &[String]) -> Option<Vec<(usize, f64)>> {
+        let index = |j: &String| joint_names.iter().position(|n| n == j);
+        Some(match self {
+            JointExpr::Joint(j) => vec![(index(j)?, 1.0)],
+            JointExpr::Mean { mean } => {
+                #[expect(clippy::cast_precision_loss, reason = "a mean of a handful of joints")]
+                let w = 1.0 / mean.len() as f64;
+                mean.iter()
+                    .map(|j| Some((index(j)?, w)))
+                    .collect::<Option<_>>()?
+            }
+            JointExpr::Lerp { from, to, t } => vec![(index(from)?, 1.0 - t), (index(to)?, *t)],
+        })
+    }
+}
+
+/// The point `terms` ([`JointExpr::terms`]) give in `frame`, or `None` when there are none or a
+/// joint they need is missing: absent, non-finite, or its confidence NaN or below
+/// `min_confidence`.
+#[must_use]
+pub fn terms_point(
+    terms: &[(usize, f64)],
+    frame: &PoseFrame,
+    min_confidence: f32,
+) -> Option<Point3<f64>> {
+    if terms.is_empty() {
+        return None;
+    }
+    let mut sum = Vector3::zeros();
+    for &(j, w) in terms {
+        let p = frame.positions_m.get(j)?;
+        let c = frame.confidence.get(j).copied().unwrap_or(1.0);
+        if c.is_nan() || c < min_confidence || !p.coords.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        sum += p.coords * w;
+    }
+    Some(Point3::from(sum))
+}
+
 /// A keypoint layout.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -351,14 +407,12 @@ impl Layout {
                 landmark: landmark.clone(),
                 why,
             };
-            let names: Vec<&String> = match expr {
-                JointExpr::Joint(j) => vec![j],
+            match expr {
                 JointExpr::Mean { mean } if mean.is_empty() => return Err(bad("empty mean")),
-                JointExpr::Mean { mean } => mean.iter().collect(),
                 JointExpr::Lerp { t, .. } if !t.is_finite() => return Err(bad("t is not finite")),
-                JointExpr::Lerp { from, to, .. } => vec![from, to],
-            };
-            for j in names {
+                _ => {}
+            }
+            for j in expr.joints() {
                 if !self.joints.contains(j) {
                     return Err(LayoutError::UnknownJoint {
                         layout: layout(),
@@ -384,15 +438,13 @@ impl Layout {
                     landmark: name.clone(),
                 });
             };
-            let idx = |j: &String| self.joints.iter().position(|n| n == j).unwrap_or(0);
-            #[expect(clippy::cast_precision_loss, reason = "a mean of a handful of joints")]
-            let terms: Vec<(usize, f64)> = match expr {
-                JointExpr::Joint(j) => vec![(idx(j), 1.0)],
-                JointExpr::Mean { mean } => mean
-                    .iter()
-                    .map(|j| (idx(j), 1.0 / mean.len() as f64))
-                    .collect(),
-                JointExpr::Lerp { from, to, t } => vec![(idx(from), 1.0 - t), (idx(to), *t)],
+            let Some(terms) = expr.terms(&self.joints) else {
+                let missing = expr.joints().into_iter().find(|j| !self.joints.contains(j));
+                return Err(LayoutError::UnknownJoint {
+                    layout: self.name.clone(),
+                    landmark: name.clone(),
+                    joint: missing.cloned().unwrap_or_default(),
+                });
             };
             landmark_terms[li] = Some(terms);
         }
@@ -586,17 +638,7 @@ impl Binding {
         frame: &PoseFrame,
         min_confidence: f32,
     ) -> Option<Point3<f64>> {
-        let terms = self.landmark_terms[l].as_ref()?;
-        let mut sum = Vector3::zeros();
-        for &(j, w) in terms {
-            let p = frame.positions_m.get(j)?;
-            let c = frame.confidence.get(j).copied().unwrap_or(1.0);
-            if c.is_nan() || c < min_confidence || !p.coords.iter().all(|v| v.is_finite()) {
-                return None;
-            }
-            sum += p.coords * w;
-        }
-        Some(Point3::from(sum))
+        terms_point(self.landmark_terms[l].as_ref()?, frame, min_confidence)
     }
 
     /// The mean of a landmark set in one frame (see [`Binding::landmark_point`]), or `None` if
