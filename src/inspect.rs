@@ -569,7 +569,10 @@ fn bodies_text(bodies: &[BodyReport]) -> String {
             b.topic, b.track, b.layout
         ));
         if let Some(g) = &b.ground {
-            s.push_str(&format!("\n  ground: {}", g.summary()));
+            s.push_str(&format!(
+                "\n  ground, estimated from the feet: {}",
+                g.summary()
+            ));
         }
         for line in crate::skeleton::lengths::report_lines(&b.stability) {
             s.push_str(&format!("\n  bone {line}"));
@@ -590,7 +593,8 @@ fn bodies_json(bodies: &[BodyReport]) -> serde_json::Value {
                 .collect();
             let ground = b.ground.as_ref().map(|g| {
                 json!({"up_tilt_deg": g.tilt_deg, "contacts": g.contacts,
-                       "residual_median_m": g.residual_median_m, "residual_p95_m": g.residual_p95_m})
+                       "residual_median_m": g.residual_median_m, "residual_p95_m": g.residual_p95_m,
+                       "across_spread_m": g.across_spread_m})
             });
             json!({"topic": b.topic, "track": b.track, "layout": b.layout, "ground": ground, "bones": bones})
         })

@@ -586,7 +586,7 @@ impl Imported {
         for (i, seq) in self.sequences.iter().enumerate() {
             match (self.groundings.get(i), self.ground_track) {
                 (Some(Some(g)), Some(t)) if t == seq.track_id => {
-                    out += &format!("track {}: {}\n", seq.track_id, g.summary());
+                    out += &format!("track {}: grounded: {}\n", seq.track_id, g.summary());
                 }
                 (Some(Some(_)), Some(t)) => {
                     out += &format!(

@@ -645,7 +645,7 @@ impl Grounding {
     pub fn summary(&self) -> String {
         let u = self.up_in_camera;
         format!(
-            "grounded: up ({:.3}, {:.3}, {:.3}) in the source frame, {:.1}° from its +Z; {} foot contacts in {} frames, |z| at contact median {:.1} mm, p95 {:.1} mm",
+            "up ({:.3}, {:.3}, {:.3}) in the source frame, {:.1}° from its +Z; {} foot contacts in {} frames, |z| at contact median {:.1} mm, p95 {:.1} mm",
             u.x,
             u.y,
             u.z,
