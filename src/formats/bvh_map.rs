@@ -42,7 +42,7 @@ use serde::Deserialize;
 
 use super::bvh::Bvh;
 use crate::skeleton::frames::SourceAxes;
-use crate::skeleton::layout::{JointExpr, Layout, terms_point};
+use crate::skeleton::layout::{JointExpr, Layout, OBSERVED, terms_point};
 use crate::skeleton::pose::{PoseFrame, PoseSequence, stamp_nanos_at};
 
 /// The layout a BVH clip is mapped onto unless another is asked for: the rig's own landmarks,
@@ -458,7 +458,8 @@ impl BvhMapping {
         let unturned = Rotation3::identity();
         let mut frames = all_frames(&unturned);
         if let Some(given) = axes {
-            warn_unless_upright(&bvh.source, mean_body_up(layout, &frames), given, "--axes");
+            let motion_up = BodyAxis::of(layout).mean_up(&frames);
+            warn_unless_upright(&bvh.source, motion_up, given, "--axes");
         }
         let axes = axes.unwrap_or_else(|| {
             // At rest every joint is unturned.
@@ -517,8 +518,9 @@ pub fn found_axes(
     rest: &PoseFrame,
     frames: &[PoseFrame],
 ) -> SourceAxes {
-    let rest_up = body_up(layout, rest);
-    let motion_up = mean_body_up(layout, frames);
+    let body = BodyAxis::of(layout);
+    let rest_up = body.up(rest);
+    let motion_up = body.mean_up(frames);
     let along = |v: Option<Vector3<f64>>, axis: usize| v.is_some_and(|v| v[axis] > UPRIGHT_COS);
     let axes = if along(motion_up, 2) && !along(rest_up, 1) {
         SourceAxes::ZUp
@@ -527,16 +529,6 @@ pub fn found_axes(
     };
     warn_unless_upright(source, motion_up, axes, "read as");
     axes
-}
-
-/// The mean over `frames` of the body's up ([`body_up`]), in the frames' axes, if any frame
-/// has one.
-fn mean_body_up(layout: &Layout, frames: &[PoseFrame]) -> Option<Vector3<f64>> {
-    frames
-        .iter()
-        .filter_map(|f| body_up(layout, f))
-        .sum::<Vector3<f64>>()
-        .try_normalize(1e-9)
 }
 
 /// Warns when the body's mean up `motion_up` (in file axes) is more than 45° from the file's up
@@ -570,18 +562,41 @@ fn axis_name(v: &Vector3<f64>) -> String {
     )
 }
 
-/// The unit direction from a layout's pelvis to its neck (or chest, head centre or spine
-/// midpoint, the first it binds) in `frame`, if both are there.
-fn body_up(layout: &Layout, frame: &PoseFrame) -> Option<Vector3<f64>> {
-    let point = |landmark: &str| {
-        let terms = layout.landmarks.get(landmark)?.terms(&layout.joints)?;
-        terms_point(&terms, frame, f32::MIN_POSITIVE)
-    };
-    let pelvis = point("pelvis")?;
-    let top = ["neck", "chest", "head_center", "spine_mid"]
-        .iter()
-        .find_map(|l| point(l))?;
-    (top - pelvis).try_normalize(1e-9)
+/// A layout's pelvis and the points above it (its neck, chest, head centre or spine midpoint,
+/// the first a frame has), as joint terms resolved once for a whole clip.
+struct BodyAxis {
+    pelvis: Option<Vec<(usize, f64)>>,
+    tops: Vec<Vec<(usize, f64)>>,
+}
+
+impl BodyAxis {
+    fn of(layout: &Layout) -> BodyAxis {
+        let terms = |l: &str| layout.landmarks.get(l)?.terms(&layout.joints);
+        BodyAxis {
+            pelvis: terms("pelvis"),
+            tops: ["neck", "chest", "head_center", "spine_mid"]
+                .into_iter()
+                .filter_map(terms)
+                .collect(),
+        }
+    }
+
+    /// The unit direction from the pelvis to the first top point `frame` observes, if any.
+    fn up(&self, frame: &PoseFrame) -> Option<Vector3<f64>> {
+        let observed = |t: &[(usize, f64)]| terms_point(t, frame, OBSERVED);
+        let pelvis = observed(self.pelvis.as_deref()?)?;
+        let top = self.tops.iter().find_map(|t| observed(t))?;
+        (top - pelvis).try_normalize(1e-9)
+    }
+
+    /// The mean over `frames` of [`BodyAxis::up`], in the frames' axes, if any frame has one.
+    fn mean_up(&self, frames: &[PoseFrame]) -> Option<Vector3<f64>> {
+        frames
+            .iter()
+            .filter_map(|f| self.up(f))
+            .sum::<Vector3<f64>>()
+            .try_normalize(1e-9)
+    }
 }
 
 /// The built-in mappings as a table for `autoact layouts`: name, the joints that identify it,

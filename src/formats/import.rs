@@ -21,7 +21,7 @@ use crate::formats::bvh_map::{self, BvhMapError, BvhMapping};
 use crate::formats::{bvh, h36m_expmap, mmpose_json, ntu, panoptic, utd_mat, zed_mat};
 use crate::skeleton::eval::LengthStability;
 use crate::skeleton::frames::SourceAxes;
-use crate::skeleton::ground::{self, GroundMode, Grounding};
+use crate::skeleton::ground::{self, GroundMode, SharedGrounding};
 use crate::skeleton::layout::{Layout, LayoutError};
 use crate::skeleton::lengths::{self, LengthFix, LengthMode, LimbFixer};
 use crate::skeleton::pose::{PoseFrame, PoseSequence};
@@ -140,8 +140,8 @@ pub struct Imported {
     pub layout: String,
     /// Where the frame rate came from, for the bag's metadata (e.g. `25 fps`).
     pub rate: String,
-    /// Per sequence, how it was grounded (`None`: not grounded).
-    pub groundings: Vec<Option<Grounding>>,
+    /// How every sequence was grounded, and on which track's feet (`None`: not grounded).
+    pub grounding: Option<SharedGrounding>,
     /// Per sequence, the bone-length spread as read (before `--lengths fixed`).
     pub stability: Vec<Vec<LengthStability>>,
     /// Per sequence, what `--lengths fixed` did (`None`: lengths as measured).
@@ -149,9 +149,6 @@ pub struct Imported {
     /// How the file's axes were decided, when not by its format alone (a BVH file found or told
     /// to be other than Y-up).
     pub axes: Option<String>,
-    /// The track whose feet the grounding was estimated on (every track is placed by it: one
-    /// camera, one floor); `None` when not grounded.
-    pub ground_track: Option<u64>,
     /// For a file read as a stream (MMPose JSON): the second reading still to do. The
     /// sequences then have no frames yet; [`Imported::for_each_frame`] reads them.
     replay: Option<Replay>,
@@ -337,27 +334,20 @@ pub fn measure(input: &Path, options: &ImportOptions) -> Result<Imported, Import
         format,
         layout,
         rate,
-        groundings: Vec::new(),
+        grounding: None,
         stability: Vec::new(),
         length_fixes: Vec::new(),
         axes,
-        ground_track: None,
         replay: None,
     };
-    // One camera, one floor: every track is placed by the same grounding, so the people keep
-    // their places relative to each other.
-    let shared = if options.ground.applies(format.is_camera_frame()) {
-        shared_grounding(&sequences, &loaded)
-    } else {
-        None
-    };
-    imported.ground_track = shared.as_ref().map(|(track, _)| *track);
+    if options.ground.applies(format.is_camera_frame()) {
+        imported.grounding = shared_grounding(&sequences, &loaded);
+    }
     let mut fixers = Vec::new();
     for mut seq in sequences {
-        let grounding = shared.as_ref().map(|(_, g)| {
-            g.apply(&mut seq);
-            g.clone()
-        });
+        if let Some(shared) = &imported.grounding {
+            shared.grounding.apply(&mut seq);
+        }
         let stability = lengths::stability(&seq, &loaded).unwrap_or_default();
         warn_unstable(&seq.source, seq.track_id, &stability);
         let mut fixer = (options.lengths == LengthMode::Fixed)
@@ -375,7 +365,6 @@ pub fn measure(input: &Path, options: &ImportOptions) -> Result<Imported, Import
             .push(fixer.as_ref().map(LimbFixer::summary));
         fixers.push(fixer);
         imported.sequences.push(seq);
-        imported.groundings.push(grounding);
         imported.stability.push(stability);
     }
     imported.replay = replay.map(|(path, options)| Replay {
@@ -413,7 +402,7 @@ impl Imported {
             }
             return Ok(());
         };
-        let groundings = &self.groundings;
+        let grounding = self.grounding.as_ref().map(|s| &s.grounding);
         let Replay {
             path,
             options,
@@ -427,7 +416,7 @@ impl Imported {
                 let Some(&s) = index.get(&track_id) else {
                     continue;
                 };
-                if let Some(Some(g)) = groundings.get(s) {
+                if let Some(g) = grounding {
                     for p in &mut frame.positions_m {
                         *p = g.world_from_camera * *p;
                     }
@@ -509,34 +498,29 @@ impl From<mmpose_json::JsonError> for ReplayError {
     }
 }
 
-/// The grounding of a file's tracks, all seen by one camera: estimated on the track with the
-/// most frames (ties: the first), or the next that has feet, and its track id; warns when its
-/// feet at contact sit more than [`ground::INLIER_M`] off the plane (median). `None`, with a
-/// warning, when no track can be grounded: the tracks then stay in their source frame.
-fn shared_grounding(seqs: &[PoseSequence], layout: &Layout) -> Option<(u64, Grounding)> {
-    let mut order: Vec<&PoseSequence> = seqs.iter().collect();
-    order.sort_by_key(|s| std::cmp::Reverse(s.frames.len()));
-    let mut why = None;
-    for seq in order {
-        match ground::estimate(seq, layout, 1) {
-            Ok(g) => {
-                if g.residual_median_m > ground::INLIER_M {
-                    tracing::warn!(
-                        "{} track {}: the feet do not settle on one plane ({}); check the result or import with --ground off",
-                        seq.source,
-                        seq.track_id,
-                        g.summary()
-                    );
-                }
-                return Some((seq.track_id, g));
+/// The grounding of a file's tracks, all seen by one camera ([`ground::shared`]), with a
+/// warning when its feet do not settle on one plane. `None`, with a warning, when no track can
+/// be grounded: the tracks then stay in their source frame.
+fn shared_grounding(seqs: &[PoseSequence], layout: &Layout) -> Option<SharedGrounding> {
+    let found = ground::shared(
+        seqs,
+        |s| (s.track_id, s.frames.len()),
+        |s| ground::estimate(s, layout, 1),
+    )?;
+    match found {
+        Ok(shared) => {
+            if let Some(w) = shared.grounding.loose_fit_warning() {
+                let source = seqs.iter().find(|s| s.track_id == shared.track_id);
+                let source = source.map_or("", |s| s.source.as_str());
+                tracing::warn!("{source} track {}: {w}", shared.track_id);
             }
-            Err(e) => why = why.or(Some(e)),
+            Some(shared)
+        }
+        Err(e) => {
+            tracing::warn!("{e}: left in the source frame");
+            None
         }
     }
-    if let Some(e) = why {
-        tracing::warn!("{e}: left in the source frame");
-    }
-    None
 }
 
 /// Warns once per segment whose length varies by [`lengths::UNSTABLE_CV`] or more.
@@ -584,17 +568,8 @@ impl Imported {
             .as_ref()
             .map_or(String::new(), |a| format!("{a}\n"));
         for (i, seq) in self.sequences.iter().enumerate() {
-            match (self.groundings.get(i), self.ground_track) {
-                (Some(Some(g)), Some(t)) if t == seq.track_id => {
-                    out += &format!("track {}: grounded: {}\n", seq.track_id, g.summary());
-                }
-                (Some(Some(_)), Some(t)) => {
-                    out += &format!(
-                        "track {}: grounded with track {t} (one camera: one floor, places kept)\n",
-                        seq.track_id
-                    );
-                }
-                _ => {}
+            if let Some(shared) = &self.grounding {
+                out += &format!("track {}: {}\n", seq.track_id, shared.note(seq.track_id));
             }
             if let Some(Some(fix)) = self.length_fixes.get(i) {
                 for (limb, upper, lower) in &fix.limbs {
@@ -1171,7 +1146,7 @@ mod tests {
         let mut o = options(InputFormat::Auto, Some("coco-17"), Some(30.0));
         o.ground = GroundMode::Auto;
         let imported = import(&path, &o).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(imported.ground_track, Some(0));
+        assert_eq!(imported.grounding.as_ref().map(|g| g.track_id), Some(0));
         let hips = |s: usize| {
             let f = &imported.sequences[s].frames[0];
             (f.positions_m[11], f.positions_m[12])

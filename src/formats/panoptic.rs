@@ -360,13 +360,10 @@ pub fn read(path: impl AsRef<Path>) -> Result<PanopticClip, PanopticError> {
             .map_or(0, |(_, f)| f);
         vec![(frame, path.to_path_buf())]
     };
-    let mut clip = PanopticClip {
-        source,
-        fps_type: None,
-        frames: Vec::with_capacity(files.len()),
-    };
-    // The first file that states a rate, for the error when another differs.
-    let mut first_rate_file = String::new();
+    let mut frames = Vec::with_capacity(files.len());
+    // The rate the first file that states one states, and that file, for the error when
+    // another differs.
+    let mut rate: Option<(String, String)> = None;
     for (frame, file) in files {
         let text = std::fs::read(&file).map_err(|source| PanopticError::Io {
             path: file.clone(),
@@ -374,24 +371,25 @@ pub fn read(path: impl AsRef<Path>) -> Result<PanopticClip, PanopticError> {
         })?;
         let name = file.display().to_string();
         let (bodies, fps_type) = parse(&text, &name)?;
-        match (fps_type, &clip.fps_type) {
-            (Some(found), Some(first)) if found != *first => {
+        match (fps_type, &rate) {
+            (Some(found), Some((first, first_file))) if found != *first => {
                 return Err(PanopticError::MixedRates {
                     file: name,
                     found,
-                    first_file: first_rate_file,
+                    first_file: first_file.clone(),
                     first: first.clone(),
                 });
             }
-            (Some(found), None) => {
-                clip.fps_type = Some(found);
-                first_rate_file = name;
-            }
+            (Some(found), None) => rate = Some((found, name)),
             _ => {}
         }
-        clip.frames.push(SceneFrame { frame, bodies });
+        frames.push(SceneFrame { frame, bodies });
     }
-    Ok(clip)
+    Ok(PanopticClip {
+        source,
+        fps_type: rate.map(|(fps_type, _)| fps_type),
+        frames,
+    })
 }
 
 /// One scene file as written.

@@ -23,7 +23,7 @@ use crate::loss::{Loss, Losses, WARN_LIMIT};
 use crate::mcap_io::McapIoError;
 use crate::ros::tf2_msgs::TFMessage;
 use crate::skeleton::convert::{ConvertOptions, SequenceConverter};
-use crate::skeleton::ground::{GroundError, GroundMode, GroundSampler, Grounding};
+use crate::skeleton::ground::{self, GroundMode};
 use crate::skeleton::layout::Layout;
 use crate::skeleton::pose::PoseFrame;
 use crate::skeleton::resample::Resampler;
@@ -265,24 +265,10 @@ pub(super) fn grounded<'f>(
     }
 }
 
-/// Estimates the ground of a camera-frame track from its pass-1 sample (the frames must come in
-/// stamp order, which the sample's do).
-fn estimate_ground(
-    layout: &Layout,
-    track: &bags::pose::TrackScan,
-) -> Result<Grounding, GroundError> {
-    let mut sampler = GroundSampler::new(layout, &track.joint_names, &track.source)?;
-    for frame in &track.sample {
-        sampler.push(frame);
-    }
-    sampler.estimate()
-}
-
 /// The grounding of each track of `scan` (by index), for the tracks `job` grounds. The tracks
-/// of one topic are one estimator's people, seen by one camera: they share one grounding,
-/// estimated on the track with the most frames (or the next that has feet), so the people keep
-/// their places relative to each other. A topic whose ground cannot be found is converted as
-/// it is, with a warning.
+/// of one topic are one estimator's people, seen by one camera: they share one grounding
+/// ([`ground::shared`], estimated on a pass-1 sample), so the people keep their places relative
+/// to each other. A topic whose ground cannot be found is converted as it is, with a warning.
 fn shared_groundings(
     job: &ConvertJob,
     scan: &PoseScan,
@@ -295,38 +281,30 @@ fn shared_groundings(
             topics.entry(track.topic.as_str()).or_default().push(i);
         }
     }
-    for (topic, mut members) in topics {
-        members.sort_by_key(|&i| std::cmp::Reverse(scan.tracks[i].frames));
-        let mut why = None;
-        let found =
-            members
-                .iter()
-                .find_map(|&i| match estimate_ground(&layouts[i], &scan.tracks[i]) {
-                    Ok(g) => Some((scan.tracks[i].track_id, g)),
-                    Err(e) => {
-                        why.get_or_insert(e);
-                        None
-                    }
-                });
-        let Some((by, g)) = found else {
-            if let Some(e) = why {
+    for (topic, members) in topics {
+        let found = ground::shared(
+            &members,
+            |&i| (scan.tracks[i].track_id, scan.tracks[i].frames),
+            |&i| {
+                let t = &scan.tracks[i];
+                ground::estimate_frames(&layouts[i], &t.joint_names, &t.source, &t.sample)
+            },
+        );
+        let shared = match found {
+            Some(Ok(shared)) => shared,
+            Some(Err(e)) => {
                 tracing::warn!("{topic}: not grounded, converted in its own frame: {e}");
+                continue;
             }
-            continue;
+            None => continue,
         };
+        if let Some(w) = shared.grounding.loose_fit_warning() {
+            tracing::warn!("{topic} track {}: {w}", shared.track_id);
+        }
         for &i in &members {
             let track_id = scan.tracks[i].track_id;
-            if track_id == by {
-                tracing::info!(
-                    "{topic} track {track_id}: grounded (camera frame): {}",
-                    g.summary()
-                );
-            } else {
-                tracing::info!(
-                    "{topic} track {track_id}: grounded with track {by} (one camera: one floor, places kept)"
-                );
-            }
-            groundings[i] = Some(g.world_from_camera);
+            tracing::info!("{topic} track {track_id}: {}", shared.note(track_id));
+            groundings[i] = Some(shared.grounding.world_from_camera);
         }
     }
     groundings

@@ -36,7 +36,7 @@
 
 use nalgebra::{Isometry3, Matrix3, Point3, Translation3, UnitQuaternion, Vector3};
 
-use crate::skeleton::layout::{Layout, terms_point};
+use crate::skeleton::layout::{Layout, OBSERVED, terms_point};
 use crate::skeleton::pose::{PoseFrame, PoseSequence, nanos_to_secs};
 
 /// How much the trunk's direction counts in the plane fit, as a spread of contacts (metres):
@@ -213,7 +213,7 @@ impl BodyPoints {
 
 /// Landmark `joints` in `frame`, if all are observed (confidence above 0).
 fn point(frame: &PoseFrame, joints: &[(usize, f64)]) -> Option<Point3<f64>> {
-    terms_point(joints, frame, f32::MIN_POSITIVE)
+    terms_point(joints, frame, OBSERVED)
 }
 
 impl GroundSampler {
@@ -657,6 +657,18 @@ impl Grounding {
         ) + &self.trunk_note()
     }
 
+    /// A warning when the feet at contact sit more than [`INLIER_M`] off the plane (median):
+    /// the clip may not stand on one floor.
+    #[must_use]
+    pub fn loose_fit_warning(&self) -> Option<String> {
+        (self.residual_median_m > INLIER_M).then(|| {
+            format!(
+                "the feet do not settle on one plane ({}); check the result, or give --ground off",
+                self.summary()
+            )
+        })
+    }
+
     /// When the contacts lie on a line (both feet planted, a straight walk, a short clip), what
     /// that means for the up: empty otherwise.
     #[must_use]
@@ -680,11 +692,83 @@ pub fn estimate(
     layout: &Layout,
     stride: usize,
 ) -> Result<Grounding, GroundError> {
-    let mut sampler = GroundSampler::new(layout, &seq.joint_names, &seq.source)?;
-    for f in seq.frames.iter().step_by(stride.max(1)) {
+    estimate_frames(
+        layout,
+        &seq.joint_names,
+        &seq.source,
+        seq.frames.iter().step_by(stride.max(1)),
+    )
+}
+
+/// Estimates the ground from `frames` (in stamp order; any sample of a clip) whose joints are
+/// `joint_names` in `layout`; `source_name` names the data in errors.
+///
+/// # Errors
+/// [`GroundError`] when the layout has no feet or no frame sees one.
+pub fn estimate_frames<'f>(
+    layout: &Layout,
+    joint_names: &[String],
+    source_name: &str,
+    frames: impl IntoIterator<Item = &'f PoseFrame>,
+) -> Result<Grounding, GroundError> {
+    let mut sampler = GroundSampler::new(layout, joint_names, source_name)?;
+    for f in frames {
         sampler.push(f);
     }
     sampler.estimate()
+}
+
+/// A grounding shared by the tracks one camera saw, and the track it was estimated on.
+#[derive(Debug, Clone)]
+pub struct SharedGrounding {
+    /// The track whose feet gave the estimate.
+    pub track_id: u64,
+    /// The grounding, applied to every track: one camera, one floor, so the people keep their
+    /// places relative to each other.
+    pub grounding: Grounding,
+}
+
+impl SharedGrounding {
+    /// What the grounding did to track `track_id`, for people: the estimate on its own track,
+    /// the track it came from on the others.
+    #[must_use]
+    pub fn note(&self, track_id: u64) -> String {
+        if track_id == self.track_id {
+            format!("grounded: {}", self.grounding.summary())
+        } else {
+            format!(
+                "grounded with track {} (one camera: one floor, places kept)",
+                self.track_id
+            )
+        }
+    }
+}
+
+/// One grounding for tracks seen by one camera (`(track id, frame count)` of each by `key`):
+/// estimated on the track with the most frames (ties: the first), or else the next whose
+/// estimate succeeds. `None` for no tracks; the first track's error when none can be grounded.
+pub fn shared<T, N: Ord>(
+    tracks: &[T],
+    key: impl Fn(&T) -> (u64, N),
+    estimate: impl Fn(&T) -> Result<Grounding, GroundError>,
+) -> Option<Result<SharedGrounding, GroundError>> {
+    let mut order: Vec<&T> = tracks.iter().collect();
+    order.sort_by_key(|t| std::cmp::Reverse(key(t).1));
+    let mut first_error = None;
+    for t in order {
+        match estimate(t) {
+            Ok(grounding) => {
+                return Some(Ok(SharedGrounding {
+                    track_id: key(t).0,
+                    grounding,
+                }));
+            }
+            Err(e) => {
+                first_error.get_or_insert(e);
+            }
+        }
+    }
+    first_error.map(Err)
 }
 
 /// Grounds `seq` in place (see the module documentation) and returns what was done.

@@ -22,6 +22,12 @@ enum Motion {
     Stand { heel_raise_m: f64 },
 }
 
+/// An upright walk that steps 0.4 m sideways per second: contacts spread across the floor.
+const SIDE_STEPS: Motion = Motion::Walk {
+    lean_deg: 0.0,
+    side_step_m: 0.4,
+};
+
 /// Heights above the sole (ankle, heel, toe) of the synthetic feet, metres.
 fn foot_heights(motion: Motion) -> (f64, f64, f64) {
     match motion {
@@ -240,15 +246,7 @@ fn a_tilted_walk_and_squat_are_grounded_in_both_layouts() {
             &cam,
             3.0,
         );
-        check(
-            &layout,
-            Motion::Walk {
-                lean_deg: 0.0,
-                side_step_m: 0.4,
-            },
-            &cam,
-            3.0,
-        );
+        check(&layout, SIDE_STEPS, &cam, 3.0);
         check(&layout, Motion::Squat, &cam, 3.0);
     }
 }
@@ -267,21 +265,47 @@ fn the_estimate_says_when_the_trunk_set_the_tilt() {
         squat.summary()
     );
     assert!(squat.summary().contains("the trunk set the tilt"));
-    let wander = check(
-        &layout,
-        Motion::Walk {
-            lean_deg: 0.0,
-            side_step_m: 0.4,
-        },
-        &cam,
-        3.0,
-    );
+    let wander = check(&layout, SIDE_STEPS, &cam, 3.0);
     assert!(
         wander.across_spread_m >= TRUNK_DECIDES_SPREAD_M,
         "{}",
         wander.summary()
     );
     assert!(wander.trunk_note().is_empty());
+}
+
+/// The tracks of one camera share the grounding of the one with the most frames, or of the
+/// next that can be grounded; when none can, the error is the first tried track's.
+#[test]
+fn a_shared_grounding_comes_from_the_longest_track_that_can_be_grounded() {
+    let layout = Layout::load("h36m-17").unwrap();
+    let seq = clip(&layout, Motion::Squat, 30, &Isometry3::identity());
+    // (track id, frames, whether it has feet)
+    let tracks = [
+        (1_u64, 10_usize, true),
+        (2, 30, false),
+        (3, 20, true),
+        (4, 20, true),
+    ];
+    let estimate = |&(id, _, feet): &(u64, usize, bool)| {
+        if feet {
+            estimate(&seq, &layout, 1)
+        } else {
+            Err(GroundError::NoFootObserved {
+                source_name: format!("track {id}"),
+                samples: 0,
+            })
+        }
+    };
+    let key = |&(id, n, _): &(u64, usize, bool)| (id, n);
+    let found = shared(&tracks, key, estimate).unwrap().unwrap();
+    assert_eq!(found.track_id, 3, "longest with feet, first of equals");
+    assert!(found.note(3).starts_with("grounded: up"));
+    assert!(found.note(1).contains("grounded with track 3"));
+    let footless = [(7_u64, 5_usize, false), (8, 9, false)];
+    let err = shared(&footless, key, estimate).unwrap().unwrap_err();
+    assert!(err.to_string().contains("track 8"), "{err}");
+    assert!(shared(&[], key, estimate).is_none());
 }
 
 /// A standing clip decides the floor from two planted feet whose joints sit at heights above

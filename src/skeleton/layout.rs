@@ -174,6 +174,9 @@ impl JointExpr {
     }
 }
 
+/// The least confidence of an observed joint, for [`terms_point`]: any above 0.
+pub const OBSERVED: f32 = f32::MIN_POSITIVE;
+
 /// The point `terms` ([`JointExpr::terms`]) give in `frame`, or `None` when there are none or a
 /// joint they need is missing: absent, non-finite, or its confidence NaN or below
 /// `min_confidence`.

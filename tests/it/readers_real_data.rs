@@ -424,7 +424,7 @@ fn panoptic_sequences_people_sides_floor_and_timing() {
         .unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(imported.format, InputFormat::PanopticJson);
         assert_eq!(imported.layout, panoptic::LAYOUT);
-        assert!(imported.groundings.iter().all(Option::is_none));
+        assert!(imported.grounding.is_none());
         // The same frames (compared as text: a missing joint's NaN is not equal to itself).
         assert_eq!(format!("{:?}", imported.sequences), format!("{seqs:?}"));
     }
@@ -702,7 +702,7 @@ fn zed_clips_are_grounded() {
             &data(clip),
             &options(InputFormat::Auto, None, None, LengthMode::Measured),
         );
-        let g = imported.groundings[0].as_ref().expect("grounded");
+        let g = &imported.grounding.as_ref().expect("grounded").grounding;
         eprintln!("{clip}: {}", g.summary());
         ups.push(g.up_in_camera);
         check_grounded(
@@ -870,7 +870,7 @@ fn mmpose_h36m_frames_are_grounded() {
                 LengthMode::Measured,
             ),
         );
-        let g = imported.groundings[0].as_ref().expect("grounded");
+        let g = &imported.grounding.as_ref().expect("grounded").grounding;
         eprintln!("camera {camera}: {}", g.summary());
         for (k, f) in imported.sequences[0].frames.iter().enumerate() {
             let z = |n: &str| f.positions_m[imported.sequences[0].joint_index(n).unwrap()].z;
