@@ -7,7 +7,7 @@
 
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
-use super::range::SourceRange;
+use super::range::{Chart, SourceRange};
 use super::{DsiError, DsiOptions};
 use crate::skeleton::convert::AnimationFrame;
 use crate::skeleton::geom::{log_rotation, rotation_distance};
@@ -159,15 +159,17 @@ pub struct Fidelity {
     pub overshoot_bone: Option<usize>,
 }
 
-/// How far `output` goes past the range of `source` ([`SourceRange`]), as a fraction of the
-/// source's extent: the largest over components wider than [`MIN_RANGE_RAD`]. `None` when the
-/// source has no range (see [`SourceRange::of`]) or no component that wide.
+/// How far `output` goes past the range of `source` ([`SourceRange`] in `chart`: the bone's
+/// [`Chart::of`]), as a fraction of the source's extent: the largest over components wider than
+/// [`MIN_RANGE_RAD`]. `None` when the source has no range (see [`SourceRange::of`]) or no
+/// component that wide.
 #[must_use]
 pub fn range_overshoot(
+    chart: Chart,
     source: &[UnitQuaternion<f64>],
     output: &[UnitQuaternion<f64>],
 ) -> Option<f64> {
-    let range = SourceRange::of(source)?;
+    let range = SourceRange::of(chart, source)?;
     let extent = range.extent();
     let excess = output
         .iter()
@@ -225,7 +227,7 @@ pub fn fidelity(rig: &Rig, input: &[AnimationFrame], output: &[AnimationFrame]) 
             jerk_in.push(a);
             jerk_out.push(b);
         }
-        if let Some(o) = range_overshoot(track, &out)
+        if let Some(o) = range_overshoot(Chart::of(&rig.bones[b]), track, &out)
             && (overshoot_bone.is_none() || o > max_overshoot)
         {
             max_overshoot = o;

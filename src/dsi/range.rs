@@ -1,19 +1,26 @@
 //! A bone's range of motion in its own parametrisation, so smoothing can be kept inside it and
 //! overshoot measured.
 //!
-//! The parametrisation: the rotation vector `v = log(m⁻¹ · q)` of each rotation about the track's
-//! mean rotation `m` (the normalised sum of its sign-continuous quaternions), in the bone's parent
-//! frame. A hinge's vectors lie on its axis, the root's on the vertical, a 2-D bone's have no
-//! twist: the range is the box `[lo, hi]` of their components, and clamping a rotation to it moves
-//! it only along the axes its class allows. A track that reaches further than
-//! [`MAX_SPREAD_RAD`] from its mean (a root turning through a full circle) has no range: the
-//! chart would wrap.
+//! The parametrisation ([`Chart`]): for most bones, the rotation vector `v = log(m⁻¹ · q)` of
+//! each rotation about the track's mean rotation `m` (the normalised sum of its sign-continuous
+//! quaternions), in the bone's parent frame. A hinge's vectors lie on its axis, the root's on the
+//! vertical: the box `[lo, hi]` of their components moves a rotation only along the axes its
+//! class allows. A 2-D bone's swing-only rotations are not flat in that chart (`m⁻¹ · q` has a
+//! twist), so a box there cuts across its class and clamping to it leaves the class: for 2-D
+//! bones the chart is the swing (its rotation vector, two components across the bone) and the
+//! twist angle about the bone's rest direction, in which the class is the plane `twist = 0` and a
+//! box clamp never leaves it. A track that reaches further than [`MAX_SPREAD_RAD`] from its mean
+//! (a root turning through a full circle) has no range: the chart would wrap.
 
-use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use nalgebra::{Quaternion, Unit, UnitQuaternion, Vector3};
 
-use crate::skeleton::geom::{align_hemisphere, exp_rotation, log_rotation, rotation_distance};
+use crate::skeleton::geom::{
+    align_hemisphere, exp_rotation, log_rotation, rotation_distance, swing_twist,
+};
+use crate::skeleton::rig::{Bone, Dof};
 
-/// Tracks reaching further than this from their mean rotation have no range (0.8 π).
+/// Tracks reaching further than this from their mean rotation (or, for a 2-D bone, swinging or
+/// twisting further than this) have no range (0.8 π).
 pub const MAX_SPREAD_RAD: f64 = 0.8 * std::f64::consts::PI;
 
 /// A rotation this far past the box (per component) counts as inside it, radians.
@@ -22,10 +29,84 @@ pub const INSIDE_TOLERANCE_RAD: f64 = 1e-9;
 /// Bisection steps of [`SourceRange::pull_inside`]: the way is cut to 2⁻⁴⁰ of its length.
 const PULL_ROUNDS: usize = 40;
 
-/// The box of a track's rotations about its mean.
+/// How a range reads a rotation as three numbers (see the module documentation).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Chart {
+    /// The rotation vector about the track's mean rotation.
+    AboutMean,
+    /// A 2-D bone's swing and twist about its rest direction `axis`: the swing's rotation
+    /// vector on `across` (two unit vectors square to `axis` and to each other), then the
+    /// twist angle, radians.
+    SwingTwist {
+        /// The bone's rest direction in its parent's frame.
+        axis: Unit<Vector3<f64>>,
+        /// Two directions across the bone.
+        across: [Vector3<f64>; 2],
+    },
+}
+
+impl Chart {
+    /// The chart of `bone`'s rotations: [`Chart::SwingTwist`] for a 2-D bone, else
+    /// [`Chart::AboutMean`].
+    #[must_use]
+    pub fn of(bone: &Bone) -> Chart {
+        match bone.dof {
+            Dof::TwoD => Chart::swing_twist(bone.rest_direction()),
+            _ => Chart::AboutMean,
+        }
+    }
+
+    /// The swing–twist chart about `axis`.
+    #[must_use]
+    pub fn swing_twist(axis: Unit<Vector3<f64>>) -> Chart {
+        let helper = if axis.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        };
+        let first = axis.cross(&helper).normalize();
+        Chart::SwingTwist {
+            axis,
+            across: [first, axis.cross(&first)],
+        }
+    }
+
+    /// `q`'s coordinates in this chart about `mean`.
+    fn coordinates(&self, mean: &UnitQuaternion<f64>, q: &UnitQuaternion<f64>) -> Vector3<f64> {
+        match self {
+            Chart::AboutMean => log_rotation(&(mean.inverse() * q)),
+            Chart::SwingTwist { axis, across } => {
+                let (swing, twist) = swing_twist(q, axis);
+                let s = log_rotation(&swing);
+                Vector3::new(s.dot(&across[0]), s.dot(&across[1]), twist)
+            }
+        }
+    }
+
+    /// The rotation at coordinates `c` about `mean`, in `like`'s hemisphere.
+    fn rotation(
+        &self,
+        mean: &UnitQuaternion<f64>,
+        c: &Vector3<f64>,
+        like: &UnitQuaternion<f64>,
+    ) -> UnitQuaternion<f64> {
+        let q = match self {
+            Chart::AboutMean => mean * exp_rotation(c),
+            Chart::SwingTwist { axis, across } => {
+                exp_rotation(&(across[0] * c.x + across[1] * c.y))
+                    * UnitQuaternion::from_axis_angle(axis, c.z)
+            }
+        };
+        align_hemisphere(q, like)
+    }
+}
+
+/// The box of a track's rotations in its chart ([`Chart`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SourceRange {
-    /// The track's mean rotation: the chart's centre.
+    /// How the range reads rotations.
+    pub chart: Chart,
+    /// The track's mean rotation: the [`Chart::AboutMean`] chart's centre.
     pub mean: UnitQuaternion<f64>,
     /// Smallest component of the rotation vectors, radians.
     pub lo: Vector3<f64>,
@@ -37,26 +118,34 @@ pub struct SourceRange {
 }
 
 impl SourceRange {
-    /// The range of `track`, or `None` when it is empty or spreads past [`MAX_SPREAD_RAD`].
+    /// The range of `track` in `chart`, or `None` when it is empty or spreads past
+    /// [`MAX_SPREAD_RAD`].
     #[must_use]
     pub fn of<'a>(
+        chart: Chart,
         track: impl IntoIterator<Item = &'a UnitQuaternion<f64>> + Clone,
     ) -> Option<Self> {
         let mut mean = MeanRotation::default();
         for q in track.clone() {
             mean.push(q);
         }
-        let mut range = RangeBox::new(mean.mean()?);
+        let mut range = RangeBox::new(chart, mean.mean()?);
         for q in track {
             range.push(q);
         }
         range.finish()
     }
 
-    /// `q` in the range's chart: its rotation vector about the mean.
+    /// `q` in the range's chart.
     #[must_use]
     pub fn coordinates(&self, q: &UnitQuaternion<f64>) -> Vector3<f64> {
-        log_rotation(&(self.mean.inverse() * q))
+        self.chart.coordinates(&self.mean, q)
+    }
+
+    /// The rotation at coordinates `c` of the range's chart, in `like`'s hemisphere.
+    #[must_use]
+    pub fn rotation(&self, c: &Vector3<f64>, like: &UnitQuaternion<f64>) -> UnitQuaternion<f64> {
+        self.chart.rotation(&self.mean, c, like)
     }
 
     /// `q` moved into the box (unchanged when inside), in `q`'s hemisphere.
@@ -67,7 +156,7 @@ impl SourceRange {
         if c == v {
             return *q;
         }
-        align_hemisphere(self.mean * exp_rotation(&c), q)
+        self.rotation(&c, q)
     }
 
     /// How far `q` is outside the box, per component (0 inside), radians.
@@ -157,8 +246,8 @@ impl MeanRotation {
     }
 }
 
-/// The second pass of [`SourceRange::of`]: the box of the track's rotation vectors about its
-/// mean, for a track read in pieces.
+/// The second pass of [`SourceRange::of`]: the box of the track's coordinates, for a track read
+/// in pieces.
 #[derive(Debug, Clone)]
 pub struct RangeBox {
     range: SourceRange,
@@ -166,11 +255,12 @@ pub struct RangeBox {
 }
 
 impl RangeBox {
-    /// An empty box about `mean` (from [`MeanRotation`]).
+    /// An empty box in `chart` about `mean` (from [`MeanRotation`]).
     #[must_use]
-    pub fn new(mean: UnitQuaternion<f64>) -> RangeBox {
+    pub fn new(chart: Chart, mean: UnitQuaternion<f64>) -> RangeBox {
         RangeBox {
             range: SourceRange {
+                chart,
                 mean,
                 lo: Vector3::repeat(f64::INFINITY),
                 hi: Vector3::repeat(f64::NEG_INFINITY),
@@ -183,11 +273,16 @@ impl RangeBox {
     /// Adds the track's next rotation.
     pub fn push(&mut self, q: &UnitQuaternion<f64>) {
         let r = &mut self.range;
-        if self.too_wide || rotation_distance(&r.mean, q) > MAX_SPREAD_RAD {
+        if self.too_wide {
+            return;
+        }
+        // About the mean, |v| is the angle from it; in the swing–twist chart it bounds the
+        // swing's and the twist's angles, where that chart wraps.
+        let v = r.coordinates(q);
+        if v.norm() > MAX_SPREAD_RAD {
             self.too_wide = true;
             return;
         }
-        let v = log_rotation(&(r.mean.inverse() * q));
         for c in 0..3 {
             if v[c] < r.lo[c] {
                 r.lo[c] = v[c];
@@ -200,9 +295,17 @@ impl RangeBox {
         }
     }
 
-    /// The range, or `None` when the track spread past [`MAX_SPREAD_RAD`].
+    /// The range, or `None` when the track spread past [`MAX_SPREAD_RAD`]. In the swing–twist
+    /// chart the twist's interval always holds 0, the bone's class: a solved track need not be
+    /// in its bone's class (a foot aimed at a toe landmark turns about the line to the toe, not
+    /// about the bone, so it carries a little twist about the bone), but every output is.
     #[must_use]
-    pub fn finish(self) -> Option<SourceRange> {
+    pub fn finish(mut self) -> Option<SourceRange> {
+        let r = &mut self.range;
+        if matches!(r.chart, Chart::SwingTwist { .. }) && r.lo.z <= r.hi.z {
+            r.lo.z = r.lo.z.min(0.0);
+            r.hi.z = r.hi.z.max(0.0);
+        }
         (!self.too_wide).then_some(self.range)
     }
 }
@@ -216,7 +319,7 @@ mod tests {
         let track: Vec<UnitQuaternion<f64>> = (0..=10)
             .map(|k| UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 0.1 * f64::from(k)))
             .collect();
-        let range = SourceRange::of(&track).unwrap();
+        let range = SourceRange::of(Chart::AboutMean, &track).unwrap();
         assert!((range.extent().x - 1.0).abs() < 1e-9);
         assert!(range.extent().y.abs() < 1e-12);
         let past = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 1.3);
@@ -228,7 +331,40 @@ mod tests {
         let turn: Vec<UnitQuaternion<f64>> = (0..40)
             .map(|k| UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 0.2 * f64::from(k)))
             .collect();
-        assert!(SourceRange::of(&turn).is_none());
+        assert!(SourceRange::of(Chart::AboutMean, &turn).is_none());
+    }
+
+    /// The swing–twist chart reads a rotation back exactly, keeps the swing-only class flat (a
+    /// clamp of a swing stays a swing), and its twist interval holds 0 even when the track's
+    /// rotations all twist a little.
+    #[test]
+    fn a_two_d_range_clamps_swings_to_swings() {
+        let axis = nalgebra::Unit::new_normalize(Vector3::new(0.9, -0.3, 0.2));
+        let chart = Chart::swing_twist(axis);
+        let Chart::SwingTwist { across, .. } = chart else {
+            unreachable!()
+        };
+        let swing = |x: f64, y: f64| exp_rotation(&(across[0] * x + across[1] * y));
+        let twisted =
+            |x: f64, y: f64, t: f64| swing(x, y) * UnitQuaternion::from_axis_angle(&axis, t);
+        let q = twisted(0.4, -0.7, 0.3);
+        let c = SourceRange::of(chart, &[q]).unwrap().coordinates(&q);
+        assert!((c - Vector3::new(0.4, -0.7, 0.3)).norm() < 1e-12, "{c}");
+        let track: Vec<UnitQuaternion<f64>> = (0..=10)
+            .map(|k| {
+                let s = 0.05 * f64::from(k);
+                twisted(0.3 + s, 0.2 - s, 0.02 + 0.007 * f64::from(k))
+            })
+            .collect();
+        let range = SourceRange::of(chart, &track).unwrap();
+        assert_eq!(range.lo.z, 0.0);
+        assert!((range.hi.z - 0.09).abs() < 1e-12);
+        // Past the swing's end: clamped onto it, still a swing (no twist about the bone).
+        let clamped = range.clamp(&swing(1.2, 0.1));
+        let (_, twist) = swing_twist(&clamped, &axis);
+        assert!(twist.abs() < 1e-12, "{twist}");
+        assert!(rotation_distance(&clamped, &swing(0.8, 0.1)) < 1e-12);
+        assert!(range.contains(&clamped, INSIDE_TOLERANCE_RAD));
     }
 
     #[test]
@@ -238,7 +374,7 @@ mod tests {
         let axis = nalgebra::Unit::new_normalize(Vector3::new(1.0, 1.0, 0.0));
         let about = |angle: f64| UnitQuaternion::from_axis_angle(&axis, angle);
         let track: Vec<UnitQuaternion<f64>> = (0..=4).map(|k| about(0.05 * f64::from(k))).collect();
-        let range = SourceRange::of(&track).unwrap();
+        let range = SourceRange::of(Chart::AboutMean, &track).unwrap();
         let project = |q: &UnitQuaternion<f64>| {
             let v = q.as_ref().vector();
             UnitQuaternion::new_normalize(Quaternion::from_parts(

@@ -24,7 +24,7 @@ use nalgebra::UnitQuaternion;
 use super::interp::{self, Sample};
 use super::outliers::{self, NoiseLevels};
 use super::plan::{self, Distances, Plan};
-use super::range::{MeanRotation, RangeBox, SourceRange};
+use super::range::{Chart, MeanRotation, RangeBox, SourceRange};
 use super::store::{KeyStore, Shelf};
 use super::variants::Variation;
 use super::{DsiError, DsiOptions};
@@ -238,7 +238,8 @@ fn has_range(rig: &Rig, moving: &[bool], b: usize) -> bool {
     moving.get(b).copied().unwrap_or(false) && !matches!(rig.bones[b].dof, Dof::Static)
 }
 
-/// Each bone's empty range box about the mean of `means`, for the bones that have one.
+/// Each bone's empty range box in its chart about the mean of `means`, for the bones that have
+/// one.
 fn range_boxes(rig: &Rig, moving: &[bool], means: &[MeanRotation]) -> Vec<Option<RangeBox>> {
     means
         .iter()
@@ -246,7 +247,7 @@ fn range_boxes(rig: &Rig, moving: &[bool], means: &[MeanRotation]) -> Vec<Option
         .map(|(b, m)| {
             m.mean()
                 .filter(|_| has_range(rig, moving, b))
-                .map(RangeBox::new)
+                .map(|mean| RangeBox::new(Chart::of(&rig.bones[b]), mean))
         })
         .collect()
 }
