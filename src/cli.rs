@@ -61,7 +61,8 @@ pub enum Command {
     /// marker skeleton, at an explicit frame rate.
     ///
     /// Reads `autoact_msgs/Skeleton3D`, `visualization_msgs/MarkerArray` (sphere or points
-    /// markers, one namespace per person) and `geometry_msgs/PoseArray` topics; markers and pose
+    /// markers, one namespace per person, or sphere ids `person × 100 + joint` as the Azure
+    /// Kinect ROS driver writes them) and `geometry_msgs/PoseArray` topics; markers and pose
     /// arrays need `--layout`. Writes `/animation` (BoneFrame) and `/tf` every frame, `/tf_static`,
     /// `/skeleton/markers` (lines fixed in the bones' tf frames, which `/tf` moves; sent once a
     /// second) and the same skeleton as points for Rerun, which draws no markers

@@ -3,8 +3,12 @@
 //!
 //! - `autoact_msgs/msg/Skeleton3D` — one person per message, joints named, layout named;
 //! - `visualization_msgs/msg/MarkerArray` — pose-estimator debug output: each marker namespace is
-//!   one person (its id, `track_id`), and the joints are either one `SPHERE` marker per joint
-//!   (joint = marker id) or the points of one `SPHERE_LIST`/`POINTS` marker (joint = point index);
+//!   one person, and the joints are either one `SPHERE` marker per joint (joint = marker id) or
+//!   the points of one `SPHERE_LIST`/`POINTS` marker (joint = point index). For layouts of at
+//!   most 100 joints a sphere's id may also carry the person, `person × 100 + joint` (the Azure
+//!   Kinect / Orbbec ROS drivers' body markers, all in one namespace). People keep their track
+//!   ids from message to message (first seen, first numbered, per topic), so one who leaves the
+//!   view does not hand their track to the next;
 //! - `geometry_msgs/msg/PoseArray` — one person per message, joint `k` = pose `k`.
 //!
 //! Markers and pose arrays carry no joint names: the layout (`--layout`) gives them, in order.
@@ -138,15 +142,14 @@ pub fn read_pose_topics(
 ) -> Result<PoseTopics, PoseBagError> {
     let readers = BagReader::open_all(path)?;
     let mut gathered = Gathered::default();
-    // Skeletons are decoded by this one, reused from one message to the next.
-    let mut skeleton = SkeletonReader::default();
+    let mut decoder = PoseDecoder::default();
     for (reader_index, reader, item) in readers
         .iter()
         .enumerate()
         .flat_map(|(i, r)| r.messages().map(move |m| (i, r, m)))
     {
         match item {
-            Ok(msg) => gathered.take(&msg, reader_index, reader, topic, layout, &mut skeleton)?,
+            Ok(msg) => gathered.take(&msg, reader_index, reader, topic, layout, &mut decoder)?,
             Err(issue) => gathered.issues.push(issue),
         }
     }
@@ -258,7 +261,7 @@ fn take_message<'a>(
     reader: &BagReader,
     topic: Option<&str>,
     layout: Option<&'a crate::skeleton::layout::Layout>,
-    skeleton: &'a mut SkeletonReader,
+    decoder: &'a mut PoseDecoder,
     seen_topics: Option<&mut BTreeMap<String, String>>,
 ) -> Result<Taken<'a>, PoseBagError> {
     let type_name = msg.channel.schema_name();
@@ -284,7 +287,7 @@ fn take_message<'a>(
             ),
         )));
     }
-    match decode_people(msg, type_name, layout, skeleton) {
+    match decode_people(msg, type_name, layout, decoder) {
         Ok(p) => Ok(Taken::People(p)),
         Err(DecodeProblem::Skip(reason)) => Ok(Taken::Skip(skipped_message(reader, msg, reason))),
         Err(DecodeProblem::NeedsLayout) => Err(PoseBagError::LayoutNeeded {
@@ -316,14 +319,14 @@ impl Gathered {
         reader: &BagReader,
         topic: Option<&str>,
         layout: Option<&crate::skeleton::layout::Layout>,
-        skeleton: &mut SkeletonReader,
+        decoder: &mut PoseDecoder,
     ) -> Result<(), PoseBagError> {
         match take_message(
             msg,
             reader,
             topic,
             layout,
-            skeleton,
+            decoder,
             Some(&mut self.seen_topics),
         )? {
             Taken::NotWanted => {}
@@ -473,14 +476,50 @@ fn header_stamp(header: &Header) -> Option<u64> {
     header.stamp.to_nanos().filter(|&n| n != 0)
 }
 
-/// Decodes the people of one message. Skeletons are decoded by `skeleton`, reused from one
-/// message to the next so that reading allocates only each frame's own arrays.
+/// What decoding pose messages keeps from one message to the next: the skeleton reader (reused
+/// so that reading allocates only each frame's own arrays) and the track ids given to the people
+/// of marker arrays.
+#[derive(Default)]
+pub(crate) struct PoseDecoder {
+    skeleton: SkeletonReader,
+    /// The people of each topic's marker arrays.
+    marker_tracks: BTreeMap<String, MarkerTracks>,
+}
+
+/// The track ids of one topic's marker people, numbered in order of first sight.
+#[derive(Default)]
+struct MarkerTracks {
+    /// Namespace → person number in the sphere ids → track id.
+    ids: BTreeMap<String, BTreeMap<u64, u64>>,
+    next: u64,
+}
+
+impl MarkerTracks {
+    /// The track id of person `person` of namespace `ns`: theirs, or the next number.
+    fn id(&mut self, ns: &str, person: u64) -> u64 {
+        let next = &mut self.next;
+        let by_person = match self.ids.get_mut(ns) {
+            Some(m) => m,
+            None => self.ids.entry(ns.to_string()).or_default(),
+        };
+        *by_person.entry(person).or_insert_with(|| {
+            *next += 1;
+            *next - 1
+        })
+    }
+}
+
+/// Decodes the people of one message with `decoder`'s state.
 fn decode_people<'a>(
     msg: &BagMessage,
     type_name: &str,
     layout: Option<&'a crate::skeleton::layout::Layout>,
-    skeleton: &'a mut SkeletonReader,
+    decoder: &'a mut PoseDecoder,
 ) -> Result<Vec<Person<'a>>, DecodeProblem> {
+    let PoseDecoder {
+        skeleton,
+        marker_tracks,
+    } = decoder;
     let bad =
         |e: ros::cdr::CdrError| DecodeProblem::Skip(format!("does not decode as {type_name}: {e}"));
     match type_name {
@@ -525,7 +564,11 @@ fn decode_people<'a>(
         t if t == MarkerArray::TYPE_NAME => {
             let layout = layout.ok_or(DecodeProblem::NeedsLayout)?;
             let m: MarkerArray = ros::cdr::decode(&msg.data).map_err(bad)?;
-            markers_to_people(&m, layout)
+            let tracks = match marker_tracks.get_mut(&msg.channel.topic) {
+                Some(t) => t,
+                None => marker_tracks.entry(msg.channel.topic.clone()).or_default(),
+            };
+            markers_to_people(&m, layout, tracks)
         }
         t if t == PoseArray::TYPE_NAME => {
             let layout = layout.ok_or(DecodeProblem::NeedsLayout)?;
@@ -568,18 +611,33 @@ fn decode_people<'a>(
     }
 }
 
-/// Markers → people: one person per namespace, in namespace order; track id = its index.
+/// Sphere ids carry the person as `person × 100 + joint` in layouts of at most this many joints.
+const IDS_PER_PERSON: i32 = 100;
+
+/// Markers → people: one person per namespace and, for layouts of at most [`IDS_PER_PERSON`]
+/// joints, per hundred of sphere ids; in (namespace, person) order. `tracks` gives each person
+/// its track id, a new one (the next number) on first sight.
 fn markers_to_people<'a>(
     m: &MarkerArray,
     layout: &'a crate::skeleton::layout::Layout,
+    tracks: &mut MarkerTracks,
 ) -> Result<Vec<Person<'a>>, DecodeProblem> {
     let n = layout.joints.len();
-    let mut by_nanos: BTreeMap<&str, Vec<&Marker>> = BTreeMap::new();
+    let per_person = i32::try_from(n).is_ok_and(|n| n <= IDS_PER_PERSON);
+    let mut by_person: BTreeMap<(&str, u64), Vec<&Marker>> = BTreeMap::new();
     for marker in m.markers.iter().filter(|mk| mk.action == Marker::ADD) {
-        by_nanos.entry(marker.ns.as_str()).or_default().push(marker);
+        let person = if per_person && marker.type_ == Marker::SPHERE {
+            u64::try_from(marker.id / IDS_PER_PERSON).unwrap_or(u64::MAX)
+        } else {
+            0
+        };
+        by_person
+            .entry((marker.ns.as_str(), person))
+            .or_default()
+            .push(marker);
     }
     let mut people = Vec::new();
-    for (track, (ns, markers)) in by_nanos.into_iter().enumerate() {
+    for ((ns, person), markers) in by_person {
         let mut positions = vec![Point3::new(f64::NAN, f64::NAN, f64::NAN); n];
         let mut confidence = vec![0.0f32; n];
         let lists: Vec<&&Marker> = markers
@@ -606,20 +664,30 @@ fn markers_to_people<'a>(
             }
         } else {
             for mk in markers.iter().filter(|mk| mk.type_ == Marker::SPHERE) {
-                let Some(k) = usize::try_from(mk.id).ok().filter(|&k| k < n) else {
+                let joint = if per_person {
+                    mk.id.rem_euclid(IDS_PER_PERSON)
+                } else {
+                    mk.id
+                };
+                let Some(k) = usize::try_from(joint).ok().filter(|&k| k < n) else {
                     return Err(DecodeProblem::Skip(format!(
-                        "namespace `{ns}`: sphere id {} is not a joint index of the layout `{}` (0..{n})",
-                        mk.id, layout.name
+                        "namespace `{ns}`: sphere id {} is not a joint index of the layout `{}` (0..{n}{})",
+                        mk.id,
+                        layout.name,
+                        if per_person {
+                            ", or a person's hundred plus one"
+                        } else {
+                            ""
+                        }
                     )));
                 };
                 positions[k] = Point3::from(mk.pose.position);
                 confidence[k] = 1.0;
             }
         }
-        let track_id = u64::try_from(track).unwrap_or(u64::MAX);
         people.push(Person {
             header_stamp: markers.first().and_then(|mk| header_stamp(&mk.header)),
-            track_id,
+            track_id: tracks.id(ns, person),
             layout: &layout.name,
             joint_names: &layout.joints,
             frame: PoseFrame {

@@ -233,7 +233,7 @@ pub struct BoneOverride {
 }
 
 /// The built-in layouts: (name, aliases, TOML text).
-const BUILTIN: [(&str, &[&str], &str); 8] = [
+const BUILTIN: [(&str, &[&str], &str); 9] = [
     (
         "coco-wholebody-133",
         &["h3wb", "coco-wholebody"],
@@ -261,6 +261,11 @@ const BUILTIN: [(&str, &[&str], &str); 8] = [
         "zed-body-34",
         &["zed", "body-34"],
         include_str!("layouts/zed-body-34.toml"),
+    ),
+    (
+        "azure-kinect-32",
+        &["azure-kinect", "k4abt", "orbbec-femto"],
+        include_str!("layouts/azure-kinect-32.toml"),
     ),
 ];
 

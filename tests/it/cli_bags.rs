@@ -21,8 +21,14 @@ use nalgebra::{UnitQuaternion, Vector3};
 
 /// H36M-17 keypoints of the rig walking and waving: frame `k` at 30 fps.
 fn h36m_frame(k: usize) -> PoseFrame {
+    posed_frame("h36m-17", k)
+}
+
+/// The keypoints of the built-in layout `layout` of the rig walking and waving: frame `k` at 30
+/// fps.
+fn posed_frame(layout: &str, k: usize) -> PoseFrame {
     let rig = Rig::standard();
-    let layout = Layout::builtin("h36m-17").unwrap();
+    let layout = Layout::builtin(layout).unwrap();
     let character = Character::standard(&rig);
     #[expect(clippy::cast_precision_loss, reason = "small frame numbers")]
     let t = k as f64 / 30.0;
@@ -1491,6 +1497,129 @@ fn the_people_of_one_camera_topic_keep_their_places() {
         );
         let turn = (heading(&b) - heading(&a)).to_degrees().rem_euclid(360.0);
         assert!((turn - 150.0).abs() < 5.0, "frame {k}: turned {turn}°");
+    }
+}
+
+/// A person in a marker array: namespace, person number in the sphere ids, frames seen in.
+type MarkerPerson = (&'static str, i32, std::ops::Range<usize>);
+
+/// A `MarkerArray` bag on `/body_tracking_data`: 60 frames of `people` (each [`posed_frame`] of
+/// `layout`, moved along +X by its person number and namespace length), a `SPHERE` per joint
+/// with id `person × 100 + joint`, every point moved by `place`.
+fn marker_people_bag(
+    path: &Path,
+    layout: &str,
+    people: &[MarkerPerson],
+    place: impl Fn(nalgebra::Point3<f64>) -> nalgebra::Point3<f64>,
+) {
+    let mut w = BagWriter::create(path, WriteConfig::default()).unwrap();
+    for k in 0..60 {
+        let f = posed_frame(layout, k);
+        let header = Header {
+            stamp: Time::from_nanos(f.stamp_nanos),
+            frame_id: "depth_camera_link".into(),
+        };
+        let mut markers = Vec::new();
+        for (ns, person, seen) in people {
+            if !seen.contains(&k) {
+                continue;
+            }
+            #[expect(clippy::cast_precision_loss, reason = "short names")]
+            let shift = Vector3::new(f64::from(*person) + ns.len() as f64, 0.0, 0.0);
+            markers.extend(f.positions_m.iter().enumerate().map(|(j, p)| Marker {
+                header: header.clone(),
+                ns: (*ns).into(),
+                id: person * 100 + i32::try_from(j).unwrap(),
+                type_: Marker::SPHERE,
+                pose: Pose {
+                    position: Point::from(place(p + shift)),
+                    ..Pose::default()
+                },
+                ..Marker::default()
+            }));
+        }
+        w.write(
+            "/body_tracking_data",
+            f.stamp_nanos,
+            &MarkerArray { markers },
+        )
+        .unwrap();
+    }
+    w.finish().unwrap();
+}
+
+/// People in marker arrays keep their tracks while others come and go, whether each has a
+/// namespace or, as the Azure Kinect / Orbbec ROS drivers publish them, all share one and a
+/// sphere's id is `person × 100 + joint` (here in the driver's layout, `azure-kinect-32`, and its
+/// depth camera's frame: x right, y down, z ahead). Tracks were once numbered by a person's place
+/// in each message, so when the first person left, the next took over their track: one
+/// animation jumped from one body to the other, with no error.
+#[test]
+fn people_in_marker_arrays_keep_their_tracks_when_others_leave() {
+    let dir = tempfile::tempdir().unwrap();
+    // The depth camera 3 m behind the people, 1 m up, pitched 10° down.
+    let depth_camera_from_world = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 0.17)
+        * UnitQuaternion::from_matrix(&nalgebra::Matrix3::new(
+            1.0, 0.0, 0.0, //
+            0.0, 0.0, -1.0, //
+            0.0, 1.0, 0.0,
+        ));
+    let named = dir.path().join("namespaces.mcap");
+    marker_people_bag(
+        &named,
+        "h36m-17",
+        &[("a", 0, 0..20), ("b", 0, 0..60)],
+        |p| p,
+    );
+    let azure = dir.path().join("ids.mcap");
+    marker_people_bag(
+        &azure,
+        "azure-kinect-32",
+        &[("", 1, 10..60), ("", 2, 0..60)],
+        |p| depth_camera_from_world * (p - Vector3::new(0.0, -3.0, 1.0)),
+    );
+    let rig = Rig::standard();
+    let pelvis = rig.bone_index("pelvis").unwrap();
+    for (path, layout, expected) in [
+        (&named, "h36m-17", [(0, 20), (1, 60)]),
+        (&azure, "azure-kinect-32", [(0, 60), (1, 50)]),
+    ] {
+        let out = path.with_extension("anim.mcap");
+        let o = autoact(&[
+            "-v",
+            "convert",
+            arg(path),
+            "--layout",
+            layout,
+            "--fps",
+            "30",
+            "-o",
+            arg(&out),
+        ]);
+        assert!(o.status.success(), "{layout}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains(": grounded: up"),
+            "{layout}: {}",
+            stderr(&o)
+        );
+        let frames = bone_frames(&out);
+        for (track, count) in expected {
+            let n = frames.iter().filter(|(_, f)| f.track_id == track).count();
+            assert_eq!(n, count, "{layout}: track {track}");
+        }
+        // Stood up from the camera's frame: the pelvis (under the yaw-only root) upright.
+        for (_, f) in &frames {
+            let world = [0, pelvis]
+                .iter()
+                .fold(UnitQuaternion::identity(), |w, &b| {
+                    let q = &f.local_rotations[b];
+                    w * UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+                        q.w, q.x, q.y, q.z,
+                    ))
+                });
+            let up = world * Vector3::z();
+            assert!(up.z > 0.95, "{layout}: track {} pelvis up {up}", f.track_id);
+        }
     }
 }
 

@@ -15,11 +15,10 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use super::{Clock, PoseBagError, SkippedMessage, Taken, no_pose_topic, take_message};
+use super::{Clock, PoseBagError, PoseDecoder, SkippedMessage, Taken, no_pose_topic, take_message};
 use crate::mcap_io::{BagReader, ReadIssue};
 use crate::ros::RosMessage;
 use crate::ros::autoact_msgs::Skeleton3D;
-use crate::ros::skeleton_decode::SkeletonReader;
 use crate::skeleton::pose::PoseFrame;
 
 /// Frames kept per track in pass 1: at most this many, evenly spread over the track (every
@@ -207,7 +206,7 @@ pub fn scan_pose_topics(
     let mut issues = Vec::new();
     let (mut nan_first, mut nan_total) = (Vec::new(), 0u64);
     let mut seen_topics = BTreeMap::new();
-    let mut skeleton = SkeletonReader::default();
+    let mut decoder = PoseDecoder::default();
     for (reader_index, reader) in readers.iter().enumerate() {
         for item in reader.messages() {
             let msg = match item {
@@ -222,7 +221,7 @@ pub fn scan_pose_topics(
                 reader,
                 topic,
                 layout,
-                &mut skeleton,
+                &mut decoder,
                 Some(&mut seen_topics),
             )? {
                 Taken::NotWanted => continue,
@@ -524,14 +523,14 @@ pub fn stream_pose_frames<E: From<PoseBagError>>(
             handed: 0,
         })
         .collect();
-    let mut skeleton = SkeletonReader::default();
+    let mut decoder = PoseDecoder::default();
     for (reader_index, reader) in readers.iter().enumerate() {
         for item in reader.messages() {
             let Ok(msg) = item else {
                 continue;
             };
             let Ok(Taken::People(people)) =
-                take_message(&msg, reader, topic, layout, &mut skeleton, None)
+                take_message(&msg, reader, topic, layout, &mut decoder, None)
             else {
                 continue;
             };
