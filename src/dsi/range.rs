@@ -108,9 +108,9 @@ pub struct SourceRange {
     pub chart: Chart,
     /// The track's mean rotation: the [`Chart::AboutMean`] chart's centre.
     pub mean: UnitQuaternion<f64>,
-    /// Smallest component of the rotation vectors, radians.
+    /// Smallest coordinates in the chart, radians.
     pub lo: Vector3<f64>,
-    /// Largest component of the rotation vectors, radians.
+    /// Largest coordinates in the chart, radians.
     pub hi: Vector3<f64>,
     /// The track's rotations on the box's six faces (smallest, then largest, per component):
     /// rotations known to be inside, for [`SourceRange::pull_inside`].
