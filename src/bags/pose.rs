@@ -614,6 +614,15 @@ fn decode_people<'a>(
 /// Sphere ids carry the person as `person × 100 + joint` in layouts of at most this many joints.
 const IDS_PER_PERSON: i32 = 100;
 
+/// (person, joint) of sphere id `id`: `person × 100 + joint` when `per_person` (the layout has at
+/// most [`IDS_PER_PERSON`] joints) and the id is not negative, else person 0 and joint `id`.
+fn sphere_person_joint(id: i32, per_person: bool) -> (u64, i32) {
+    match u64::try_from(id / IDS_PER_PERSON) {
+        Ok(person) if per_person => (person, id % IDS_PER_PERSON),
+        _ => (0, id),
+    }
+}
+
 /// Markers → people: one person per namespace and, for layouts of at most [`IDS_PER_PERSON`]
 /// joints, per hundred of sphere ids; in (namespace, person) order. `tracks` gives each person
 /// its track id, a new one (the next number) on first sight.
@@ -626,8 +635,8 @@ fn markers_to_people<'a>(
     let per_person = i32::try_from(n).is_ok_and(|n| n <= IDS_PER_PERSON);
     let mut by_person: BTreeMap<(&str, u64), Vec<&Marker>> = BTreeMap::new();
     for marker in m.markers.iter().filter(|mk| mk.action == Marker::ADD) {
-        let person = if per_person && marker.type_ == Marker::SPHERE {
-            u64::try_from(marker.id / IDS_PER_PERSON).unwrap_or(u64::MAX)
+        let person = if marker.type_ == Marker::SPHERE {
+            sphere_person_joint(marker.id, per_person).0
         } else {
             0
         };
@@ -664,18 +673,14 @@ fn markers_to_people<'a>(
             }
         } else {
             for mk in markers.iter().filter(|mk| mk.type_ == Marker::SPHERE) {
-                let joint = if per_person {
-                    mk.id.rem_euclid(IDS_PER_PERSON)
-                } else {
-                    mk.id
-                };
+                let (_, joint) = sphere_person_joint(mk.id, per_person);
                 let Some(k) = usize::try_from(joint).ok().filter(|&k| k < n) else {
                     return Err(DecodeProblem::Skip(format!(
                         "namespace `{ns}`: sphere id {} is not a joint index of the layout `{}` (0..{n}{})",
                         mk.id,
                         layout.name,
                         if per_person {
-                            ", or a person's hundred plus one"
+                            ", or person × 100 + joint"
                         } else {
                             ""
                         }
@@ -704,5 +709,31 @@ impl crate::outcome::LostInput for PoseTopics {
     /// Whether any input was lost.
     fn lost_input(&self) -> bool {
         !self.skipped.is_empty() || !self.issues.is_empty()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sphere_ids_carry_the_person_only_in_small_layouts_and_never_when_negative() {
+        assert_eq!(sphere_person_joint(7, true), (0, 7));
+        assert_eq!(sphere_person_joint(231, true), (2, 31));
+        assert_eq!(sphere_person_joint(131, false), (0, 131));
+        // Negative ids are no joint of anyone: the joint stays negative, an error downstream.
+        assert_eq!(sphere_person_joint(-5, true), (0, -5));
+        assert_eq!(sphere_person_joint(-150, true), (0, -150));
+    }
+
+    #[test]
+    fn marker_people_are_numbered_in_order_of_first_sight() {
+        let mut tracks = MarkerTracks::default();
+        assert_eq!(tracks.id("b", 0), 0);
+        assert_eq!(tracks.id("", 2), 1);
+        assert_eq!(tracks.id("a", 0), 2);
+        assert_eq!(tracks.id("b", 0), 0);
+        assert_eq!(tracks.id("", 1), 3);
+        assert_eq!(tracks.id("", 2), 1);
     }
 }
