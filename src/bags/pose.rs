@@ -480,7 +480,7 @@ fn header_stamp(header: &Header) -> Option<u64> {
 /// so that reading allocates only each frame's own arrays) and the track ids given to the people
 /// of marker arrays.
 #[derive(Default)]
-pub(crate) struct PoseDecoder {
+struct PoseDecoder {
     skeleton: SkeletonReader,
     /// The people of each topic's marker arrays.
     marker_tracks: BTreeMap<String, MarkerTracks>,

@@ -88,13 +88,7 @@ fn dsi_in_range_and_glitch_free(
     anim: &Animation,
     mut options: DsiOptions,
 ) -> (Fidelity, Vec<AnimationFrame>) {
-    let first = anim.frames[0].stamp_nanos;
-    let times: Vec<f64> = anim
-        .frames
-        .iter()
-        .map(|f| autoact::skeleton::pose::nanos_to_secs(f.stamp_nanos - first))
-        .collect();
-    options.out_fps = 1.0 / source_period_s(&times);
+    options.out_fps = 1.0 / source_period_s(&seconds(&anim.frames));
     let out = dsi::run(rig, &anim.frames, &options).unwrap();
     let f = fidelity(rig, &anim.frames, &out.animations[0]);
     assert!(f.max_overshoot_pct <= 5.0, "{name}: {f:?}");
@@ -144,21 +138,29 @@ fn rougher_bones(
     input: &[AnimationFrame],
     output: &[AnimationFrame],
 ) -> Vec<(String, f64, f64)> {
-    let track = |frames: &[AnimationFrame], b: usize| {
-        let first = frames[0].stamp_nanos;
-        let times: Vec<f64> = frames
-            .iter()
-            .map(|f| autoact::skeleton::pose::nanos_to_secs(f.stamp_nanos - first))
-            .collect();
+    let (t_in, t_out) = (seconds(input), seconds(output));
+    let track = |frames: &[AnimationFrame], times: &[f64], b: usize| {
         let quaternions: Vec<_> = frames
             .iter()
             .map(|f| f.pose.local_rotations[b].into_inner())
             .collect();
-        mean_jerk(&quaternions, &times).unwrap_or(0.0)
+        mean_jerk(&quaternions, times).unwrap_or(0.0)
     };
     (0..rig.bones.len())
         .filter(|&b| !matches!(rig.bones[b].dof, Dof::Static))
-        .map(|b| (rig.bones[b].name.clone(), track(input, b), track(output, b)))
+        .map(|b| {
+            let name = rig.bones[b].name.clone();
+            (name, track(input, &t_in, b), track(output, &t_out, b))
+        })
         .filter(|(_, before, after)| after > before)
+        .collect()
+}
+
+/// The frames' stamps in seconds from the first.
+fn seconds(frames: &[AnimationFrame]) -> Vec<f64> {
+    let first = frames[0].stamp_nanos;
+    frames
+        .iter()
+        .map(|f| autoact::skeleton::pose::nanos_to_secs(f.stamp_nanos - first))
         .collect()
 }
