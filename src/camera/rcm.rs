@@ -29,10 +29,12 @@
 //! key-hold seconds, so they do not depend on the frame rate, and the distance can never go
 //! negative and mirror the camera through the character.
 //!
-//! **Shots** ([`camera_at`]). The camera rides along with the character's ground point — a
-//! tracking shot. A character that walks or jumps away from where it started (root motion)
-//! would otherwise leave the frame or shrink, and the framing band could not hold. It always
-//! looks at the current frame's subject centre, unrolled.
+//! **Shots** ([`camera_at`]). The camera rides along with the character's ground point it is
+//! given — a tracking shot. A character that walks or jumps away from where it started (root
+//! motion) would otherwise leave the frame or shrink, and the framing band could not hold. It
+//! looks at the subject centre it is given, unrolled. A capture gives a static shot one ground
+//! point and one centre for the whole clip (a still camera) when that keeps the body in frame,
+//! and each frame's otherwise.
 
 use nalgebra::Point3;
 use rand::{Rng, RngExt};

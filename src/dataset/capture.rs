@@ -12,7 +12,7 @@ use crate::bags::animation::{TrackWriter, read_animation_variant_with_losses, sc
 use crate::bags::capture::CaptureWriter;
 use crate::bags::pose::PoseBagError;
 use crate::camera::{
-    CameraError, CameraPose, Intrinsics, Subject, Viewpoint, camera_at, framing_band,
+    CameraError, CameraPose, Intrinsics, Shot, Subject, Viewpoint, camera_at, framing_band,
 };
 use crate::dsi::smoothing::Smoothing;
 use crate::dsi::{self, DsiError, DsiOptions, Pace, SourceKind};
@@ -32,6 +32,7 @@ use crate::skeleton::frames::WORLD_FRAME;
 use crate::skeleton::layout::{Coverage, Layout, LayoutError};
 use crate::skeleton::pose::stamp_nanos_at;
 use crate::skeleton::rig::Rig;
+use nalgebra::{Point3, Vector3};
 use rand::SeedableRng;
 
 /// What went wrong while capturing.
@@ -418,28 +419,67 @@ fn clip_cameras(
         .map(&mut fit);
     let clip_frames = leaf.end_frame - leaf.start_frame;
     let last = subject.centres_m.len() - 1;
-    let cameras = (leaf.start_frame..leaf.end_frame)
+    let shows: Vec<usize> = (leaf.start_frame..leaf.end_frame)
         .map(|f| {
-            let k = usize::try_from(
+            usize::try_from(
                 f.saturating_sub(leaf.content_start_frame)
                     .min(leaf.content_end_frame - leaf.content_start_frame - 1),
             )
             .unwrap_or(0)
-            .min(last);
+            .min(last)
+        })
+        .collect();
+    let held = match spec.file.counts.shot {
+        Shot::Static => held_aim(subject, &shows, from.distance_m, band),
+        Shot::Moving => None,
+    };
+    let cameras = (leaf.start_frame..leaf.end_frame)
+        .zip(shows)
+        .map(|(f, k)| {
             #[expect(clippy::cast_precision_loss, reason = "frame counts far below 2^52")]
             let s = (f - leaf.start_frame) as f64 / (clip_frames.max(2) - 1) as f64;
-            let cam = camera_at(
-                &from,
-                to.as_ref(),
-                spec.file.counts.shot,
-                s,
-                subject.ground_xy_m[k],
-                subject.centres_m[k],
-            );
+            let (ground, centre) = held.unwrap_or((subject.ground_xy_m[k], subject.centres_m[k]));
+            let cam = camera_at(&from, to.as_ref(), spec.file.counts.shot, s, ground, centre);
             (k, cam)
         })
         .collect();
     (cameras, pushed_out)
+}
+
+/// Where a static shot's camera stands and looks for the whole clip showing content frames
+/// `shows` from `distance_m`, when one place keeps every one of them in frame: about the frames'
+/// mean ground point, looking at their mean centre. A tripod does not follow an arm's swing: a
+/// camera that did would move the background with the action. `None` when the body travels
+/// too far for that (a walk): the camera then tracks it frame by frame.
+///
+/// The framing band's bound (`band[0] = R / sin α + c`, `R` the subject's radius about each
+/// frame's centre, `c` the largest centre–ground offset, which the means also keep) holds for a
+/// fixed aim when the distance also covers the farthest centre's distance `δ` from the mean
+/// one: `distance ≥ band[0] + δ / sin α`.
+fn held_aim(
+    subject: &Subject,
+    shows: &[usize],
+    distance_m: f64,
+    band: [f64; 2],
+) -> Option<([f64; 2], Point3<f64>)> {
+    #[expect(clippy::cast_precision_loss, reason = "frame counts far below 2^52")]
+    let n = shows.len().max(1) as f64;
+    let mut ground = [0.0; 2];
+    let mut centre = Vector3::zeros();
+    for &k in shows {
+        ground[0] += subject.ground_xy_m[k][0] / n;
+        ground[1] += subject.ground_xy_m[k][1] / n;
+        centre += subject.centres_m[k].coords / n;
+    }
+    let centre = Point3::from(centre);
+    let farthest_m = shows
+        .iter()
+        .map(|&k| (subject.centres_m[k] - centre).norm())
+        .fold(0.0, f64::max);
+    let reach_m = band[0] - subject.max_centre_offset_m;
+    let inv_sin_alpha = reach_m / subject.radius_m;
+    (inv_sin_alpha.is_finite() && distance_m >= band[0] + farthest_m * inv_sin_alpha)
+        .then_some((ground, centre))
 }
 
 /// Writes every session of `plan` into `out_dir` as `<session>.capture.mcap`, with the sources
@@ -668,6 +708,35 @@ impl<'a> Dataset<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_static_shot_holds_still_over_an_arm_swing_and_tracks_a_walk() {
+        // 60 frames: the centre sways 3 cm with the arm, or walks 2 m.
+        let subject = |walk_m: f64| Subject {
+            centres_m: (0..60)
+                .map(|f| {
+                    let s = f64::from(f) / 59.0;
+                    Point3::new(walk_m * s + 0.03 * (7.0 * s).sin(), 0.0, 0.9)
+                })
+                .collect(),
+            ground_xy_m: (0..60)
+                .map(|f| [walk_m * f64::from(f) / 59.0, 0.0])
+                .collect(),
+            radius_m: 1.0,
+            max_centre_offset_m: 0.03,
+        };
+        let shows: Vec<usize> = (0..60).collect();
+        let band = [2.0, 12.0];
+        let (ground, centre) =
+            held_aim(&subject(0.0), &shows, 2.5, band).expect("an arm swing is held");
+        let mean = subject(0.0).centres_m.iter().map(|c| c.x).sum::<f64>() / 60.0;
+        assert!((centre.x - mean).abs() < 1e-12 && ground == [0.0, 0.0]);
+        // At the band's edge there is no room for the sway: the camera tracks.
+        assert!(held_aim(&subject(0.0), &shows, 2.0, band).is_none());
+        assert!(held_aim(&subject(2.0), &shows, 2.5, band).is_none());
+        // From far enough away even the walk stays in frame.
+        assert!(held_aim(&subject(2.0), &shows, 12.0, band).is_some());
+    }
 
     #[test]
     fn an_animation_bag_source_reads_back_what_its_pose_bag_converts_to() {

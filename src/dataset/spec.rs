@@ -231,8 +231,9 @@ pub struct Counts {
     /// Viewpoints (camera moves) per scene.
     #[serde(default = "three")]
     pub viewpoints: u32,
-    /// How the camera moves within a clip: `static` holds each viewpoint, `moving` travels
-    /// smoothly to the next.
+    /// How the camera moves within a clip: `static` holds each viewpoint (and stands still
+    /// unless the body travels too far to stay in frame), `moving` travels smoothly to the
+    /// next.
     #[serde(default = "static_shot")]
     pub shot: Shot,
 }

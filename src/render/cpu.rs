@@ -12,11 +12,22 @@
 //! 5. rain streaks or snowflakes, depth-tested;
 //! 6. an edge-directed anti-aliasing pass over the final image.
 //!
-//! Frames are independent: parallel rendering uses one [`CpuRenderer`] per thread.
+//! **Static shots.** When a frame comes from the same stage and camera as the renderer's
+//! previous one, without a lightning flash, steps 3–6 start from the shot's still frame (props,
+//! backdrop, ground and sky, drawn once): the character is drawn on a layer of its own and laid
+//! over it where a whole frame's depth test would show it, the part of the picture its shadow
+//! can reach (the screen box of its shadow map's beam) is drawn again, and anti-aliasing runs
+//! only where the picture can differ from the still frame's (everywhere when it rains or
+//! snows). Every step keeps a pixel's arithmetic (rows are stepped from their first pixel
+//! whatever part is drawn), so the bits are a whole frame's: a property test over locations,
+//! weathers, times, cameras and motions checks it.
+//!
+//! Frames are independent: parallel rendering uses one [`CpuRenderer`] per thread, and which
+//! renderer draws a frame changes none of its bits.
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::raster::{ClipVertex, Cull, ScreenVertex, clip_near, fill_triangle, floor};
+use super::raster::{ClipVertex, Cull, PixelRect, ScreenVertex, clip_near, fill_triangle, floor};
 use super::world::Surface;
 use super::{FrameInput, Image, Renderer, Stage};
 use crate::hash::unit2;
@@ -54,6 +65,10 @@ struct ShadowMap {
     heights: Vec<f32>,
     /// The depth bias, metres (`BIAS_TEXELS` texels), computed once per map.
     bias_m: f32,
+    /// The casters' extent across the beam, `[u0, v0, u1, v1]`, metres.
+    casters_uv_m: [f32; 4],
+    /// The highest caster's coordinate towards the light, metres.
+    top_l_m: f32,
     empty: bool,
 }
 
@@ -151,6 +166,8 @@ fn draw_shadow_map(
     map.texels_per_m = size as f32 / extent.max(1e-3);
     map.bias_m = BIAS_TEXELS / map.texels_per_m;
     map.height_offset = 1.0 - lo[2];
+    map.top_l_m = hi[2];
+    map.casters_uv_m = [lo[0], lo[1], hi[0], hi[1]];
     let to_map = |p: &[f32; 3]| {
         let c = light.coords(&Vector3::from(*p));
         ScreenVertex {
@@ -165,7 +182,8 @@ fn draw_shadow_map(
             to_map(&positions[t[1] as usize]),
             to_map(&positions[t[2] as usize]),
         ];
-        fill_triangle(s, size, size, &mut map.heights, cull, |_, _, _| {});
+        let all = PixelRect::full(size, size);
+        fill_triangle(s, size, size, all, &mut map.heights, cull, |_, _, _| {});
     }
 }
 
@@ -240,6 +258,12 @@ pub struct CpuRenderer {
     vertices: Vec<ClipVertex<9>>,
     polygon: Vec<ClipVertex<9>>,
     unfiltered: Vec<u8>,
+    /// The shot of the last frame drawn.
+    last_shot: Option<Shot>,
+    /// The still frame of the last static shot.
+    still: Option<Still>,
+    /// The character alone, when it is laid over a still frame.
+    character_layer: Image,
 }
 
 impl CpuRenderer {
@@ -296,14 +320,15 @@ impl CpuRenderer {
         }
     }
 
-    /// Rasterises `indices` over `self.vertices` into the image; `shadowed` meshes look up the
-    /// shadow maps per pixel (the far backdrop does not).
+    /// Rasterises `indices` over `self.vertices` into the image, within `scissor`; `shadowed`
+    /// meshes look up the shadow maps per pixel (the far backdrop does not).
     fn draw(
         &mut self,
         view: &View,
         indices: &[u32],
         surface: Surface,
         shadowed: bool,
+        scissor: PixelRect,
         image: &mut Image,
     ) {
         let (w, h) = (view.width, view.height);
@@ -330,7 +355,7 @@ impl CpuRenderer {
                 let part = [polygon[0], polygon[k], polygon[k + 1]];
                 let s = part.map(|v| view.project(v.view));
                 let [a0, a1, a2] = part.map(|v| v.attributes);
-                fill_triangle(s, w, h, depth, Cull::Back, |i, _, b| {
+                fill_triangle(s, w, h, scissor, depth, Cull::Back, |i, _, b| {
                     let at = |k: usize| a0[k] * b[0] + a1[k] * b[1] + a2[k] * b[2];
                     let lit = if shadowed {
                         let (u, v, l) = (at(6), at(7), at(8));
@@ -361,26 +386,18 @@ impl Renderer for CpuRenderer {
         let env = &stage.environment;
         let light = LightFrame::new(env.key_dir);
         let flash = env.lightning_flash(frame.time_s, stage.seed);
+        // The second frame in a row from one camera on one stage, without a flash: what does
+        // not move is drawn once and reused (`still`), for the same bits as a whole frame.
+        let shot = Shot {
+            stage: stage.id,
+            camera: frame.camera,
+        };
+        let reuse = flash == 0.0 && self.last_shot == Some(shot);
+        self.last_shot = Some(shot);
 
-        // 1. The body for this pose.
-        let skinning = crate::scene::body_mesh::Skinning::new(&stage.rest_pose, frame.pose);
-        stage.body.skin_into(
-            &skinning,
-            &mut self.skinned_positions,
-            &mut self.skinned_normals,
-        );
-
-        // 2. Shadow maps.
+        // Shadow maps: the props' once per stage, then (after a new still frame, which is
+        // drawn without the character) the character's.
         if env.key_shadows {
-            draw_shadow_map(
-                &mut self.character_shadow,
-                CHARACTER_SHADOW_SIZE.min(h.max(256)),
-                &light,
-                &self.skinned_positions,
-                &stage.body.indices,
-                0.1,
-                CHARACTER_SHADOW_CULL,
-            );
             if self.prop_shadow_stage != Some(stage.id) {
                 draw_shadow_map(
                     &mut self.prop_shadow,
@@ -394,74 +411,331 @@ impl Renderer for CpuRenderer {
                 self.prop_shadow_stage = Some(stage.id);
             }
         } else {
-            self.character_shadow.empty = true;
             self.prop_shadow.empty = true;
             self.prop_shadow_stage = None;
         }
+        self.character_shadow.empty = true;
+        let still = if reuse {
+            match self.still.take() {
+                Some(still) if still.shot == shot => Some(still),
+                _ => Some(self.draw_still(stage, &view, &light, shot)),
+            }
+        } else {
+            None
+        };
 
+        // 1. The body for this pose.
+        let skinning = crate::scene::body_mesh::Skinning::new(&stage.rest_pose, frame.pose);
+        stage.body.skin_into(
+            &skinning,
+            &mut self.skinned_positions,
+            &mut self.skinned_normals,
+        );
+        if env.key_shadows {
+            draw_shadow_map(
+                &mut self.character_shadow,
+                CHARACTER_SHADOW_SIZE.min(h.max(256)),
+                &light,
+                &self.skinned_positions,
+                &stage.body.indices,
+                0.1,
+                CHARACTER_SHADOW_CULL,
+            );
+        }
+
+        match still {
+            Some(still) => {
+                self.compose(stage, &view, &light, &still, frame.time_s, image);
+                self.still = Some(still);
+            }
+            None => self.draw_whole(stage, &view, &light, flash, frame.time_s, image),
+        }
+    }
+}
+
+/// What a frame is seen from: a stage and a camera.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Shot {
+    stage: u64,
+    camera: super::Camera,
+}
+
+/// A static shot's still frame: what its camera sees without the character, its shadow and
+/// the rain, as the passes before anti-aliasing leave it, and anti-aliased.
+#[derive(Debug)]
+struct Still {
+    shot: Shot,
+    image: Image,
+    antialiased: Vec<u8>,
+    /// The lowest point a shadow can fall on (the ground or a prop), metres.
+    lowest_z_m: f32,
+    /// The props' extent across the key light's beam, `[u0, v0, u1, v1]`, metres.
+    props_uv_m: [f32; 4],
+}
+
+impl CpuRenderer {
+    /// Steps 3–6 of a frame, every pixel drawn.
+    fn draw_whole(
+        &mut self,
+        stage: &Stage,
+        view: &View,
+        light: &LightFrame,
+        flash: f32,
+        time_s: f64,
+        image: &mut Image,
+    ) {
+        let all = PixelRect::full(view.width, view.height);
         // 3. Character, props, backdrop: nearest first, so the depth test rejects early.
-        let character_offset = NORMAL_OFFSET_TEXELS / self.character_shadow.texels_per_m.max(1.0);
+        self.draw_character(stage, view, light, flash, image);
+        self.draw_world(stage, view, light, flash, all, image);
+        // 4. Ground and sky behind everything drawn.
+        self.ground_and_sky(stage, view, light, flash, all, image);
+        // 5. Rain or snow on top.
+        precipitation(&stage.environment, stage.seed, time_s, view, image);
+        // 6. Anti-aliasing.
+        antialias(image, &mut self.unfiltered);
+    }
+
+    /// The still frame of `shot`: props, backdrop, ground and sky, without the character's
+    /// shadow (which the caller has emptied) or a flash.
+    fn draw_still(&mut self, stage: &Stage, view: &View, light: &LightFrame, shot: Shot) -> Still {
+        let all = PixelRect::full(view.width, view.height);
+        let mut image = Image::new(view.width as u32, view.height as u32);
+        self.draw_world(stage, view, light, 0.0, all, &mut image);
+        self.ground_and_sky(stage, view, light, 0.0, all, &mut image);
+        let mut antialiased = image.clone();
+        antialias(&mut antialiased, &mut self.unfiltered);
+        let lowest_z_m = stage
+            .world
+            .props
+            .positions
+            .iter()
+            .fold(0.0f32, |z, p| z.min(p[2]));
+        let mut props_uv_m = [
+            f32::INFINITY,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NEG_INFINITY,
+        ];
+        for p in &stage.world.props.positions {
+            let c = light.coords(&Vector3::from(*p));
+            props_uv_m = [
+                props_uv_m[0].min(c[0]),
+                props_uv_m[1].min(c[1]),
+                props_uv_m[2].max(c[0]),
+                props_uv_m[3].max(c[1]),
+            ];
+        }
+        Still {
+            shot,
+            image,
+            antialiased: antialiased.rgb,
+            lowest_z_m,
+            props_uv_m,
+        }
+    }
+
+    /// Steps 3–6 of a frame of a static shot, from its still frame: the character on a layer
+    /// of its own, the still frame with the part the character's shadow can reach drawn again,
+    /// the character laid over it where it is nearer (as the depth test of a whole frame would
+    /// have it), rain or snow, and anti-aliasing where anything differs from the still frame.
+    /// The bits are those of [`CpuRenderer::draw_whole`].
+    fn compose(
+        &mut self,
+        stage: &Stage,
+        view: &View,
+        light: &LightFrame,
+        still: &Still,
+        time_s: f64,
+        image: &mut Image,
+    ) {
+        let all = PixelRect::full(view.width, view.height);
+        let mut layer = std::mem::take(&mut self.character_layer);
+        layer.resize(view.width as u32, view.height as u32);
+        let body = self.draw_character(stage, view, light, 0.0, &mut layer);
+
+        image.rgb.copy_from_slice(&still.image.rgb);
+        image.depth.copy_from_slice(&still.image.depth);
+        image.surface.copy_from_slice(&still.image.surface);
+        let shadow = self.shadow_reach(view, light, still);
+        if !shadow.is_empty() {
+            for y in shadow.y0..shadow.y1 {
+                let row = y * view.width;
+                image.depth[row + shadow.x0..row + shadow.x1].fill(0.0);
+                image.surface[row + shadow.x0..row + shadow.x1].fill(Surface::Sky as u8);
+            }
+            self.draw_world(stage, view, light, 0.0, shadow, image);
+            self.ground_and_sky(stage, view, light, 0.0, shadow, image);
+        }
+        // A character pixel shows where it is at least as near as the props and backdrop
+        // (drawn first in a whole frame, it keeps ties); the ground and sky are behind it.
+        let flat = [Surface::Sky as u8, Surface::Ground as u8];
+        for y in body.y0..body.y1 {
+            for i in y * view.width + body.x0..y * view.width + body.x1 {
+                let c = layer.depth[i];
+                if c > 0.0 && (flat.contains(&image.surface[i]) || c >= image.depth[i]) {
+                    image.depth[i] = c;
+                    image.surface[i] = layer.surface[i];
+                    image.rgb[3 * i..3 * i + 3].copy_from_slice(&layer.rgb[3 * i..3 * i + 3]);
+                }
+            }
+        }
+        self.character_layer = layer;
+
+        if precipitation(&stage.environment, stage.seed, time_s, view, image) {
+            antialias(image, &mut self.unfiltered);
+        } else {
+            let source = &mut self.unfiltered;
+            source.clear();
+            source.extend_from_slice(&image.rgb);
+            image.rgb.copy_from_slice(&still.antialiased);
+            for rect in [shadow, body] {
+                antialias_within(image, source, rect.grown(1, all));
+            }
+        }
+    }
+
+    /// The pixels whose colour the character's shadow can change: the screen box of the part
+    /// of the beam through its casters (widened by two texels for the lookups' filter and by
+    /// the receivers' normal offset) between the highest caster and the lowest receiver, or
+    /// only where it meets the ground when no prop is in it; every pixel when the light is too
+    /// low for that part to be bounded or it reaches behind the camera.
+    fn shadow_reach(&self, view: &View, light: &LightFrame, still: &Still) -> PixelRect {
+        let all = PixelRect::full(view.width, view.height);
+        let map = &self.character_shadow;
+        if map.empty {
+            return PixelRect::EMPTY;
+        }
+        if light.l.z < 0.05 {
+            return all;
+        }
+        let offset_m = NORMAL_OFFSET_TEXELS / self.prop_shadow.texels_per_m.max(1.0);
+        let grow = offset_m + 2.0 / map.texels_per_m;
+        let [u0, v0, u1, v1] = map.casters_uv_m;
+        let (u0, v0, u1, v1) = (u0 - grow, v0 - grow, u1 + grow, v1 + grow);
+        let [p0, q0, p1, q1] = still.props_uv_m;
+        let props_in_beam = p0 <= u1 && u0 <= p1 && q0 <= v1 && v0 <= q1;
+        let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
+        for (u, v) in [(u0, v0), (u1, v0), (u0, v1), (u1, v1)] {
+            let across = light.u * u + light.v * v;
+            let floor_l = (still.lowest_z_m - offset_m - across.z) / light.l.z;
+            let top_l = if props_in_beam {
+                map.top_l_m + offset_m
+            } else {
+                (offset_m - across.z) / light.l.z
+            };
+            for l in [top_l, floor_l] {
+                let q = view.view_of(&(across + light.l * l));
+                if q[2] < NEAR_M || q[2].is_nan() {
+                    return all;
+                }
+                let s = view.project(q);
+                lo = [lo[0].min(s.x), lo[1].min(s.y)];
+                hi = [hi[0].max(s.x), hi[1].max(s.y)];
+            }
+        }
+        PixelRect::covering(lo, hi, 1, all)
+    }
+
+    /// Lights, transforms and draws the character (skinned into `skinned_positions`) into
+    /// `image`; returns the pixels it can cover.
+    fn draw_character(
+        &mut self,
+        stage: &Stage,
+        view: &View,
+        light: &LightFrame,
+        flash: f32,
+        image: &mut Image,
+    ) -> PixelRect {
+        let all = PixelRect::full(view.width, view.height);
+        let offset_m = NORMAL_OFFSET_TEXELS / self.character_shadow.texels_per_m.max(1.0);
         let positions = std::mem::take(&mut self.skinned_positions);
         let normals = std::mem::take(&mut self.skinned_normals);
         let body_albedo = |i: usize| stage.body_vertex_albedo[i];
         self.prepare_vertices(
-            env,
-            &view,
-            &light,
+            &stage.environment,
+            view,
+            light,
             &positions,
             &normals,
             &body_albedo,
             flash,
-            character_offset,
+            offset_m,
         );
-        self.draw(&view, &stage.body.indices, Surface::Character, true, image);
+        self.draw(
+            view,
+            &stage.body.indices,
+            Surface::Character,
+            true,
+            all,
+            image,
+        );
         self.skinned_positions = positions;
         self.skinned_normals = normals;
+        // Every covered pixel centre lies in the hull of the projected vertices, when all are
+        // in front of the near plane.
+        let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
+        for v in &self.vertices {
+            if v.view[2] < NEAR_M || v.view[2].is_nan() {
+                return all;
+            }
+            let s = view.project(v.view);
+            lo = [lo[0].min(s.x), lo[1].min(s.y)];
+            hi = [hi[0].max(s.x), hi[1].max(s.y)];
+        }
+        PixelRect::covering(lo, hi, 1, all)
+    }
+
+    /// Lights, transforms and draws the props and the backdrop into `image`, within
+    /// `scissor`.
+    fn draw_world(
+        &mut self,
+        stage: &Stage,
+        view: &View,
+        light: &LightFrame,
+        flash: f32,
+        scissor: PixelRect,
+        image: &mut Image,
+    ) {
+        let offset_m = NORMAL_OFFSET_TEXELS / self.prop_shadow.texels_per_m.max(1.0);
         for (mesh, surface) in [
             (&stage.world.props, Surface::Prop),
             (&stage.world.backdrop, Surface::Backdrop),
         ] {
-            let offset = NORMAL_OFFSET_TEXELS / self.prop_shadow.texels_per_m.max(1.0);
             let albedo = |i: usize| mesh.albedo[i];
             self.prepare_vertices(
-                env,
-                &view,
-                &light,
+                &stage.environment,
+                view,
+                light,
                 &mesh.positions,
                 &mesh.normals,
                 &albedo,
                 flash,
-                offset,
+                offset_m,
             );
             self.draw(
-                &view,
+                view,
                 &mesh.indices,
                 surface,
                 surface == Surface::Prop,
+                scissor,
                 image,
             );
         }
-
-        // 4. Ground and sky behind everything drawn.
-        self.ground_and_sky(stage, &view, &light, flash, image);
-
-        // 5. Rain or snow on top.
-        precipitation(env, stage.seed, frame.time_s, &view, image);
-
-        // 6. Anti-aliasing.
-        antialias(image, &mut self.unfiltered);
     }
 }
 
 impl CpuRenderer {
-    /// Shades every pixel nothing was drawn on: the ground where the pixel's ray goes down,
-    /// else the sky. The ray and its light-space image are stepped along each row.
+    /// Shades every pixel of `rect` nothing was drawn on: the ground where the pixel's ray
+    /// goes down, else the sky. The ray and its light-space image are stepped along each row
+    /// from its first pixel, whatever the rect, so a pixel's bits do not depend on it.
     fn ground_and_sky(
         &mut self,
         stage: &Stage,
         view: &View,
         light: &LightFrame,
         flash: f32,
+        rect: PixelRect,
         image: &mut Image,
     ) {
         let env = &stage.environment;
@@ -479,15 +753,15 @@ impl CpuRenderer {
         let mirror_wet = if env.indoor { 0.0 } else { 0.55 * env.wetness };
         let inv_fx = 1.0 / view.fx;
         let encoder = &self.encoder;
-        let (w, h) = (view.width, view.height);
-        for row in 0..h {
+        let w = view.width;
+        for row in rect.y0..rect.y1 {
             let y = (row as f32 + 0.5 - view.cy) / view.fy;
             // World direction through the row's first pixel centre (optical z component 1).
             let mut d = view.world_from_optical * Vector3::new((0.5 - view.cx) / view.fx, y, 1.0);
             let mut d_light = [light.u.dot(&d), light.v.dot(&d), light.l.dot(&d)];
-            for x in 0..w {
+            for x in 0..rect.x1 {
                 let i = row * w + x;
-                if image.depth[i] <= 0.0 {
+                if x >= rect.x0 && image.depth[i] <= 0.0 {
                     let len = d.norm();
                     let colour = if d.z < -1e-6 {
                         let t = -eye.z / d.z;
@@ -545,11 +819,17 @@ impl CpuRenderer {
 }
 
 /// Rain streaks or snowflakes in a box in front of the camera, falling with time and slanted
-/// by the wind, each hidden where the scene is nearer.
-fn precipitation(env: &Environment, seed: u64, time_s: f64, view: &View, image: &mut Image) {
+/// by the wind, each hidden where the scene is nearer. Whether there are any.
+fn precipitation(
+    env: &Environment,
+    seed: u64,
+    time_s: f64,
+    view: &View,
+    image: &mut Image,
+) -> bool {
     let (kind, rate) = env.precipitation;
     if kind == Precipitation::None || rate <= 0.0 || env.indoor {
-        return;
+        return false;
     }
     let rain = kind == Precipitation::Rain;
     let count = if rain {
@@ -637,6 +917,7 @@ fn precipitation(env: &Environment, seed: u64, time_s: f64, view: &View, image: 
             }
         }
     }
+    true
 }
 
 /// Edge-directed smoothing at geometric edges: where a pixel and a neighbour show different
@@ -644,12 +925,16 @@ fn precipitation(env: &Environment, seed: u64, time_s: f64, view: &View, image: 
 /// is blended with its neighbours across the edge's luma gradient (a light FXAA). Silhouettes
 /// stop stair-stepping and crawling; textures and flat areas are untouched.
 fn antialias(image: &mut Image, source: &mut Vec<u8>) {
-    let (w, h) = (image.width as usize, image.height as usize);
-    if w < 3 || h < 3 {
-        return;
-    }
     source.clear();
     source.extend_from_slice(&image.rgb);
+    let all = PixelRect::full(image.width as usize, image.height as usize);
+    antialias_within(image, source, all);
+}
+
+/// [`antialias`] within `rect`, from the unfiltered colours `source` (the same image's): every
+/// pixel of `rect` is written, smoothed or as `source` has it.
+fn antialias_within(image: &mut Image, source: &[u8], rect: PixelRect) {
+    let (w, h) = (image.width as usize, image.height as usize);
     let luma = |i: usize| {
         i32::from(source[3 * i]) * 2
             + i32::from(source[3 * i + 1]) * 5
@@ -662,9 +947,14 @@ fn antialias(image: &mut Image, source: &mut Vec<u8>) {
     let flat = [Surface::Sky as u8, Surface::Ground as u8];
     let depth_edge =
         |i: usize, j: usize| (depth[i] - depth[j]).abs() > 0.06 * depth[i].max(depth[j]);
-    for y in 1..h - 1 {
+    for y in rect.y0..rect.y1 {
         let row = y * w;
-        for x in 1..w - 1 {
+        image.rgb[3 * (row + rect.x0)..3 * (row + rect.x1)]
+            .copy_from_slice(&source[3 * (row + rect.x0)..3 * (row + rect.x1)]);
+        if y == 0 || y + 1 >= h {
+            continue;
+        }
+        for x in rect.x0.max(1)..rect.x1.min(w.saturating_sub(1)) {
             let i = row + x;
             let s = surface[i];
             let same = s == surface[i + 1]
@@ -696,3 +986,7 @@ fn antialias(image: &mut Image, source: &mut Vec<u8>) {
         }
     }
 }
+
+#[cfg(test)]
+#[path = "cpu_tests.rs"]
+mod tests;

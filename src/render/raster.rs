@@ -51,15 +51,80 @@ pub(crate) enum Cull {
     Front,
 }
 
-/// Rasterises one triangle into `depth` (`width` pixels per row), calling
-/// `shade(pixel_index, inv_z, weights)` for every covered pixel that passes the depth test
-/// (`inv_z` greater than the stored value, which is then replaced). `weights` are the
-/// perspective-correct barycentric weights of the three vertices.
+/// A rectangle of pixels: columns `x0..x1`, rows `y0..y1` (ends excluded).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct PixelRect {
+    pub x0: usize,
+    pub y0: usize,
+    pub x1: usize,
+    pub y1: usize,
+}
+
+impl PixelRect {
+    /// Every pixel of a `width` × `height` image.
+    pub fn full(width: usize, height: usize) -> PixelRect {
+        PixelRect {
+            x0: 0,
+            y0: 0,
+            x1: width,
+            y1: height,
+        }
+    }
+
+    /// No pixel.
+    pub const EMPTY: PixelRect = PixelRect {
+        x0: 0,
+        y0: 0,
+        x1: 0,
+        y1: 0,
+    };
+
+    /// Whether it holds no pixel.
+    pub fn is_empty(&self) -> bool {
+        self.x0 >= self.x1 || self.y0 >= self.y1
+    }
+
+    /// The pixels whose centres lie in the continuous box `[lo, hi]` (pixel coordinates),
+    /// grown by `margin` pixels on every side and cut to `within`.
+    pub fn covering(lo: [f32; 2], hi: [f32; 2], margin: usize, within: PixelRect) -> PixelRect {
+        let m = margin as f32;
+        // `floor` and `ceil` saturate, and the clamps below keep every bound inside `within`.
+        let start = |v: f32, min: usize| (floor(v - 0.5 - m).max(min as f32)) as usize;
+        let end = |v: f32, max: usize| (ceil(v - 0.5 + m) + 1.0).clamp(0.0, max as f32) as usize;
+        let r = PixelRect {
+            x0: start(lo[0], within.x0),
+            y0: start(lo[1], within.y0),
+            x1: end(hi[0], within.x1),
+            y1: end(hi[1], within.y1),
+        };
+        if r.is_empty() { PixelRect::EMPTY } else { r }
+    }
+
+    /// Grown by `n` pixels on every side, cut to `within`.
+    pub fn grown(&self, n: usize, within: PixelRect) -> PixelRect {
+        if self.is_empty() {
+            return PixelRect::EMPTY;
+        }
+        PixelRect {
+            x0: self.x0.saturating_sub(n).max(within.x0),
+            y0: self.y0.saturating_sub(n).max(within.y0),
+            x1: (self.x1 + n).min(within.x1),
+            y1: (self.y1 + n).min(within.y1),
+        }
+    }
+}
+
+/// Rasterises one triangle into `depth` (`width` pixels per row, `height` rows), calling
+/// `shade(pixel_index, inv_z, weights)` for every covered pixel inside `scissor` that passes
+/// the depth test (`inv_z` greater than the stored value, which is then replaced). `weights`
+/// are the perspective-correct barycentric weights of the three vertices. A pixel's values do
+/// not depend on the scissor: it only skips pixels.
 #[inline]
 pub(crate) fn fill_triangle(
     v: [ScreenVertex; 3],
     width: usize,
     height: usize,
+    scissor: PixelRect,
     depth: &mut [f32],
     cull: Cull,
     mut shade: impl FnMut(usize, f32, [f32; 3]),
@@ -68,7 +133,7 @@ pub(crate) fn fill_triangle(
     // counter-clockwise as the viewer sees them: a front face of a mesh wound counter-clockwise
     // seen from outside.
     let area = (v[1].x - v[0].x) * (v[2].y - v[0].y) - (v[1].y - v[0].y) * (v[2].x - v[0].x);
-    if area.is_nan() || area.abs() <= 1e-12 {
+    if area.is_nan() || area.abs() <= 1e-12 || scissor.is_empty() {
         return;
     }
     if (cull == Cull::Back && area > 0.0) || (cull == Cull::Front && area < 0.0) {
@@ -107,9 +172,9 @@ pub(crate) fn fill_triangle(
     ];
     let inv_area = 1.0 / area;
     let iz = [swapped[0].inv_z, swapped[1].inv_z, swapped[2].inv_z];
-    let (rows, cols) = (row_start as usize, col_start as usize);
-    let (last_row, last_col) = (row_end as usize, col_end as usize);
-    for row in rows..=last_row {
+    let (rows, last_row) = (row_start as usize, row_end as usize);
+    let last_col = col_end as usize;
+    for row in rows.max(scissor.y0)..=last_row.min(scissor.y1 - 1) {
         let y = row as f32 + 0.5;
         // The span of this row where all three edge functions are ≥ 0.
         let (mut lo, mut hi) = (col_start, col_end);
@@ -134,7 +199,15 @@ pub(crate) fn fill_triangle(
             edges[2].0 * x0 + edges[2].1 * y + edges[2].2,
         ];
         let base = row * width;
-        for col in lo.max(cols)..=hi {
+        // The edge values are stepped from the span's start whatever the scissor, so that a
+        // pixel's weights are the same bits with and without it.
+        let first = lo.max(scissor.x0);
+        for _ in lo..first {
+            e[0] += edges[0].0;
+            e[1] += edges[1].0;
+            e[2] += edges[2].0;
+        }
+        for col in first..=hi.min(scissor.x1 - 1) {
             let l = [
                 (e[0] * inv_area).max(0.0),
                 (e[1] * inv_area).max(0.0),
@@ -213,7 +286,15 @@ mod tests {
         for &t in tris {
             // A fresh depth buffer per triangle: counts coverage, not visibility.
             depth.fill(0.0);
-            fill_triangle(t, w, h, &mut depth, Cull::None, |i, _, _| hits[i] += 1);
+            fill_triangle(
+                t,
+                w,
+                h,
+                PixelRect::full(w, h),
+                &mut depth,
+                Cull::None,
+                |i, _, _| hits[i] += 1,
+            );
         }
         hits
     }
@@ -246,11 +327,27 @@ mod tests {
         let far = [sv(0.0, 0.0, 4.0), sv(8.0, 0.0, 4.0), sv(0.0, 8.0, 4.0)];
         let near = [sv(0.0, 0.0, 2.0), sv(8.0, 0.0, 2.0), sv(0.0, 8.0, 2.0)];
         let mut owner = vec![0u8; w * w];
-        fill_triangle(near, w, w, &mut depth, Cull::None, |i, _, b| {
-            assert!((b.iter().sum::<f32>() - 1.0).abs() < 1e-5);
-            owner[i] = 1;
-        });
-        fill_triangle(far, w, w, &mut depth, Cull::None, |i, _, _| owner[i] = 2);
+        fill_triangle(
+            near,
+            w,
+            w,
+            PixelRect::full(w, w),
+            &mut depth,
+            Cull::None,
+            |i, _, b| {
+                assert!((b.iter().sum::<f32>() - 1.0).abs() < 1e-5);
+                owner[i] = 1;
+            },
+        );
+        fill_triangle(
+            far,
+            w,
+            w,
+            PixelRect::full(w, w),
+            &mut depth,
+            Cull::None,
+            |i, _, _| owner[i] = 2,
+        );
         assert!(owner.iter().all(|&o| o != 2));
         assert!((depth[0] - 0.5).abs() < 1e-6);
     }
@@ -262,7 +359,15 @@ mod tests {
         let count = |t| {
             let mut depth = vec![0.0; 64];
             let mut n = 0;
-            fill_triangle(t, 8, 8, &mut depth, Cull::Back, |_, _, _| n += 1);
+            fill_triangle(
+                t,
+                8,
+                8,
+                PixelRect::full(8, 8),
+                &mut depth,
+                Cull::Back,
+                |_, _, _| n += 1,
+            );
             n
         };
         // (0,0) → (8,0) → (0,8) runs clockwise on a y-down screen: a back face.
@@ -278,11 +383,19 @@ mod tests {
         let mut depth = vec![0.0; w * w];
         let t = [sv(0.0, 0.0, 1.0), sv(64.0, 0.0, 3.0), sv(0.0, 64.0, 1.0)];
         let mut seen = None;
-        fill_triangle(t, w, w, &mut depth, Cull::None, |i, _, b| {
-            if i == 31 {
-                seen = Some(b);
-            }
-        });
+        fill_triangle(
+            t,
+            w,
+            w,
+            PixelRect::full(w, w),
+            &mut depth,
+            Cull::None,
+            |i, _, b| {
+                if i == 31 {
+                    seen = Some(b);
+                }
+            },
+        );
         let b = seen.expect("pixel 31 of row 0 is covered");
         // Screen barycentric of vertex 1 at x = 31.5 is ~0.49; in view space it is
         // l1·(1/3) / (l0·1 + l1/3) ≈ 0.24.
