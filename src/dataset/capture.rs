@@ -448,14 +448,16 @@ fn clip_cameras(
 
 /// Where a static shot's camera stands and looks for the whole clip showing content frames
 /// `shows` from `distance_m`, when one place keeps every one of them in frame: about the frames'
-/// mean ground point, looking at their mean centre. A tripod does not follow an arm's swing: a
-/// camera that did would move the background with the action. `None` when the body travels
-/// too far for that (a walk): the camera then tracks it frame by frame.
+/// mean ground point, looking at the middle of their centres' box. A tripod does not follow an
+/// arm's swing: a camera that did would move the background with the action. `None` when the
+/// body moves too far for that (a walk, unless seen from far enough): the camera then tracks it
+/// frame by frame.
 ///
-/// The framing band's bound (`band[0] = R / sin α + c`, `R` the subject's radius about each
-/// frame's centre, `c` the largest centre–ground offset, which the means also keep) holds for a
-/// fixed aim when the distance also covers the farthest centre's distance `δ` from the mean
-/// one: `distance ≥ band[0] + δ / sin α`.
+/// The framing band's bound is `band[0] = R / sin α + c`, with `R` the subject's radius about
+/// each frame's centre and `c` the largest centre–ground offset. For a fixed aim every point is
+/// within `R + δ` of it (`δ` the farthest centre's distance from the aim) and the camera is at
+/// least `distance − |ground − aim|` from it, so the body stays in frame when
+/// `distance ≥ |ground − aim| + R / sin α + δ / sin α`.
 fn held_aim(
     subject: &Subject,
     shows: &[usize],
@@ -465,20 +467,25 @@ fn held_aim(
     #[expect(clippy::cast_precision_loss, reason = "frame counts far below 2^52")]
     let n = shows.len().max(1) as f64;
     let mut ground = [0.0; 2];
-    let mut centre = Vector3::zeros();
+    let (mut lo, mut hi) = (
+        Vector3::repeat(f64::INFINITY),
+        Vector3::repeat(f64::NEG_INFINITY),
+    );
     for &k in shows {
         ground[0] += subject.ground_xy_m[k][0] / n;
         ground[1] += subject.ground_xy_m[k][1] / n;
-        centre += subject.centres_m[k].coords / n;
+        lo = lo.inf(&subject.centres_m[k].coords);
+        hi = hi.sup(&subject.centres_m[k].coords);
     }
-    let centre = Point3::from(centre);
+    let centre = Point3::from((lo + hi) / 2.0);
     let farthest_m = shows
         .iter()
         .map(|&k| (subject.centres_m[k] - centre).norm())
         .fold(0.0, f64::max);
+    let offset_m = (ground[0] - centre.x).hypot(ground[1] - centre.y);
     let reach_m = band[0] - subject.max_centre_offset_m;
     let inv_sin_alpha = reach_m / subject.radius_m;
-    (inv_sin_alpha.is_finite() && distance_m >= band[0] + farthest_m * inv_sin_alpha)
+    (inv_sin_alpha.is_finite() && distance_m >= offset_m + reach_m + farthest_m * inv_sin_alpha)
         .then_some((ground, centre))
 }
 
@@ -729,8 +736,8 @@ mod tests {
         let band = [2.0, 12.0];
         let (ground, centre) =
             held_aim(&subject(0.0), &shows, 2.5, band).expect("an arm swing is held");
-        let mean = subject(0.0).centres_m.iter().map(|c| c.x).sum::<f64>() / 60.0;
-        assert!((centre.x - mean).abs() < 1e-12 && ground == [0.0, 0.0]);
+        // The sway's box is ±3 cm about 0 (its middle, up to the sine's sampling).
+        assert!(centre.x.abs() < 1e-3 && ground == [0.0, 0.0]);
         // At the band's edge there is no room for the sway: the camera tracks.
         assert!(held_aim(&subject(0.0), &shows, 2.0, band).is_none());
         assert!(held_aim(&subject(2.0), &shows, 2.5, band).is_none());
