@@ -232,6 +232,22 @@ impl View {
         let q = self.rotation * p + self.translation;
         [q.x, q.y, q.z]
     }
+    /// The pixels (and one more around) whose centres lie in the screen box of view-space
+    /// points; every pixel when one of them is not in front of the near plane.
+    fn screen_box(&self, points: impl Iterator<Item = [f32; 3]>) -> PixelRect {
+        let all = PixelRect::full(self.width, self.height);
+        let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
+        for q in points {
+            if q[2] < NEAR_M || q[2].is_nan() {
+                return all;
+            }
+            let s = self.project(q);
+            lo = [lo[0].min(s.x), lo[1].min(s.y)];
+            hi = [hi[0].max(s.x), hi[1].max(s.y)];
+        }
+        PixelRect::covering(lo, hi, 1, all)
+    }
+
     #[inline]
     fn project(&self, q: [f32; 3]) -> ScreenVertex {
         let iz = 1.0 / q[2];
@@ -615,8 +631,7 @@ impl CpuRenderer {
         let (u0, v0, u1, v1) = (u0 - grow, v0 - grow, u1 + grow, v1 + grow);
         let [p0, q0, p1, q1] = still.props_uv_m;
         let props_in_beam = p0 <= u1 && u0 <= p1 && q0 <= v1 && v0 <= q1;
-        let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
-        for (u, v) in [(u0, v0), (u1, v0), (u0, v1), (u1, v1)] {
+        let corners = [(u0, v0), (u1, v0), (u0, v1), (u1, v1)].map(|(u, v)| {
             let across = light.u * u + light.v * v;
             let floor_l = (still.lowest_z_m - offset_m - across.z) / light.l.z;
             let top_l = if props_in_beam {
@@ -624,17 +639,9 @@ impl CpuRenderer {
             } else {
                 (offset_m - across.z) / light.l.z
             };
-            for l in [top_l, floor_l] {
-                let q = view.view_of(&(across + light.l * l));
-                if q[2] < NEAR_M || q[2].is_nan() {
-                    return all;
-                }
-                let s = view.project(q);
-                lo = [lo[0].min(s.x), lo[1].min(s.y)];
-                hi = [hi[0].max(s.x), hi[1].max(s.y)];
-            }
-        }
-        PixelRect::covering(lo, hi, 1, all)
+            [top_l, floor_l].map(|l| view.view_of(&(across + light.l * l)))
+        });
+        view.screen_box(corners.iter().flatten().copied())
     }
 
     /// Lights, transforms and draws the character (skinned into `skinned_positions`) into
@@ -672,18 +679,8 @@ impl CpuRenderer {
         );
         self.skinned_positions = positions;
         self.skinned_normals = normals;
-        // Every covered pixel centre lies in the hull of the projected vertices, when all are
-        // in front of the near plane.
-        let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
-        for v in &self.vertices {
-            if v.view[2] < NEAR_M || v.view[2].is_nan() {
-                return all;
-            }
-            let s = view.project(v.view);
-            lo = [lo[0].min(s.x), lo[1].min(s.y)];
-            hi = [hi[0].max(s.x), hi[1].max(s.y)];
-        }
-        PixelRect::covering(lo, hi, 1, all)
+        // Every covered pixel centre lies in the hull of the projected vertices.
+        view.screen_box(self.vertices.iter().map(|v| v.view))
     }
 
     /// Lights, transforms and draws the props and the backdrop into `image`, within
