@@ -275,7 +275,7 @@ pub struct CpuRenderer {
     polygon: Vec<ClipVertex<9>>,
     unfiltered: Vec<u8>,
     /// The shot of the last frame drawn.
-    last_shot: Option<Shot>,
+    last_seen_from: Option<SeenFrom>,
     /// The still frame of the last static shot.
     still: Option<Still>,
     /// The character alone, when it is laid over a still frame.
@@ -404,12 +404,12 @@ impl Renderer for CpuRenderer {
         let flash = env.lightning_flash(frame.time_s, stage.seed);
         // The second frame in a row from one camera on one stage, without a flash: what does
         // not move is drawn once and reused (`still`), for the same bits as a whole frame.
-        let shot = Shot {
+        let seen_from = SeenFrom {
             stage: stage.id,
             camera: frame.camera,
         };
-        let reuse = flash == 0.0 && self.last_shot == Some(shot);
-        self.last_shot = Some(shot);
+        let reuse = flash == 0.0 && self.last_seen_from == Some(seen_from);
+        self.last_seen_from = Some(seen_from);
 
         // Shadow maps: the props' once per stage, then (after a new still frame, which is
         // drawn without the character) the character's.
@@ -433,8 +433,8 @@ impl Renderer for CpuRenderer {
         self.character_shadow.empty = true;
         let still = if reuse {
             match self.still.take() {
-                Some(still) if still.shot == shot => Some(still),
-                _ => Some(self.draw_still(stage, &view, &light, shot)),
+                Some(still) if still.seen_from == seen_from => Some(still),
+                _ => Some(self.draw_still(stage, &view, &light, seen_from)),
             }
         } else {
             None
@@ -469,9 +469,10 @@ impl Renderer for CpuRenderer {
     }
 }
 
-/// What a frame is seen from: a stage and a camera.
+/// What a frame is seen from: a stage and a camera (not [`crate::camera::Shot`], how a
+/// clip's camera moves).
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Shot {
+struct SeenFrom {
     stage: u64,
     camera: super::Camera,
 }
@@ -480,7 +481,7 @@ struct Shot {
 /// the rain, as the passes before anti-aliasing leave it, and anti-aliased.
 #[derive(Debug)]
 struct Still {
-    shot: Shot,
+    seen_from: SeenFrom,
     image: Image,
     antialiased: Vec<u8>,
     /// The lowest point a shadow can fall on (the ground or a prop), metres.
@@ -514,7 +515,13 @@ impl CpuRenderer {
 
     /// The still frame of `shot`: props, backdrop, ground and sky, without the character's
     /// shadow (which the caller has emptied) or a flash.
-    fn draw_still(&mut self, stage: &Stage, view: &View, light: &LightFrame, shot: Shot) -> Still {
+    fn draw_still(
+        &mut self,
+        stage: &Stage,
+        view: &View,
+        light: &LightFrame,
+        seen_from: SeenFrom,
+    ) -> Still {
         let all = PixelRect::full(view.width, view.height);
         let mut image = Image::new(view.width as u32, view.height as u32);
         self.draw_world(stage, view, light, 0.0, all, &mut image);
@@ -543,7 +550,7 @@ impl CpuRenderer {
             ];
         }
         Still {
-            shot,
+            seen_from,
             image,
             antialiased: antialiased.rgb,
             lowest_z_m,
