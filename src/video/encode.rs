@@ -1,5 +1,6 @@
 //! Encoding rendered `rgb24` frames to H.264 with `ffmpeg` (libx264), frame-exact; the
-//! details are on [`VideoEncoder`].
+//! details are on [`VideoEncoder`]. The frames reach ffmpeg as `yuv420p`, converted on the pipe
+//! thread ([`super::yuv`]).
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -17,7 +18,8 @@ use super::{Ffmpeg, InvalidSetting, Rational, VideoError};
 
 /// The default libx264 preset. Measured on a synthetic moving render (2 shared cores, ffmpeg
 /// 5.1, CRF 23; `encode_speed_report` in `tests/it/video.rs`), ffmpeg CPU per frame and bytes per
-/// frame:
+/// frame, when ffmpeg still converted the frames from `rgb24` (about 0.3 ms of the 1.4 at
+/// 320×240; [`super::yuv`] does that now):
 ///
 /// | preset    | 320×240         | 640×360         |
 /// |-----------|-----------------|-----------------|
@@ -211,11 +213,13 @@ pub struct EncodedVideo {
 
 /// ffmpeg encoding `rgb24` frames into a hidden `.part` file, renamed when complete and checked.
 ///
-/// The command (`ffmpeg-sidecar` builds and spawns it):
+/// The command (`ffmpeg-sidecar` builds and spawns it), fed `yuv420p` made from each frame by
+/// the pipe thread ([`super::yuv`]: BT.601 limited range, ffmpeg's own default, at a tenth of
+/// its conversion's CPU):
 ///
 /// ```text
 /// ffmpeg -hide_banner -nostats -loglevel level+warning
-///        -f rawvideo -pix_fmt rgb24 -video_size WxH -framerate NUM/DEN -i -
+///        -f rawvideo -pix_fmt yuv420p -video_size WxH -framerate NUM/DEN -i -
 ///        -map 0:v:0 -an -sn -dn
 ///        -c:v libx264 -preset P -crf C -pix_fmt yuv420p -threads T
 ///        -bf 0 -g GOP -sc_threshold 0 -forced-idr 1 [-force_key_frames T1,T2,…]
@@ -310,7 +314,11 @@ impl VideoEncoder {
             frames_written: 0,
             running: None,
         };
-        match start_threads(&mut child) {
+        match start_threads(
+            &mut child,
+            settings.width as usize,
+            settings.height as usize,
+        ) {
             Ok((frames, spare, writer, stderr)) => {
                 encoder.running = Some(Running {
                     child,
@@ -629,7 +637,7 @@ fn encode_command(ffmpeg: &Ffmpeg, settings: &EncodeSettings, plan: &EncodePlan)
         // ffmpeg-sidecar put `-loglevel level+info` first; the last `-loglevel` wins.
         .args(["-nostats", "-loglevel", "level+warning"])
         .format("rawvideo")
-        .pix_fmt("rgb24")
+        .pix_fmt("yuv420p")
         .args([
             "-video_size".to_owned(),
             format!("{}x{}", settings.width, settings.height),
@@ -676,7 +684,7 @@ type Threads = (
     StderrTail,
 );
 
-fn start_threads(child: &mut FfmpegChild) -> std::io::Result<Threads> {
+fn start_threads(child: &mut FfmpegChild, width: usize, height: usize) -> std::io::Result<Threads> {
     let missing = |what| std::io::Error::other(format!("ffmpeg's {what} was not piped"));
     let stdin = child.take_stdin().ok_or_else(|| missing("stdin"))?;
     let stderr = child.take_stderr().ok_or_else(|| missing("stderr"))?;
@@ -687,20 +695,24 @@ fn start_threads(child: &mut FfmpegChild) -> std::io::Result<Threads> {
     let (spare_tx, spare_rx) = std::sync::mpsc::sync_channel::<Vec<u8>>(QUEUE_FRAMES + 1);
     let writer = std::thread::Builder::new()
         .name("ffmpeg-stdin".into())
-        .spawn(move || write_frames(stdin, &frames_rx, &spare_tx))?;
+        .spawn(move || write_frames(stdin, width, height, &frames_rx, &spare_tx))?;
     Ok((frames_tx, spare_rx, writer, stderr))
 }
 
-/// The writer thread: frames from the queue to ffmpeg's stdin, buffers back for reuse. Ends
-/// (closing stdin, which tells ffmpeg the input is over) when the queue is closed or a write
-/// fails.
+/// The writer thread: `rgb24` frames from the queue to ffmpeg's stdin as `yuv420p`, buffers
+/// back for reuse. Ends (closing stdin, which tells ffmpeg the input is over) when the queue is
+/// closed or a write fails.
 fn write_frames(
     mut stdin: ChildStdin,
+    width: usize,
+    height: usize,
     frames: &Receiver<Vec<u8>>,
     spare: &SyncSender<Vec<u8>>,
 ) -> std::io::Result<()> {
+    let mut yuv = Vec::with_capacity(super::yuv::yuv420p_bytes(width, height));
     for frame in frames {
-        stdin.write_all(&frame)?;
+        super::yuv::yuv420p_from_rgb24(width, height, &frame, &mut yuv);
+        stdin.write_all(&yuv)?;
         // A full spare queue just drops the buffer.
         let _ = spare.try_send(frame);
     }

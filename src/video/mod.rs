@@ -3,7 +3,8 @@
 //!
 //! - [`Ffmpeg`] finds `ffmpeg` and `ffprobe` (`AUTOACT_FFMPEG`, then `PATH`, then the download
 //!   cache), or downloads a static build when the user asked for it ([`Ffmpeg::download`]).
-//! - [`VideoEncoder`] pipes raw `rgb24` frames into `ffmpeg` (libx264, `yuv420p`, no B-frames,
+//! - [`VideoEncoder`] pipes raw frames into `ffmpeg` (given as `rgb24`, sent as `yuv420p`
+//!   converted on its pipe thread; libx264, no B-frames,
 //!   constant frame rate with frame k at exactly k/fps, IDR frames at every requested index) and
 //!   writes a hidden `.<name>.part` sibling that is renamed only once `ffmpeg` exited 0 and
 //!   `ffprobe` counted every frame and found every requested keyframe. On any error, on
@@ -48,6 +49,7 @@ mod remux;
 mod stderr_tail;
 mod stills;
 mod tools;
+mod yuv;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitStatus;

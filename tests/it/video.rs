@@ -161,6 +161,85 @@ fn encodes_exact_frame_count_and_timestamps_and_decodes_back_in_order() {
     assert_eq!(indices, (0..200).collect::<Vec<_>>());
 }
 
+/// The planes ffmpeg makes (`-pix_fmt yuv420p`) from `input` read with `input_format`.
+fn yuv420p_planes(ffmpeg: &Ffmpeg, input_format: &[&str], input: &Path) -> Vec<u8> {
+    let out = Command::new(ffmpeg.ffmpeg_path())
+        .args(["-v", "error", "-nostdin"])
+        .args(input_format)
+        .arg("-i")
+        .arg(input)
+        .args([
+            "-frames:v",
+            "1",
+            "-f",
+            "rawvideo",
+            "-pix_fmt",
+            "yuv420p",
+            "-",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out.stdout
+}
+
+/// The encoder converts frames to `yuv420p` itself (`video::yuv`): encoded losslessly (CRF 0)
+/// and decoded, a smooth picture's planes are ffmpeg's own conversion of it within a code value
+/// of luma and two of chroma (its chroma filter is not a 2×2 mean), so the videos' colours are
+/// what they were when ffmpeg converted.
+#[test]
+fn the_encoders_colours_are_ffmpegs_conversion() {
+    let Some(ffmpeg) = ffmpeg_or_skip("the_encoders_colours_are_ffmpegs_conversion") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let (w, h) = (96_u32, 64_u32);
+    let mut rgb = Vec::new();
+    for y in 0..h {
+        for x in 0..w {
+            let (x, y) = (f64::from(x), f64::from(y));
+            rgb.extend(
+                [
+                    128.0 + 120.0 * (x / 23.0).sin(),
+                    128.0 + 120.0 * (y / 17.0).cos(),
+                    128.0 + 100.0 * ((x + y) / 31.0).sin(),
+                ]
+                .map(|c| c.round() as u8),
+            );
+        }
+    }
+    let raw = dir.path().join("frame.rgb");
+    std::fs::write(&raw, &rgb).unwrap();
+    let size = format!("{w}x{h}");
+    let reference = yuv420p_planes(
+        &ffmpeg,
+        &["-f", "rawvideo", "-pix_fmt", "rgb24", "-video_size", &size],
+        &raw,
+    );
+
+    let output = dir.path().join("lossless.mp4");
+    let mut settings = EncodeSettings::new(w, h, 30.0);
+    settings.crf = 0;
+    let mut encoder = VideoEncoder::start(&ffmpeg, &output, &settings).unwrap();
+    encoder.write_frame(&rgb).unwrap();
+    encoder.finish().unwrap();
+    let ours = yuv420p_planes(&ffmpeg, &[], &output);
+
+    let luma = (w * h) as usize;
+    assert_eq!(ours.len(), luma * 3 / 2);
+    assert_eq!(reference.len(), ours.len());
+    let worst = |range: std::ops::Range<usize>| {
+        range.map(|i| ours[i].abs_diff(reference[i])).max().unwrap()
+    };
+    assert!(worst(0..luma) <= 1, "luma differs by {}", worst(0..luma));
+    let chroma = worst(luma..ours.len());
+    assert!(chroma <= 2, "chroma differs by {chroma}");
+}
+
 #[test]
 fn ntsc_and_decimal_rates_keep_1000_frames_at_exact_times() {
     let Some(ffmpeg) = ffmpeg_or_skip("ntsc_and_decimal_rates…") else {
