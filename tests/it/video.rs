@@ -65,6 +65,32 @@ fn read_index(width: u32, height: u32, frame: &[u8]) -> u64 {
     index
 }
 
+/// The raw frames ffmpeg writes from `path`, read with `input_format`, in `pix_fmt` (`output`:
+/// more output options).
+fn raw_frames(
+    ffmpeg: &Ffmpeg,
+    path: &Path,
+    input_format: &[&str],
+    output: &[&str],
+    pix_fmt: &str,
+) -> Vec<u8> {
+    let out = Command::new(ffmpeg.ffmpeg_path())
+        .args(["-v", "error", "-nostdin"])
+        .args(input_format)
+        .arg("-i")
+        .arg(path)
+        .args(output)
+        .args(["-f", "rawvideo", "-pix_fmt", pix_fmt, "-"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out.stdout
+}
+
 /// Decodes `path` with ffmpeg to rgb24 frames.
 fn decode(
     ffmpeg: &Ffmpeg,
@@ -73,22 +99,10 @@ fn decode(
     height: u32,
     input_format: &[&str],
 ) -> Vec<Vec<u8>> {
-    let out = Command::new(ffmpeg.ffmpeg_path())
-        .args(["-v", "error", "-nostdin"])
-        .args(input_format)
-        .arg("-i")
-        .arg(path)
-        .args(["-f", "rawvideo", "-pix_fmt", "rgb24", "-"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let bytes = raw_frames(ffmpeg, path, input_format, &[], "rgb24");
     let size = (width * height * 3) as usize;
-    assert_eq!(out.stdout.len() % size, 0);
-    out.stdout.chunks_exact(size).map(<[u8]>::to_vec).collect()
+    assert_eq!(bytes.len() % size, 0);
+    bytes.chunks_exact(size).map(<[u8]>::to_vec).collect()
 }
 
 fn encode_indexed(
@@ -161,32 +175,6 @@ fn encodes_exact_frame_count_and_timestamps_and_decodes_back_in_order() {
     assert_eq!(indices, (0..200).collect::<Vec<_>>());
 }
 
-/// The planes ffmpeg makes (`-pix_fmt yuv420p`) from `input` read with `input_format`.
-fn yuv420p_planes(ffmpeg: &Ffmpeg, input_format: &[&str], input: &Path) -> Vec<u8> {
-    let out = Command::new(ffmpeg.ffmpeg_path())
-        .args(["-v", "error", "-nostdin"])
-        .args(input_format)
-        .arg("-i")
-        .arg(input)
-        .args([
-            "-frames:v",
-            "1",
-            "-f",
-            "rawvideo",
-            "-pix_fmt",
-            "yuv420p",
-            "-",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out.stdout
-}
-
 /// The encoder converts frames to `yuv420p` itself (`video::yuv`): encoded losslessly (CRF 0)
 /// and decoded, a smooth picture's planes are ffmpeg's own conversion of it within a code value
 /// of luma and two of chroma (its chroma filter is not a 2×2 mean), so the videos' colours are
@@ -215,10 +203,13 @@ fn the_encoders_colours_are_ffmpegs_conversion() {
     let raw = dir.path().join("frame.rgb");
     std::fs::write(&raw, &rgb).unwrap();
     let size = format!("{w}x{h}");
-    let reference = yuv420p_planes(
+    let first = ["-frames:v", "1"];
+    let reference = raw_frames(
         &ffmpeg,
-        &["-f", "rawvideo", "-pix_fmt", "rgb24", "-video_size", &size],
         &raw,
+        &["-f", "rawvideo", "-pix_fmt", "rgb24", "-video_size", &size],
+        &first,
+        "yuv420p",
     );
 
     let output = dir.path().join("lossless.mp4");
@@ -227,7 +218,7 @@ fn the_encoders_colours_are_ffmpegs_conversion() {
     let mut encoder = VideoEncoder::start(&ffmpeg, &output, &settings).unwrap();
     encoder.write_frame(&rgb).unwrap();
     encoder.finish().unwrap();
-    let ours = yuv420p_planes(&ffmpeg, &[], &output);
+    let ours = raw_frames(&ffmpeg, &output, &[], &first, "yuv420p");
 
     let luma = (w * h) as usize;
     assert_eq!(ours.len(), luma * 3 / 2);
