@@ -72,7 +72,7 @@ fn main() -> Result<()> {
         qa: autoact::trim::qa::Thresholds::default(),
         clips: autoact::trim::policy::ClipPolicies::default(),
         // The cut alone is measured.
-        contact_sheets: false,
+        lists: false,
     };
     let reencode_all = TrimOptions {
         force_reencode: true,

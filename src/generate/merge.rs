@@ -228,10 +228,7 @@ fn fill(parts: &[Part], plan: Option<&[u8]>, out: &Path) -> Result<MergeSummary,
             let path = out.join(PLAN_FILE);
             crate::atomic_file::write(&path, bytes).map_err(GenerateError::io("writing", &path))?;
             let planned = PlannedClips::read(&path)?;
-            let options = crate::trim::run::TrimOptions {
-                contact_sheets: true,
-                ..trim_options(&clip_choice(first)?, &planned)
-            };
+            let options = trim_options(&clip_choice(first)?, &planned);
             let ffmpeg = crate::video::Ffmpeg::locate()?;
             crate::trim::run::relist(&ffmpeg, &dataset, &planned.labels, &options)?
         }

@@ -362,8 +362,8 @@ pub(crate) fn trim_options(choice: &ClipChoice, planned: &PlannedClips) -> TrimO
             by_label: planned.clips.clone(),
             overrides: crate::dataset::clips::ClipsSection::default(),
         },
-        // Drawn once over every clip at the end ([`Run::finish_dataset`]), not per capture.
-        contact_sheets: false,
+        // Written once over every clip at the end ([`Run::finish_dataset`]), not per capture.
+        lists: false,
     }
 }
 
@@ -654,7 +654,6 @@ impl Run<'_> {
         let trimmed = self.trim(&capture, &paths)?;
         summary.seconds.trim += t.elapsed().as_secs_f64();
         summary.truncated += trimmed.truncated.len();
-        summary.lists = Some(trimmed.lists);
         journal.record(dir, name, Stage::Clips)?;
         let cut = trimmed.copied + trimmed.reencoded + trimmed.skipped;
         self.progress.session_done(clips, cut as u64);
@@ -885,10 +884,7 @@ impl Run<'_> {
             return Ok(None);
         }
         let planned = PlannedClips::read(&path)?;
-        let options = TrimOptions {
-            contact_sheets: true,
-            ..trim_options(&self.job.clips, &planned)
-        };
+        let options = trim_options(&self.job.clips, &planned);
         let dataset = self.job.output.join(DATASET_DIR);
         let lists = crate::trim::run::relist(&self.ffmpeg, &dataset, &planned.labels, &options)?;
         Ok(Some(lists))

@@ -180,7 +180,7 @@ pub fn trim_job(job: &TrimJob, stop: &AtomicBool) -> Result<TrimReport, TrimJobE
             by_label: plan.as_ref().map(|p| p.clips.clone()).unwrap_or_default(),
             overrides: job.clips,
         },
-        contact_sheets: true,
+        lists: true,
     };
     // The quality checks read the render bag's annotations, when there is one (a video placed
     // by `--video-start` may have none).

@@ -59,9 +59,12 @@ pub struct TrimOptions {
     pub qa: Thresholds,
     /// How each class's segments are cut into clips.
     pub clips: ClipPolicies,
-    /// Draw each class's contact sheet ([`super::sheets`]) when the lists are rewritten
-    /// (`generate` leaves them out per capture and draws them once at its end).
-    pub contact_sheets: bool,
+    /// Rewrite the dataset-wide files once the clips are cut: the lists and splits, the QA
+    /// report, the label files and each class's contact sheet ([`super::sheets`]). They cover
+    /// every clip of the folder, so rewriting them after each capture costs time that grows
+    /// with the dataset: `generate` leaves them out per capture and writes them once, after its
+    /// last ([`relist`]).
+    pub lists: bool,
 }
 
 /// The capture video and where it sits on the capture's timeline.
@@ -198,6 +201,9 @@ pub fn trim_capture(
     );
     progress(ranges.len(), ranges.len());
     // Lists from what is complete, whatever happened above.
+    if !options.lists {
+        return result.map(|()| summary);
+    }
     let lists = rewrite_lists(ffmpeg, dir, &manifest, options);
     match (result, lists) {
         (
@@ -251,7 +257,8 @@ fn timeline(source: &VideoSource<'_>, frame_count: u64) -> Result<VideoTiming, T
 
 /// Every list of the dataset folder `dir` rewritten from its manifest, under the dataset's lock,
 /// `labels` being its class list: what `autoact merge` does once the clips and manifest lines of
-/// every part are in one folder (the lists are those one run over every capture would write).
+/// every part are in one folder, and `generate` after its last capture (the lists are those one
+/// run over every capture would write).
 /// `ffmpeg` draws the classes' contact sheets.
 ///
 /// # Errors
@@ -584,11 +591,7 @@ fn rewrite_lists(
     let lists = write_lists(dir, &complete, &splits)?;
     let qa = write_qa_report(dir, &complete, &options.qa)?;
     let labels = write_label_files(dir, &complete, &splits)?;
-    let sheets = if options.contact_sheets {
-        write_contact_sheets(ffmpeg, dir, &complete, &options.qa)?
-    } else {
-        SheetSummary::default()
-    };
+    let sheets = write_contact_sheets(ffmpeg, dir, &complete, &options.qa)?;
     Ok(Rewritten {
         lists,
         refined: splits.refined,

@@ -451,6 +451,54 @@ fn a_run_killed_at_many_points_then_rerun_equals_an_uninterrupted_one() {
     );
 }
 
+/// The dataset-wide files (lists, splits, QA report, label files, contact sheets) are written
+/// once, after a run's last session, not after each (they cover every clip, so rewriting them
+/// per session made a run's time grow with the square of its sessions): a run killed once a
+/// session's clips are final has written none of them, and the run that finishes writes them
+/// as an uninterrupted run does.
+#[test]
+fn the_dataset_wide_files_are_written_once_after_the_last_session() {
+    let (Some((_keep, spec, _)), Some((_dir, skipped, _))) = (reference(), skipping()) else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("partial");
+    let sessions_done = || {
+        let journal = std::fs::read_to_string(out.join("generate.json")).unwrap_or_default();
+        journal.matches("\"clips\"").count()
+    };
+    // Runs killed at their 100th event, each resuming the one before, until one dies with a
+    // session's clips final.
+    for _ in 0..20 {
+        let o = generate(spec, &out, &["--abort-after", "100"]);
+        assert_eq!(o.status.code(), Some(86), "{}", stderr(&o));
+        if sessions_done() > 0 {
+            break;
+        }
+    }
+    assert!(sessions_done() > 0, "no run got a session's clips done");
+    let dataset = out.join("dataset");
+    let manifest = std::fs::read_to_string(dataset.join("manifest.jsonl")).unwrap();
+    assert!(!manifest.is_empty());
+    for file in [
+        "train_list_videos.txt",
+        "clips.jsonl",
+        "qa.json",
+        "skeleton_3d_ntu25.pkl",
+        "contact_sheets",
+    ] {
+        let path = dataset.join("annotations").join(file);
+        assert!(
+            !path.exists(),
+            "{} written before the run's end",
+            path.display()
+        );
+    }
+    let o = generate(spec, &out, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_same_tree(&skipped.join("dataset"), &dataset);
+}
+
 /// A real `kill -9` (SIGKILL: no handler, no clean-up, its ffmpeg orphaned) at seeded random
 /// moments, five seeds: each seed kills successive runs in one folder (at most six times), each
 /// either after 0.05–2 s of work or once it has drawn 1–150 frames (so kills land inside renders,
