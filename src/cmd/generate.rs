@@ -31,7 +31,9 @@ Examples:
 Layout of DIR:
   generate.json                     journal: the settings, the shard, how far each session came
   plan.json                         the dataset's plan (the splits are decided over all of it)
-  dataset/                          the dataset, laid out as `autoact trim` describes
+  dataset/                          the dataset, laid out as `autoact trim` describes (its
+                                    lists, label files and contact sheets written once, after
+                                    the last session)
   previews/<session>.png            contact sheets, with --previews
   captures/, renders/               each session's capture bag, video and render bag, deleted
                                     once its clips are final unless --keep-intermediates

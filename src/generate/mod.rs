@@ -876,8 +876,9 @@ impl Run<'_> {
         Ok(())
     }
 
-    /// The dataset's lists rewritten once more, now with every class's contact sheet, once every
-    /// session is done: what `merge` does over the parts too, so both give the same files.
+    /// The dataset-wide files (lists, splits, QA report, label files, contact sheets) written
+    /// once every session is done, the sessions' trims having left them out: what `merge` does
+    /// over the parts too, so both give the same files.
     fn finish_dataset(&self) -> Result<Option<ListSummary>, GenerateError> {
         let path = self.job.output.join(PLAN_FILE);
         if !path.is_file() {
