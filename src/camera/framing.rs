@@ -13,8 +13,12 @@
 //! the character's ground point, which can be up to `o` (the largest horizontal offset of `c`
 //! from the ground point) away from `c`, so `d ≥ D − o`: the band's minimum is
 //! `R / sin α + o`, whatever the camera's height.
+//!
+//! **A fixed aim.** A static shot's camera holds one place and aim for a whole clip when the
+//! same bound, widened by how far the aim is from each frame's centre and ground point, still
+//! holds ([`Subject::held_aim`]).
 
-use nalgebra::Point3;
+use nalgebra::{Point3, Vector3};
 
 use super::{CameraError, Intrinsics};
 use crate::skeleton::character::Character;
@@ -127,6 +131,50 @@ impl Subject {
         subject.radius_m = joint_radius_m + BODY_ALLOWANCE_M;
         Ok(subject)
     }
+
+    /// Where a static shot's camera stands and looks for the whole clip showing frames
+    /// `shows` from `distance_m`, when one place keeps every one of them in frame: about the frames'
+    /// mean ground point, looking at the middle of their centres' box. A tripod does not follow an
+    /// arm's swing: a camera that did would move the background with the action. `None` when the
+    /// body moves too far for that (a walk, unless seen from far enough): the camera then tracks it
+    /// frame by frame.
+    ///
+    /// `band` is [`framing_band`]'s for this subject; its bound is `band[0] = R / sin α + c`, with `R` the subject's radius about
+    /// each frame's centre and `c` the largest centre–ground offset. For a fixed aim every point is
+    /// within `R + δ` of it (`δ` the farthest centre's distance from the aim) and the camera is at
+    /// least `distance − |ground − aim|` from it, so the body stays in frame when
+    /// `distance ≥ |ground − aim| + R / sin α + δ / sin α`.
+    #[must_use]
+    pub fn held_aim(
+        &self,
+        shows: &[usize],
+        distance_m: f64,
+        band: [f64; 2],
+    ) -> Option<([f64; 2], Point3<f64>)> {
+        #[expect(clippy::cast_precision_loss, reason = "frame counts far below 2^52")]
+        let n = shows.len().max(1) as f64;
+        let mut ground = [0.0; 2];
+        let (mut lo, mut hi) = (
+            Vector3::repeat(f64::INFINITY),
+            Vector3::repeat(f64::NEG_INFINITY),
+        );
+        for &k in shows {
+            ground[0] += self.ground_xy_m[k][0] / n;
+            ground[1] += self.ground_xy_m[k][1] / n;
+            lo = lo.inf(&self.centres_m[k].coords);
+            hi = hi.sup(&self.centres_m[k].coords);
+        }
+        let centre = Point3::from((lo + hi) / 2.0);
+        let farthest_m = shows
+            .iter()
+            .map(|&k| (self.centres_m[k] - centre).norm())
+            .fold(0.0, f64::max);
+        let offset_m = (ground[0] - centre.x).hypot(ground[1] - centre.y);
+        let reach_m = band[0] - self.max_centre_offset_m;
+        let inv_sin_alpha = reach_m / self.radius_m;
+        (inv_sin_alpha.is_finite() && distance_m >= offset_m + reach_m + farthest_m * inv_sin_alpha)
+            .then_some((ground, centre))
+    }
 }
 
 /// The band `[min, max]` of horizontal camera distances (from the character's ground point,
@@ -179,6 +227,36 @@ pub fn framing_band(
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
+
+    #[test]
+    fn a_static_shot_holds_still_over_an_arm_swing_and_tracks_a_walk() {
+        // 60 frames: the centre sways 3 cm with the arm, or walks 2 m.
+        let subject = |walk_m: f64| Subject {
+            centres_m: (0..60)
+                .map(|f| {
+                    let s = f64::from(f) / 59.0;
+                    Point3::new(walk_m * s + 0.03 * (7.0 * s).sin(), 0.0, 0.9)
+                })
+                .collect(),
+            ground_xy_m: (0..60)
+                .map(|f| [walk_m * f64::from(f) / 59.0, 0.0])
+                .collect(),
+            radius_m: 1.0,
+            max_centre_offset_m: 0.03,
+        };
+        let shows: Vec<usize> = (0..60).collect();
+        let band = [2.0, 12.0];
+        let (ground, centre) = subject(0.0)
+            .held_aim(&shows, 2.5, band)
+            .expect("an arm swing is held");
+        // The sway's box is ±3 cm about 0 (its middle, up to the sine's sampling).
+        assert!(centre.x.abs() < 1e-3 && ground == [0.0, 0.0]);
+        // At the band's edge there is no room for the sway: the camera tracks.
+        assert!(subject(0.0).held_aim(&shows, 2.0, band).is_none());
+        assert!(subject(2.0).held_aim(&shows, 2.5, band).is_none());
+        // From far enough away even the walk stays in frame.
+        assert!(subject(2.0).held_aim(&shows, 12.0, band).is_some());
+    }
     use nalgebra::Vector3;
 
     #[test]

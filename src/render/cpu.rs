@@ -274,7 +274,7 @@ pub struct CpuRenderer {
     vertices: Vec<ClipVertex<9>>,
     polygon: Vec<ClipVertex<9>>,
     unfiltered: Vec<u8>,
-    /// The shot of the last frame drawn.
+    /// What the last frame drawn was seen from.
     last_seen_from: Option<SeenFrom>,
     /// The still frame of the last static shot.
     still: Option<Still>,
@@ -513,7 +513,7 @@ impl CpuRenderer {
         antialias(image, &mut self.unfiltered);
     }
 
-    /// The still frame of `shot`: props, backdrop, ground and sky, without the character's
+    /// The still frame seen from `seen_from`: props, backdrop, ground and sky, without the character's
     /// shadow (which the caller has emptied) or a flash.
     fn draw_still(
         &mut self,

@@ -533,10 +533,12 @@ fn runs_killed_with_sigkill_at_random_moments_then_rerun_equal_an_uninterrupted_
             let mut args = vec!["-q", "generate", arg(spec), "-o", arg(&out)];
             args.extend(OPTIONS);
             args.extend(["--drawn-log", arg(&log)]);
+            // Its stderr to a file, for the message if it fails.
+            let errors = dir.path().join(format!("seed{seed}.stderr"));
             let mut child = Command::new(env!("CARGO_BIN_EXE_autoact"))
                 .args(&args)
                 .stdout(Stdio::null())
-                .stderr(Stdio::null())
+                .stderr(std::fs::File::create(&errors).unwrap())
                 .spawn()
                 .unwrap();
             let start = Instant::now();
@@ -557,7 +559,11 @@ fn runs_killed_with_sigkill_at_random_moments_then_rerun_equal_an_uninterrupted_
                 std::thread::sleep(Duration::from_millis(5));
             };
             if let Some(status) = finished {
-                assert!(status.success(), "seed {seed}: a run failed: {status}");
+                assert!(
+                    status.success(),
+                    "seed {seed}: a run failed: {status}: {}",
+                    std::fs::read_to_string(&errors).unwrap_or_default()
+                );
                 runs.push(drawn_since(&log, &mut from));
                 break;
             }
