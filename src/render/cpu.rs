@@ -731,8 +731,11 @@ impl CpuRenderer {
 
 impl CpuRenderer {
     /// Shades every pixel of `rect` nothing was drawn on: the ground where the pixel's ray
-    /// goes down, else the sky. The ray and its light-space image are stepped along each row
-    /// from its first pixel, whatever the rect, so a pixel's bits do not depend on it.
+    /// goes down, else the sky. A pixel's ray is its row's first ray plus `x` steps (not a sum
+    /// of steps), so its bits do not depend on the rect.
+    ///
+    /// A ground pixel has one division, `1/d_z`, which gives the hit distance, the footprint and
+    /// the depth.
     fn ground_and_sky(
         &mut self,
         stage: &Stage,
@@ -748,9 +751,11 @@ impl CpuRenderer {
         let ambient = add(env.ambient(1.0), [flash; 3]);
         let direct = scale(env.key_rgb, env.key_dir[2].max(0.0));
         let step = view.world_from_optical.column(0).into_owned() / view.fx;
-        let step_light = [light.u.dot(&step), light.v.dot(&step), light.l.dot(&step)];
+        let step_light = light.coords(&step);
         let eye = view.eye;
         let eye_light = light.coords(&eye);
+        // The depth 1/t = −d_z / eye_z.
+        let neg_inv_eye_z = -1.0 / eye.z;
         let flash_sky = [flash * 0.8, flash * 0.8, flash * 0.9];
         let [character, props] = [&self.character_shadow, &self.prop_shadow];
         let shadows = env.key_shadows;
@@ -761,62 +766,70 @@ impl CpuRenderer {
         for row in rect.y0..rect.y1 {
             let y = (row as f32 + 0.5 - view.cy) / view.fy;
             // World direction through the row's first pixel centre (optical z component 1).
-            let mut d = view.world_from_optical * Vector3::new((0.5 - view.cx) / view.fx, y, 1.0);
-            let mut d_light = [light.u.dot(&d), light.v.dot(&d), light.l.dot(&d)];
-            for x in 0..rect.x1 {
+            let d0 = view.world_from_optical * Vector3::new((0.5 - view.cx) / view.fx, y, 1.0);
+            let d0_light = light.coords(&d0);
+            for x in rect.x0..rect.x1 {
                 let i = row * w + x;
-                if x >= rect.x0 && image.depth[i] <= 0.0 {
-                    let len = d.norm();
-                    let colour = if d.z < -1e-6 {
-                        let t = -eye.z / d.z;
-                        let (px, py) = (eye.x + t * d.x, eye.y + t * d.y);
-                        let distance = t * len;
-                        let cos = -d.z / len;
-                        let footprint = distance * inv_fx / cos.max(0.05);
-                        let (albedo, water) = ground.albedo(px, py, footprint);
-                        let lit = if shadows {
-                            let c = [
-                                eye_light[0] + t * d_light[0],
-                                eye_light[1] + t * d_light[1],
-                                eye_light[2] + t * d_light[2],
-                            ];
-                            character
-                                .visibility(c[0], c[1], c[2])
-                                .min(props.visibility(c[0], c[1], c[2]))
-                        } else {
-                            1.0
-                        };
-                        let mut colour = mul(
-                            albedo,
-                            [
-                                ambient[0] + lit * direct[0],
-                                ambient[1] + lit * direct[1],
-                                ambient[2] + lit * direct[2],
-                            ],
-                        );
-                        let mirror = if water { 1.0 } else { mirror_wet };
-                        if mirror > 0.0 {
-                            let fresnel = 0.02 + 0.98 * (1.0 - cos).powi(5);
-                            let reflected = env.sky([d.x / len, d.y / len, cos]);
-                            colour = mix(colour, add(reflected, flash_sky), fresnel * mirror);
-                        }
-                        image.depth[i] = 1.0 / t;
-                        image.surface[i] = Surface::Ground as u8;
-                        mix(
-                            env.horizon_rgb,
-                            colour,
-                            fast_exp_neg(env.fog_per_m * distance),
-                        )
+                if image.depth[i] > 0.0 {
+                    continue;
+                }
+                let xf = x as f32;
+                let d = d0 + step * xf;
+                let len_sq = d.norm_squared();
+                let len = len_sq.sqrt();
+                let colour = if d.z < -1e-6 {
+                    // t = −eye_z / d_z, and with cos = −d_z / |d| the footprint
+                    // t·|d| / (f_x·cos) = t·|d|² / (f_x·(−d_z)).
+                    let inv_dz = 1.0 / d.z;
+                    let t = -eye.z * inv_dz;
+                    let (px, py) = (eye.x + t * d.x, eye.y + t * d.y);
+                    let distance = t * len;
+                    // cos ≥ 0.05, i.e. −d_z ≥ 0.05·|d|; grazing rays keep the footprint of 0.05.
+                    let footprint = if -d.z >= 0.05 * len {
+                        -t * inv_fx * len_sq * inv_dz
                     } else {
-                        add(env.sky([d.x / len, d.y / len, d.z / len]), flash_sky)
+                        distance * inv_fx * 20.0
                     };
-                    let c = encoder.encode_rgb(colour);
-                    image.rgb[3 * i..3 * i + 3].copy_from_slice(&c);
-                }
-                d += step;
-                for k in 0..3 {
-                    d_light[k] += step_light[k];
-                }
+                    let (albedo, water) = ground.albedo(px, py, footprint);
+                    let lit = if shadows {
+                        let c: [f32; 3] = std::array::from_fn(|k| {
+                            eye_light[k] + t * (d0_light[k] + xf * step_light[k])
+                        });
+                        character
+                            .visibility(c[0], c[1], c[2])
+                            .min(props.visibility(c[0], c[1], c[2]))
+                    } else {
+                        1.0
+                    };
+                    let mut colour = mul(
+                        albedo,
+                        [
+                            ambient[0] + lit * direct[0],
+                            ambient[1] + lit * direct[1],
+                            ambient[2] + lit * direct[2],
+                        ],
+                    );
+                    let mirror = if water { 1.0 } else { mirror_wet };
+                    if mirror > 0.0 {
+                        let inv_len = 1.0 / len;
+                        let cos = -d.z * inv_len;
+                        let fresnel = 0.02 + 0.98 * (1.0 - cos).powi(5);
+                        let reflected = env.sky([d.x * inv_len, d.y * inv_len, cos]);
+                        colour = mix(colour, add(reflected, flash_sky), fresnel * mirror);
+                    }
+                    image.depth[i] = d.z * neg_inv_eye_z;
+                    image.surface[i] = Surface::Ground as u8;
+                    mix(
+                        env.horizon_rgb,
+                        colour,
+                        fast_exp_neg(env.fog_per_m * distance),
+                    )
+                } else {
+                    let inv_len = 1.0 / len;
+                    add(env.sky((d * inv_len).into()), flash_sky)
+                };
+                let c = encoder.encode_rgb(colour);
+                image.rgb[3 * i..3 * i + 3].copy_from_slice(&c);
             }
         }
     }

@@ -1,4 +1,5 @@
-//! A static shot's frames drawn from its still frame are the bits of whole frames.
+//! A static shot's frames drawn from its still frame are the bits of whole frames, and the ground
+//! pass puts every ground pixel on the ground.
 
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 use proptest::prelude::*;
@@ -113,4 +114,57 @@ proptest! {
         // Only lightning draws every frame whole.
         prop_assert!(reused > 0 || stage.environment.lightning);
     }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    /// Law: every ground pixel's depth puts the point it shows on the ground (z = 0), whether
+    /// the camera is rolled or not (a row's rays then differ in height).
+    #[test]
+    fn ground_pixels_lie_on_the_ground_with_and_without_roll(
+        location in 0usize..16,
+        seed in 0u64..1000,
+        distance_m in 1.5f64..14.0,
+        height_m in 0.2f64..5.0,
+        azimuth in 0.0f64..std::f64::consts::TAU,
+        roll_rad in prop::sample::select(vec![0.0, 0.002, -0.3, 0.7]),
+    ) {
+        let rig = Rig::standard();
+        let (stage, character) = stage(&rig, location, 0, ClockTime::NOON, seed);
+        let eye = Point3::new(distance_m * azimuth.cos(), distance_m * azimuth.sin(), height_m);
+        // Aimed low: the ground fills at least the lower part of the frame.
+        let pose = CameraPose::looking_at(eye, Point3::new(0.3, 0.1, 0.3));
+        let roll = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), roll_rad);
+        let mut iso = pose.isometry_world_from_optical();
+        iso.rotation *= roll;
+        let intrinsics = Intrinsics::from_horizontal_fov(96, 72, 60.0).expect("a lens");
+        let camera = Camera { world_from_optical: iso, intrinsics };
+        let posed = pose_of(&rig, &character);
+        let input = FrameInput { camera, pose: &posed, time_s: 0.0 };
+        let mut image = Image::default();
+        CpuRenderer::new().render(&stage, &input, &mut image);
+        let mut ground = 0;
+        for (i, (&s, &inv_depth)) in image.surface.iter().zip(&image.depth).enumerate() {
+            if s != crate::render::world::Surface::Ground as u8 {
+                continue;
+            }
+            ground += 1;
+            let (x, y) = ((i % 96) as f64 + 0.5, (i / 96) as f64 + 0.5);
+            let ray = Vector3::new(
+                (x - intrinsics.cx_px) / intrinsics.fx_px,
+                (y - intrinsics.cy_px) / intrinsics.fy_px,
+                1.0,
+            );
+            let point = iso * Point3::from(ray / f64::from(inv_depth));
+            // f32 rays: a few parts in 10⁶ of the distance.
+            prop_assert!(point.z.abs() < 1e-5 * (point - eye).norm() + 1e-5, "pixel {}: z = {}", i, point.z);
+        }
+        prop_assert!(ground > 0);
+    }
+}
+
+/// The rest pose, standing at the origin.
+fn pose_of(rig: &Rig, character: &Character) -> WorldPose {
+    forward(rig, character, &BonePose::rest(rig), 1.0)
 }

@@ -873,8 +873,6 @@ pub struct GroundTexture {
     /// Texels per metre of each level (`(TEXTURE_SIZE >> k) / tile_m`), divided once here
     /// instead of per pixel.
     level_texels_per_m: [f32; MIP_LEVELS],
-    /// Metres per texel of the largest level.
-    texel_m: f32,
 }
 
 /// Levels of a ground texture's mip chain: `TEXTURE_SIZE` down to 1×1.
@@ -976,7 +974,6 @@ impl GroundTexture {
             texels: all,
             level_start,
             level_texels_per_m,
-            texel_m: tile_m / TEXTURE_SIZE as f32,
         }
     }
 
@@ -1007,7 +1004,9 @@ impl GroundTexture {
     #[inline]
     #[must_use]
     pub fn sample(&self, x: f32, y: f32, footprint_m: f32) -> Rgb {
-        let ratio = footprint_m / self.texel_m;
+        // Footprint in full-size texels (a product: a division here is on the pixel's
+        // critical path).
+        let ratio = footprint_m * self.level_texels_per_m[0];
         let level = if ratio <= 1.0 {
             0
         } else {
