@@ -133,17 +133,17 @@ impl Subject {
     }
 
     /// Where a static shot's camera stands and looks for the whole clip showing frames
-    /// `shows` from `distance_m`, when one place keeps every one of them in frame: about the frames'
-    /// mean ground point, looking at the middle of their centres' box. A tripod does not follow an
-    /// arm's swing: a camera that did would move the background with the action. `None` when the
-    /// body moves too far for that (a walk, unless seen from far enough): the camera then tracks it
-    /// frame by frame.
+    /// `shows` from `distance_m`, when one place keeps every one of them in frame: about the
+    /// frames' mean ground point, looking at the middle of their centres' box. A tripod does not
+    /// follow an arm's swing: a camera that did would move the background with the action.
+    /// `None` when the body moves too far for that (a walk, unless seen from far enough): the
+    /// camera then tracks it frame by frame.
     ///
-    /// `band` is [`framing_band`]'s for this subject; its bound is `band[0] = R / sin α + c`, with `R` the subject's radius about
-    /// each frame's centre and `c` the largest centre–ground offset. For a fixed aim every point is
-    /// within `R + δ` of it (`δ` the farthest centre's distance from the aim) and the camera is at
-    /// least `distance − |ground − aim|` from it, so the body stays in frame when
-    /// `distance ≥ |ground − aim| + R / sin α + δ / sin α`.
+    /// `band` is [`framing_band`]'s for this subject; its bound is `band[0] = R / sin α + c`,
+    /// with `R` the subject's radius about each frame's centre and `c` the largest centre–ground
+    /// offset. For a fixed aim every point is within `R + δ` of it (`δ` the farthest centre's
+    /// distance from the aim) and the camera is at least `distance − |ground − aim|` from it, so
+    /// the body stays in frame when `distance ≥ |ground − aim| + R / sin α + δ / sin α`.
     #[must_use]
     pub fn held_aim(
         &self,
@@ -257,7 +257,6 @@ mod tests {
         // From far enough away even the walk stays in frame.
         assert!(subject(2.0).held_aim(&shows, 12.0, band).is_some());
     }
-    use nalgebra::Vector3;
 
     #[test]
     fn rest_pose_subject_matches_the_rig() {

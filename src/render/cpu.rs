@@ -734,8 +734,8 @@ impl CpuRenderer {
     /// goes down, else the sky. A pixel's ray is its row's first ray plus `x` steps (not a sum
     /// of steps), so its bits do not depend on the rect.
     ///
-    /// A ground pixel has one division, `1/d_z`, which gives the hit distance, the footprint and
-    /// the depth.
+    /// A ground pixel needs one division, `1/d_z`, which gives the hit distance, the footprint
+    /// and the depth (wet ground and water a second one, for the reflected ray).
     fn ground_and_sky(
         &mut self,
         stage: &Stage,

@@ -134,13 +134,13 @@ proptest! {
         let (stage, character) = stage(&rig, location, 0, ClockTime::NOON, seed);
         let eye = Point3::new(distance_m * azimuth.cos(), distance_m * azimuth.sin(), height_m);
         // Aimed low: the ground fills at least the lower part of the frame.
-        let pose = CameraPose::looking_at(eye, Point3::new(0.3, 0.1, 0.3));
+        let aimed = CameraPose::looking_at(eye, Point3::new(0.3, 0.1, 0.3));
         let roll = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), roll_rad);
-        let mut iso = pose.isometry_world_from_optical();
+        let mut iso = aimed.isometry_world_from_optical();
         iso.rotation *= roll;
         let intrinsics = Intrinsics::from_horizontal_fov(96, 72, 60.0).expect("a lens");
         let camera = Camera { world_from_optical: iso, intrinsics };
-        let posed = pose_of(&rig, &character);
+        let posed = pose(&rig, &character, 0, 0.0);
         let input = FrameInput { camera, pose: &posed, time_s: 0.0 };
         let mut image = Image::default();
         CpuRenderer::new().render(&stage, &input, &mut image);
@@ -150,7 +150,8 @@ proptest! {
                 continue;
             }
             ground += 1;
-            let (x, y) = ((i % 96) as f64 + 0.5, (i / 96) as f64 + 0.5);
+            let w = image.width as usize;
+            let (x, y) = ((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
             let ray = Vector3::new(
                 (x - intrinsics.cx_px) / intrinsics.fx_px,
                 (y - intrinsics.cy_px) / intrinsics.fy_px,
@@ -164,9 +165,4 @@ proptest! {
         // only its walls.
         prop_assert!(ground > 0 || stage.environment.indoor, "no ground pixel outdoors");
     }
-}
-
-/// The rest pose, standing at the origin.
-fn pose_of(rig: &Rig, character: &Character) -> WorldPose {
-    forward(rig, character, &BonePose::rest(rig), 1.0)
 }
