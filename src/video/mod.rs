@@ -1,4 +1,4 @@
-//! Video output: rendered RGB frames → H.264 through the system `ffmpeg`, checked with `ffprobe`;
+//! Video output: rendered RGB frames → H.264 through the system `ffmpeg`, checked frame by frame;
 //! H.264 Annex B access units for `foxglove_msgs/CompressedVideo`; PNG stills and contact sheets.
 //!
 //! - [`Ffmpeg`] finds `ffmpeg` and `ffprobe` (`AUTOACT_FFMPEG`, then `PATH`, then the download
@@ -7,7 +7,8 @@
 //!   converted on its pipe thread; libx264, no B-frames,
 //!   constant frame rate with frame k at exactly k/fps, IDR frames at every requested index) and
 //!   writes a hidden `.<name>.part` sibling that is renamed only once `ffmpeg` exited 0 and
-//!   `ffprobe` counted every frame and found every requested keyframe. On any error, on
+//!   its sample tables (an MP4's, read in-process; other containers', by `ffprobe`) hold every
+//!   frame and every requested keyframe. On any error, on
 //!   [`VideoEncoder::abort`] and on drop, `ffmpeg` is killed and the partial file removed.
 //! - [`cut`] cuts a clip of whole frames, by stream copy or re-encoding, checked frame-exact.
 //! - [`Mp4Source`] cuts stream-copy clips of an H.264 MP4 in-process (no process per clip).
@@ -27,7 +28,7 @@
 //!     let frame = vec![(k % 256) as u8; settings.frame_bytes()]; // rendered rgb24 pixels
 //!     encoder.write_frame(&frame)?;
 //! }
-//! let video = encoder.finish()?; // capture.mp4 exists only now, checked by ffprobe
+//! let video = encoder.finish()?; // capture.mp4 exists only now, every frame checked
 //! let stamp_nanos = video.fps.frame_time_nanos(151); // frame 151's time in the video
 //! # let _ = stamp_nanos;
 //! # Ok(())
@@ -165,7 +166,7 @@ pub enum VideoError {
         path: PathBuf,
         /// Frames handed to the encoder.
         written: u64,
-        /// Frames `ffprobe` counted.
+        /// Frames the file holds (its sample table's count, or `ffprobe`'s).
         found: u64,
     },
     /// A frame that was asked to be a keyframe is not one in the finished file.

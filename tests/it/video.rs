@@ -515,54 +515,57 @@ fn ffmpeg_exiting_0_with_a_wrong_file_is_caught_and_leaves_no_file() {
     let Some(real) = ffmpeg_or_skip("ffmpeg_exiting_0_with_a_wrong_file…") else {
         return;
     };
-    let tools = tempfile::tempdir().unwrap();
-    // A genuine 5-frame video whose only keyframe is frame 0.
-    let five = tools.path().join("five.mp4");
-    let mut settings = EncodeSettings::new(64, 48, 30.0);
-    settings.gop_frames = 1000;
-    encode_indexed(&real, &five, &settings, 5);
-    // An "ffmpeg" that swallows its input, copies that file to its output and exits 0.
-    let fake = script(
-        tools.path(),
-        "ffmpeg",
-        &format!(
-            "for a; do last=$a; done\ncat >/dev/null\ncp '{}' \"$last\"",
-            five.display()
-        ),
-    );
-    let ffmpeg = Ffmpeg::from_paths(fake, real.ffprobe_path());
-    let dir = tempfile::tempdir().unwrap();
-    let output = dir.path().join("out.mp4");
+    // An MP4 is checked from its sample tables in-process, a Matroska file by ffprobe.
+    for extension in ["mp4", "mkv"] {
+        let tools = tempfile::tempdir().unwrap();
+        // A genuine 5-frame video whose only keyframe is frame 0.
+        let five = tools.path().join(format!("five.{extension}"));
+        let mut settings = EncodeSettings::new(64, 48, 30.0);
+        settings.gop_frames = 1000;
+        encode_indexed(&real, &five, &settings, 5);
+        // An "ffmpeg" that swallows its input, copies that file to its output and exits 0.
+        let fake = script(
+            tools.path(),
+            "ffmpeg",
+            &format!(
+                "for a; do last=$a; done\ncat >/dev/null\ncp '{}' \"$last\"",
+                five.display()
+            ),
+        );
+        let ffmpeg = Ffmpeg::from_paths(fake, real.ffprobe_path());
+        let dir = tempfile::tempdir().unwrap();
+        let output = dir.path().join(format!("out.{extension}"));
 
-    let mut encoder = VideoEncoder::start(&ffmpeg, &output, &settings).unwrap();
-    for k in 0..7 {
-        encoder.write_frame(&index_frame(64, 48, k)).unwrap();
-    }
-    let err = encoder.finish().unwrap_err();
-    assert!(
-        matches!(
-            err,
-            VideoError::FrameCountMismatch {
-                written: 7,
-                found: 5,
-                ..
-            }
-        ),
-        "{err:?}"
-    );
-    assert_eq!(dir_entries(dir.path()), Vec::<String>::new());
+        let mut encoder = VideoEncoder::start(&ffmpeg, &output, &settings).unwrap();
+        for k in 0..7 {
+            encoder.write_frame(&index_frame(64, 48, k)).unwrap();
+        }
+        let err = encoder.finish().unwrap_err();
+        assert!(
+            matches!(
+                err,
+                VideoError::FrameCountMismatch {
+                    written: 7,
+                    found: 5,
+                    ..
+                }
+            ),
+            "{extension}: {err:?}"
+        );
+        assert_eq!(dir_entries(dir.path()), Vec::<String>::new());
 
-    let with_key = settings.clone().with_keyframes([3]);
-    let mut encoder = VideoEncoder::start(&ffmpeg, &output, &with_key).unwrap();
-    for k in 0..5 {
-        encoder.write_frame(&index_frame(64, 48, k)).unwrap();
+        let with_key = settings.clone().with_keyframes([3]);
+        let mut encoder = VideoEncoder::start(&ffmpeg, &output, &with_key).unwrap();
+        for k in 0..5 {
+            encoder.write_frame(&index_frame(64, 48, k)).unwrap();
+        }
+        let err = encoder.finish().unwrap_err();
+        assert!(
+            matches!(err, VideoError::KeyframeMissing { frame: 3, .. }),
+            "{extension}: {err:?}"
+        );
+        assert_eq!(dir_entries(dir.path()), Vec::<String>::new());
     }
-    let err = encoder.finish().unwrap_err();
-    assert!(
-        matches!(err, VideoError::KeyframeMissing { frame: 3, .. }),
-        "{err:?}"
-    );
-    assert_eq!(dir_entries(dir.path()), Vec::<String>::new());
 }
 
 #[cfg(unix)]
