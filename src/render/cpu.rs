@@ -70,6 +70,11 @@ struct ShadowMap {
     /// The highest caster's coordinate towards the light, metres.
     top_l_m: f32,
     empty: bool,
+    /// Per texel, whether the ground (z = 0) under the texel's centre is lit: one bit per texel,
+    /// rows of [`ShadowMap::ground_row_words`] words (one spare, so that a texel and its right
+    /// neighbour are read as one pair). Filled by [`ShadowMap::bake_ground`]; empty otherwise.
+    ground_lit: Vec<u64>,
+    ground_row_words: usize,
 }
 
 impl ShadowMap {
@@ -104,6 +109,84 @@ impl ShadowMap {
         };
         let top = lit(i) * (1.0 - fx) + lit(i + 1) * fx;
         let bottom = lit(i + self.size) * (1.0 - fx) + lit(i + self.size + 1) * fx;
+        top * (1.0 - fy) + bottom * fy
+    }
+
+    /// Records, per texel, whether the ground plane at the texel's centre is lit (the test
+    /// [`ShadowMap::visibility`] makes, with the receiver's height taken at the texel's centre
+    /// instead of at the pixel's point). The props do not move, so this is done once per stage
+    /// and the ground pass reads 4 bits (a 130 KiB table, which stays in cache) instead of 4
+    /// heights of a 4 MiB map. The two differ only where a caster's height is within about a
+    /// texel of the ground's, along the props' contact lines.
+    fn bake_ground(&mut self, light: &LightFrame) {
+        let n = self.size;
+        self.ground_row_words = n / 64 + 2;
+        self.ground_lit.clear();
+        self.ground_lit.resize(self.ground_row_words * n, 0);
+        if self.empty || light.l.z <= 1e-3 {
+            // No caster, or the light at or below the horizon (the ground has no direct
+            // light then): nothing is read.
+            return;
+        }
+        // A point (u, v, h) of the light's frame is u·U + v·V + h·L in the world; on the
+        // ground its z is 0, so h = −(u·U_z + v·V_z) / L_z.
+        let (du, dv) = (-light.u.z / light.l.z, -light.v.z / light.l.z);
+        let texel_m = 1.0 / self.texels_per_m;
+        let rows = self.heights.chunks_exact(n);
+        for (y, (heights, row)) in rows
+            .zip(self.ground_lit.chunks_exact_mut(self.ground_row_words))
+            .enumerate()
+        {
+            let v = self.origin[1] + (y as f32 + 0.5) * texel_m;
+            let row_offset = v * dv + self.height_offset + self.bias_m;
+            // 64 texels to a word, built in a register (a row's last word may be short).
+            for (k, (chunk, word)) in heights.chunks(64).zip(row.iter_mut()).enumerate() {
+                let mut bits = 0u64;
+                for (j, &caster) in chunk.iter().enumerate() {
+                    let u = self.origin[0] + ((k * 64 + j) as f32 + 0.5) * texel_m;
+                    let lit = caster == 0.0 || caster <= u * du + row_offset;
+                    bits |= u64::from(lit) << j;
+                }
+                *word = bits;
+            }
+        }
+    }
+
+    /// Light visibility on the ground at light-plane point `(u, v)`, [0, 1], or 1 outside the
+    /// map: the bilinear filter of [`ShadowMap::visibility`] over the bits of
+    /// [`ShadowMap::bake_ground`].
+    #[expect(
+        clippy::inline_always,
+        reason = "per-pixel calls in the ground pass, as `visibility`"
+    )]
+    #[inline(always)]
+    fn ground_visibility(&self, u: f32, v: f32) -> f32 {
+        if self.empty {
+            return 1.0;
+        }
+        let x = (u - self.origin[0]) * self.texels_per_m - 0.5;
+        let y = (v - self.origin[1]) * self.texels_per_m - 0.5;
+        let n = self.size as f32;
+        if !(x >= 0.0 && y >= 0.0 && x < n - 1.0 && y < n - 1.0) {
+            return 1.0;
+        }
+        let (xi, yi) = (x as i32 as usize, y as i32 as usize);
+        let (fx, fy) = (x - xi as f32, y - yi as f32);
+        // Texels xi and xi + 1 of a row as the two low bits (the row's spare word makes
+        // `word + 1` valid; shifting the 128-bit pair never shifts by 128).
+        let pair = |row: usize| {
+            let at = row * self.ground_row_words + xi / 64;
+            let wide =
+                u128::from(self.ground_lit[at]) | (u128::from(self.ground_lit[at + 1]) << 64);
+            (wide >> (xi % 64)) as u32 & 3
+        };
+        let (top, bottom) = (pair(yi), pair(yi + 1));
+        if top == 3 && bottom == 3 {
+            return 1.0;
+        }
+        let lit = |bits: u32, k: u32| ((bits >> k) & 1) as f32;
+        let top = lit(top, 0) * (1.0 - fx) + lit(top, 1) * fx;
+        let bottom = lit(bottom, 0) * (1.0 - fx) + lit(bottom, 1) * fx;
         top * (1.0 - fy) + bottom * fy
     }
 }
@@ -424,6 +507,7 @@ impl Renderer for CpuRenderer {
                     0.5,
                     Cull::None,
                 );
+                self.prop_shadow.bake_ground(&light);
                 self.prop_shadow_stage = Some(stage.id);
             }
         } else {
@@ -797,7 +881,7 @@ impl CpuRenderer {
                         });
                         character
                             .visibility(c[0], c[1], c[2])
-                            .min(props.visibility(c[0], c[1], c[2]))
+                            .min(props.ground_visibility(c[0], c[1]))
                     } else {
                         1.0
                     };

@@ -1,5 +1,6 @@
-//! A static shot's frames drawn from its still frame are the bits of whole frames, and the ground
-//! pass puts every ground pixel on the ground.
+//! A static shot's frames drawn from its still frame are the bits of whole frames, the ground
+//! pass puts every ground pixel on the ground, and the props' shadow baked for the ground is the
+//! shadow map's.
 
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 use proptest::prelude::*;
@@ -164,5 +165,69 @@ proptest! {
         // Outdoors the ground fills the lower part of the frame; a room seen from outside shows
         // only its walls.
         prop_assert!(ground > 0 || stage.environment.indoor, "no ground pixel outdoors");
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    /// Law: the props' shadow on the ground read from the baked bits is the shadow map's own
+    /// lookup with the receiver's height taken at each texel's centre: at every point where
+    /// moving the receiver to the texel centres flips none of the four texels' tests, the two
+    /// are equal; and the bits do shadow some of the ground.
+    #[test]
+    fn baked_ground_shadow_is_the_maps_at_texel_centres(
+        location in 0usize..16,
+        seed in 0u64..1000,
+        clock in prop::sample::select(vec![ClockTime::DAWN, ClockTime::NOON, ClockTime::EVENING]),
+    ) {
+        let rig = Rig::standard();
+        let (stage, character) = stage(&rig, location, 0, clock, seed);
+        prop_assume!(stage.environment.key_shadows && !stage.world.props.indices.is_empty());
+        let camera = Camera {
+            world_from_optical: CameraPose::looking_at(Point3::new(6.0, 2.0, 2.0), Point3::origin())
+                .isometry_world_from_optical(),
+            intrinsics: Intrinsics::from_horizontal_fov(32, 24, 60.0).expect("a lens"),
+        };
+        let posed = pose(&rig, &character, 0, 0.0);
+        let mut renderer = CpuRenderer::new();
+        renderer.render(&stage, &FrameInput { camera, pose: &posed, time_s: 0.0 }, &mut Image::default());
+        let light = super::LightFrame::new(stage.environment.key_dir);
+        prop_assume!(light.l.z > 0.05);
+        let map = &renderer.prop_shadow;
+        // Light height of the ground point under light-plane point (u, v).
+        let ground_h = |u: f32, v: f32| -(u * light.u.z + v * light.v.z) / light.l.z;
+        let [u0, v0, u1, v1] = map.casters_uv_m;
+        let (mut compared, mut shadowed) = (0, 0);
+        for i in 0..=60 {
+            for j in 0..=60 {
+                let (u, v) = (u0 + (u1 - u0) * i as f32 / 60.0, v0 + (v1 - v0) * j as f32 / 60.0);
+                let h = ground_h(u, v);
+                let baked = map.ground_visibility(u, v);
+                shadowed += usize::from(baked < 1.0);
+                let x = (u - map.origin[0]) * map.texels_per_m - 0.5;
+                let y = (v - map.origin[1]) * map.texels_per_m - 0.5;
+                let (xi, yi) = (x.floor() as usize, y.floor() as usize);
+                let unflipped = [(0, 0), (1, 0), (0, 1), (1, 1)].iter().all(|&(dx, dy)| {
+                    let caster = map.heights[(yi + dy) * map.size + xi + dx];
+                    let centre_h = ground_h(
+                        map.origin[0] + ((xi + dx) as f32 + 0.5) / map.texels_per_m,
+                        map.origin[1] + ((yi + dy) as f32 + 0.5) / map.texels_per_m,
+                    );
+                    let lit = |h: f32| caster == 0.0 || caster <= h + map.height_offset + map.bias_m;
+                    lit(h) == lit(centre_h)
+                });
+                if unflipped {
+                    compared += 1;
+                    let direct = map.visibility(u, v, h);
+                    prop_assert!(
+                        (baked - direct).abs() < 1e-6,
+                        "at ({}, {}): baked {} against the map's {}", u, v, baked, direct
+                    );
+                }
+            }
+        }
+        prop_assert!(compared > 3000, "only {} of 3721 points compared", compared);
+        prop_assert!(shadowed > 0, "the props shadow no ground");
     }
 }
