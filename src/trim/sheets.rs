@@ -12,6 +12,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
+use rayon::prelude::*;
 use serde::Serialize;
 
 use super::lists::{ANNOTATIONS_DIR, write_atomic};
@@ -101,6 +102,7 @@ pub fn write_contact_sheets(
         return Ok(summary);
     }
     std::fs::create_dir_all(&dir).map_err(TrimError::io("create", &dir))?;
+    let mut changed = Vec::new();
     for (label_dir, class_clips) in by_class {
         let index = sheet_index(&class_clips, thresholds);
         let json_path = dir.join(format!("{label_dir}.json"));
@@ -111,9 +113,18 @@ pub fn write_contact_sheets(
         })? + "\n";
         if png_path.is_file() && std::fs::read_to_string(&json_path).is_ok_and(|j| j == json) {
             summary.unchanged += 1;
-            continue;
+        } else {
+            changed.push((index, class_clips, json, json_path, png_path));
         }
-        match draw(ffmpeg, dataset, &index, &class_clips) {
+    }
+    // Each sheet is one ffmpeg decoding a frame of each of its tiles' videos (1–2 s for 24
+    // tiles at 320×240): the sheets are drawn side by side, one per core, and written in order.
+    let drawn: Vec<_> = changed
+        .par_iter()
+        .map(|(index, class_clips, ..)| draw(ffmpeg, dataset, index, class_clips))
+        .collect();
+    for ((index, _, json, json_path, png_path), sheet) in changed.into_iter().zip(drawn) {
+        match sheet {
             Ok((w, h, rgb)) => {
                 write_png(&png_path, w, h, &rgb).map_err(|e| TrimError::Sheet {
                     path: png_path.clone(),
