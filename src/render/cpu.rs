@@ -78,6 +78,26 @@ struct ShadowMap {
 }
 
 impl ShadowMap {
+    /// The bilinear filter's texel at light-plane point `(u, v)` (the top-left of the four) and
+    /// the weights `(fx, fy)` of its right and lower neighbours; `None` outside the map or when
+    /// nothing casts a shadow.
+    #[expect(clippy::inline_always, reason = "part of the per-pixel lookups below")]
+    #[inline(always)]
+    fn filter_at(&self, u: f32, v: f32) -> Option<(usize, usize, f32, f32)> {
+        if self.empty {
+            return None;
+        }
+        let x = (u - self.origin[0]) * self.texels_per_m - 0.5;
+        let y = (v - self.origin[1]) * self.texels_per_m - 0.5;
+        let n = self.size as f32;
+        if !(x >= 0.0 && y >= 0.0 && x < n - 1.0 && y < n - 1.0) {
+            return None;
+        }
+        // In range (checked above): a 32-bit cast is exact and cheaper than one to usize.
+        let (xi, yi) = (x as i32, y as i32);
+        Some((xi as usize, yi as usize, x - xi as f32, y - yi as f32))
+    }
+
     /// Light visibility at light-space point `(u, v, h)`, [0, 1], or 1 outside the map.
     /// Always inlined: called per pixel from the colour and ground passes, and a call per
     /// lookup (which `#[inline]` alone let the compiler choose in `draw`) costs more than the
@@ -88,20 +108,11 @@ impl ShadowMap {
     )]
     #[inline(always)]
     fn visibility(&self, u: f32, v: f32, h: f32) -> f32 {
-        if self.empty {
+        let Some((xi, yi, fx, fy)) = self.filter_at(u, v) else {
             return 1.0;
-        }
-        let x = (u - self.origin[0]) * self.texels_per_m - 0.5;
-        let y = (v - self.origin[1]) * self.texels_per_m - 0.5;
-        let n = self.size as f32;
-        if !(x >= 0.0 && y >= 0.0 && x < n - 1.0 && y < n - 1.0) {
-            return 1.0;
-        }
-        // In range (checked above): a 32-bit cast is exact and cheaper than one to usize.
-        let (xi, yi) = (x as i32, y as i32);
-        let (fx, fy) = (x - xi as f32, y - yi as f32);
+        };
         let receiver = h + self.height_offset + self.bias_m;
-        let i = yi as usize * self.size + xi as usize;
+        let i = yi * self.size + xi;
         // 0 marks a texel no caster covers. `|`, not `||`: both tests, no branch per texel.
         let lit = |k: usize| {
             let caster = self.heights[k];
@@ -161,17 +172,9 @@ impl ShadowMap {
     )]
     #[inline(always)]
     fn ground_visibility(&self, u: f32, v: f32) -> f32 {
-        if self.empty {
+        let Some((xi, yi, fx, fy)) = self.filter_at(u, v) else {
             return 1.0;
-        }
-        let x = (u - self.origin[0]) * self.texels_per_m - 0.5;
-        let y = (v - self.origin[1]) * self.texels_per_m - 0.5;
-        let n = self.size as f32;
-        if !(x >= 0.0 && y >= 0.0 && x < n - 1.0 && y < n - 1.0) {
-            return 1.0;
-        }
-        let (xi, yi) = (x as i32 as usize, y as i32 as usize);
-        let (fx, fy) = (x - xi as f32, y - yi as f32);
+        };
         // Texels xi and xi + 1 of a row as the two low bits (the row's spare word makes
         // `word + 1` valid; shifting the 128-bit pair never shifts by 128).
         let pair = |row: usize| {
