@@ -174,7 +174,7 @@ proptest! {
     /// Law: the props' shadow on the ground read from the baked bits is the shadow map's own
     /// lookup with the receiver's height taken at each texel's centre: at every point where
     /// moving the receiver to the texel centres flips none of the four texels' tests, the two
-    /// are equal; and the bits do shadow some of the ground.
+    /// are equal; and the bits shadow some ground wherever the map does.
     #[test]
     fn baked_ground_shadow_is_the_maps_at_texel_centres(
         location in 0usize..16,
@@ -198,13 +198,14 @@ proptest! {
         // Light height of the ground point under light-plane point (u, v).
         let ground_h = |u: f32, v: f32| -(u * light.u.z + v * light.v.z) / light.l.z;
         let [u0, v0, u1, v1] = map.casters_uv_m;
-        let (mut compared, mut shadowed) = (0, 0);
+        let (mut compared, mut shadowed, mut shadowed_by_map) = (0, 0, 0);
         for i in 0..=60 {
             for j in 0..=60 {
                 let (u, v) = (u0 + (u1 - u0) * i as f32 / 60.0, v0 + (v1 - v0) * j as f32 / 60.0);
                 let h = ground_h(u, v);
                 let baked = map.ground_visibility(u, v);
                 shadowed += usize::from(baked < 1.0);
+                shadowed_by_map += usize::from(map.visibility(u, v, h) < 1.0);
                 let x = (u - map.origin[0]) * map.texels_per_m - 0.5;
                 let y = (v - map.origin[1]) * map.texels_per_m - 0.5;
                 let (xi, yi) = (x.floor() as usize, y.floor() as usize);
@@ -228,6 +229,10 @@ proptest! {
             }
         }
         prop_assert!(compared > 3000, "only {} of 3721 points compared", compared);
-        prop_assert!(shadowed > 0, "the props shadow no ground");
+        // Thin props (poles) can fall between the sampled points: then neither shows shadow.
+        prop_assert!(
+            shadowed > 0 || shadowed_by_map == 0,
+            "the map shadows {} sampled ground points, the baked bits none", shadowed_by_map
+        );
     }
 }
