@@ -71,8 +71,9 @@ struct ShadowMap {
     top_l_m: f32,
     empty: bool,
     /// Per texel, whether the ground (z = 0) under the texel's centre is lit: one bit per texel,
-    /// rows of [`ShadowMap::ground_row_words`] words (one spare, so that a texel and its right
-    /// neighbour are read as one pair). Filled by [`ShadowMap::bake_ground`]; empty otherwise.
+    /// rows of [`ShadowMap::ground_row_words`] words (at least one spare, so that a texel and its
+    /// right neighbour are read as one pair). Filled by [`ShadowMap::bake_ground`]; empty
+    /// otherwise.
     ground_lit: Vec<u64>,
     ground_row_words: usize,
 }
