@@ -140,9 +140,7 @@ impl ShadowMap {
             // light then): nothing is read.
             return;
         }
-        // A point (u, v, h) of the light's frame is u·U + v·V + h·L in the world; on the
-        // ground its z is 0, so h = −(u·U_z + v·V_z) / L_z.
-        let (du, dv) = (-light.u.z / light.l.z, -light.v.z / light.l.z);
+        let (du, dv) = light.ground_slopes();
         let texel_m = 1.0 / self.texels_per_m;
         let rows = self.heights.chunks_exact(n);
         for (y, (heights, row)) in rows
@@ -218,6 +216,13 @@ impl LightFrame {
     #[inline]
     fn coords(&self, p: &Vector3<f32>) -> [f32; 3] {
         [self.u.dot(p), self.v.dot(p), self.l.dot(p)]
+    }
+
+    /// `(∂h/∂u, ∂h/∂v)` of the ground plane in this frame: the ground point under light-plane
+    /// point `(u, v)` has `h = u·∂h/∂u + v·∂h/∂v`. (A point `(u, v, h)` is `u·U + v·V + h·L` in
+    /// the world; on the ground its z is 0.) Infinite or NaN when the light is level.
+    fn ground_slopes(&self) -> (f32, f32) {
+        (-self.u.z / self.l.z, -self.v.z / self.l.z)
     }
 }
 

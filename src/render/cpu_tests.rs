@@ -196,7 +196,8 @@ proptest! {
         prop_assume!(light.l.z > 0.05);
         let map = &renderer.prop_shadow;
         // Light height of the ground point under light-plane point (u, v).
-        let ground_h = |u: f32, v: f32| -(u * light.u.z + v * light.v.z) / light.l.z;
+        let (du, dv) = light.ground_slopes();
+        let ground_h = |u: f32, v: f32| u * du + v * dv;
         let [u0, v0, u1, v1] = map.casters_uv_m;
         let (mut compared, mut shadowed, mut shadowed_by_map) = (0, 0, 0);
         for i in 0..=60 {
@@ -206,9 +207,7 @@ proptest! {
                 let baked = map.ground_visibility(u, v);
                 shadowed += usize::from(baked < 1.0);
                 shadowed_by_map += usize::from(map.visibility(u, v, h) < 1.0);
-                let x = (u - map.origin[0]) * map.texels_per_m - 0.5;
-                let y = (v - map.origin[1]) * map.texels_per_m - 0.5;
-                let (xi, yi) = (x.floor() as usize, y.floor() as usize);
+                let (xi, yi, _, _) = map.filter_at(u, v).expect("the casters lie inside the map");
                 let unflipped = [(0, 0), (1, 0), (0, 1), (1, 1)].iter().all(|&(dx, dy)| {
                     let caster = map.heights[(yi + dy) * map.size + xi + dx];
                     let centre_h = ground_h(
