@@ -28,7 +28,7 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::raster::{ClipVertex, Cull, PixelRect, ScreenVertex, clip_near, fill_triangle, floor};
-use super::world::Surface;
+use super::world::{GroundModel, GroundTexel, Surface};
 use super::{FrameInput, Image, Renderer, Stage};
 use crate::hash::unit2;
 use crate::scene::color::{Encoder, Rgb, add, mix, mul, scale};
@@ -822,13 +822,101 @@ impl CpuRenderer {
     }
 }
 
+/// Pixels the ground pass takes at a time: a block's buffers live on the stack.
+const LANES: usize = 16;
+
+/// Each lane's pixel column from the block's first, as floats (`(block + j) as f32` would be a
+/// conversion from `usize` per lane, which does not vectorise; the sum is exact below 2²⁴).
+const LANE_X: [f32; LANES] = {
+    let mut x = [0.0; LANES];
+    let mut j = 0;
+    while j < LANES {
+        x[j] = j as f32;
+        j += 1;
+    }
+    x
+};
+
+/// What the rays of [`LANES`] neighbouring pixels give before any lookup, one lane per pixel.
+/// Filled without a branch, so that the compiler vectorises it.
+#[derive(Debug, Default)]
+struct RayLanes {
+    /// The pixel's ray (not unit: optical z component 1), world axes.
+    d: [[f32; LANES]; 3],
+    len: [f32; LANES],
+    /// What the ground shows where the ray meets it (meaningless for sky rays).
+    texel: [GroundTexel; LANES],
+    /// The ground point in the key light's frame.
+    light: [[f32; LANES]; 3],
+    /// The fog's transmittance to the ground point.
+    fog: [f32; LANES],
+}
+
+/// A row of the ground pass's rays: pixel column `x`'s ray is `d0 + x·step` (world axes, optical
+/// z component 1), from `eye`; in the key light's frame, `eye_light` + t·(`d0_light` +
+/// x·`step_light`) at ray parameter t.
+struct RowRays<'a> {
+    d0: Vector3<f32>,
+    step: Vector3<f32>,
+    eye: Vector3<f32>,
+    d0_light: [f32; 3],
+    step_light: [f32; 3],
+    eye_light: [f32; 3],
+    inv_fx: f32,
+    fog_per_m: f32,
+    ground: &'a GroundModel,
+}
+
+impl RayLanes {
+    /// The rays of the block of pixels from column `block_x`, every lane (lanes past the row's
+    /// end, lanes drawn on already and the sky's get ground values nobody reads).
+    #[inline]
+    fn fill(&mut self, row: &RowRays<'_>, block_x: f32) {
+        let RowRays { d0, step, eye, .. } = *row;
+        for (j, lane_x) in LANE_X.iter().enumerate() {
+            let xf = block_x + lane_x;
+            let d = [d0.x + step.x * xf, d0.y + step.y * xf, d0.z + step.z * xf];
+            let len_sq = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            let len = len_sq.sqrt();
+            let inv_dz = 1.0 / d[2];
+            let t = -eye.z * inv_dz;
+            let distance = t * len;
+            // t = −eye_z / d_z, and with cos = −d_z / |d| the footprint
+            // t·|d| / (f_x·cos) = t·|d|² / (f_x·(−d_z)). cos ≥ 0.05, i.e. −d_z ≥ 0.05·|d|;
+            // grazing rays keep the footprint of 0.05.
+            let footprint_m = if -d[2] >= 0.05 * len {
+                -t * row.inv_fx * len_sq * inv_dz
+            } else {
+                distance * row.inv_fx * 20.0
+            };
+            self.texel[j] = row
+                .ground
+                .texel(eye.x + t * d[0], eye.y + t * d[1], footprint_m);
+            for (k, &d_k) in d.iter().enumerate() {
+                self.light[k][j] =
+                    row.eye_light[k] + t * (row.d0_light[k] + xf * row.step_light[k]);
+                self.d[k][j] = d_k;
+            }
+            self.fog[j] = fast_exp_neg(row.fog_per_m * distance);
+            self.len[j] = len;
+        }
+    }
+}
+
+/// Whether a pixel of depth `z` (1/z per metre, 0 where nothing is) has been drawn on.
+fn drawn(z: f32) -> bool {
+    z > 0.0
+}
+
 impl CpuRenderer {
     /// Shades every pixel of `rect` nothing was drawn on: the ground where the pixel's ray
     /// goes down, else the sky. A pixel's ray is its row's first ray plus `x` steps (not a sum
     /// of steps), so its bits do not depend on the rect.
     ///
     /// A ground pixel needs one division, `1/d_z`, which gives the hit distance, the footprint
-    /// and the depth (wet ground and water a second one, for the reflected ray).
+    /// and the depth (wet ground and water a second one, for the reflected ray). The pixels
+    /// of a row are taken [`LANES`] at a time: their rays first (vectorised), then the lookups
+    /// pixel by pixel, then the sRGB encoding (vectorised).
     fn ground_and_sky(
         &mut self,
         stage: &Stage,
@@ -853,76 +941,94 @@ impl CpuRenderer {
         let [character, props] = [&self.character_shadow, &self.prop_shadow];
         let shadows = env.key_shadows;
         let mirror_wet = if env.indoor { 0.0 } else { 0.55 * env.wetness };
-        let inv_fx = 1.0 / view.fx;
         let encoder = &self.encoder;
         let w = view.width;
+        let mut rays = RayLanes::default();
+        let mut linear = [0.0f32; 3 * LANES];
+        let mut srgb = [0u8; 3 * LANES];
         for row in rect.y0..rect.y1 {
+            // The pixels the pass draws in this row lie in `x0..x1`.
+            let depth = &image.depth[row * w + rect.x0..row * w + rect.x1];
+            let todo = |z: &f32| !drawn(*z);
+            let (Some(a), Some(b)) = (depth.iter().position(todo), depth.iter().rposition(todo))
+            else {
+                continue;
+            };
+            let (x0, x1) = (rect.x0 + a, rect.x0 + b + 1);
             let y = (row as f32 + 0.5 - view.cy) / view.fy;
             // World direction through the row's first pixel centre (optical z component 1).
             let d0 = view.world_from_optical * Vector3::new((0.5 - view.cx) / view.fx, y, 1.0);
-            let d0_light = light.coords(&d0);
-            for x in rect.x0..rect.x1 {
-                let i = row * w + x;
-                if image.depth[i] > 0.0 {
+            let row_rays = RowRays {
+                d0,
+                step,
+                eye,
+                d0_light: light.coords(&d0),
+                step_light,
+                eye_light,
+                inv_fx: 1.0 / view.fx,
+                fog_per_m: env.fog_per_m,
+                ground,
+            };
+            for block in (x0..x1).step_by(LANES) {
+                let lanes = LANES.min(x1 - block);
+                let first = row * w + block;
+                let depth = &mut image.depth[first..first + lanes];
+                let surface = &mut image.surface[first..first + lanes];
+                let mut todo = [false; LANES];
+                for (todo, z) in todo.iter_mut().zip(depth.iter()) {
+                    *todo = !drawn(*z);
+                }
+                if !todo.contains(&true) {
                     continue;
                 }
-                let xf = x as f32;
-                let d = d0 + step * xf;
-                let len_sq = d.norm_squared();
-                let len = len_sq.sqrt();
-                let colour = if d.z < -1e-6 {
-                    // t = −eye_z / d_z, and with cos = −d_z / |d| the footprint
-                    // t·|d| / (f_x·cos) = t·|d|² / (f_x·(−d_z)).
-                    let inv_dz = 1.0 / d.z;
-                    let t = -eye.z * inv_dz;
-                    let (px, py) = (eye.x + t * d.x, eye.y + t * d.y);
-                    let distance = t * len;
-                    // cos ≥ 0.05, i.e. −d_z ≥ 0.05·|d|; grazing rays keep the footprint of 0.05.
-                    let footprint = if -d.z >= 0.05 * len {
-                        -t * inv_fx * len_sq * inv_dz
-                    } else {
-                        distance * inv_fx * 20.0
-                    };
-                    let (albedo, water) = ground.albedo(px, py, footprint);
-                    let lit = if shadows {
-                        let c: [f32; 3] = std::array::from_fn(|k| {
-                            eye_light[k] + t * (d0_light[k] + xf * step_light[k])
-                        });
-                        character
-                            .visibility(c[0], c[1], c[2])
-                            .min(props.ground_visibility(c[0], c[1]))
-                    } else {
-                        1.0
-                    };
-                    let mut colour = mul(
-                        albedo,
-                        [
-                            ambient[0] + lit * direct[0],
-                            ambient[1] + lit * direct[1],
-                            ambient[2] + lit * direct[2],
-                        ],
-                    );
-                    let mirror = if water { 1.0 } else { mirror_wet };
-                    if mirror > 0.0 {
-                        let inv_len = 1.0 / len;
-                        let cos = -d.z * inv_len;
-                        let fresnel = 0.02 + 0.98 * (1.0 - cos).powi(5);
-                        let reflected = env.sky([d.x * inv_len, d.y * inv_len, cos]);
-                        colour = mix(colour, add(reflected, flash_sky), fresnel * mirror);
+                rays.fill(&row_rays, block as f32);
+                // 2. The lookups, pixel by pixel, in linear light.
+                for j in 0..lanes {
+                    if !todo[j] {
+                        continue;
                     }
-                    image.depth[i] = d.z * neg_inv_eye_z;
-                    image.surface[i] = Surface::Ground as u8;
-                    mix(
-                        env.horizon_rgb,
-                        colour,
-                        fast_exp_neg(env.fog_per_m * distance),
-                    )
-                } else {
-                    let inv_len = 1.0 / len;
-                    add(env.sky((d * inv_len).into()), flash_sky)
-                };
-                let c = encoder.encode_rgb(colour);
-                image.rgb[3 * i..3 * i + 3].copy_from_slice(&c);
+                    let d = Vector3::new(rays.d[0][j], rays.d[1][j], rays.d[2][j]);
+                    let colour = if d.z < -1e-6 {
+                        let (albedo, water) = ground.albedo_of(rays.texel[j]);
+                        let lit = if shadows {
+                            let [u, v, h] = [0, 1, 2].map(|k| rays.light[k][j]);
+                            character
+                                .visibility(u, v, h)
+                                .min(props.ground_visibility(u, v))
+                        } else {
+                            1.0
+                        };
+                        let mut colour = mul(
+                            albedo,
+                            [
+                                ambient[0] + lit * direct[0],
+                                ambient[1] + lit * direct[1],
+                                ambient[2] + lit * direct[2],
+                            ],
+                        );
+                        let mirror = if water { 1.0 } else { mirror_wet };
+                        if mirror > 0.0 {
+                            let inv_len = 1.0 / rays.len[j];
+                            let cos = -d.z * inv_len;
+                            let fresnel = 0.02 + 0.98 * (1.0 - cos).powi(5);
+                            let reflected = env.sky([d.x * inv_len, d.y * inv_len, cos]);
+                            colour = mix(colour, add(reflected, flash_sky), fresnel * mirror);
+                        }
+                        depth[j] = d.z * neg_inv_eye_z;
+                        surface[j] = Surface::Ground as u8;
+                        mix(env.horizon_rgb, colour, rays.fog[j])
+                    } else {
+                        let inv_len = 1.0 / rays.len[j];
+                        add(env.sky((d * inv_len).into()), flash_sky)
+                    };
+                    linear[3 * j..3 * j + 3].copy_from_slice(&colour);
+                }
+                // 3. sRGB, every lane, then into the image where the pass drew.
+                encoder.encode_slice(&linear, &mut srgb);
+                let rgb = &mut image.rgb[3 * first..3 * (first + lanes)];
+                for j in (0..lanes).filter(|&j| todo[j]) {
+                    rgb[3 * j..3 * j + 3].copy_from_slice(&srgb[3 * j..3 * j + 3]);
+                }
             }
         }
     }

@@ -12,6 +12,7 @@
 use crate::hash::{hash2, unit2};
 use crate::scene::color::{Rgb, linear_from_srgb, mix, scale};
 use crate::scene::environment::Environment;
+use crate::scene::fast_float::floor_small;
 use crate::scene::location::{Backdrop, Ground, LocationInstance, PlacedProp};
 
 /// What a pixel shows, for masks and annotations.
@@ -867,12 +868,11 @@ pub struct GroundTexture {
     /// Metres covered by one tile.
     tile_m: f32,
     /// Every level's texels, one after another, largest first; level `k` is
-    /// `(TEXTURE_SIZE >> k)²` texels, row-major, from `level_start[k]`.
+    /// `(TEXTURE_SIZE >> k)²` texels, row-major.
     texels: Vec<Rgb>,
-    level_start: [usize; MIP_LEVELS],
-    /// Texels per metre of each level (`(TEXTURE_SIZE >> k) / tile_m`), divided once here
+    /// Texels per metre of the full-size level (`TEXTURE_SIZE / tile_m`), divided once here
     /// instead of per pixel.
-    level_texels_per_m: [f32; MIP_LEVELS],
+    texels_per_m: f32,
 }
 
 /// Levels of a ground texture's mip chain: `TEXTURE_SIZE` down to 1×1.
@@ -961,19 +961,10 @@ impl GroundTexture {
             levels.push(next);
             size = half;
         }
-        let mut level_start = [0; MIP_LEVELS];
-        let mut level_texels_per_m = [0.0; MIP_LEVELS];
-        let mut all = Vec::with_capacity(levels.iter().map(Vec::len).sum());
-        for (k, level) in levels.iter().enumerate() {
-            level_start[k] = all.len();
-            level_texels_per_m[k] = (TEXTURE_SIZE >> k) as f32 / tile_m;
-            all.extend_from_slice(level);
-        }
         GroundTexture {
             tile_m,
-            texels: all,
-            level_start,
-            level_texels_per_m,
+            texels: levels.concat(),
+            texels_per_m: TEXTURE_SIZE as f32 / tile_m,
         }
     }
 
@@ -1004,30 +995,61 @@ impl GroundTexture {
     #[inline]
     #[must_use]
     pub fn sample(&self, x: f32, y: f32, footprint_m: f32) -> Rgb {
-        // Footprint in full-size texels (a product: a division here is on the pixel's
-        // critical path).
-        let ratio = footprint_m * self.level_texels_per_m[0];
-        let level = if ratio <= 1.0 {
-            0
-        } else {
-            // ⌊log2(ratio)⌋ from the float's exponent.
-            (((ratio.to_bits() >> 23) & 0xff) as i32 - 127).clamp(0, MIP_LEVELS as i32 - 1) as usize
-        };
-        let size = TEXTURE_SIZE >> level;
-        let scale_px = self.level_texels_per_m[level];
-        // `size` is a power of two: masking the floored texel index wraps negatives too.
-        let mask = size as i32 - 1;
-        let u = (fast_floor(x * scale_px) & mask) as usize;
-        let v = (fast_floor(y * scale_px) & mask) as usize;
-        self.texels[self.level_start[level] + v * size + u]
+        self.texels[texel_index(self.texels_per_m, x, y, footprint_m)]
     }
 }
 
-/// `⌊v⌋` as an integer, without a libm call (values beyond ±2³¹ saturate).
+/// The top mip level (1×1); level `k`'s side is `2^(TOP_LEVEL − k)`.
+const TOP_LEVEL: i32 = MIP_LEVELS as i32 - 1;
+
+/// `2^e` from its bits (`e` in the normal range).
 #[inline]
-fn fast_floor(v: f32) -> i32 {
-    let i = v as i32;
-    if v < i as f32 { i - 1 } else { i }
+fn pow2(e: i32) -> f32 {
+    f32::from_bits(((127 + e) as u32) << 23)
+}
+
+/// Where [`GroundTexture::sample`] reads, in a texture whose full-size level has
+/// `texels_per_m`: an index into its texels. Float and integer arithmetic only, without a
+/// float-to-integer cast or a table, so that the ground pass's loop over pixels vectorises.
+///
+/// Texel coordinates are floored with [`floor_small`], exact below 2²² in magnitude. The top
+/// level's one texel is read whatever the point; below it, a level is chosen only for a
+/// footprint under `2^(level + 1)` texels, and the ground pass's footprint is at least the
+/// distance over 20·f_x, so a coordinate is at most 40·f_x texels from the camera's.
+#[inline]
+fn texel_index(texels_per_m: f32, x: f32, y: f32, footprint_m: f32) -> usize {
+    // Footprint in full-size texels (a product: a division here is on the pixel's critical
+    // path); its level ⌊log2⌋ from the float's exponent.
+    let ratio = footprint_m * texels_per_m;
+    let exponent = ((ratio.to_bits() >> 23) & 0xff) as i32 - 127;
+    let level = if ratio <= 1.0 {
+        0
+    } else {
+        exponent.clamp(0, TOP_LEVEL)
+    };
+    // The level's side and texels per metre are the full level's times a power of two
+    // (exactly: scaling by 2^k commutes with rounding).
+    let side = pow2(TOP_LEVEL - level);
+    let scale_px = texels_per_m * pow2(-level);
+    // The side is a power of two: masking the floored texel index wraps negatives too.
+    let mask = floor_small(side).1 - 1;
+    let u = floor_small(x * scale_px).1 & mask;
+    let v = floor_small(y * scale_px).1 & mask;
+    // Levels 0..level hold Σ 4^(TOP − k) = (4^(TOP + 1) − 4^(TOP + 1 − level)) / 3 texels,
+    // an integer below 2²⁴, which the float division gives exactly.
+    let start = (pow2(2 * (TOP_LEVEL + 1)) - pow2(2 * (TOP_LEVEL + 1 - level))) / 3.0;
+    floor_small(start + (v as f32 * side + u as f32)).1 as usize
+}
+
+/// What the ground shows at a point: a texel of the floor's texture, of the surround's, or
+/// water. [`GroundModel::texel`] finds it without a branch; [`GroundModel::albedo_of`] reads it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct GroundTexel(u32);
+
+impl GroundTexel {
+    const WATER: GroundTexel = GroundTexel(u32::MAX);
+    /// Marks the surround's texels.
+    const SURROUND: u32 = 1 << 30;
 }
 
 /// The ground: the location's floor inside its rectangle, another material around it, and
@@ -1051,19 +1073,57 @@ impl GroundModel {
     #[inline]
     #[must_use]
     pub fn albedo(&self, x: f32, y: f32, footprint_m: f32) -> (Rgb, bool) {
-        if let Some([x0, y0, x1, y1]) = self.water
-            && x >= x0
-            && x <= x1
-            && y >= y0
-            && y <= y1
-        {
+        self.albedo_of(self.texel(x, y, footprint_m))
+    }
+
+    /// What [`GroundModel::albedo`] reads at `(x, y)`: the water where the point is in the
+    /// water's rectangle, else the floor's texture inside the floor's, else the surround's.
+    /// Without a branch (both tests are made and one texture's numbers selected), so that a
+    /// loop over pixels calling it vectorises.
+    #[inline]
+    #[must_use]
+    pub fn texel(&self, x: f32, y: f32, footprint_m: f32) -> GroundTexel {
+        // No water: a rectangle nothing is in.
+        let [x0, y0, x1, y1] = self.water.unwrap_or([
+            f32::INFINITY,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NEG_INFINITY,
+        ]);
+        let water = x >= x0 && x <= x1 && y >= y0 && y <= y1;
+        let floor = x.abs() <= self.floor_half_m[0] && y.abs() <= self.floor_half_m[1];
+        // Both textures have the same size, so only their texels per metre differ.
+        let texels_per_m = if floor {
+            self.floor.texels_per_m
+        } else {
+            self.surround.texels_per_m
+        };
+        let index = texel_index(texels_per_m, x, y, footprint_m) as u32;
+        let texel = if floor {
+            index
+        } else {
+            index | GroundTexel::SURROUND
+        };
+        if water {
+            GroundTexel::WATER
+        } else {
+            GroundTexel(texel)
+        }
+    }
+
+    /// The albedo of `texel`, and whether it is water.
+    #[inline]
+    #[must_use]
+    pub fn albedo_of(&self, texel: GroundTexel) -> (Rgb, bool) {
+        if texel == GroundTexel::WATER {
             return (self.water_rgb, true);
         }
-        if x.abs() <= self.floor_half_m[0] && y.abs() <= self.floor_half_m[1] {
-            (self.floor.sample(x, y, footprint_m), false)
+        let (texture, index) = if texel.0 & GroundTexel::SURROUND == 0 {
+            (&self.floor, texel.0)
         } else {
-            (self.surround.sample(x, y, footprint_m), false)
-        }
+            (&self.surround, texel.0 & !GroundTexel::SURROUND)
+        };
+        (texture.texels[index as usize], false)
     }
 }
 
@@ -1339,7 +1399,45 @@ fn add_room(
 
 #[cfg(test)]
 mod tests {
+    use proptest::prelude::*;
+
     use super::*;
+
+    /// The texel [`GroundTexture::sample`] reads, by the definition: the mip level whose
+    /// texels match the footprint (⌊log2⌋ of it in full-size texels, clamped to the chain),
+    /// the point's texel on that level, wrapped.
+    fn texel_by_definition(texels_per_m: f32, x: f32, y: f32, footprint_m: f32) -> usize {
+        let ratio = footprint_m * texels_per_m;
+        let level = if ratio <= 1.0 {
+            0
+        } else {
+            (ratio.log2().floor() as usize).min(MIP_LEVELS - 1)
+        };
+        let side = TEXTURE_SIZE >> level;
+        let scale = texels_per_m / (1 << level) as f32;
+        let wrap = |c: f32| (c * scale).floor().rem_euclid(side as f32) as usize;
+        let start: usize = (0..level).map(|k| (TEXTURE_SIZE >> k).pow(2)).sum();
+        start + wrap(y) * side + wrap(x)
+    }
+
+    proptest! {
+        /// Over points within 10 km and footprints from 0.1 mm to 1 km, every tile size the
+        /// grounds use.
+        #[test]
+        fn the_texel_index_is_the_definitions(
+            tile in prop::sample::select(vec![1.0f32, 1.6, 2.0, 4.0]),
+            x in -1.0e4f32..1.0e4,
+            y in -1.0e4f32..1.0e4,
+            log_footprint in -4.0f32..3.0,
+        ) {
+            let texels_per_m = TEXTURE_SIZE as f32 / tile;
+            let footprint_m = 10f32.powf(log_footprint);
+            prop_assert_eq!(
+                texel_index(texels_per_m, x, y, footprint_m),
+                texel_by_definition(texels_per_m, x, y, footprint_m)
+            );
+        }
+    }
 
     fn closed_and_outward(m: &Mesh) {
         use std::collections::BTreeMap;

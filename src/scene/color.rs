@@ -38,6 +38,8 @@ pub fn linear_to_srgb(c: f32) -> f32 {
 /// finer than an 8-bit sRGB step everywhere above the darkest few codes.
 const TABLE_SIZE: usize = 4096;
 
+use super::fast_float::floor_small;
+
 /// Linear → 8-bit sRGB through a table (a `powf` per channel per pixel would cost more than
 /// the shading). Values above 1 clip to white.
 #[derive(Debug, Clone)]
@@ -67,12 +69,19 @@ impl Encoder {
     #[inline]
     #[must_use]
     pub fn encode(&self, linear: f32) -> u8 {
-        // Float-to-integer casts saturate: negative and NaN give 0 (black), above 1 clips to
-        // white; never a panic.
-        // Clamped as a float first: the 32-bit cast then needs no saturation (cheaper than a
-        // saturating cast to usize and a `min`), and NaN still gives 0.
-        let i = (linear * (TABLE_SIZE - 1) as f32 + 0.5).clamp(0.0, (TABLE_SIZE - 1) as f32) as i32;
-        self.table[i as usize & (TABLE_SIZE - 1)]
+        self.table[Self::index(linear)]
+    }
+
+    /// The table entry for `linear`: `⌊linear·4095 + ½⌋` clamped to the table, 0 for NaN (and
+    /// negatives), never a panic; without a float-to-integer cast, so that
+    /// [`Encoder::encode_slice`] vectorises.
+    #[inline]
+    fn index(linear: f32) -> usize {
+        // `max` first: NaN gives 0.
+        let x = (linear * (TABLE_SIZE - 1) as f32 + 0.5)
+            .max(0.0)
+            .min((TABLE_SIZE - 1) as f32);
+        floor_small(x).1 as usize & (TABLE_SIZE - 1)
     }
 
     /// A pixel.
@@ -80,6 +89,26 @@ impl Encoder {
     #[must_use]
     pub fn encode_rgb(&self, c: Rgb) -> [u8; 3] {
         [self.encode(c[0]), self.encode(c[1]), self.encode(c[2])]
+    }
+
+    /// Every value of `linear` into `srgb`, as [`Encoder::encode`] would: the table indices of
+    /// a block are computed first, a loop the compiler vectorises, then looked up.
+    ///
+    /// # Panics
+    ///
+    /// If the two slices' lengths differ.
+    pub fn encode_slice(&self, linear: &[f32], srgb: &mut [u8]) {
+        const BLOCK: usize = 64;
+        assert_eq!(linear.len(), srgb.len(), "one byte per value");
+        let mut index = [0u16; BLOCK];
+        for (linear, srgb) in linear.chunks(BLOCK).zip(srgb.chunks_mut(BLOCK)) {
+            for (i, &v) in index.iter_mut().zip(linear) {
+                *i = Self::index(v) as u16;
+            }
+            for (s, &i) in srgb.iter_mut().zip(&index) {
+                *s = self.table[usize::from(i) & (TABLE_SIZE - 1)];
+            }
+        }
     }
 }
 
@@ -134,5 +163,36 @@ mod tests {
         assert_eq!(e.encode(f32::NAN), 0);
         assert_eq!(e.encode(7.0), 255);
         assert_eq!(e.encode(-1.0), 0);
+    }
+
+    /// The table index is `⌊linear·4095 + ½⌋` clamped to the table (what a saturating cast
+    /// gives), and `encode_slice` encodes as `encode` does, whatever the slice's length.
+    #[test]
+    fn the_index_is_the_clamped_floor_and_slices_encode_alike() {
+        let cast = |l: f32| (l * 4095.0 + 0.5).clamp(0.0, 4095.0) as usize;
+        let mut values: Vec<f32> = (-200..=4400).map(|i| i as f32 / 4095.0).collect();
+        // Both sides of every rounding boundary, and the odd ones.
+        values.extend((0..4096).flat_map(|i| {
+            let b = (i as f32 - 0.5) / 4095.0;
+            [b.next_down(), b, b.next_up()]
+        }));
+        values.extend([
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            -0.0,
+            1e30,
+            -1e30,
+        ]);
+        for &l in &values {
+            assert_eq!(Encoder::index(l), cast(l), "{l}");
+        }
+        let e = Encoder::new();
+        for len in [0, 1, 63, 64, 65, values.len()] {
+            let mut out = vec![0u8; len];
+            e.encode_slice(&values[..len], &mut out);
+            let one_by_one: Vec<u8> = values[..len].iter().map(|&l| e.encode(l)).collect();
+            assert_eq!(out, one_by_one);
+        }
     }
 }

@@ -15,6 +15,7 @@
 //! the power 0.5), so darker scenes stay darker but readable.
 
 use super::color::{Rgb, add, mix, scale};
+use super::fast_float::floor_small;
 use crate::scene::weather::Precipitation;
 use crate::scene::weather::Weather;
 use crate::scene::{Scene, sky::ambient_from_sun};
@@ -57,34 +58,31 @@ pub struct Environment {
 }
 
 /// `exp(−x)` for `x ≥ 0` to about 2·10⁻⁴ relative, without a libm call: the fog factor is
-/// needed once per pixel.
+/// needed once per pixel. Both formulas are computed and one is selected, without a branch,
+/// so that a loop over pixels calling this can be vectorised.
 #[inline]
 #[must_use]
 pub fn fast_exp_neg(x: f32) -> f32 {
-    if x.is_nan() || x <= 0.0 {
-        return 1.0;
-    }
-    if x > 80.0 {
-        return 0.0;
-    }
-    if x < 1e-3 {
-        // Thin air (most fog-free pixels): the series is exact to 2e-10 here.
-        return 1.0 - x + 0.5 * x * x;
-    }
-    // e^−x = 2^y with y = −x·log2(e); split y into integer k and fraction f in [0, 1).
-    let y = -x * std::f32::consts::LOG2_E;
-    // ⌊y⌋ through an integer cast (y is in [−116, 0), so the cast is exact; `floor` is a libm
-    // call on the default x86-64 target).
-    let truncated = y as i32;
-    let k = if truncated as f32 > y {
-        truncated - 1
-    } else {
-        truncated
-    };
-    let f = y - k as f32;
+    // Thin air (most fog-free pixels): the series is exact to 2e-10 below 1e-3.
+    let series = 1.0 - x + 0.5 * x * x;
+    // e^−x = 2^y with y = −x·log2(e); split y into integer k and fraction f in [0, 1). x is
+    // clamped to where this formula is used (NaN to its low end), so that the integers below
+    // stay in range.
+    #[expect(
+        clippy::manual_clamp,
+        reason = "`clamp` keeps NaN, which must not reach the integers"
+    )]
+    let y = -x.max(1e-3).min(80.0) * std::f32::consts::LOG2_E;
+    // y is in [−116, 0).
+    let (floor, k) = floor_small(y);
+    let f = y - floor;
     // 2^f on [0, 1): a cubic fit (max relative error ~1e-4).
     let p = 1.0 + f * (0.695_976_1 + f * (0.224_940_72 + f * 0.079_083_07));
-    p * f32::from_bits(((k + 127) as u32) << 23)
+    let fitted = p * f32::from_bits(((k + 127) as u32) << 23);
+    let small = if x < 1e-3 { series } else { fitted };
+    let finite = if x > 80.0 { 0.0 } else { small };
+    // NaN and x ≤ 0 give 1.
+    if x > 0.0 { finite } else { 1.0 }
 }
 
 /// Sun elevation, degrees, below which the sun gives no direct light.

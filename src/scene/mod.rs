@@ -24,6 +24,7 @@ pub mod body_mesh;
 pub mod cast;
 pub mod color;
 pub mod environment;
+pub mod fast_float;
 pub mod location;
 pub mod sky;
 pub mod weather;
