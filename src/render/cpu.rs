@@ -1149,20 +1149,25 @@ fn antialias(image: &mut Image, source: &mut Vec<u8>) {
 
 /// [`antialias`] within `rect`, from the unfiltered colours `source` (the same image's): every
 /// pixel of `rect` is written, smoothed or as `source` has it.
+#[expect(
+    clippy::needless_bitwise_bool,
+    reason = "the edge test without a branch, so that it vectorises"
+)]
 fn antialias_within(image: &mut Image, source: &[u8], rect: PixelRect) {
+    /// Pixels whose edge test is made at a time, without a branch (so vectorised).
+    const BLOCK: usize = 64;
     let (w, h) = (image.width as usize, image.height as usize);
     let luma = |i: usize| {
         i32::from(source[3 * i]) * 2
             + i32::from(source[3 * i + 1]) * 5
             + i32::from(source[3 * i + 2])
     };
-    let surface = &image.surface;
-    let depth = &image.depth;
     // The ground is one plane and the sky has no depth: only objects can hide parts of
     // themselves, so only their pixels need the depth test.
-    let flat = [Surface::Sky as u8, Surface::Ground as u8];
-    let depth_edge =
-        |i: usize, j: usize| (depth[i] - depth[j]).abs() > 0.06 * depth[i].max(depth[j]);
+    let (sky, ground) = (Surface::Sky as u8, Surface::Ground as u8);
+    let depth_edge = |a: f32, b: f32| (a - b).abs() > 0.06 * a.max(b);
+    let (x_lo, x_hi) = (rect.x0.max(1), rect.x1.min(w.saturating_sub(1)));
+    let mut keep = [false; BLOCK];
     for y in rect.y0..rect.y1 {
         let row = y * w;
         image.rgb[3 * (row + rect.x0)..3 * (row + rect.x1)]
@@ -1170,34 +1175,49 @@ fn antialias_within(image: &mut Image, source: &[u8], rect: PixelRect) {
         if y == 0 || y + 1 >= h {
             continue;
         }
-        for x in rect.x0.max(1)..rect.x1.min(w.saturating_sub(1)) {
-            let i = row + x;
-            let s = surface[i];
-            let same = s == surface[i + 1]
-                && s == surface[i - 1]
-                && s == surface[i + w]
-                && s == surface[i - w];
-            if same
-                && (flat.contains(&s)
-                    || !(depth_edge(i, i + 1)
-                        || depth_edge(i, i - 1)
-                        || depth_edge(i, i + w)
-                        || depth_edge(i, i - w)))
-            {
-                continue;
+        for start in (x_lo..x_hi).step_by(BLOCK) {
+            let n = BLOCK.min(x_hi - start);
+            // This row from one pixel left of the block to one right of it; the rows above
+            // and below over the block.
+            let i0 = row + start;
+            let (surface, depth) = (&image.surface, &image.depth);
+            let (mid, up, down) = (
+                &surface[i0 - 1..=i0 + n],
+                &surface[i0 - w..i0 - w + n],
+                &surface[i0 + w..i0 + w + n],
+            );
+            let (depth_mid, depth_up, depth_down) = (
+                &depth[i0 - 1..=i0 + n],
+                &depth[i0 - w..i0 - w + n],
+                &depth[i0 + w..i0 + w + n],
+            );
+            // A pixel is kept where its four neighbours show its surface and, on an object,
+            // none is at a clearly different depth.
+            for k in 0..n {
+                let s = mid[k + 1];
+                let same = (s == mid[k + 2]) & (s == mid[k]) & (s == down[k]) & (s == up[k]);
+                let z = depth_mid[k + 1];
+                let edge = depth_edge(z, depth_mid[k + 2])
+                    | depth_edge(z, depth_mid[k])
+                    | depth_edge(z, depth_down[k])
+                    | depth_edge(z, depth_up[k]);
+                keep[k] = same & ((s == sky) | (s == ground) | !edge);
             }
-            let (m, n, s, e, west) = (luma(i), luma(i - w), luma(i + w), luma(i + 1), luma(i - 1));
-            let vertical_edge = (e + west - 2 * m).abs() >= (n + s - 2 * m).abs();
-            let (a, b) = if vertical_edge {
-                (i - 1, i + 1)
-            } else {
-                (i - w, i + w)
-            };
-            for c in 0..3 {
-                let v = 2 * u16::from(source[3 * i + c])
-                    + u16::from(source[3 * a + c])
-                    + u16::from(source[3 * b + c]);
-                image.rgb[3 * i + c] = ((v + 2) / 4) as u8;
+            for i in (0..n).filter(|&k| !keep[k]).map(|k| i0 + k) {
+                let (m, n, s, e, west) =
+                    (luma(i), luma(i - w), luma(i + w), luma(i + 1), luma(i - 1));
+                let vertical_edge = (e + west - 2 * m).abs() >= (n + s - 2 * m).abs();
+                let (a, b) = if vertical_edge {
+                    (i - 1, i + 1)
+                } else {
+                    (i - w, i + w)
+                };
+                for c in 0..3 {
+                    let v = 2 * u16::from(source[3 * i + c])
+                        + u16::from(source[3 * a + c])
+                        + u16::from(source[3 * b + c]);
+                    image.rgb[3 * i + c] = ((v + 2) / 4) as u8;
+                }
             }
         }
     }
