@@ -926,6 +926,9 @@ impl CpuRenderer {
         rect: PixelRect,
         image: &mut Image,
     ) {
+        if rect.is_empty() {
+            return;
+        }
         let env = &stage.environment;
         let ground = &stage.world.ground;
         // Ambient on the flat ground; the key light is added per pixel with its shadow.
@@ -981,6 +984,7 @@ impl CpuRenderer {
                 if !todo.contains(&true) {
                     continue;
                 }
+                // 1. The rays, every lane (vectorised).
                 rays.fill(&row_rays, block as f32);
                 // 2. The lookups, pixel by pixel, in linear light.
                 for j in 0..lanes {
@@ -1023,7 +1027,7 @@ impl CpuRenderer {
                     };
                     linear[3 * j..3 * j + 3].copy_from_slice(&colour);
                 }
-                // 3. sRGB, every lane, then into the image where the pass drew.
+                // 3. sRGB, every lane (vectorised), then into the image where the pass drew.
                 encoder.encode_slice(&linear, &mut srgb);
                 let rgb = &mut image.rgb[3 * first..3 * (first + lanes)];
                 for j in (0..lanes).filter(|&j| todo[j]) {
