@@ -689,7 +689,7 @@ impl CpuRenderer {
         for y in body.y0..body.y1 {
             for i in y * view.width + body.x0..y * view.width + body.x1 {
                 let c = layer.depth[i];
-                if c > 0.0 && (flat.contains(&image.surface[i]) || c >= image.depth[i]) {
+                if drawn(c) && (flat.contains(&image.surface[i]) || c >= image.depth[i]) {
                     image.depth[i] = c;
                     image.surface[i] = layer.surface[i];
                     image.rgb[3 * i..3 * i + 3].copy_from_slice(&layer.rgb[3 * i..3 * i + 3]);
@@ -950,14 +950,6 @@ impl CpuRenderer {
         let mut linear = [0.0f32; 3 * LANES];
         let mut srgb = [0u8; 3 * LANES];
         for row in rect.y0..rect.y1 {
-            // The pixels the pass draws in this row lie in `x0..x1`.
-            let depth = &image.depth[row * w + rect.x0..row * w + rect.x1];
-            let todo = |z: &f32| !drawn(*z);
-            let (Some(a), Some(b)) = (depth.iter().position(todo), depth.iter().rposition(todo))
-            else {
-                continue;
-            };
-            let (x0, x1) = (rect.x0 + a, rect.x0 + b + 1);
             let y = (row as f32 + 0.5 - view.cy) / view.fy;
             // World direction through the row's first pixel centre (optical z component 1).
             let d0 = view.world_from_optical * Vector3::new((0.5 - view.cx) / view.fx, y, 1.0);
@@ -972,8 +964,8 @@ impl CpuRenderer {
                 fog_per_m: env.fog_per_m,
                 ground,
             };
-            for block in (x0..x1).step_by(LANES) {
-                let lanes = LANES.min(x1 - block);
+            for block in (rect.x0..rect.x1).step_by(LANES) {
+                let lanes = LANES.min(rect.x1 - block);
                 let first = row * w + block;
                 let depth = &mut image.depth[first..first + lanes];
                 let surface = &mut image.surface[first..first + lanes];
@@ -981,6 +973,7 @@ impl CpuRenderer {
                 for (todo, z) in todo.iter_mut().zip(depth.iter()) {
                     *todo = !drawn(*z);
                 }
+                // Blocks the character, props or backdrop cover whole are left alone.
                 if !todo.contains(&true) {
                     continue;
                 }

@@ -12,7 +12,7 @@
 use crate::hash::{hash2, unit2};
 use crate::scene::color::{Rgb, linear_from_srgb, mix, scale};
 use crate::scene::environment::Environment;
-use crate::scene::fast_float::floor_small;
+use crate::scene::fast_float::{floor_small, pow2};
 use crate::scene::location::{Backdrop, Ground, LocationInstance, PlacedProp};
 
 /// What a pixel shows, for masks and annotations.
@@ -1002,20 +1002,16 @@ impl GroundTexture {
 /// The top mip level (1×1); level `k`'s side is `2^(TOP_LEVEL − k)`.
 const TOP_LEVEL: i32 = MIP_LEVELS as i32 - 1;
 
-/// `2^e` from its bits (`e` in the normal range).
-#[inline]
-fn pow2(e: i32) -> f32 {
-    f32::from_bits(((127 + e) as u32) << 23)
-}
-
 /// Where [`GroundTexture::sample`] reads, in a texture whose full-size level has
 /// `texels_per_m`: an index into its texels. Float and integer arithmetic only, without a
 /// float-to-integer cast or a table, so that the ground pass's loop over pixels vectorises.
 ///
 /// Texel coordinates are floored with [`floor_small`], exact below 2²² in magnitude. The top
 /// level's one texel is read whatever the point; below it, a level is chosen only for a
-/// footprint under `2^(level + 1)` texels, and the ground pass's footprint is at least the
-/// distance over 20·f_x, so a coordinate is at most 40·f_x texels from the camera's.
+/// footprint under `2^(level + 1)` of its texels, and the ground pass's footprint is at least
+/// the distance over f_x (more at a slant), so a coordinate is at most 2·f_x of the level's
+/// texels from the camera's. Wherever the coordinate lands, the mask keeps the index inside
+/// the texture.
 #[inline]
 fn texel_index(texels_per_m: f32, x: f32, y: f32, footprint_m: f32) -> usize {
     // Footprint in full-size texels (a product: a division here is on the pixel's critical

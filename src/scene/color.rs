@@ -1,6 +1,8 @@
 //! Colour conversions: sRGB ↔ linear light. The renderer shades in linear RGB and writes sRGB
 //! bytes; scene descriptions ([`crate::scene::Look`]) give sRGB. The one place for both.
 
+use super::fast_float::floor_small;
+
 /// A linear RGB colour (or irradiance), components ≥ 0.
 pub type Rgb = [f32; 3];
 
@@ -37,8 +39,6 @@ pub fn linear_to_srgb(c: f32) -> f32 {
 /// Entries of [`Encoder`]'s table: linear values are quantised to 1/4095 before encoding,
 /// finer than an 8-bit sRGB step everywhere above the darkest few codes.
 const TABLE_SIZE: usize = 4096;
-
-use super::fast_float::floor_small;
 
 /// Linear → 8-bit sRGB through a table (a `powf` per channel per pixel would cost more than
 /// the shading). Values above 1 clip to white.
@@ -106,6 +106,7 @@ impl Encoder {
                 *i = Self::index(v) as u16;
             }
             for (s, &i) in srgb.iter_mut().zip(&index) {
+                // The mask is a no-op that tells the compiler the read is in bounds.
                 *s = self.table[usize::from(i) & (TABLE_SIZE - 1)];
             }
         }

@@ -15,7 +15,7 @@
 //! the power 0.5), so darker scenes stay darker but readable.
 
 use super::color::{Rgb, add, mix, scale};
-use super::fast_float::floor_small;
+use super::fast_float::{floor_small, pow2};
 use crate::scene::weather::Precipitation;
 use crate::scene::weather::Weather;
 use crate::scene::{Scene, sky::ambient_from_sun};
@@ -78,7 +78,7 @@ pub fn fast_exp_neg(x: f32) -> f32 {
     let f = y - floor;
     // 2^f on [0, 1): a cubic fit (max relative error ~1e-4).
     let p = 1.0 + f * (0.695_976_1 + f * (0.224_940_72 + f * 0.079_083_07));
-    let fitted = p * f32::from_bits(((k + 127) as u32) << 23);
+    let fitted = p * pow2(k);
     let small = if x < 1e-3 { series } else { fitted };
     let finite = if x > 80.0 { 0.0 } else { small };
     // NaN and x ≤ 0 give 1.

@@ -1,4 +1,4 @@
-//! Float rounding that vectorises. Rust's float-to-integer casts saturate (NaN gives 0), which
+//! Float rounding and powers of two that vectorise. Rust's float-to-integer casts saturate (NaN gives 0), which
 //! the compiler cannot do four lanes at a time on the default x86-64 target, so a loop with a
 //! cast in it stays scalar. Adding 1.5·2²³ to a float of magnitude below 2²² instead rounds it
 //! to an integer in its mantissa's low bits, with float additions and bit reads only.
@@ -19,6 +19,13 @@ pub fn floor_small(v: f32) -> (f32, i32) {
     (floor, bits as i32)
 }
 
+/// `2^e`, from its bits, for `e` in the normal range (−126..=127; the caller keeps it there).
+#[inline]
+#[must_use]
+pub fn pow2(e: i32) -> f32 {
+    f32::from_bits(((127 + e) as u32) << 23)
+}
+
 #[cfg(test)]
 mod tests {
     use proptest::prelude::*;
@@ -31,6 +38,13 @@ mod tests {
             let (f, i) = floor_small(v);
             prop_assert_eq!(f, v.floor());
             prop_assert_eq!(i as f32, v.floor());
+        }
+    }
+
+    #[test]
+    fn pow2_is_the_power() {
+        for e in -126..=127 {
+            assert_eq!(pow2(e), 2f32.powi(e), "{e}");
         }
     }
 
