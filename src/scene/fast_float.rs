@@ -12,9 +12,11 @@ const MAGIC: f32 = 12_582_912.0;
 #[inline]
 #[must_use]
 pub fn floor_small(v: f32) -> (f32, i32) {
-    // To nearest (ties to even), then one down where that rounded up.
+    // To nearest (ties to even), then one down where that rounded up: 1.0's bits masked by
+    // the comparison, a mask rather than a choice, so that scalar callers need not branch on
+    // it (a branch here mispredicts about every other value).
     let rounded = (v + MAGIC) - MAGIC;
-    let floor = if rounded > v { rounded - 1.0 } else { rounded };
+    let floor = rounded - f32::from_bits(u32::from(rounded > v) * 1.0f32.to_bits());
     let bits = (floor + MAGIC).to_bits().wrapping_sub(MAGIC.to_bits());
     (floor, bits as i32)
 }
