@@ -13,8 +13,9 @@ const MAGIC: f32 = 12_582_912.0;
 #[must_use]
 pub fn floor_small(v: f32) -> (f32, i32) {
     // To nearest (ties to even), then one down where that rounded up: 1.0's bits masked by
-    // the comparison, a mask rather than a choice, so that scalar callers need not branch on
-    // it (a branch here mispredicts about every other value).
+    // the comparison rather than a choice of two values, which the compiler made a branch in
+    // scalar code (it mispredicts about every other value; `draw`'s inlined copy still
+    // branches, the ground pass's no longer do).
     let rounded = (v + MAGIC) - MAGIC;
     let floor = rounded - f32::from_bits(u32::from(rounded > v) * 1.0f32.to_bits());
     let bits = (floor + MAGIC).to_bits().wrapping_sub(MAGIC.to_bits());
