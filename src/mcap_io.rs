@@ -4,7 +4,9 @@
 //! [`crate::ros::definition`]), message encoding `cdr`, chunked (zstd by default; lz4 or none),
 //! with message indexes, chunk indexes, statistics and summary, and `library` stamped
 //! `autoact <version>`. Compression runs single-threaded so the same input gives byte-identical
-//! files on any machine. Schemas and channels are registered on first use, in that order.
+//! files on any machine; with [`WriteConfig::writer_thread`] that one thread is not the caller's
+//! (`mcap_io/writer_thread.rs`), and the file is still the same. Schemas and channels are
+//! registered on first use, in that order.
 //!
 //! **Reading** ([`BagReader`], in `mcap_io/read.rs`): the file is memory-mapped, never loaded;
 //! records are framed and parsed by autoact itself (`mcap_io/records.rs`), every length checked
@@ -22,6 +24,7 @@ use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 use crate::ros::{self, RosMessage};
+use writer_thread::{Failure, WriterThread};
 
 /// The `library` field of files autoact writes.
 pub const LIBRARY: &str = concat!("autoact ", env!("CARGO_PKG_VERSION"));
@@ -110,7 +113,7 @@ pub enum McapIoError {
 /// Writes ROS 2 messages to an MCAP file.
 pub struct BagWriter<W: Write + Seek> {
     path: PathBuf,
-    writer: mcap::Writer<W>,
+    writer: Records<W>,
     schemas: BTreeMap<String, u16>,
     /// Type name → its RIHS01 type description hash (empty if its schema text does not give one).
     type_hashes: BTreeMap<String, String>,
@@ -120,6 +123,73 @@ pub struct BagWriter<W: Write + Seek> {
     /// Earliest and latest log time written, nanoseconds.
     time_range: Option<(u64, u64)>,
     journal: Option<Journal>,
+}
+
+/// The `mcap` writer of a [`BagWriter`]: on the caller's thread, or on its own.
+enum Records<W: Write + Seek> {
+    Here(Box<mcap::Writer<W>>),
+    Thread(WriterThread),
+}
+
+impl<W: Write + Seek> Records<W> {
+    fn add_schema(&mut self, name: &str, data: &[u8]) -> Result<u16, Failure> {
+        match self {
+            Records::Here(w) => w
+                .add_schema(name, "ros2msg", data)
+                .map_err(|e| ("cannot add a schema to", e)),
+            Records::Thread(t) => t.add_schema(name, data),
+        }
+    }
+
+    fn add_channel(
+        &mut self,
+        schema_id: u16,
+        topic: &str,
+        metadata: &BTreeMap<String, String>,
+    ) -> Result<u16, Failure> {
+        match self {
+            Records::Here(w) => w
+                .add_channel(schema_id, topic, "cdr", metadata)
+                .map_err(|e| ("cannot add a channel to", e)),
+            Records::Thread(t) => t.add_channel(schema_id, topic, metadata),
+        }
+    }
+
+    fn write_to_known_channel(
+        &mut self,
+        header: &mcap::records::MessageHeader,
+        payload: &[u8],
+    ) -> Result<(), Failure> {
+        match self {
+            Records::Here(w) => w
+                .write_to_known_channel(header, payload)
+                .map_err(|e| ("cannot write a message to", e)),
+            Records::Thread(t) => t.write_to_known_channel(header, payload),
+        }
+    }
+
+    fn write_metadata(&mut self, record: mcap::records::Metadata) -> Result<(), Failure> {
+        match self {
+            Records::Here(w) => w
+                .write_metadata(&record)
+                .map_err(|e| ("cannot write metadata to", e)),
+            Records::Thread(t) => t.write_metadata(record),
+        }
+    }
+
+    fn flush(&mut self) -> Result<(), Failure> {
+        match self {
+            Records::Here(w) => w.flush().map_err(|e| ("cannot flush", e)),
+            Records::Thread(t) => t.flush(),
+        }
+    }
+
+    fn finish(&mut self) -> Result<(), Failure> {
+        match self {
+            Records::Here(w) => w.finish().map(drop).map_err(|e| ("cannot finish", e)),
+            Records::Thread(t) => t.finish(),
+        }
+    }
 }
 
 /// One topic of a [`BagWriter`].
@@ -200,6 +270,10 @@ pub struct WriteConfig {
     pub compression: Compression,
     /// Target uncompressed chunk size, bytes.
     pub chunk_size_bytes: u64,
+    /// Compress and write on a thread of its own, beside the caller's (the file is the same).
+    /// For a producer on one thread when another core is free: `convert`'s whole-body output
+    /// spends a third of its time in compression.
+    pub writer_thread: bool,
 }
 
 impl Default for WriteConfig {
@@ -207,6 +281,7 @@ impl Default for WriteConfig {
         WriteConfig {
             compression: Compression::Zstd,
             chunk_size_bytes: 256 * 1024,
+            writer_thread: false,
         }
     }
 }
@@ -279,11 +354,12 @@ impl BagWriter<FileSink> {
     }
 }
 
-impl<W: Write + Seek> BagWriter<W> {
+impl<W: Write + Seek + Send + 'static> BagWriter<W> {
     /// Wraps a writer; `path` names it in errors.
     ///
     /// # Errors
-    /// [`McapIoError::Mcap`] if the header cannot be written.
+    /// [`McapIoError::Mcap`] if the header cannot be written, [`McapIoError::Io`] if the
+    /// writer's thread cannot be started.
     pub fn new(w: W, path: &Path, config: WriteConfig) -> Result<Self, McapIoError> {
         let compression = match config.compression {
             Compression::Zstd => Some(mcap::Compression::Zstd),
@@ -305,6 +381,16 @@ impl<W: Write + Seek> BagWriter<W> {
                 path: path.to_path_buf(),
                 source,
             })?;
+        let writer = if config.writer_thread {
+            let thread = WriterThread::spawn(writer).map_err(|source| McapIoError::Io {
+                action: "cannot start the writer thread of",
+                path: path.to_path_buf(),
+                source,
+            })?;
+            Records::Thread(thread)
+        } else {
+            Records::Here(Box::new(writer))
+        };
         Ok(BagWriter {
             path: path.to_path_buf(),
             writer,
@@ -315,6 +401,17 @@ impl<W: Write + Seek> BagWriter<W> {
             time_range: None,
             journal: None,
         })
+    }
+}
+
+impl<W: Write + Seek> BagWriter<W> {
+    /// [`McapIoError::Mcap`] for what the `mcap` writer refused.
+    fn failed(&self, (action, source): Failure) -> McapIoError {
+        McapIoError::Mcap {
+            action,
+            path: self.path.clone(),
+            source,
+        }
     }
 
     /// Keeps a JSON journal of everything written, for [`BagWriter::finish_with_journal`].
@@ -353,12 +450,8 @@ impl<W: Write + Seek> BagWriter<W> {
             self.type_hashes.insert(type_name.to_string(), hash);
             let id = self
                 .writer
-                .add_schema(type_name, "ros2msg", text.as_bytes())
-                .map_err(|source| McapIoError::Mcap {
-                    action: "cannot add a schema to",
-                    path: self.path.clone(),
-                    source,
-                })?;
+                .add_schema(type_name, text.as_bytes())
+                .map_err(|f| self.failed(f))?;
             self.schemas.insert(type_name.to_string(), id);
             id
         };
@@ -368,12 +461,8 @@ impl<W: Write + Seek> BagWriter<W> {
         metadata.insert("offered_qos_profiles".to_string(), String::new());
         let id = self
             .writer
-            .add_channel(schema_id, topic, "cdr", &metadata)
-            .map_err(|source| McapIoError::Mcap {
-                action: "cannot add a channel to",
-                path: self.path.clone(),
-                source,
-            })?;
+            .add_channel(schema_id, topic, &metadata)
+            .map_err(|f| self.failed(f))?;
         self.topics.insert(topic.to_string(), self.channels.len());
         self.channels.push(Channel {
             id,
@@ -408,11 +497,7 @@ impl<W: Write + Seek> BagWriter<W> {
         };
         self.writer
             .write_to_known_channel(&header, payload)
-            .map_err(|source| McapIoError::Mcap {
-                action: "cannot write a message to",
-                path: self.path.clone(),
-                source,
-            })
+            .map_err(|f| self.failed(f))
     }
 
     /// Writes a message that is already CDR (with its 4-byte encapsulation header), of ROS type
@@ -440,12 +525,7 @@ impl<W: Write + Seek> BagWriter<W> {
     /// # Errors
     /// [`McapIoError::Mcap`] (e.g. a full disk).
     pub fn flush(&mut self) -> Result<(), McapIoError> {
-        let path = self.path.clone();
-        self.writer.flush().map_err(|source| McapIoError::Mcap {
-            action: "cannot flush",
-            path,
-            source,
-        })
+        self.writer.flush().map_err(|f| self.failed(f))
     }
 
     /// Writes one message on `topic` at `log_time_nanos` (also its publish time).
@@ -498,14 +578,9 @@ impl<W: Write + Seek> BagWriter<W> {
             name: name.to_string(),
             metadata,
         };
-        let path = self.path.clone();
         self.writer
-            .write_metadata(&record)
-            .map_err(|source| McapIoError::Mcap {
-                action: "cannot write metadata to",
-                path,
-                source,
-            })
+            .write_metadata(record)
+            .map_err(|f| self.failed(f))
     }
 
     /// Writes the summary and footer, and returns what the file holds. Always call it: dropping
@@ -514,12 +589,7 @@ impl<W: Write + Seek> BagWriter<W> {
     /// # Errors
     /// [`McapIoError::Mcap`] (e.g. a full disk).
     pub fn finish(mut self) -> Result<BagStats, McapIoError> {
-        let path = self.path.clone();
-        self.writer.finish().map_err(|source| McapIoError::Mcap {
-            action: "cannot finish",
-            path,
-            source,
-        })?;
+        self.writer.finish().map_err(|f| self.failed(f))?;
         let written = || self.channels.iter().filter(|c| c.messages > 0);
         Ok(BagStats {
             topics: written()
@@ -556,6 +626,7 @@ impl<W: Write + Seek> BagWriter<W> {
 mod read;
 mod records;
 mod rosbag2;
+mod writer_thread;
 
 pub use read::{
     BagMessage, BagReader, ChannelInfo, Messages, ReadIssue, SchemaInfo, mcap_files_in,

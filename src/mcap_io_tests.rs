@@ -21,6 +21,7 @@ fn write_bag(path: &Path, n: u64, compression: Compression, chunk: u64) {
         WriteConfig {
             compression,
             chunk_size_bytes: chunk,
+            writer_thread: false,
         },
     )
     .unwrap();
@@ -577,4 +578,159 @@ fn a_window_skips_the_chunks_outside_it_undecompressed() {
         ),
         "{issues:?}"
     );
+}
+
+/// One call of a writing session, for the property that the writer's own thread changes nothing.
+#[derive(Debug, Clone)]
+enum Call {
+    /// A `Point` on `/a`.
+    Point(u64),
+    /// Raw bytes (`len` of them) on one of three topics, some far larger than a batch.
+    Raw {
+        topic: u8,
+        len: usize,
+    },
+    Metadata,
+    Flush,
+}
+
+fn calls() -> impl proptest::strategy::Strategy<Value = Vec<Call>> {
+    use proptest::prelude::*;
+    let call = prop_oneof![
+        8 => (0u64..1_000_000).prop_map(Call::Point),
+        4 => (0u8..3, 0usize..3_000).prop_map(|(topic, len)| Call::Raw { topic, len }),
+        1 => (0u8..3, 60_000usize..200_000).prop_map(|(topic, len)| Call::Raw { topic, len }),
+        1 => Just(Call::Metadata),
+        1 => Just(Call::Flush),
+    ];
+    proptest::collection::vec(call, 0..400)
+}
+
+/// Makes `calls` on a new bag at `path`; returns what finish says.
+fn write_calls(path: &Path, config: WriteConfig, calls: &[Call]) -> BagStats {
+    let mut w = BagWriter::create(path, config).unwrap();
+    for (i, call) in calls.iter().enumerate() {
+        let t = 1_000 + i as u64;
+        match call {
+            Call::Point(v) => w.write("/a", t, &point(*v)).unwrap(),
+            Call::Raw { topic, len } => {
+                #[expect(clippy::cast_possible_truncation, reason = "a test pattern")]
+                let bytes: Vec<u8> = (0..*len).map(|k| (k * 7 + i) as u8).collect();
+                let topic = format!("/raw{topic}");
+                let definition = || "uint8[] data".to_string();
+                w.write_raw(&topic, "test_msgs/msg/Bytes", definition, t, t + 1, &bytes)
+                    .unwrap();
+            }
+            Call::Metadata => w
+                .write_metadata("step", [("at".to_string(), i.to_string())].into())
+                .unwrap(),
+            Call::Flush => w.flush().unwrap(),
+        }
+    }
+    w.finish().unwrap()
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(24))]
+
+    #[test]
+    fn the_writer_thread_writes_the_same_bytes(
+        calls in calls(),
+        compression in proptest::sample::select(vec![Compression::Zstd, Compression::Lz4, Compression::None]),
+        chunk_size_bytes in proptest::sample::select(vec![4096u64, 256 * 1024]),
+    ) {
+        let dir = tempfile::tempdir().unwrap();
+        let (here, thread) = (dir.path().join("here.mcap"), dir.path().join("thread.mcap"));
+        let config = |writer_thread| WriteConfig { compression, chunk_size_bytes, writer_thread };
+        let here_stats = write_calls(&here, config(false), &calls);
+        let thread_stats = write_calls(&thread, config(true), &calls);
+        proptest::prop_assert_eq!(here_stats, thread_stats);
+        proptest::prop_assert!(std::fs::read(here).unwrap() == std::fs::read(thread).unwrap());
+    }
+}
+
+/// A sink that refuses to grow past `limit` bytes, as a full disk does.
+struct FullDisk {
+    inner: std::io::Cursor<Vec<u8>>,
+    limit: u64,
+}
+
+impl Write for FullDisk {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if self.inner.position() + buf.len() as u64 > self.limit {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::StorageFull,
+                "no space left on device",
+            ));
+        }
+        self.inner.write(buf)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl Seek for FullDisk {
+    fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
+        self.inner.seek(pos)
+    }
+}
+
+#[test]
+fn a_full_disk_stops_the_writer_thread_early_with_the_file_named() {
+    const MESSAGES: u64 = 200_000;
+    for writer_thread in [false, true] {
+        let config = WriteConfig {
+            compression: Compression::None,
+            chunk_size_bytes: 16 * 1024,
+            writer_thread,
+        };
+        let sink = FullDisk {
+            inner: std::io::Cursor::new(Vec::new()),
+            limit: 100 * 1024,
+        };
+        let name = Path::new("out/full.mcap");
+        let mut w = BagWriter::new(sink, name, config).unwrap();
+        let refused = (0..MESSAGES).find_map(|i| w.write("/a", i, &point(i)).err().map(|e| (i, e)));
+        let (at, err) = refused.expect("the full disk is reported");
+        // About 2,000 messages fill 100 KiB; the thread's queue holds a few 64 KiB batches more.
+        assert!(
+            at < 30_000,
+            "reported at message {at} (writer thread: {writer_thread})"
+        );
+        let text = format!(
+            "{err}: {}",
+            std::error::Error::source(&err)
+                .map(ToString::to_string)
+                .unwrap_or_default()
+        );
+        assert!(text.contains("out/full.mcap"), "{text}");
+        assert!(matches!(err, McapIoError::Mcap { .. }), "{err:?}");
+        // With the thread, every later call fails too; either way finishing says so.
+        if writer_thread {
+            assert!(w.write("/a", MESSAGES, &point(0)).is_err());
+        }
+        assert!(w.finish().is_err());
+    }
+}
+
+#[test]
+fn a_writer_thread_dropped_unfinished_closes_its_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("dropped.mcap");
+    let config = WriteConfig {
+        writer_thread: true,
+        ..WriteConfig::default()
+    };
+    let mut w = BagWriter::create(&path, config).unwrap();
+    for i in 0..5_000 {
+        w.write("/a", i, &point(i)).unwrap();
+    }
+    drop(w);
+    // As an inline writer's drop does, the `mcap` writer ends the file on drop; by the time the
+    // drop returns the thread has done so.
+    let (msgs, issues) = read_all(&path);
+    assert!(issues.is_empty(), "{issues:?}");
+    assert_eq!(msgs.len(), 5_000);
 }

@@ -733,6 +733,7 @@ mod tests {
         let config = WriteConfig {
             compression: Compression::Zstd,
             chunk_size_bytes: 4096,
+            writer_thread: false,
         };
         let mut w = BagWriter::create(&copy, config).unwrap();
         for m in BagReader::open(&sample).unwrap().messages() {

@@ -108,6 +108,7 @@ fn pose_bag(dir: &Path, name: &str, n: usize, edit: impl Fn(usize, &mut Skeleton
         WriteConfig {
             compression: Compression::Zstd,
             chunk_size_bytes: 4096,
+            writer_thread: false,
         },
     )
     .unwrap();
