@@ -294,7 +294,9 @@ fn stream<E: From<JsonError>>(
         index: 0,
         previous: None,
     };
-    let mut de = serde_json::Deserializer::from_reader(reader);
+    // serde_json reads a reader one byte at a time; `BufReader` answers those from its buffer.
+    let mut de =
+        serde_json::Deserializer::from_reader(std::io::BufReader::with_capacity(1 << 16, reader));
     let result = serde::de::DeserializeSeed::deserialize(
         Top {
             reader: &mut frames,
@@ -581,7 +583,8 @@ fn parse_instance(
         .zip(&mut frame.confidence)
         .enumerate()
     {
-        let Some(point) = parse_point(ctx, &path(&format!(".keypoints[{k}]")), keypoint)? else {
+        let at = || path(&format!(".keypoints[{k}]"));
+        let Some(point) = parse_point(ctx, at, keypoint)? else {
             continue;
         };
         let score = match scores.and_then(|s| s.get(k)) {
@@ -603,23 +606,27 @@ fn parse_instance(
     Ok((track_id, frame))
 }
 
-/// `[x, y, z]` → `Some(point)`; `null` or any null coordinate → `None` (not seen).
+/// `[x, y, z]` → `Some(point)`; `null` or any null coordinate → `None` (not seen). `path`
+/// names the value in an error (made only then: this runs for every keypoint).
 fn parse_point(
     ctx: &FrameCtx<'_>,
-    path: &str,
+    path: impl Fn() -> String,
     value: &Value,
 ) -> Result<Option<Point3<f64>>, JsonError> {
     let list = match value {
         Value::Null => return Ok(None),
         Value::Array(list) if list.len() == 3 => list,
-        other => return Err(ctx.field(path, "[x, y, z] or null", other)),
+        other => return Err(ctx.field(&path(), "[x, y, z] or null", other)),
     };
     let mut xyz = [0.0; 3];
     for (c, (slot, v)) in xyz.iter_mut().zip(list).enumerate() {
         match v {
             Value::Null => return Ok(None),
             Value::Number(n) => *slot = n.as_f64().unwrap_or(f64::NAN),
-            other => return Err(ctx.field(&format!("{path}[{c}]"), "a number or null", other)),
+            other => {
+                let path = format!("{}[{c}]", path());
+                return Err(ctx.field(&path, "a number or null", other));
+            }
         }
     }
     if xyz.iter().all(|c| c.is_finite()) {
@@ -755,6 +762,23 @@ impl<R: std::io::Read> NonFiniteAsNull<R> {
         };
         let mut i = 0;
         while i < valid {
+            // The bytes up to the next one that can matter pass on as they are (after a
+            // backslash in a string, the next byte matters whatever it is).
+            let rest = &self.input[i..valid];
+            let run = if self.escaped {
+                Some(0)
+            } else if self.in_string {
+                rest.iter().position(|&b| matches!(b, b'"' | b'\\'))
+            } else {
+                rest.iter()
+                    .position(|&b| matches!(b, b'"' | b'N' | b'I' | b'-'))
+            };
+            let run = run.unwrap_or(rest.len());
+            self.out.extend_from_slice(&rest[..run]);
+            i += run;
+            if i == valid {
+                break;
+            }
             let b = self.input[i];
             if self.in_string {
                 if self.escaped {
@@ -790,13 +814,14 @@ impl<R: std::io::Read> NonFiniteAsNull<R> {
     /// The line and column after the first `n` bytes of `input`, counted from where the
     /// passed-on text ends (updated when `n` bytes are passed on).
     fn advance(&mut self, n: usize) -> (usize, usize) {
-        for &b in &self.input[..n] {
-            if b == b'\n' {
-                self.line += 1;
-                self.column = 1;
-            } else {
-                self.column += 1;
+        let passed = &self.input[..n];
+        match passed.iter().rposition(|&b| b == b'\n') {
+            Some(last) => {
+                self.line += passed.iter().filter(|&&b| b == b'\n').count();
+                // 1, and one for each byte after the last line break.
+                self.column = n - last;
             }
+            None => self.column += n,
         }
         (self.line, self.column)
     }
@@ -1161,7 +1186,83 @@ mod tests {
         }
     }
 
+    /// What the filter gives, from the whole text at once, one byte at a time: the text up to its
+    /// first invalid UTF-8 byte, the non-finite tokens outside strings as `null`, and the
+    /// invalid byte's line and column.
+    fn reference_filter(bytes: &[u8]) -> (Vec<u8>, Option<(usize, usize)>) {
+        let valid = std::str::from_utf8(bytes).map_or_else(|e| e.valid_up_to(), str::len);
+        let text = &bytes[..valid];
+        let place = (valid < bytes.len()).then(|| {
+            let line = 1 + text.iter().filter(|&&b| b == b'\n').count();
+            let line_start = text.iter().rposition(|&b| b == b'\n').map_or(0, |k| k + 1);
+            (line, 1 + valid - line_start)
+        });
+        let (mut out, mut i, mut in_string, mut escaped) = (Vec::new(), 0, false, false);
+        while i < text.len() {
+            let b = text[i];
+            if in_string {
+                if escaped {
+                    escaped = false;
+                } else if b == b'\\' {
+                    escaped = true;
+                } else if b == b'"' {
+                    in_string = false;
+                }
+            } else if b == b'"' {
+                in_string = true;
+            } else if let Some(t) = NON_FINITE.iter().find(|t| text[i..].starts_with(t)) {
+                out.extend_from_slice(b"null");
+                i += t.len();
+                continue;
+            }
+            out.push(b);
+            i += 1;
+        }
+        (out, place)
+    }
+
+    /// A reader that gives its bytes in reads of the given sizes, in turn.
+    struct Pieces<'a>(&'a [u8], &'a [usize], usize);
+    impl std::io::Read for Pieces<'_> {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            let n = self.1[self.2 % self.1.len()]
+                .min(buf.len())
+                .min(self.0.len());
+            self.2 += 1;
+            buf[..n].copy_from_slice(&self.0[..n]);
+            self.0 = &self.0[n..];
+            Ok(n)
+        }
+    }
+
     proptest! {
+        /// The filter gives the reference's text and place, however the reads cut the text.
+        #[test]
+        fn the_filter_gives_the_reference_whatever_the_reads(
+            pieces in proptest::collection::vec(proptest::sample::select(vec![
+                "NaN", "Infinity", "-Infinity", "-1.5", "Na", "-Inf", "\"", "\\", "\\\"", "N", "I",
+                "-", "\n", "a", "é", " ", "12", "[", ",",
+            ]), 0..80),
+            invalid_at in proptest::option::of(0usize..80),
+            read_sizes in proptest::collection::vec(1usize..40, 1..8),
+        ) {
+            let mut bytes = Vec::new();
+            for (k, piece) in pieces.iter().enumerate() {
+                if invalid_at == Some(k) {
+                    bytes.push(0xff);
+                }
+                bytes.extend_from_slice(piece.as_bytes());
+            }
+            let place = std::rc::Rc::new(std::cell::Cell::new(None));
+            let mut filter =
+                NonFiniteAsNull::new(Pieces(&bytes, &read_sizes, 0), std::rc::Rc::clone(&place));
+            let mut out = Vec::new();
+            std::io::Read::read_to_end(&mut filter, &mut out).unwrap();
+            let (want, want_place) = reference_filter(&bytes);
+            prop_assert_eq!(String::from_utf8_lossy(&out), String::from_utf8_lossy(&want));
+            prop_assert_eq!(place.get(), want_place);
+        }
+
         #[test]
         fn arbitrary_text_never_panics(text in "\\PC{0,300}") {
             let _ = parse(&text, "p", &options(2));
