@@ -125,18 +125,63 @@ pub struct BagWriter<W: Write + Seek> {
     journal: Option<Journal>,
 }
 
+/// The `mcap` writer's calls as a [`BagWriter`] makes them, each failure with its action; on
+/// the caller's thread, or on the writer's own (`mcap_io/writer_thread.rs`).
+struct Inline<W: Write + Seek>(mcap::Writer<W>);
+
+impl<W: Write + Seek> Inline<W> {
+    fn add_schema(&mut self, name: &str, data: &[u8]) -> Result<u16, Failure> {
+        self.0
+            .add_schema(name, "ros2msg", data)
+            .map_err(|e| ("cannot add a schema to", e))
+    }
+
+    fn add_channel(
+        &mut self,
+        schema_id: u16,
+        topic: &str,
+        metadata: &BTreeMap<String, String>,
+    ) -> Result<u16, Failure> {
+        self.0
+            .add_channel(schema_id, topic, "cdr", metadata)
+            .map_err(|e| ("cannot add a channel to", e))
+    }
+
+    fn write_to_known_channel(
+        &mut self,
+        header: &mcap::records::MessageHeader,
+        payload: &[u8],
+    ) -> Result<(), Failure> {
+        self.0
+            .write_to_known_channel(header, payload)
+            .map_err(|e| ("cannot write a message to", e))
+    }
+
+    fn write_metadata(&mut self, record: &mcap::records::Metadata) -> Result<(), Failure> {
+        self.0
+            .write_metadata(record)
+            .map_err(|e| ("cannot write metadata to", e))
+    }
+
+    fn flush(&mut self) -> Result<(), Failure> {
+        self.0.flush().map_err(|e| ("cannot flush", e))
+    }
+
+    fn finish(&mut self) -> Result<(), Failure> {
+        self.0.finish().map(drop).map_err(|e| ("cannot finish", e))
+    }
+}
+
 /// The `mcap` writer of a [`BagWriter`]: on the caller's thread, or on its own.
 enum Records<W: Write + Seek> {
-    Here(Box<mcap::Writer<W>>),
+    Here(Box<Inline<W>>),
     Thread(WriterThread),
 }
 
 impl<W: Write + Seek> Records<W> {
     fn add_schema(&mut self, name: &str, data: &[u8]) -> Result<u16, Failure> {
         match self {
-            Records::Here(w) => w
-                .add_schema(name, "ros2msg", data)
-                .map_err(|e| ("cannot add a schema to", e)),
+            Records::Here(w) => w.add_schema(name, data),
             Records::Thread(t) => t.add_schema(name, data),
         }
     }
@@ -148,9 +193,7 @@ impl<W: Write + Seek> Records<W> {
         metadata: &BTreeMap<String, String>,
     ) -> Result<u16, Failure> {
         match self {
-            Records::Here(w) => w
-                .add_channel(schema_id, topic, "cdr", metadata)
-                .map_err(|e| ("cannot add a channel to", e)),
+            Records::Here(w) => w.add_channel(schema_id, topic, metadata),
             Records::Thread(t) => t.add_channel(schema_id, topic, metadata),
         }
     }
@@ -161,32 +204,28 @@ impl<W: Write + Seek> Records<W> {
         payload: &[u8],
     ) -> Result<(), Failure> {
         match self {
-            Records::Here(w) => w
-                .write_to_known_channel(header, payload)
-                .map_err(|e| ("cannot write a message to", e)),
+            Records::Here(w) => w.write_to_known_channel(header, payload),
             Records::Thread(t) => t.write_to_known_channel(header, payload),
         }
     }
 
     fn write_metadata(&mut self, record: mcap::records::Metadata) -> Result<(), Failure> {
         match self {
-            Records::Here(w) => w
-                .write_metadata(&record)
-                .map_err(|e| ("cannot write metadata to", e)),
+            Records::Here(w) => w.write_metadata(&record),
             Records::Thread(t) => t.write_metadata(record),
         }
     }
 
     fn flush(&mut self) -> Result<(), Failure> {
         match self {
-            Records::Here(w) => w.flush().map_err(|e| ("cannot flush", e)),
+            Records::Here(w) => w.flush(),
             Records::Thread(t) => t.flush(),
         }
     }
 
     fn finish(&mut self) -> Result<(), Failure> {
         match self {
-            Records::Here(w) => w.finish().map(drop).map_err(|e| ("cannot finish", e)),
+            Records::Here(w) => w.finish(),
             Records::Thread(t) => t.finish(),
         }
     }
@@ -381,6 +420,7 @@ impl<W: Write + Seek + Send + 'static> BagWriter<W> {
                 path: path.to_path_buf(),
                 source,
             })?;
+        let writer = Inline(writer);
         let writer = if config.writer_thread {
             let thread = WriterThread::spawn(writer).map_err(|source| McapIoError::Io {
                 action: "cannot start the writer thread of",

@@ -734,3 +734,58 @@ fn a_writer_thread_dropped_unfinished_closes_its_file() {
     assert!(issues.is_empty(), "{issues:?}");
     assert_eq!(msgs.len(), 5_000);
 }
+
+/// A sink that panics the first time it would hold more than `limit` bytes (a bug below the
+/// writer), and refuses to grow after (so that the `mcap` writer's drop, which finishes the
+/// file, does not panic again while the thread unwinds).
+struct PanicsPast {
+    inner: std::io::Cursor<Vec<u8>>,
+    limit: u64,
+    panicked: bool,
+}
+
+impl Write for PanicsPast {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if self.inner.position() + buf.len() as u64 > self.limit {
+            if !self.panicked {
+                self.panicked = true;
+                panic!("the sink's own bug");
+            }
+            return Err(std::io::Error::other("refused after the panic"));
+        }
+        self.inner.write(buf)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl Seek for PanicsPast {
+    fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
+        self.inner.seek(pos)
+    }
+}
+
+#[test]
+fn a_writer_thread_that_panics_becomes_an_error_for_the_producer() {
+    let sink = PanicsPast {
+        inner: std::io::Cursor::new(Vec::new()),
+        limit: 50 * 1024,
+        panicked: false,
+    };
+    let config = WriteConfig {
+        compression: Compression::None,
+        chunk_size_bytes: 16 * 1024,
+        writer_thread: true,
+    };
+    let mut w = BagWriter::new(sink, Path::new("out/panics.mcap"), config).unwrap();
+    let refused = (0..200_000u64).find_map(|i| w.write("/a", i, &point(i)).err());
+    let err = refused.expect("the thread's end is reported");
+    let text = format!("{err}: {}", std::error::Error::source(&err).unwrap());
+    assert!(
+        text.contains("out/panics.mcap") && text.contains("panicked"),
+        "{text}"
+    );
+    assert!(w.finish().is_err());
+}

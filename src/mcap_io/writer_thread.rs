@@ -21,6 +21,8 @@ use std::thread::JoinHandle;
 use mcap::McapError;
 use mcap::records::{MessageHeader, Metadata};
 
+use super::Inline;
+
 /// What failed (the action, as [`super::McapIoError::Mcap`] names it) and why.
 pub(super) type Failure = (&'static str, McapError);
 
@@ -100,7 +102,7 @@ impl WriterThread {
     ///
     /// # Errors
     /// The operating system's, when it cannot start a thread.
-    pub(super) fn spawn<W>(writer: mcap::Writer<W>) -> std::io::Result<WriterThread>
+    pub(super) fn spawn<W>(writer: Inline<W>) -> std::io::Result<WriterThread>
     where
         W: Write + Seek + Send + 'static,
     {
@@ -246,17 +248,15 @@ impl Drop for WriterThread {
 
 fn thread_panicked() -> Failure {
     (
-        "cannot go on writing",
-        McapError::Io(std::io::Error::other(
-            "the MCAP writer's thread stopped (it panicked)",
-        )),
+        "the MCAP writer's thread panicked while writing",
+        McapError::Io(std::io::Error::other("the writer's thread stopped")),
     )
 }
 
 /// The thread: runs commands in order until the queue closes or the file is finished. After a
 /// failure it writes nothing more and answers every question with `Err(())`.
 fn serve<W: Write + Seek>(
-    mut writer: mcap::Writer<W>,
+    mut writer: Inline<W>,
     inbox: &Receiver<Command>,
     give_back: &Sender<Batch>,
     slot: &FailureSlot,
@@ -267,9 +267,7 @@ fn serve<W: Write + Seek>(
             Command::Messages(batch) => {
                 if !failed {
                     let written = batch.headers.iter().try_for_each(|(header, range)| {
-                        writer
-                            .write_to_known_channel(header, &batch.bytes[range.clone()])
-                            .map_err(|e| ("cannot write a message to", e))
+                        writer.write_to_known_channel(header, &batch.bytes[range.clone()])
                     });
                     let _ = settle(slot, &mut failed, written);
                 }
@@ -278,24 +276,14 @@ fn serve<W: Write + Seek>(
             }
             Command::Metadata(metadata) => {
                 if !failed {
-                    let written = writer.write_metadata(&metadata);
-                    let _ = settle(
-                        slot,
-                        &mut failed,
-                        written.map_err(|e| ("cannot write metadata to", e)),
-                    );
+                    let _ = settle(slot, &mut failed, writer.write_metadata(&metadata));
                 }
             }
             Command::Schema { name, data, reply } => {
                 let id = if failed {
                     Err(())
                 } else {
-                    let id = writer.add_schema(&name, "ros2msg", &data);
-                    settle(
-                        slot,
-                        &mut failed,
-                        id.map_err(|e| ("cannot add a schema to", e)),
-                    )
+                    settle(slot, &mut failed, writer.add_schema(&name, &data))
                 };
                 let _ = reply.send(id);
             }
@@ -308,12 +296,8 @@ fn serve<W: Write + Seek>(
                 let id = if failed {
                     Err(())
                 } else {
-                    let id = writer.add_channel(schema_id, &topic, "cdr", &metadata);
-                    settle(
-                        slot,
-                        &mut failed,
-                        id.map_err(|e| ("cannot add a channel to", e)),
-                    )
+                    let id = writer.add_channel(schema_id, &topic, &metadata);
+                    settle(slot, &mut failed, id)
                 };
                 let _ = reply.send(id);
             }
@@ -321,11 +305,7 @@ fn serve<W: Write + Seek>(
                 let done = if failed {
                     Err(())
                 } else {
-                    settle(
-                        slot,
-                        &mut failed,
-                        writer.flush().map_err(|e| ("cannot flush", e)),
-                    )
+                    settle(slot, &mut failed, writer.flush())
                 };
                 let _ = reply.send(done);
             }
@@ -333,8 +313,7 @@ fn serve<W: Write + Seek>(
                 let done = if failed {
                     Err(())
                 } else {
-                    let done = writer.finish().map(drop);
-                    settle(slot, &mut failed, done.map_err(|e| ("cannot finish", e)))
+                    settle(slot, &mut failed, writer.finish())
                 };
                 let _ = reply.send(done);
                 return;
