@@ -585,7 +585,8 @@ fn a_window_skips_the_chunks_outside_it_undecompressed() {
 enum Call {
     /// A `Point` on `/a`.
     Point(u64),
-    /// Raw bytes (`len` of them) on one of three topics, some far larger than a batch.
+    /// Raw bytes (`len` of them) on one of three topics, some far larger than a batch (and some
+    /// larger than a batch kept for reuse).
     Raw {
         topic: u8,
         len: usize,
@@ -599,7 +600,7 @@ fn calls() -> impl proptest::strategy::Strategy<Value = Vec<Call>> {
     let call = prop_oneof![
         8 => (0u64..1_000_000).prop_map(Call::Point),
         4 => (0u8..3, 0usize..3_000).prop_map(|(topic, len)| Call::Raw { topic, len }),
-        1 => (0u8..3, 60_000usize..200_000).prop_map(|(topic, len)| Call::Raw { topic, len }),
+        1 => (0u8..3, 60_000usize..400_000).prop_map(|(topic, len)| Call::Raw { topic, len }),
         1 => Just(Call::Metadata),
         1 => Just(Call::Flush),
     ];

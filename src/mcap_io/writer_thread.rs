@@ -184,7 +184,14 @@ impl WriterThread {
         if self.pending.headers.is_empty() {
             return Ok(());
         }
-        let mut next = self.spent.try_recv().unwrap_or_default();
+        // A spent batch is filled again, unless a huge message grew it: that one is let go, so
+        // a huge message's buffer is not kept for the rest of the file.
+        let mut next = self
+            .spent
+            .try_recv()
+            .ok()
+            .filter(|b| b.bytes.capacity() <= 4 * BATCH_BYTES)
+            .unwrap_or_default();
         next.headers.clear();
         next.bytes.clear();
         let full = std::mem::replace(&mut self.pending, next);
