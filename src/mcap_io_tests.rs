@@ -650,15 +650,29 @@ proptest::proptest! {
     }
 }
 
-/// A sink that refuses to grow past `limit` bytes, as a full disk does.
+/// A sink that refuses to grow past `limit` bytes, as a full disk does; or, with `panics`, panics
+/// the first time (a bug below the writer) and refuses after (so that the `mcap` writer's drop,
+/// which finishes the file, does not panic again while the thread unwinds).
 struct FullDisk {
     inner: std::io::Cursor<Vec<u8>>,
     limit: u64,
+    panics: bool,
+}
+
+impl FullDisk {
+    fn new(limit: u64, panics: bool) -> FullDisk {
+        FullDisk {
+            inner: std::io::Cursor::new(Vec::new()),
+            limit,
+            panics,
+        }
+    }
 }
 
 impl Write for FullDisk {
     fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
         if self.inner.position() + buf.len() as u64 > self.limit {
+            assert!(!std::mem::take(&mut self.panics), "the sink's own bug");
             return Err(std::io::Error::new(
                 std::io::ErrorKind::StorageFull,
                 "no space left on device",
@@ -687,10 +701,7 @@ fn a_full_disk_stops_the_writer_thread_early_with_the_file_named() {
             chunk_size_bytes: 16 * 1024,
             writer_thread,
         };
-        let sink = FullDisk {
-            inner: std::io::Cursor::new(Vec::new()),
-            limit: 100 * 1024,
-        };
+        let sink = FullDisk::new(100 * 1024, false);
         let name = Path::new("out/full.mcap");
         let mut w = BagWriter::new(sink, name, config).unwrap();
         let refused = (0..MESSAGES).find_map(|i| w.write("/a", i, &point(i)).err().map(|e| (i, e)));
@@ -736,45 +747,9 @@ fn a_writer_thread_dropped_unfinished_closes_its_file() {
     assert_eq!(msgs.len(), 5_000);
 }
 
-/// A sink that panics the first time it would hold more than `limit` bytes (a bug below the
-/// writer), and refuses to grow after (so that the `mcap` writer's drop, which finishes the
-/// file, does not panic again while the thread unwinds).
-struct PanicsPast {
-    inner: std::io::Cursor<Vec<u8>>,
-    limit: u64,
-    panicked: bool,
-}
-
-impl Write for PanicsPast {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        if self.inner.position() + buf.len() as u64 > self.limit {
-            if !self.panicked {
-                self.panicked = true;
-                panic!("the sink's own bug");
-            }
-            return Err(std::io::Error::other("refused after the panic"));
-        }
-        self.inner.write(buf)
-    }
-
-    fn flush(&mut self) -> std::io::Result<()> {
-        Ok(())
-    }
-}
-
-impl Seek for PanicsPast {
-    fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
-        self.inner.seek(pos)
-    }
-}
-
 #[test]
 fn a_writer_thread_that_panics_becomes_an_error_for_the_producer() {
-    let sink = PanicsPast {
-        inner: std::io::Cursor::new(Vec::new()),
-        limit: 50 * 1024,
-        panicked: false,
-    };
+    let sink = FullDisk::new(50 * 1024, true);
     let config = WriteConfig {
         compression: Compression::None,
         chunk_size_bytes: 16 * 1024,

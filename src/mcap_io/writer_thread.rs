@@ -272,26 +272,19 @@ fn serve<W: Write + Seek>(
     while let Ok(command) = inbox.recv() {
         match command {
             Command::Messages(batch) => {
-                if !failed {
-                    let written = batch.headers.iter().try_for_each(|(header, range)| {
+                let _ = attempt(slot, &mut failed, || {
+                    batch.headers.iter().try_for_each(|(header, range)| {
                         writer.write_to_known_channel(header, &batch.bytes[range.clone()])
-                    });
-                    let _ = settle(slot, &mut failed, written);
-                }
+                    })
+                });
                 // The producer may have gone; then the batch is simply dropped.
                 let _ = give_back.send(batch);
             }
             Command::Metadata(metadata) => {
-                if !failed {
-                    let _ = settle(slot, &mut failed, writer.write_metadata(&metadata));
-                }
+                let _ = attempt(slot, &mut failed, || writer.write_metadata(&metadata));
             }
             Command::Schema { name, data, reply } => {
-                let id = if failed {
-                    Err(())
-                } else {
-                    settle(slot, &mut failed, writer.add_schema(&name, &data))
-                };
+                let id = attempt(slot, &mut failed, || writer.add_schema(&name, &data));
                 let _ = reply.send(id);
             }
             Command::Channel {
@@ -300,38 +293,33 @@ fn serve<W: Write + Seek>(
                 metadata,
                 reply,
             } => {
-                let id = if failed {
-                    Err(())
-                } else {
-                    let id = writer.add_channel(schema_id, &topic, &metadata);
-                    settle(slot, &mut failed, id)
-                };
+                let id = attempt(slot, &mut failed, || {
+                    writer.add_channel(schema_id, &topic, &metadata)
+                });
                 let _ = reply.send(id);
             }
             Command::Flush(reply) => {
-                let done = if failed {
-                    Err(())
-                } else {
-                    settle(slot, &mut failed, writer.flush())
-                };
-                let _ = reply.send(done);
+                let _ = reply.send(attempt(slot, &mut failed, || writer.flush()));
             }
             Command::Finish(reply) => {
-                let done = if failed {
-                    Err(())
-                } else {
-                    settle(slot, &mut failed, writer.finish())
-                };
-                let _ = reply.send(done);
+                let _ = reply.send(attempt(slot, &mut failed, || writer.finish()));
                 return;
             }
         }
     }
 }
 
-/// `result`'s value, or `Err(())` with the failure put in the slot.
-fn settle<T>(slot: &FailureSlot, failed: &mut bool, result: Result<T, Failure>) -> Result<T, ()> {
-    result.map_err(|failure| {
+/// `f`'s value; or `Err(())` with its failure put in the slot; or, after a failure, `Err(())`
+/// without calling `f` (nothing more is written then).
+fn attempt<T>(
+    slot: &FailureSlot,
+    failed: &mut bool,
+    f: impl FnOnce() -> Result<T, Failure>,
+) -> Result<T, ()> {
+    if *failed {
+        return Err(());
+    }
+    f().map_err(|failure| {
         slot.set(failure);
         *failed = true;
     })
