@@ -150,7 +150,7 @@ impl BagOutput {
             &shown,
             WriteConfig {
                 compression: options.compression,
-                // The commands writing a `BagOutput` (convert, import, recover) produce on one
+                // The commands writing a `BagOutput` (convert, import, one file's recover) produce on one
                 // thread; with a second core the compression and writing run beside it.
                 writer_thread: std::thread::available_parallelism().is_ok_and(|n| n.get() > 1),
                 ..WriteConfig::default()

@@ -268,11 +268,10 @@ fn serve<W: Write + Seek>(
     give_back: &Sender<Batch>,
     slot: &FailureSlot,
 ) {
-    let mut failed = false;
     while let Ok(command) = inbox.recv() {
         match command {
             Command::Messages(batch) => {
-                let _ = attempt(slot, &mut failed, || {
+                let _ = attempt(slot, || {
                     batch.headers.iter().try_for_each(|(header, range)| {
                         writer.write_to_known_channel(header, &batch.bytes[range.clone()])
                     })
@@ -281,10 +280,10 @@ fn serve<W: Write + Seek>(
                 let _ = give_back.send(batch);
             }
             Command::Metadata(metadata) => {
-                let _ = attempt(slot, &mut failed, || writer.write_metadata(&metadata));
+                let _ = attempt(slot, || writer.write_metadata(&metadata));
             }
             Command::Schema { name, data, reply } => {
-                let id = attempt(slot, &mut failed, || writer.add_schema(&name, &data));
+                let id = attempt(slot, || writer.add_schema(&name, &data));
                 let _ = reply.send(id);
             }
             Command::Channel {
@@ -293,34 +292,25 @@ fn serve<W: Write + Seek>(
                 metadata,
                 reply,
             } => {
-                let id = attempt(slot, &mut failed, || {
-                    writer.add_channel(schema_id, &topic, &metadata)
-                });
+                let id = attempt(slot, || writer.add_channel(schema_id, &topic, &metadata));
                 let _ = reply.send(id);
             }
             Command::Flush(reply) => {
-                let _ = reply.send(attempt(slot, &mut failed, || writer.flush()));
+                let _ = reply.send(attempt(slot, || writer.flush()));
             }
             Command::Finish(reply) => {
-                let _ = reply.send(attempt(slot, &mut failed, || writer.finish()));
+                let _ = reply.send(attempt(slot, || writer.finish()));
                 return;
             }
         }
     }
 }
 
-/// `f`'s value; or `Err(())` with its failure put in the slot; or, after a failure, `Err(())`
-/// without calling `f` (nothing more is written then).
-fn attempt<T>(
-    slot: &FailureSlot,
-    failed: &mut bool,
-    f: impl FnOnce() -> Result<T, Failure>,
-) -> Result<T, ()> {
-    if *failed {
+/// `f`'s value; or `Err(())` with its failure put in the slot; or, once the slot holds a
+/// failure, `Err(())` without calling `f` (nothing more is written then).
+fn attempt<T>(slot: &FailureSlot, f: impl FnOnce() -> Result<T, Failure>) -> Result<T, ()> {
+    if slot.failed.load(Ordering::Acquire) {
         return Err(());
     }
-    f().map_err(|failure| {
-        slot.set(failure);
-        *failed = true;
-    })
+    f().map_err(|failure| slot.set(failure))
 }
