@@ -76,6 +76,9 @@ struct ShadowMap {
     /// otherwise.
     ground_lit: Vec<u64>,
     ground_row_words: usize,
+    /// [`draw_shadow_map`]'s scratch: the casters' vertices in light coordinates, then in the
+    /// map's (texels across, and the stored height).
+    light_coords: Vec<[f32; 3]>,
 }
 
 impl ShadowMap {
@@ -246,8 +249,10 @@ fn draw_shadow_map(
     }
     let mut lo = [f32::INFINITY; 3];
     let mut hi = [f32::NEG_INFINITY; 3];
-    for p in positions {
-        let c = light.coords(&Vector3::from(*p));
+    map.light_coords.clear();
+    map.light_coords
+        .extend(positions.iter().map(|p| light.coords(&Vector3::from(*p))));
+    for c in &map.light_coords {
         for k in 0..3 {
             lo[k] = lo[k].min(c[k]);
             hi[k] = hi[k].max(c[k]);
@@ -260,20 +265,20 @@ fn draw_shadow_map(
     map.height_offset = 1.0 - lo[2];
     map.top_l_m = hi[2];
     map.casters_uv_m = [lo[0], lo[1], hi[0], hi[1]];
-    let to_map = |p: &[f32; 3]| {
-        let c = light.coords(&Vector3::from(*p));
-        ScreenVertex {
-            x: (c[0] - map.origin[0]) * map.texels_per_m,
-            y: (c[1] - map.origin[1]) * map.texels_per_m,
-            inv_z: c[2] + map.height_offset,
-        }
-    };
-    for t in indices.chunks_exact(3) {
-        let s = [
-            to_map(&positions[t[0] as usize]),
-            to_map(&positions[t[1] as usize]),
-            to_map(&positions[t[2] as usize]),
+    // Each vertex to the map once (its triangles share it).
+    let (origin, texels_per_m, height_offset) = (map.origin, map.texels_per_m, map.height_offset);
+    for c in &mut map.light_coords {
+        *c = [
+            (c[0] - origin[0]) * texels_per_m,
+            (c[1] - origin[1]) * texels_per_m,
+            c[2] + height_offset,
         ];
+    }
+    for t in indices.chunks_exact(3) {
+        let s = [t[0], t[1], t[2]].map(|k| {
+            let [x, y, inv_z] = map.light_coords[k as usize];
+            ScreenVertex { x, y, inv_z }
+        });
         let all = PixelRect::full(size, size);
         fill_triangle(s, size, size, all, &mut map.heights, cull, |_, _, _| {});
     }

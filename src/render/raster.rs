@@ -6,6 +6,8 @@
 //! `(i + ½, j + ½)` lies inside the triangle. The depth buffer stores `1/z` (z along the view
 //! axis), so a greater value is nearer and a cleared buffer holds 0.
 
+use crate::scene::fast_float::floor_small;
+
 /// A vertex after projection: continuous pixel coordinates and the reciprocal view depth.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct ScreenVertex {
@@ -174,61 +176,114 @@ pub(crate) fn fill_triangle(
     let iz = [swapped[0].inv_z, swapped[1].inv_z, swapped[2].inv_z];
     let (rows, last_row) = (row_start as usize, row_end as usize);
     let last_col = col_end as usize;
-    for row in rows.max(scissor.y0)..=last_row.min(scissor.y1 - 1) {
-        let y = row as f32 + 0.5;
-        // The span of this row where all three edge functions are ≥ 0.
-        let (mut lo, mut hi) = (col_start, col_end);
-        for &(a, b, c) in &edges {
-            let rest = b * y + c;
-            if a > 0.0 {
-                lo = lo.max(ceil(-rest / a - 0.5));
-            } else if a < 0.0 {
-                hi = hi.min(floor(-rest / a - 0.5));
-            } else if rest < 0.0 {
-                hi = -1.0;
+    let (first_row, end_row) = (rows.max(scissor.y0), last_row.min(scissor.y1 - 1));
+    for block in (first_row..=end_row).step_by(ROWS) {
+        // The spans of up to `ROWS` rows at once: the same arithmetic as row by row, lane by
+        // lane (the divisions and roundings vectorise; most triangles here span a few rows).
+        let (los, his) = row_spans(&edges, block, col_start, col_end);
+        for (row, (lo, hi)) in (block..=end_row).zip(los.into_iter().zip(his)) {
+            let y = row as f32 + 0.5;
+            if lo > hi {
+                continue;
             }
-        }
-        if lo > hi {
-            continue;
-        }
-        let (lo, hi) = (lo as usize, (hi as usize).min(last_col));
-        let x0 = lo as f32 + 0.5;
-        let mut e = [
-            edges[0].0 * x0 + edges[0].1 * y + edges[0].2,
-            edges[1].0 * x0 + edges[1].1 * y + edges[1].2,
-            edges[2].0 * x0 + edges[2].1 * y + edges[2].2,
-        ];
-        let base = row * width;
-        // The edge values are stepped from the span's start whatever the scissor, so that a
-        // pixel's weights are the same bits with and without it.
-        let first = lo.max(scissor.x0);
-        for _ in lo..first {
-            e[0] += edges[0].0;
-            e[1] += edges[1].0;
-            e[2] += edges[2].0;
-        }
-        for col in first..=hi.min(scissor.x1 - 1) {
-            let l = [
-                (e[0] * inv_area).max(0.0),
-                (e[1] * inv_area).max(0.0),
-                (e[2] * inv_area).max(0.0),
+            let (lo, hi) = (lo as usize, (hi as usize).min(last_col));
+            let x0 = lo as f32 + 0.5;
+            let mut e = [
+                edges[0].0 * x0 + edges[0].1 * y + edges[0].2,
+                edges[1].0 * x0 + edges[1].1 * y + edges[1].2,
+                edges[2].0 * x0 + edges[2].1 * y + edges[2].2,
             ];
-            let inv_z = l[0] * iz[0] + l[1] * iz[1] + l[2] * iz[2];
-            let slot = &mut depth[base + col];
-            if inv_z > *slot {
-                *slot = inv_z;
-                let k = 1.0 / inv_z;
-                shade(
-                    base + col,
-                    inv_z,
-                    [l[0] * iz[0] * k, l[1] * iz[1] * k, l[2] * iz[2] * k],
-                );
+            let base = row * width;
+            // The edge values are stepped from the span's start whatever the scissor, so that a
+            // pixel's weights are the same bits with and without it.
+            let first = lo.max(scissor.x0);
+            for _ in lo..first {
+                e[0] += edges[0].0;
+                e[1] += edges[1].0;
+                e[2] += edges[2].0;
             }
-            e[0] += edges[0].0;
-            e[1] += edges[1].0;
-            e[2] += edges[2].0;
+            for col in first..=hi.min(scissor.x1 - 1) {
+                let l = [
+                    (e[0] * inv_area).max(0.0),
+                    (e[1] * inv_area).max(0.0),
+                    (e[2] * inv_area).max(0.0),
+                ];
+                let inv_z = l[0] * iz[0] + l[1] * iz[1] + l[2] * iz[2];
+                let slot = &mut depth[base + col];
+                if inv_z > *slot {
+                    *slot = inv_z;
+                    let k = 1.0 / inv_z;
+                    shade(
+                        base + col,
+                        inv_z,
+                        [l[0] * iz[0] * k, l[1] * iz[1] * k, l[2] * iz[2] * k],
+                    );
+                }
+                e[0] += edges[0].0;
+                e[1] += edges[1].0;
+                e[2] += edges[2].0;
+            }
         }
     }
+}
+
+/// Rows whose spans [`row_spans`] computes at once.
+const ROWS: usize = 4;
+
+/// Largest magnitude the lanes of [`row_spans`] round exactly (below 2²², as
+/// [`floor_small`] needs). A bound beyond it is clamped to it, which moves it no nearer the
+/// screen (at most 4 million pixels wide): the spans are those of [`floor`] and [`ceil`].
+const LANE_LIMIT: f32 = 4.0e6;
+
+/// [`floor`] for one lane, without a branch: NaN gives 0, and magnitudes beyond
+/// [`LANE_LIMIT`] saturate.
+#[inline]
+fn floor_lane(v: f32) -> f32 {
+    // NaN's bits cleared to +0 by a mask, then a clamp by comparisons: both vectorise.
+    let v = f32::from_bits(v.to_bits() & u32::from(!v.is_nan()).wrapping_neg());
+    let v = if v < -LANE_LIMIT { -LANE_LIMIT } else { v };
+    let v = if v > LANE_LIMIT { LANE_LIMIT } else { v };
+    floor_small(v).0
+}
+
+/// The columns `lo..=hi` (as floats; empty when `lo > hi`) where all three edge functions are
+/// ≥ 0 at the centres of rows `row..row + ROWS`, within `col_start..=col_end`.
+#[inline]
+fn row_spans(
+    edges: &[(f32, f32, f32); 3],
+    row: usize,
+    col_start: f32,
+    col_end: f32,
+) -> ([f32; ROWS], [f32; ROWS]) {
+    const LANE: [f32; ROWS] = [0.5, 1.5, 2.5, 3.5];
+    let first = row as f32;
+    let mut lo = [col_start; ROWS];
+    let mut hi = [col_end; ROWS];
+    for &(a, b, c) in edges {
+        let mut x = [0.0; ROWS];
+        for j in 0..ROWS {
+            x[j] = -(b * (first + LANE[j]) + c) / a - 0.5;
+        }
+        if a > 0.0 {
+            for j in 0..ROWS {
+                // ⌈v⌉ = −⌊−v⌋; neither bound is NaN, so a comparison is the maximum.
+                let bound = -floor_lane(-x[j]);
+                lo[j] = if bound > lo[j] { bound } else { lo[j] };
+            }
+        } else if a < 0.0 {
+            for j in 0..ROWS {
+                let bound = floor_lane(x[j]);
+                hi[j] = if bound < hi[j] { bound } else { hi[j] };
+            }
+        } else {
+            for j in 0..ROWS {
+                if b * (first + LANE[j]) + c < 0.0 {
+                    hi[j] = -1.0;
+                }
+            }
+        }
+    }
+    (lo, hi)
 }
 
 /// A vertex in view space (before projection) with the attributes the caller interpolates.
@@ -270,6 +325,8 @@ pub(crate) fn clip_near<const N: usize>(
 
 #[cfg(test)]
 mod tests {
+    use proptest::prelude::*;
+
     use super::*;
 
     fn sv(x: f32, y: f32, z: f32) -> ScreenVertex {
@@ -439,5 +496,69 @@ mod tests {
         );
         clip_near([v(-1.0), v(-2.0), v(-3.0)], 0.1, &mut out);
         assert!(out.is_empty());
+    }
+
+    /// One row's span the way it was computed before [`row_spans`]: row by row, with
+    /// [`floor`] and [`ceil`]. `None` when empty, else the columns as the rasteriser uses them.
+    fn span_reference(
+        edges: &[(f32, f32, f32); 3],
+        row: usize,
+        col_start: f32,
+        col_end: f32,
+    ) -> Option<(usize, usize)> {
+        let y = row as f32 + 0.5;
+        let (mut lo, mut hi) = (col_start, col_end);
+        for &(a, b, c) in edges {
+            let rest = b * y + c;
+            if a > 0.0 {
+                lo = lo.max(ceil(-rest / a - 0.5));
+            } else if a < 0.0 {
+                hi = hi.min(floor(-rest / a - 0.5));
+            } else if rest < 0.0 {
+                hi = -1.0;
+            }
+        }
+        (lo <= hi).then_some((lo as usize, hi as usize))
+    }
+
+    /// A coordinate: mostly on a small screen, some far off it, some not finite.
+    fn coordinate() -> impl Strategy<Value = f32> {
+        prop_oneof![
+            8 => -50.0f32..400.0,
+            2 => -1.0e8f32..1.0e8,
+            1 => Just(f32::NAN),
+            1 => Just(f32::INFINITY),
+            1 => Just(f32::NEG_INFINITY),
+            1 => (0i32..64).prop_map(|k| k as f32 * 0.5),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2_000))]
+
+        /// The lanes give every row exactly the span the row-by-row code gave, so a
+        /// triangle covers the same pixels: for edges of any three points, finite or not.
+        #[test]
+        fn row_spans_are_the_row_by_row_spans(
+            points in proptest::array::uniform3((coordinate(), coordinate())),
+            row in 0usize..300,
+            cols in (0u32..320, 0u32..320),
+        ) {
+            let p = points.map(|(x, y)| ScreenVertex { x, y, inv_z: 1.0 });
+            let edge = |p: ScreenVertex, q: ScreenVertex| {
+                (q.y - p.y, p.x - q.x, q.x * p.y - p.x * q.y)
+            };
+            let edges = [edge(p[2], p[1]), edge(p[0], p[2]), edge(p[1], p[0])];
+            let (col_start, col_end) = (cols.0.min(cols.1) as f32, cols.0.max(cols.1) as f32);
+            let (lo, hi) = row_spans(&edges, row, col_start, col_end);
+            for j in 0..ROWS {
+                let lanes = (lo[j] <= hi[j]).then_some((lo[j] as usize, hi[j] as usize));
+                prop_assert_eq!(
+                    lanes,
+                    span_reference(&edges, row + j, col_start, col_end),
+                    "row {}", row + j
+                );
+            }
+        }
     }
 }
