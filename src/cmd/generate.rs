@@ -40,7 +40,7 @@ Layout of DIR:
 A re-run with the same spec and options continues where the last one stopped (after Ctrl-C,
 a crash or kill -9): finished units are not redone, and a render resumes at its first unfinished
 piece (--piece-frames); one with other options is refused.
-Progress: a bar on a terminal, a line every 5 s otherwise (-q: none).")]
+Progress: a bar on a terminal, a line at once and every 5 s otherwise (-q: none).")]
 pub struct Args {
     /// The dataset spec (see `examples/dataset.toml`).
     pub spec: PathBuf,

@@ -36,6 +36,7 @@ use self::shard::Shard;
 use crate::bags::capture::{Capture, TimelineError};
 use crate::bags::render::{RenderBagError, RenderedVideo};
 use crate::dataset::capture::{CaptureError, Converted};
+use crate::dataset::clips::ClipMode;
 use crate::dataset::plan::Plan;
 use crate::dataset::spec::Spec;
 use crate::pipeline::PipelineError;
@@ -367,6 +368,36 @@ pub(crate) fn trim_options(choice: &ClipChoice, planned: &PlannedClips) -> TrimO
     }
 }
 
+/// The clips `trim` will cut out of `session`'s segments by the plan's clip policies, as far as
+/// the plan tells: exact for `whole` and `windows` at the plan's rate; a segment cut into
+/// `instances` counts as one, since its motion decides (the progress line corrects the total
+/// when a session's clips are cut).
+fn estimated_clips(plan: &Plan, session: &crate::dataset::plan::Session) -> u64 {
+    plan.leaves[session.leaves.clone()]
+        .iter()
+        .map(|leaf| {
+            let policy = usize::try_from(leaf.label_id)
+                .ok()
+                .and_then(|i| plan.labels.get(i))
+                .and_then(|label| plan.clips.get(label));
+            match policy {
+                Some(policy) if policy.policy != ClipMode::Instances => {
+                    let segment = crate::trim::plan::FrameRange {
+                        segment: 0,
+                        part: None,
+                        start_frame: leaf.start_frame,
+                        frame_count: leaf.end_frame.saturating_sub(leaf.start_frame),
+                        action: leaf.content_start_frame..leaf.content_end_frame,
+                        animation_start_frame: leaf.content_start_frame,
+                    };
+                    crate::trim::policy::clips_of(&segment, policy, None).len() as u64
+                }
+                _ => 1,
+            }
+        })
+        .sum()
+}
+
 /// Where one session's files go.
 struct SessionPaths {
     capture: PathBuf,
@@ -503,7 +534,7 @@ pub fn generate(job: &GenerateJob, stop: &AtomicBool) -> Result<GenerateSummary,
         captures: mine.len() as u64,
         clips: plan.sessions[mine.clone()]
             .iter()
-            .map(|s| s.leaves.len() as u64)
+            .map(|s| estimated_clips(&plan, s))
             .sum(),
         frames: plan.sessions[mine.clone()].iter().map(|s| s.frames).sum(),
     };
@@ -608,7 +639,7 @@ impl Run<'_> {
         let dir = &self.job.output;
         let session = &self.plan.sessions[index];
         let name = &session.name;
-        let clips = session.leaves.len() as u64;
+        let clips = estimated_clips(self.plan, session);
         let paths = SessionPaths::new(dir, name);
         let stage = journal.stage(name);
         if stage == Some(Stage::Clips) {
@@ -651,7 +682,7 @@ impl Run<'_> {
         }
         self.stopped()?;
         let t = Instant::now();
-        let trimmed = self.trim(&capture, &paths)?;
+        let trimmed = self.trim(&capture, &paths, clips)?;
         summary.seconds.trim += t.elapsed().as_secs_f64();
         summary.truncated += trimmed.truncated.len();
         journal.record(dir, name, Stage::Clips)?;
@@ -891,11 +922,13 @@ impl Run<'_> {
         Ok(Some(lists))
     }
 
-    /// Cuts `capture`'s clips out of its video into the dataset.
+    /// Cuts `capture`'s clips out of its video into the dataset; `estimated`: the clips the
+    /// plan promised for it (for the progress line).
     fn trim(
         &self,
         capture: &Capture,
         paths: &SessionPaths,
+        estimated: u64,
     ) -> Result<crate::trim::run::TrimSummary, GenerateError> {
         let Some(planned) = &self.planned else {
             return Err(GenerateError::Parts(
@@ -916,11 +949,10 @@ impl Run<'_> {
             annotations: Some(&paths.render_bag),
             drawn: rendered.drawn.as_ref(),
         };
-        // The plan's segments of this capture; its clips are `total` (a policy that cuts
-        // windows or instances makes more, or fewer).
-        let segments = capture.segments.len() as u64;
+        // `estimated`: the clips the plan promised for this capture; `trim` finds `total`
+        // (instances are found only now).
         let progress = |done: usize, total: usize| {
-            self.progress.trimming(done as u64, total as u64, segments);
+            self.progress.trimming(done as u64, total as u64, estimated);
             if done > 0 {
                 self.hook.event();
             }

@@ -1,6 +1,6 @@
 //! Progress of a whole dataset: captures and clips done of their totals, timeline frames done,
 //! frames drawn per second and the time left (the timeline left at this run's pace). A bar on a terminal; otherwise (a log file, a Slurm job's output) a
-//! plain line every few seconds. Nothing with `-q`.
+//! plain line at once and then every few seconds. Nothing with `-q`.
 
 use std::io::IsTerminal;
 use std::sync::Mutex;
@@ -44,8 +44,9 @@ pub struct DatasetProgress {
     frames_at_start: AtomicU64,
     started: Instant,
     bar: Option<indicatif::ProgressBar>,
-    /// When the last plain line was written (`None`: plain lines off).
-    last_line: Option<Mutex<Instant>>,
+    /// When the last plain line was written (`None`: plain lines off; inside, `None` until
+    /// the first line, which is written at once so a log shows the job's size from the start).
+    last_line: Option<Mutex<Option<Instant>>>,
 }
 
 impl DatasetProgress {
@@ -80,7 +81,7 @@ impl DatasetProgress {
             frames_at_start: AtomicU64::new(0),
             started: now,
             bar,
-            last_line: (shown && !terminal).then(|| Mutex::new(now)),
+            last_line: (shown && !terminal).then(|| Mutex::new(None)),
         }
     }
 
@@ -185,10 +186,10 @@ impl DatasetProgress {
         let mut at = last_line
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
-        if !last && at.elapsed() < LINE_EVERY {
+        if !last && at.is_some_and(|at| at.elapsed() < LINE_EVERY) {
             return;
         }
-        *at = Instant::now();
+        *at = Some(Instant::now());
         #[expect(
             clippy::cast_precision_loss,
             clippy::cast_possible_truncation,

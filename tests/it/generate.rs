@@ -639,3 +639,37 @@ fn standalone_trim_of_a_generate_output_splits_as_generate_did() {
         );
     }
 }
+
+/// The progress line, written to a log (stderr not a terminal), gives the clip total from its
+/// first line: the clips the plan's policies cut (here `walk`'s 4-frame windows, several per
+/// segment), not the plan's segments.
+#[test]
+fn the_progress_line_gives_the_clips_to_be_cut_from_its_first_line() {
+    if common::ffmpeg_or_skip(module_path!()).is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let spec = dir.path().join("spec.toml");
+    std::fs::write(&spec, spec_toml()).unwrap();
+    let out = dir.path().join("out");
+    let o = generate(&spec, &out, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let log = stderr(&o);
+    let lines: Vec<&str> = log.lines().filter(|l| l.starts_with("generate ")).collect();
+    // The first line comes at once, the last at the end: two at least, whatever the speed.
+    assert!(lines.len() >= 2, "progress lines:\n{log}");
+    let first = lines[0];
+    let total: usize = first
+        .split("clips ")
+        .nth(1)
+        .and_then(|rest| rest.split(',').next())
+        .and_then(|done_total| done_total.split('/').nth(1))
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_else(|| panic!("no clip total in {first:?}"));
+    let manifest = std::fs::read_to_string(out.join("dataset/manifest.jsonl")).unwrap();
+    let segments = std::fs::read_to_string(out.join("plan.json"))
+        .map(|plan| plan.matches("\"start_frame\"").count())
+        .unwrap_or_default();
+    assert_eq!(total, manifest.lines().count(), "first line: {first}");
+    assert!(total > segments, "{total} clips, {segments} segments");
+}
