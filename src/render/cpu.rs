@@ -356,6 +356,15 @@ impl View {
     }
 }
 
+/// Pixels a mesh's draw shaded, in the order shaded: linear RGB, the pixel's index, and the
+/// linear values' sRGB bytes once encoded.
+#[derive(Debug, Default)]
+struct Shaded {
+    linear: Vec<f32>,
+    at: Vec<usize>,
+    srgb: Vec<u8>,
+}
+
 /// The CPU renderer; one per thread.
 #[derive(Debug, Default)]
 pub struct CpuRenderer {
@@ -370,6 +379,8 @@ pub struct CpuRenderer {
     /// (3) and the light-space position (3).
     vertices: Vec<ClipVertex<9>>,
     polygon: Vec<ClipVertex<9>>,
+    /// [`CpuRenderer::draw`]'s shaded pixels, before their sRGB encoding.
+    shaded: Shaded,
     unfiltered: Vec<u8>,
     /// What the last frame drawn was seen from.
     last_seen_from: Option<SeenFrom>,
@@ -446,11 +457,16 @@ impl CpuRenderer {
     ) {
         let (w, h) = (view.width, view.height);
         let shadows = [&self.character_shadow, &self.prop_shadow];
-        let encoder = &self.encoder;
         let polygon = &mut self.polygon;
         let surfaces = &mut image.surface;
         let depth = &mut image.depth;
-        let rgb = &mut image.rgb;
+        // Shaded pixels are kept in linear light (`linear`, at pixel `at`) and encoded to sRGB
+        // together at the end, in lanes: one at a time, the encoding's rounding was a branch
+        // that mispredicted. Written in the order shaded, so the last shading of a pixel wins
+        // as before.
+        let Shaded { linear, at, srgb } = &mut self.shaded;
+        linear.clear();
+        at.clear();
         for t in indices.chunks_exact(3) {
             let tri = [
                 self.vertices[t[0] as usize],
@@ -469,24 +485,29 @@ impl CpuRenderer {
                 let s = part.map(|v| view.project(v.view));
                 let [a0, a1, a2] = part.map(|v| v.attributes);
                 fill_triangle(s, w, h, scissor, depth, Cull::Back, |i, _, b| {
-                    let at = |k: usize| a0[k] * b[0] + a1[k] * b[1] + a2[k] * b[2];
+                    let get = |k: usize| a0[k] * b[0] + a1[k] * b[1] + a2[k] * b[2];
                     let lit = if shadowed {
-                        let (u, v, l) = (at(6), at(7), at(8));
+                        let (u, v, l) = (get(6), get(7), get(8));
                         shadows[0]
                             .visibility(u, v, l)
                             .min(shadows[1].visibility(u, v, l))
                     } else {
                         1.0
                     };
-                    let c = encoder.encode_rgb([
-                        at(0) + lit * at(3),
-                        at(1) + lit * at(4),
-                        at(2) + lit * at(5),
+                    linear.extend_from_slice(&[
+                        get(0) + lit * get(3),
+                        get(1) + lit * get(4),
+                        get(2) + lit * get(5),
                     ]);
-                    rgb[3 * i..3 * i + 3].copy_from_slice(&c);
+                    at.push(i);
                     surfaces[i] = surface as u8;
                 });
             }
+        }
+        srgb.resize(linear.len(), 0);
+        self.encoder.encode_slice(linear, srgb);
+        for (&i, c) in at.iter().zip(srgb.chunks_exact(3)) {
+            image.rgb[3 * i..3 * i + 3].copy_from_slice(c);
         }
     }
 }
