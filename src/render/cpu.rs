@@ -356,13 +356,39 @@ impl View {
     }
 }
 
-/// Pixels a mesh's draw shaded, in the order shaded: linear RGB, the pixel's index, and the
-/// linear values' sRGB bytes once encoded.
+/// Pixels [`CpuRenderer::draw`] shaded and has not yet written, in the order shaded: linear
+/// RGB and the pixel's index; `srgb` is scratch for their encoding.
 #[derive(Debug, Default)]
 struct Shaded {
     linear: Vec<f32>,
     at: Vec<usize>,
     srgb: Vec<u8>,
+}
+
+impl Shaded {
+    /// Pixels kept before they are encoded and written (checked after each triangle, so a
+    /// batch holds at most this plus one triangle's): enough for the lanes, few enough to stay
+    /// in the cache whatever the picture's size.
+    const BATCH: usize = 4096;
+
+    /// Keeps pixel `i`'s linear colour `c`.
+    #[inline]
+    fn push(&mut self, i: usize, c: Rgb) {
+        self.linear.extend_from_slice(&c);
+        self.at.push(i);
+    }
+
+    /// Encodes the pixels kept (in lanes) and writes them into `rgb` in the order shaded, so a
+    /// pixel shaded twice keeps its last shading.
+    fn write(&mut self, encoder: &Encoder, rgb: &mut [u8]) {
+        self.srgb.resize(self.linear.len(), 0);
+        encoder.encode_slice(&self.linear, &mut self.srgb);
+        for (&i, c) in self.at.iter().zip(self.srgb.chunks_exact(3)) {
+            rgb[3 * i..3 * i + 3].copy_from_slice(c);
+        }
+        self.linear.clear();
+        self.at.clear();
+    }
 }
 
 /// The CPU renderer; one per thread.
@@ -379,7 +405,7 @@ pub struct CpuRenderer {
     /// (3) and the light-space position (3).
     vertices: Vec<ClipVertex<9>>,
     polygon: Vec<ClipVertex<9>>,
-    /// [`CpuRenderer::draw`]'s shaded pixels, before their sRGB encoding.
+    /// [`CpuRenderer::draw`]'s shaded pixels before their sRGB encoding (empty between draws).
     shaded: Shaded,
     unfiltered: Vec<u8>,
     /// What the last frame drawn was seen from.
@@ -460,13 +486,11 @@ impl CpuRenderer {
         let polygon = &mut self.polygon;
         let surfaces = &mut image.surface;
         let depth = &mut image.depth;
-        // Shaded pixels are kept in linear light (`linear`, at pixel `at`) and encoded to sRGB
-        // together at the end, in lanes: one at a time, the encoding's rounding was a branch
-        // that mispredicted. Written in the order shaded, so the last shading of a pixel wins
-        // as before.
-        let Shaded { linear, at, srgb } = &mut self.shaded;
-        linear.clear();
-        at.clear();
+        // Shaded pixels are encoded to sRGB a batch at a time, in lanes: one at a time, the
+        // encoding's rounding was a branch that mispredicted.
+        let encoder = &self.encoder;
+        let rgb = &mut image.rgb;
+        let shaded = &mut self.shaded;
         for t in indices.chunks_exact(3) {
             let tri = [
                 self.vertices[t[0] as usize],
@@ -494,21 +518,20 @@ impl CpuRenderer {
                     } else {
                         1.0
                     };
-                    linear.extend_from_slice(&[
+                    let c = [
                         get(0) + lit * get(3),
                         get(1) + lit * get(4),
                         get(2) + lit * get(5),
-                    ]);
-                    at.push(i);
+                    ];
+                    shaded.push(i, c);
                     surfaces[i] = surface as u8;
                 });
             }
+            if shaded.at.len() >= Shaded::BATCH {
+                shaded.write(encoder, rgb);
+            }
         }
-        srgb.resize(linear.len(), 0);
-        self.encoder.encode_slice(linear, srgb);
-        for (&i, c) in at.iter().zip(srgb.chunks_exact(3)) {
-            image.rgb[3 * i..3 * i + 3].copy_from_slice(c);
-        }
+        shaded.write(encoder, rgb);
     }
 }
 
