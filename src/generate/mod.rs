@@ -46,6 +46,7 @@ use crate::skeleton::rig::Rig;
 use crate::trim::TrimError;
 use crate::trim::lists::ListSummary;
 use crate::trim::planned::PlannedClips;
+use crate::trim::policy::ClipPolicies;
 use crate::trim::qa::Thresholds;
 use crate::trim::run::{RunError, TrimOptions, VideoSource, trim_capture};
 use crate::trim::split::{Key, SplitConfig};
@@ -358,28 +359,36 @@ pub(crate) fn trim_options(choice: &ClipChoice, planned: &PlannedClips) -> TrimO
         jpeg_quality: [crate::video::JPEG_QSCALE_BEST; 2],
         planned: Some(planned.items.clone()),
         qa: Thresholds::default(),
-        // Each class's clip policy as the spec (through the plan) gives it.
-        clips: crate::trim::policy::ClipPolicies {
-            by_label: planned.clips.clone(),
-            overrides: crate::dataset::clips::ClipsSection::default(),
-        },
+        clips: clip_policies(&planned.clips),
         // Written once over every clip at the end ([`Run::finish_dataset`]), not per capture.
         lists: false,
     }
 }
 
-/// The clips `trim` will cut out of `session`'s segments by the plan's clip policies, as far as
-/// the plan tells: exact for `whole` and `windows` at the plan's rate; a segment cut into
-/// `instances` counts as one, since its motion decides (the progress line corrects the total
-/// when a session's clips are cut).
+/// The clip policies `generate` cuts with: each class's as the spec (through the plan) gives
+/// it, nothing over them.
+fn clip_policies(
+    by_label: &std::collections::BTreeMap<String, crate::dataset::clips::ClipPolicy>,
+) -> ClipPolicies {
+    ClipPolicies {
+        by_label: by_label.clone(),
+        overrides: crate::dataset::clips::ClipsSection::default(),
+    }
+}
+
+/// The clips `trim` will cut out of `session`'s segments by the policies `trim` is given
+/// ([`clip_policies`]), as far as the plan tells: exact for `whole` and `windows` at the plan's
+/// rate; a segment cut into `instances` counts as one, since its motion decides (the progress
+/// line corrects the total when a session's clips are cut).
 fn estimated_clips(plan: &Plan, session: &crate::dataset::plan::Session) -> u64 {
+    let policies = clip_policies(&plan.clips);
     plan.leaves[session.leaves.clone()]
         .iter()
         .map(|leaf| {
             let policy = usize::try_from(leaf.label_id)
                 .ok()
                 .and_then(|i| plan.labels.get(i))
-                .and_then(|label| plan.clips.get(label));
+                .and_then(|label| policies.of(label).ok());
             match policy {
                 Some(policy) if policy.policy != ClipMode::Instances => {
                     let segment = crate::trim::plan::FrameRange {
@@ -390,7 +399,7 @@ fn estimated_clips(plan: &Plan, session: &crate::dataset::plan::Session) -> u64 
                         action: leaf.content_start_frame..leaf.content_end_frame,
                         animation_start_frame: leaf.content_start_frame,
                     };
-                    crate::trim::policy::clips_of(&segment, policy, None).len() as u64
+                    crate::trim::policy::clips_of(&segment, &policy, None).len() as u64
                 }
                 _ => 1,
             }
