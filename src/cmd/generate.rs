@@ -124,6 +124,7 @@ pub fn run(args: Args) -> Result<Outcome> {
             fps: engine.fps,
             crf: engine.crf,
             preset: engine.preset,
+            x264_options: engine.x264_options,
             gop_frames: engine.gop,
             encoder_threads: engine.encoder_threads,
             passes: args.passes.wanted(),

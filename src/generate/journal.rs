@@ -43,6 +43,10 @@ pub struct Settings {
     pub crf: u8,
     /// x264 preset of the captures.
     pub preset: String,
+    /// x264 options after the preset (absent in journals from before the option: none, as
+    /// those runs had).
+    #[serde(default)]
+    pub x264_options: String,
     /// Longest keyframe interval, frames.
     pub gop_frames: Option<u32>,
     /// x264 threads of the captures (absent in journals from before it was fixed, when x264

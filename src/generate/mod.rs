@@ -76,6 +76,8 @@ pub struct RenderChoice {
     pub crf: u8,
     /// x264 preset.
     pub preset: String,
+    /// x264 options after the preset (empty: none).
+    pub x264_options: String,
     /// Longest keyframe interval, frames.
     pub gop_frames: Option<u32>,
     /// x264 threads (the videos' bytes depend on it).
@@ -321,6 +323,7 @@ impl GenerateJob {
             fps: r.fps,
             crf: r.crf,
             preset: r.preset.clone(),
+            x264_options: r.x264_options.clone(),
             gop_frames: r.gop_frames,
             encoder_threads: r.encoder_threads,
             passes: r.passes,
@@ -746,6 +749,7 @@ impl Run<'_> {
                 &capture.session,
             ),
             preset: r.preset.clone(),
+            x264_options: r.x264_options.clone(),
             gop_frames: r.gop_frames,
             encoder_threads: r.encoder_threads,
             embed_video: None,

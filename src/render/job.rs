@@ -29,6 +29,8 @@ pub struct RenderJob {
     pub crf: u8,
     /// x264 preset.
     pub preset: String,
+    /// x264 options after the preset (empty: none).
+    pub x264_options: String,
     /// Longest keyframe interval, frames.
     pub gop_frames: Option<u32>,
     /// x264 threads.
@@ -168,6 +170,7 @@ pub fn render_job(job: &RenderJob, stop: &AtomicBool) -> Result<RenderReport, Re
         // A recorded `[randomise] crf` draws the CRF as `generate` did.
         crf: randomise.capture_crf(job.crf, capture.seed.unwrap_or(0), &capture.session),
         preset: job.preset.clone(),
+        x264_options: job.x264_options.clone(),
         gop_frames: job.gop_frames,
         encoder_threads: job.encoder_threads,
         embed_video: job.embed_video,

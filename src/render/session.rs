@@ -129,6 +129,8 @@ pub struct RenderSettings {
     pub crf: u8,
     /// x264 preset.
     pub preset: String,
+    /// x264 options after the preset (empty: none).
+    pub x264_options: String,
     /// Largest keyframe interval, frames (`None`: the encoder's default).
     pub gop_frames: Option<u32>,
     /// x264 threads ([`crate::video::DEFAULT_ENCODER_THREADS`]).
@@ -963,6 +965,7 @@ fn start_encoder(
         .with_keyframes(plan.keyframes.iter().copied());
     enc.crf = settings.crf;
     enc.preset.clone_from(&settings.preset);
+    enc.x264_options.clone_from(&settings.x264_options);
     enc.threads = settings.encoder_threads;
     if let Some(g) = settings.gop_frames {
         enc.gop_frames = g;
@@ -1259,6 +1262,7 @@ impl LabelSink {
             "renderer": renderer,
             "crf": settings.crf,
             "preset": settings.preset,
+            "x264_options": settings.x264_options,
             "gop_frames": settings.gop_frames,
         });
         if let Some(timeline) = plan.timeline_of_some {
@@ -1338,7 +1342,8 @@ mod tests {
             fps: None,
             limit: None,
             crf: 23,
-            preset: "superfast".into(),
+            preset: crate::video::DEFAULT_PRESET.into(),
+            x264_options: crate::video::DEFAULT_X264_OPTIONS.into(),
             gop_frames: None,
             encoder_threads: crate::video::DEFAULT_ENCODER_THREADS,
             embed_video: None,

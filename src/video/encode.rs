@@ -16,22 +16,29 @@ use super::stderr_tail::StderrTail;
 use super::tools::spawn_error;
 use super::{Ffmpeg, InvalidSetting, Rational, VideoError};
 
-/// The default libx264 preset. Measured on a synthetic moving render (2 shared cores, ffmpeg
-/// 5.1, CRF 23; `encode_speed_report` in `tests/it/video.rs`), ffmpeg CPU per frame and bytes per
-/// frame, when ffmpeg still converted the frames from `rgb24` (about 0.3 ms of the 1.4 at
-/// 320×240; [`super::yuv`] does that now):
+/// The default libx264 preset, with [`DEFAULT_X264_OPTIONS`] after it: `ultrafast` with CABAC and
+/// the deblocking filter put back. Measured on autoact's own renders (the 320×240 captures of
+/// `tools/bench_generate.sh`, 1,500 frames each of the wave and the walk as autoact feeds them,
+/// `yuv420p`, CRF 23, one thread; ffmpeg 5.1), CPU per frame, size, luma PSNR and SSIM:
 ///
-/// | preset    | 320×240         | 640×360         |
-/// |-----------|-----------------|-----------------|
-/// | ultrafast | 1.0 ms, 3.7 KB  | 2.2 ms, 8.8 KB  |
-/// | superfast | 1.4 ms, 2.8 KB  | 2.9 ms, 6.3 KB  |
-/// | veryfast  | 1.6–1.9 ms, 1.6 KB | 3.8–4.0 ms, 3.6 KB |
+/// | x264 settings | wave | walk |
+/// |---|---|---|
+/// | `superfast` (the default before) | 0.95–1.10 ms, 3.31 MB, 43.50 dB, 0.968 | 1.03 ms, 2.44 MB, 42.24 dB, 0.963 |
+/// | `ultrafast` + `cabac=1:deblock=0,0` (the default) | 0.61 ms, 2.68 MB, 43.40 dB, 0.965 | 0.53 ms, 2.11 MB, 42.42 dB, 0.959 |
+/// | `ultrafast` alone | 0.45 ms, 3.26 MB, 43.16 dB, 0.963 | 0.39 ms, 2.41 MB, 42.20 dB, 0.958 |
 ///
-/// `superfast` keeps CABAC and the deblocking filter, which `ultrafast` turns off (blockier
-/// frames and 40 % larger files at the same CRF), for under 1 ms more per frame; `veryfast`
-/// halves the size again but takes another ~1 ms per frame at 640×360 from the renderer, whose
-/// budget at 120 frames/s on 2 cores is 16.7 ms of CPU per frame.
-pub const DEFAULT_PRESET: &str = "superfast";
+/// The default encodes in about 55 % of `superfast`'s CPU, into files 13–19 % smaller at the
+/// same PSNR; SSIM is 0.003–0.004 lower, because `ultrafast` also leaves out adaptive
+/// quantisation, which spends bits on flat areas. `superfast`'s other tools (sub-pixel
+/// refinement, the 8×8 transform, partitions, weighted prediction) cost more CPU here than they
+/// save in size. `ultrafast` alone is cheaper still but blockier (no deblocking) and 13–22 %
+/// larger again (`--x264-options ''`). In `generate` the change took the chain's CPU down 12 %
+/// (`docs/performance.md`).
+pub const DEFAULT_PRESET: &str = "ultrafast";
+/// The default x264 options after the preset (ffmpeg's `-x264opts`): CABAC entropy coding
+/// and the deblocking filter at its default strength, the two tools only `ultrafast` turns off
+/// (so with any other preset they change nothing). See [`DEFAULT_PRESET`].
+pub const DEFAULT_X264_OPTIONS: &str = "cabac=1:deblock=0,0";
 /// The default number of x264 threads. Always passed (`-threads`): x264's own default is 1.5 ×
 /// the machine's cores, and its output depends on its thread count, so a dataset's videos would
 /// depend on the machine that encoded them (shards of one dataset on different machines would
@@ -88,6 +95,9 @@ pub struct EncodeSettings {
     pub crf: u8,
     /// libx264 preset (`ultrafast` … `placebo`).
     pub preset: String,
+    /// libx264 options applied after the preset (ffmpeg's `-x264opts`, `key=value` pairs
+    /// joined by `:`); empty: the preset alone ([`DEFAULT_X264_OPTIONS`]).
+    pub x264_options: String,
     /// The longest run of frames without a keyframe (`-g`), ≥ 1.
     pub gop_frames: u32,
     /// x264 threads, 1 ..= [`MAX_ENCODER_THREADS`] ([`DEFAULT_ENCODER_THREADS`]): the output's
@@ -109,6 +119,7 @@ impl EncodeSettings {
             fps,
             crf: DEFAULT_CRF,
             preset: DEFAULT_PRESET.to_owned(),
+            x264_options: DEFAULT_X264_OPTIONS.to_owned(),
             gop_frames: default_gop_frames(fps),
             threads: DEFAULT_ENCODER_THREADS,
             keyframes: Vec::new(),
@@ -221,7 +232,7 @@ pub struct EncodedVideo {
 /// ffmpeg -hide_banner -nostats -loglevel level+warning
 ///        -f rawvideo -pix_fmt yuv420p -video_size WxH -framerate NUM/DEN -i -
 ///        -map 0:v:0 -an -sn -dn
-///        -c:v libx264 -preset P -crf C -pix_fmt yuv420p -threads T
+///        -c:v libx264 -preset P [-x264opts K=V:…] -crf C -pix_fmt yuv420p -threads T
 ///        -bf 0 -g GOP -sc_threshold 0 -forced-idr 1 [-force_key_frames T1,T2,…]
 ///        -f mp4 -y DIR/.NAME.part
 /// ```
@@ -229,6 +240,9 @@ pub struct EncodedVideo {
 /// - **Timing.** The frame rate is passed as an exact rational ([`Rational::from_f64`]), and the
 ///   raw demuxer stamps frame k with pts k in a 1/fps time base, so frame k is at exactly k/fps in
 ///   the output (mp4 track timescale = a multiple of the rate's numerator).
+/// - **x264 options** go through `-x264opts`, not `-x264-params`: with `-x264opts` an option
+///   x264 does not know, or a bad value, stops ffmpeg with x264's message (which the error
+///   carries); `-x264-params` only warns and encodes without it.
 /// - **No B-frames** (`-bf 0`): decode order = presentation order, so the same stream can go into
 ///   `foxglove_msgs/CompressedVideo` and a cut needs no reordering.
 /// - **Keyframes.** `-g` bounds the distance between keyframes; `-sc_threshold 0` stops x264
@@ -661,7 +675,11 @@ fn encode_command(ffmpeg: &Ffmpeg, settings: &EncodeSettings, plan: &EncodePlan)
         .input("-")
         .args(["-map", "0:v:0", "-an", "-sn", "-dn"])
         .codec_video("libx264")
-        .preset(&settings.preset)
+        .preset(&settings.preset);
+    if !settings.x264_options.is_empty() {
+        command.args(["-x264opts", &settings.x264_options]);
+    }
+    command
         .crf(u32::from(settings.crf))
         .pix_fmt("yuv420p")
         .args([
@@ -784,6 +802,7 @@ fn validate(settings: &EncodeSettings) -> Result<Rational, InvalidSetting> {
         fps,
         crf,
         preset,
+        x264_options,
         gop_frames,
         threads,
         ..
@@ -809,6 +828,15 @@ fn validate(settings: &EncodeSettings) -> Result<Rational, InvalidSetting> {
         return Err(InvalidSetting::Preset {
             preset: preset.clone(),
             known: &PRESETS,
+        });
+    }
+    if !x264_options.is_empty()
+        && x264_options.split(':').any(|pair| {
+            pair.is_empty() || pair.contains(|c: char| c.is_whitespace() || c.is_control())
+        })
+    {
+        return Err(InvalidSetting::X264Options {
+            params: x264_options.clone(),
         });
     }
     if *gop_frames == 0 {

@@ -61,8 +61,8 @@ pub use cut::{
     ReencodeSettings, check_jpeg_qscale, cut, extract_frames, jpeg_qscale, keyframe_frames,
 };
 pub use encode::{
-    DEFAULT_CRF, DEFAULT_ENCODER_THREADS, DEFAULT_GOP_SECS, DEFAULT_PRESET, EncodeSettings,
-    EncodedVideo, MAX_ENCODER_THREADS, VideoEncoder, force_key_frames_arg,
+    DEFAULT_CRF, DEFAULT_ENCODER_THREADS, DEFAULT_GOP_SECS, DEFAULT_PRESET, DEFAULT_X264_OPTIONS,
+    EncodeSettings, EncodedVideo, MAX_ENCODER_THREADS, VideoEncoder, force_key_frames_arg,
 };
 pub use image::{PngPixels, Tile, contact_sheet, read_png, write_png, write_png_as};
 pub use probe::{ProbedFrame, ProbedPacket, VideoProbe, probe, probe_packets, probe_size};
@@ -262,6 +262,12 @@ pub enum InvalidSetting {
         /// The presets there are.
         known: &'static [&'static str],
     },
+    /// The x264 options are not `key=value` pairs joined by `:` (an empty pair, whitespace or a
+    /// control character).
+    X264Options {
+        /// The asked options.
+        params: String,
+    },
     /// The longest keyframe interval is 0.
     GopZero,
     /// The x264 thread count is 0 or over [`MAX_ENCODER_THREADS`].
@@ -362,6 +368,11 @@ impl std::fmt::Display for InvalidSetting {
                 f,
                 "unknown preset `{preset}`; use one of {}",
                 known.join(", ")
+            ),
+            InvalidSetting::X264Options { params } => write!(
+                f,
+                "x264 options `{params}`: give `key=value` pairs joined by `:` without spaces \
+                 (e.g. `cabac=1:deblock=0,0`), or nothing for the preset alone"
             ),
             InvalidSetting::GopZero => f.write_str("gop_frames is 0; it must be at least 1"),
             InvalidSetting::Threads { threads } => write!(

@@ -1833,6 +1833,7 @@ fn a_render_of_some_frames_gives_its_clips_and_refuses_others() {
         limit: None,
         crf: 23,
         preset: "ultrafast".into(),
+        x264_options: String::new(),
         gop_frames: None,
         encoder_threads: autoact::video::DEFAULT_ENCODER_THREADS,
         embed_video: None,

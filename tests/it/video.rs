@@ -707,7 +707,89 @@ fn bad_input_is_reported_and_stops_the_encoder() {
     };
     let err = VideoEncoder::start(&ffmpeg, &output, &slow).unwrap_err();
     assert!(err.to_string().contains("superfast"), "{err}");
+    for params in [
+        "cabac=1 :deblock=0,0",
+        "cabac=1::deblock=0,0",
+        ":cabac=1",
+        "cabac=1\n",
+    ] {
+        let bad = EncodeSettings {
+            x264_options: params.into(),
+            ..settings.clone()
+        };
+        let err = VideoEncoder::start(&ffmpeg, &output, &bad).unwrap_err();
+        assert!(
+            matches!(err, VideoError::InvalidSettings { .. })
+                && err.to_string().contains(params)
+                && err.to_string().contains("key=value"),
+            "{params:?}: {err}"
+        );
+    }
     assert_eq!(dir_entries(dir.path()), Vec::<String>::new());
+}
+
+/// The x264 options follow the preset into the stream: x264 writes the settings it encoded
+/// with into the stream (a user-data SEI), so the file says whether CABAC and the deblocking
+/// filter were on. An option x264 does not know fails the encode and names the option, and
+/// leaves no file.
+#[test]
+fn the_x264_options_follow_the_preset_into_the_stream() {
+    let Some(ffmpeg) = ffmpeg_or_skip("the_x264_options_follow_the_preset…") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let settings_text = |params: &str| {
+        let output = dir.path().join(format!("p{}.mp4", params.len()));
+        let mut settings = EncodeSettings::new(64, 48, 30.0);
+        settings.x264_options = params.into();
+        encode_indexed(&ffmpeg, &output, &settings, 10);
+        let bytes = std::fs::read(&output).unwrap();
+        let at = bytes
+            .windows(11)
+            .position(|w| w == b"x264 - core")
+            .expect("x264's settings SEI");
+        let end = bytes[at..]
+            .iter()
+            .position(|&b| b == 0)
+            .map_or(bytes.len(), |n| at + n);
+        // Space-separated `name=value` items, as a set of words.
+        String::from_utf8_lossy(&bytes[at..end])
+            .split(' ')
+            .map(str::to_owned)
+            .collect::<Vec<_>>()
+    };
+    // The default: `ultrafast`'s motion search and partitions, with CABAC and deblocking.
+    let default = settings_text(autoact::video::DEFAULT_X264_OPTIONS);
+    for on in ["cabac=1", "deblock=1:0:0", "subme=0", "aq=0"] {
+        assert!(default.iter().any(|w| w == on), "{on:?} not in {default:?}");
+    }
+    // `ultrafast` alone turns both off.
+    let alone = settings_text("");
+    for off in ["cabac=0", "deblock=0:0:0", "subme=0"] {
+        assert!(alone.iter().any(|w| w == off), "{off:?} not in {alone:?}");
+    }
+
+    let output = dir.path().join("unknown.mp4");
+    let mut settings = EncodeSettings::new(64, 48, 30.0);
+    settings.x264_options = "cabac=1:no-such-option=3".into();
+    let err = match VideoEncoder::start(&ffmpeg, &output, &settings) {
+        Err(err) => err,
+        Ok(mut encoder) => {
+            let frame = vec![0u8; settings.frame_bytes()];
+            let written = (0..10).try_for_each(|_| encoder.write_frame(&frame));
+            written
+                .and_then(|()| encoder.finish().map(|_| ()))
+                .unwrap_err()
+        }
+    };
+    assert!(err.to_string().contains("no-such-option"), "{err}");
+    assert_eq!(
+        dir_entries(dir.path())
+            .iter()
+            .filter(|n| n.starts_with("unknown") || n.starts_with(".unknown"))
+            .count(),
+        0
+    );
 }
 
 #[test]
@@ -928,17 +1010,27 @@ fn encode_speed_report() {
     };
     let dir = tempfile::tempdir().unwrap();
     let frames = 600_u32;
-    eprintln!("size     preset     median fps  ffmpeg CPU ms/frame  bytes/frame");
+    eprintln!(
+        "size     preset (x264 options)            median fps  ffmpeg CPU ms/frame  bytes/frame"
+    );
     for (width, height) in [(320, 240), (640, 360)] {
         let rendered: Vec<Vec<u8>> = (0..150)
             .map(|k| synthetic_render(width, height, k))
             .collect();
-        for preset in ["ultrafast", "superfast", "veryfast"] {
+        for (preset, params) in [
+            ("ultrafast", ""),
+            ("ultrafast", autoact::video::DEFAULT_X264_OPTIONS),
+            ("superfast", ""),
+            ("veryfast", ""),
+        ] {
             let mut runs = Vec::new();
             for run in 0..3 {
-                let output = dir.path().join(format!("{preset}{run}.mp4"));
+                let output = dir
+                    .path()
+                    .join(format!("{preset}{}{run}.mp4", params.len()));
                 let mut settings = EncodeSettings::new(width, height, 30.0);
                 settings.preset = preset.into();
+                settings.x264_options = params.into();
                 let cpu0 = children_cpu_s();
                 let t0 = Instant::now();
                 let mut encoder = VideoEncoder::start(&ffmpeg, &output, &settings).unwrap();
@@ -957,7 +1049,8 @@ fn encode_speed_report() {
             }
             runs.sort_by(|a, b| a.0.total_cmp(&b.0));
             let (fps, cpu_ms, bytes) = runs[1];
-            eprintln!("{width}x{height}  {preset:<10} {fps:>10.0}  {cpu_ms:>19.2}  {bytes:>11}");
+            let name = format!("{preset} ({params})");
+            eprintln!("{width}x{height}  {name:<32} {fps:>10.0}  {cpu_ms:>19.2}  {bytes:>11}");
         }
     }
 }
