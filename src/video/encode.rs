@@ -32,8 +32,8 @@ use super::{Ffmpeg, InvalidSetting, Rational, VideoError};
 /// quantisation, which spends bits on flat areas. `superfast`'s other tools (sub-pixel
 /// refinement, the 8×8 transform, partitions, weighted prediction) cost more CPU here than they
 /// save in size. `ultrafast` alone is cheaper still but blockier (no deblocking) and 13–22 %
-/// larger again (`--x264-options ''`). In `generate` the change took the chain's CPU down 12 %
-/// (`docs/performance.md`).
+/// larger again (`--x264-options ''`). In `generate` the change took the chain's CPU down
+/// 7–12 % (`docs/performance.md`).
 pub const DEFAULT_PRESET: &str = "ultrafast";
 /// The default x264 options after the preset (ffmpeg's `-x264opts`): CABAC entropy coding
 /// and the deblocking filter at its default strength, the two tools only `ultrafast` turns off
@@ -836,7 +836,7 @@ fn validate(settings: &EncodeSettings) -> Result<Rational, InvalidSetting> {
         })
     {
         return Err(InvalidSetting::X264Options {
-            params: x264_options.clone(),
+            options: x264_options.clone(),
         });
     }
     if *gop_frames == 0 {

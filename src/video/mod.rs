@@ -266,7 +266,7 @@ pub enum InvalidSetting {
     /// control character).
     X264Options {
         /// The asked options.
-        params: String,
+        options: String,
     },
     /// The longest keyframe interval is 0.
     GopZero,
@@ -369,9 +369,9 @@ impl std::fmt::Display for InvalidSetting {
                 "unknown preset `{preset}`; use one of {}",
                 known.join(", ")
             ),
-            InvalidSetting::X264Options { params } => write!(
+            InvalidSetting::X264Options { options } => write!(
                 f,
-                "x264 options `{params}`: give `key=value` pairs joined by `:` without spaces \
+                "x264 options `{options}`: give `key=value` pairs joined by `:` without spaces \
                  (e.g. `cabac=1:deblock=0,0`), or nothing for the preset alone"
             ),
             InvalidSetting::GopZero => f.write_str("gop_frames is 0; it must be at least 1"),
