@@ -516,6 +516,10 @@ pub fn generate(job: &GenerateJob, stop: &AtomicBool) -> Result<GenerateSummary,
         .iter()
         .map(|s| s.name.clone())
         .collect();
+    // The journal fixes the settings for every later run into this folder: x264 must take
+    // them before it is written (and before a capture is made for nothing).
+    let ffmpeg = Ffmpeg::locate_or_download(job.download_ffmpeg)?;
+    crate::video::check_x264(&ffmpeg, dir, &job.render.preset, &job.render.x264_options)?;
     let fresh = Journal::new(job.settings(&spec_text), job.shard, names);
     let mut journal = if let Some(j) = Journal::read(dir)? {
         j.check_same_job(dir, &fresh)?;
@@ -561,7 +565,7 @@ pub fn generate(job: &GenerateJob, stop: &AtomicBool) -> Result<GenerateSummary,
         plan: &plan,
         converted,
         planned,
-        ffmpeg: Ffmpeg::locate_or_download(job.download_ffmpeg)?,
+        ffmpeg,
         progress: DatasetProgress::new(totals),
         hook: AbortHook {
             after: job.abort_after_events,

@@ -31,7 +31,7 @@ use super::{Ffmpeg, InvalidSetting, Rational, VideoError};
 /// same PSNR; SSIM is 0.003–0.004 lower, because `ultrafast` also leaves out adaptive
 /// quantisation, which spends bits on flat areas. `superfast`'s other tools (sub-pixel
 /// refinement, the 8×8 transform, partitions, weighted prediction) cost more CPU here than they
-/// save in size. `ultrafast` alone is cheaper still but blockier (no deblocking) and 13–22 %
+/// save in size. `ultrafast` alone is cheaper still but blockier (no deblocking) and 14–22 %
 /// larger again (`--x264-options ''`). In `generate` the change took the chain's CPU down
 /// 7–12 % (`docs/performance.md`).
 pub const DEFAULT_PRESET: &str = "ultrafast";
@@ -293,6 +293,35 @@ impl std::fmt::Debug for Running {
             .field("writer_finished", &self.writer.is_finished())
             .finish_non_exhaustive()
     }
+}
+
+/// Whether x264 takes `preset` and `x264_options`: a two-frame 64×48 encode into `dir` (the
+/// file removed after). Only x264 knows its options, and a job that records its settings before
+/// its first long encode (`generate`'s journal) must not commit to ones that will fail.
+///
+/// # Errors
+/// As [`VideoEncoder::start`] and [`VideoEncoder::finish`]: [`VideoError::InvalidSettings`]
+/// for an unknown preset or options not shaped `key=value:…`, [`VideoError::Exited`] with
+/// x264's message for an option or value it does not know.
+pub fn check_x264(
+    ffmpeg: &Ffmpeg,
+    dir: &Path,
+    preset: &str,
+    x264_options: &str,
+) -> Result<(), VideoError> {
+    let settings = EncodeSettings {
+        preset: preset.to_owned(),
+        x264_options: x264_options.to_owned(),
+        ..EncodeSettings::new(64, 48, 30.0)
+    };
+    let path = dir.join(".x264-check.mp4");
+    let mut encoder = VideoEncoder::start(ffmpeg, &path, &settings)?;
+    let frame = vec![0; settings.frame_bytes()];
+    for _ in 0..2 {
+        encoder.write_frame(&frame)?;
+    }
+    encoder.finish()?;
+    std::fs::remove_file(&path).map_err(VideoError::io("remove", &path))
 }
 
 impl VideoEncoder {

@@ -62,7 +62,8 @@ pub use cut::{
 };
 pub use encode::{
     DEFAULT_CRF, DEFAULT_ENCODER_THREADS, DEFAULT_GOP_SECS, DEFAULT_PRESET, DEFAULT_X264_OPTIONS,
-    EncodeSettings, EncodedVideo, MAX_ENCODER_THREADS, VideoEncoder, force_key_frames_arg,
+    EncodeSettings, EncodedVideo, MAX_ENCODER_THREADS, VideoEncoder, check_x264,
+    force_key_frames_arg,
 };
 pub use image::{PngPixels, Tile, contact_sheet, read_png, write_png, write_png_as};
 pub use probe::{ProbedFrame, ProbedPacket, VideoProbe, probe, probe_packets, probe_size};

@@ -673,3 +673,36 @@ fn the_progress_line_gives_the_clips_to_be_cut_from_its_first_line() {
     assert_eq!(total, manifest.lines().count(), "first line: {first}");
     assert!(total > segments, "{total} clips, {segments} segments");
 }
+
+/// x264 options (or a preset) x264 does not take stop `generate` before it writes its journal
+/// or a capture, so the folder is not bound to settings that cannot work: the run with the
+/// typo corrected goes on in the same folder.
+#[test]
+fn x264_options_x264_refuses_leave_the_folder_free_for_corrected_ones() {
+    if common::ffmpeg_or_skip(module_path!()).is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let spec = dir.path().join("spec.toml");
+    std::fs::write(&spec, spec_toml()).unwrap();
+    let out = dir.path().join("out");
+    for bad in [
+        ["--x264-options", "cabca=1"],
+        ["--x264-options", "cabac=1 :deblock=0,0"],
+        ["--preset", "ludicrous"],
+    ] {
+        let o = generate(&spec, &out, &bad);
+        assert!(!o.status.success(), "{bad:?} was taken");
+        let named = bad[1].split(' ').next().unwrap().trim_end_matches("=1");
+        assert!(stderr(&o).contains(named), "{bad:?}: {}", stderr(&o));
+        let left: Vec<String> = std::fs::read_dir(&out)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|name| name != ".autoact-generate.lock")
+            .collect();
+        assert!(left.is_empty(), "{bad:?} left {left:?}");
+    }
+    let o = generate(&spec, &out, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(out.join("dataset/manifest.jsonl").is_file());
+}

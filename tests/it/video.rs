@@ -707,22 +707,22 @@ fn bad_input_is_reported_and_stops_the_encoder() {
     };
     let err = VideoEncoder::start(&ffmpeg, &output, &slow).unwrap_err();
     assert!(err.to_string().contains("superfast"), "{err}");
-    for params in [
+    for options in [
         "cabac=1 :deblock=0,0",
         "cabac=1::deblock=0,0",
         ":cabac=1",
         "cabac=1\n",
     ] {
         let bad = EncodeSettings {
-            x264_options: params.into(),
+            x264_options: options.into(),
             ..settings.clone()
         };
         let err = VideoEncoder::start(&ffmpeg, &output, &bad).unwrap_err();
         assert!(
             matches!(err, VideoError::InvalidSettings { .. })
-                && err.to_string().contains(params)
+                && err.to_string().contains(options)
                 && err.to_string().contains("key=value"),
-            "{params:?}: {err}"
+            "{options:?}: {err}"
         );
     }
     assert_eq!(dir_entries(dir.path()), Vec::<String>::new());
@@ -738,10 +738,10 @@ fn the_x264_options_follow_the_preset_into_the_stream() {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
-    let settings_text = |params: &str| {
-        let output = dir.path().join(format!("p{}.mp4", params.len()));
+    let settings_text = |options: &str| {
+        let output = dir.path().join(format!("p{}.mp4", options.len()));
         let mut settings = EncodeSettings::new(64, 48, 30.0);
-        settings.x264_options = params.into();
+        settings.x264_options = options.into();
         encode_indexed(&ffmpeg, &output, &settings, 10);
         let bytes = std::fs::read(&output).unwrap();
         let at = bytes
@@ -1017,7 +1017,7 @@ fn encode_speed_report() {
         let rendered: Vec<Vec<u8>> = (0..150)
             .map(|k| synthetic_render(width, height, k))
             .collect();
-        for (preset, params) in [
+        for (preset, options) in [
             ("ultrafast", ""),
             ("ultrafast", autoact::video::DEFAULT_X264_OPTIONS),
             ("superfast", ""),
@@ -1027,10 +1027,10 @@ fn encode_speed_report() {
             for run in 0..3 {
                 let output = dir
                     .path()
-                    .join(format!("{preset}{}{run}.mp4", params.len()));
+                    .join(format!("{preset}{}{run}.mp4", options.len()));
                 let mut settings = EncodeSettings::new(width, height, 30.0);
                 settings.preset = preset.into();
-                settings.x264_options = params.into();
+                settings.x264_options = options.into();
                 let cpu0 = children_cpu_s();
                 let t0 = Instant::now();
                 let mut encoder = VideoEncoder::start(&ffmpeg, &output, &settings).unwrap();
@@ -1049,7 +1049,7 @@ fn encode_speed_report() {
             }
             runs.sort_by(|a, b| a.0.total_cmp(&b.0));
             let (fps, cpu_ms, bytes) = runs[1];
-            let name = format!("{preset} ({params})");
+            let name = format!("{preset} ({options})");
             eprintln!("{width}x{height}  {name:<32} {fps:>10.0}  {cpu_ms:>19.2}  {bytes:>11}");
         }
     }
