@@ -640,18 +640,25 @@ fn standalone_trim_of_a_generate_output_splits_as_generate_did() {
     }
 }
 
+/// A temporary folder holding [`spec_toml`] as `spec.toml`, and the output folder to give
+/// `generate` (`out`, not made); `None` (the test skips) without ffmpeg.
+fn fresh_run() -> Option<(tempfile::TempDir, PathBuf, PathBuf)> {
+    common::ffmpeg_or_skip(module_path!())?;
+    let dir = tempfile::tempdir().unwrap();
+    let spec = dir.path().join("spec.toml");
+    std::fs::write(&spec, spec_toml()).unwrap();
+    let out = dir.path().join("out");
+    Some((dir, spec, out))
+}
+
 /// The progress line, written to a log (stderr not a terminal), gives the clip total from its
 /// first line: the clips the plan's policies cut (here `walk`'s 4-frame windows, several per
 /// segment), not the plan's segments.
 #[test]
 fn the_progress_line_gives_the_clips_to_be_cut_from_its_first_line() {
-    if common::ffmpeg_or_skip(module_path!()).is_none() {
+    let Some((_dir, spec, out)) = fresh_run() else {
         return;
-    }
-    let dir = tempfile::tempdir().unwrap();
-    let spec = dir.path().join("spec.toml");
-    std::fs::write(&spec, spec_toml()).unwrap();
-    let out = dir.path().join("out");
+    };
     let o = generate(&spec, &out, &[]);
     assert!(o.status.success(), "{}", stderr(&o));
     let log = stderr(&o);
@@ -679,13 +686,9 @@ fn the_progress_line_gives_the_clips_to_be_cut_from_its_first_line() {
 /// typo corrected goes on in the same folder.
 #[test]
 fn x264_options_x264_refuses_leave_the_folder_free_for_corrected_ones() {
-    if common::ffmpeg_or_skip(module_path!()).is_none() {
+    let Some((_dir, spec, out)) = fresh_run() else {
         return;
-    }
-    let dir = tempfile::tempdir().unwrap();
-    let spec = dir.path().join("spec.toml");
-    std::fs::write(&spec, spec_toml()).unwrap();
-    let out = dir.path().join("out");
+    };
     for bad in [
         ["--x264-options", "cabca=1"],
         ["--x264-options", "cabac=1 :deblock=0,0"],
