@@ -70,13 +70,17 @@ pub enum Command {
     /// Unreadable chunks or messages are skipped, reported, and end the run with exit code 3.
     ///
     /// With `--spec DATASET.toml` it builds a dataset's capture sessions instead: every source
-    /// converted (DSI, variants), every clip of the plan laid on a timeline with its drawn scene,
+    /// converted (DSI, variants), every segment of the plan laid on a timeline with its drawn scene,
     /// its camera (`/camera/pose`, a `camera` TF frame, `/camera/camera_info`) and its segment
     /// (`/scene`, `/segments`), one bag per session in the `-o` folder.
     Convert(crate::cmd::convert::Args),
-    /// Print a dataset spec's recording plan before anything is converted or rendered: counts
-    /// per class, weather, time of day, location and character, the expected size, or every
-    /// clip (`--format json|csv`).
+    /// Print a dataset spec's recording plan before anything is converted or rendered: segments
+    /// and clips per class, segments per weather, time of day, location and character, the
+    /// expected size, or every segment (`--format json|csv`).
+    ///
+    /// A segment is one viewpoint of one scene on a capture's timeline; `trim` cuts it into
+    /// clips by its class's `[clips]` policy (`whole`: one; `windows`: as many as fit; the
+    /// clips of `instances` are found from the motion, so the plan cannot count them).
     ///
     /// The hierarchy is category → action → animation → variant → scene → viewpoint; every draw
     /// comes from the spec's seed (see `examples/dataset.toml`).

@@ -62,7 +62,7 @@ pub fn inspect(path: &Path) -> Result<Report, McapIoError> {
     problems.extend(channel_problems(&channels));
     if hierarchy.duplicate_ids > 0 {
         problems.push(format!(
-            "/segments: {} clips repeat an id (a leaf id must be unique)",
+            "/segments: {} segments repeat an id (a segment id must be unique)",
             hierarchy.duplicate_ids
         ));
     }
@@ -418,14 +418,14 @@ fn check_message(
     }
 }
 
-/// Per animation: its variants, its scene ids, its clips.
+/// Per animation: its variants, its scene ids, its segments.
 type AnimationCounts = (BTreeSet<u32>, BTreeSet<String>, usize);
 
 /// A dataset's recording hierarchy as its `/segments` describe it: per category, action and
-/// animation, the variants, scenes and clips.
+/// animation, the variants, scenes and segments.
 #[derive(Debug, Default)]
 struct Hierarchy {
-    /// (category, action) → label id and per animation: variants, scene ids, clips.
+    /// (category, action) → label id and per animation: variants, scene ids, segments.
     classes: BTreeMap<(String, String), (u32, BTreeMap<String, AnimationCounts>)>,
     ids: BTreeSet<String>,
     duplicate_ids: usize,
@@ -467,7 +467,7 @@ impl Hierarchy {
             .sum();
         let categories: BTreeSet<&String> = self.classes.keys().map(|(c, _)| c).collect();
         let mut out = format!(
-            "hierarchy (/segments): {} categories, {} actions, {animations} animations, {variants} variants, {scenes} scenes, {} clips{}\n",
+            "hierarchy (/segments): {} categories, {} actions, {animations} animations, {variants} variants, {scenes} scenes, {} segments{}\n",
             categories.len(),
             self.classes.len(),
             self.ids.len() + self.duplicate_ids,
@@ -478,21 +478,23 @@ impl Hierarchy {
             }
         );
         for category in categories {
-            let clips: usize = self
+            let segments: usize = self
                 .classes
                 .iter()
                 .filter(|((c, _), _)| c == category)
                 .flat_map(|(_, (_, a))| a.values().map(|v| v.2))
                 .sum();
-            out.push_str(&format!("  {category}: {clips} clips\n"));
+            out.push_str(&format!("  {category}: {segments} segments\n"));
             for ((_, action), (label, animations)) in
                 self.classes.iter().filter(|((c, _), _)| c == category)
             {
-                let clips: usize = animations.values().map(|v| v.2).sum();
-                out.push_str(&format!("    {action} (label {label}): {clips} clips\n"));
-                for (name, (variants, scenes, clips)) in animations {
+                let segments: usize = animations.values().map(|v| v.2).sum();
+                out.push_str(&format!(
+                    "    {action} (label {label}): {segments} segments\n"
+                ));
+                for (name, (variants, scenes, segments)) in animations {
                     out.push_str(&format!(
-                        "      {name}: {} variants, {} scenes, {clips} clips\n",
+                        "      {name}: {} variants, {} scenes, {segments} segments\n",
                         variants.len(),
                         scenes.len()
                     ));
@@ -502,7 +504,7 @@ impl Hierarchy {
         out.trim_end().to_string()
     }
 
-    /// The hierarchy as JSON: the clip count and one entry per class.
+    /// The hierarchy as JSON: the segment count and one entry per class.
     fn json(&self) -> serde_json::Value {
         let classes: Vec<_> = self
             .classes
@@ -510,12 +512,12 @@ impl Hierarchy {
             .map(|((category, action), (label, animations))| {
                 let anims: Vec<_> = animations
                     .iter()
-                    .map(|(name, (v, s, c))| json!({"animation": name, "variants": v.len(), "scenes": s.len(), "clips": c}))
+                    .map(|(name, (v, s, c))| json!({"animation": name, "variants": v.len(), "scenes": s.len(), "segments": c}))
                     .collect();
                 json!({"category": category, "action": action, "label_id": label, "animations": anims})
             })
             .collect();
-        json!({"clips": self.ids.len() + self.duplicate_ids, "duplicate_ids": self.duplicate_ids, "classes": classes})
+        json!({"segments": self.ids.len() + self.duplicate_ids, "duplicate_ids": self.duplicate_ids, "classes": classes})
     }
 }
 

@@ -1,6 +1,6 @@
 //! `autoact plan SPEC`: the whole recording plan of a dataset spec, before anything is converted
 //! or rendered — counts per class, weather, time, location and character, the expected size, or
-//! every clip as JSON or CSV.
+//! every segment as JSON or CSV.
 
 use std::path::PathBuf;
 
@@ -16,9 +16,10 @@ use crate::dataset::{estimated_frames, plan_report};
 pub enum PlanFormat {
     /// Counts and expected size, as text tables.
     Summary,
-    /// The whole plan (every scene with its draws, every clip), one JSON document.
+    /// The whole plan (every scene with its draws, every segment, the clips expected), one JSON
+    /// document.
     Json,
-    /// One row per clip.
+    /// One row per segment, with the clips expected of it.
     Csv,
 }
 

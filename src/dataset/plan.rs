@@ -1,6 +1,6 @@
 //! The hierarchical recording plan: category → action → animation → variant → scene → viewpoint,
 //! every scene drawn (weather, time, location, character) and every viewpoint placed (Random
-//! Camera Moving) from the spec's seed, every leaf a clip on a capture session's timeline.
+//! Camera Moving) from the spec's seed, every leaf a segment on a capture session's timeline (cut into clips by `trim`).
 //!
 //! **Draws.** Each scene has its own ChaCha8 stream, a hash (FNV-1a) of its id
 //! `<category>/<action>/<animation>/v<variant>/s<scene>` under the dataset seed: the same spec and
@@ -21,7 +21,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use super::clips::ClipPolicy;
+use super::clips::{ClipMode, ClipPolicy};
 use super::spec::{SessionBy, Spec};
 use crate::camera::{
     CameraError, Intrinsics, Shot, Subject, Viewpoint, framing_band, random_viewpoints,
@@ -110,7 +110,8 @@ pub struct SceneNode {
     pub viewpoints: Vec<Viewpoint>,
 }
 
-/// One clip.
+/// One segment: a viewpoint of a scene on its session's timeline, which `trim` cuts into clips
+/// by its class's clip policy ([`Plan::expected_clips`]).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 pub struct Leaf {
     /// `<scene id>/c<viewpoint>`.
@@ -123,13 +124,13 @@ pub struct Leaf {
     pub viewpoint: u32,
     /// Label id (index in the sorted labels).
     pub label_id: u32,
-    /// First frame of the clip on the session timeline.
+    /// First frame of the segment (its lead-in) on the session timeline.
     pub start_frame: u64,
     /// First frame of the animation.
     pub content_start_frame: u64,
     /// One past the animation's last frame.
     pub content_end_frame: u64,
-    /// One past the clip's last frame.
+    /// One past the segment's last frame (its lead-out's).
     pub end_frame: u64,
 }
 
@@ -159,7 +160,7 @@ pub struct Plan {
     pub animations: Vec<AnimationNode>,
     /// Scenes.
     pub scenes: Vec<SceneNode>,
-    /// Clips, session by session, in timeline order.
+    /// Segments, session by session, in timeline order.
     pub leaves: Vec<Leaf>,
     /// Sessions.
     pub sessions: Vec<Session>,
@@ -185,7 +186,7 @@ fn frames_for(seconds: f64, fps: f64) -> u64 {
 }
 
 impl Plan {
-    /// Draws every scene and viewpoint of `spec` and lays the clips on their timelines, with
+    /// Draws every scene and viewpoint of `spec` and lays the segments on their timelines, with
     /// `frames(animation index, class, source)` giving each animation's length per variant at
     /// the output rate.
     ///
@@ -294,6 +295,33 @@ impl Plan {
         };
         plan.lay_out(spec);
         Ok(plan)
+    }
+
+    /// The clips `trim` will cut out of `leaf` (a segment) by its class's clip policy, as frame
+    /// ranges on the session's timeline: exact for `whole` and `windows` at the plan's lengths.
+    /// `None` for `instances`, whose clips the motion decides when the segment is trimmed, and
+    /// for a policy `trim` would refuse.
+    #[must_use]
+    pub fn expected_clips(&self, leaf: &Leaf) -> Option<Vec<Range<u64>>> {
+        let label = self.labels.get(usize::try_from(leaf.label_id).ok()?)?;
+        let policy = self.clips.get(label).copied().unwrap_or_default();
+        if policy.policy == ClipMode::Instances || policy.validate().is_err() {
+            return None;
+        }
+        let segment = crate::trim::plan::FrameRange {
+            segment: 0,
+            part: None,
+            start_frame: leaf.start_frame,
+            frame_count: leaf.end_frame.saturating_sub(leaf.start_frame),
+            action: leaf.content_start_frame..leaf.content_end_frame,
+            animation_start_frame: leaf.content_start_frame,
+        };
+        Some(
+            crate::trim::policy::clips_of(&segment, &policy, None)
+                .iter()
+                .map(|clip| clip.start_frame..clip.end_frame())
+                .collect(),
+        )
     }
 
     /// Sets an animation variant's exact length and lays the timelines out again.
@@ -484,6 +512,43 @@ mod tests {
             weathers_differ > 25,
             "{weathers_differ} of 50 weathers changed"
         );
+    }
+
+    /// The clips a segment is expected to give follow its class's policy: one for `whole`,
+    /// the windows that fit the animation for `windows` (with each tail rule), none known for
+    /// `instances`.
+    #[test]
+    fn expected_clips_follow_the_policy_over_the_animation() {
+        let cases: [(&str, Option<Vec<Range<u64>>>); 5] = [
+            ("", Some(std::iter::once(15..115).collect())),
+            (
+                "[clips]\npolicy = \"windows\"\nlength_frames = 30\nstride_frames = 40\ntail = \"drop\"",
+                Some(vec![15..45, 55..85]),
+            ),
+            (
+                "[clips]\npolicy = \"windows\"\nlength_frames = 30\nstride_frames = 40\ntail = \"keep\"",
+                Some(vec![15..45, 55..85, 95..115]),
+            ),
+            (
+                "[clips]\npolicy = \"windows\"\nlength_frames = 30\nstride_frames = 40\ninclude_lead = true",
+                Some(vec![0..30, 40..70, 80..110, 100..130]),
+            ),
+            ("[clips]\npolicy = \"instances\"", None),
+        ];
+        for (clips, expected) in cases {
+            let mut s = spec(clips, "variants = 1\nscenes = 1\nviewpoints = 2");
+            s.file.dataset.lead_in_s = 0.5;
+            s.file.dataset.lead_out_s = 0.5;
+            let plan = Plan::build(&s, &|_, _| 100).unwrap();
+            assert_eq!(plan.expected_clips(&plan.leaves[0]), expected, "{clips}");
+            // The second segment's clips are the first's, moved by its start.
+            let shift = plan.leaves[1].start_frame;
+            assert_eq!(
+                plan.expected_clips(&plan.leaves[1]),
+                expected.map(|e| e.iter().map(|r| r.start + shift..r.end + shift).collect()),
+                "{clips}"
+            );
+        }
     }
 
     #[test]

@@ -4,18 +4,27 @@
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
-use super::plan::{Plan, SceneNode};
+use super::plan::{Leaf, Plan, SceneNode};
 use super::spec::Spec;
 
 /// The whole plan as one pretty JSON document (with a trailing newline); the frame counts are
-/// estimates.
+/// estimates. `expected` holds the clips `trim` will cut: `clips` and `clip_frames` count those
+/// known from the plan, without the segments cut into `instances`
+/// (`segments_cut_into_instances`).
 ///
 /// # Errors
 /// [`serde_json::Error`] if the plan cannot be encoded.
 pub fn json(spec: &Spec, plan: &Plan) -> Result<String, serde_json::Error> {
+    let expected = Expected::of(plan);
     let mut s = serde_json::to_string_pretty(&serde_json::json!({
         "spec": spec.path,
         "estimated": true,
+        "expected": {
+            "segments": expected.segments,
+            "clips": expected.clips,
+            "clip_frames": expected.clip_frames,
+            "segments_cut_into_instances": expected.by_motion,
+        },
         "plan": plan,
     }))?;
     s.push('\n');
@@ -28,22 +37,63 @@ fn seconds(frames: u64, fps: f64) -> f64 {
     f / fps
 }
 
-/// The plan as text tables: totals and expected size, then clips per class, weather, time,
-/// location and character.
+/// What `trim` will cut out of the plan's segments ([`Plan::expected_clips`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+struct Expected {
+    segments: usize,
+    /// Clips of the segments whose clips are known from the plan.
+    clips: u64,
+    /// Their frames.
+    clip_frames: u64,
+    /// Segments cut into `instances`: their clips are found from the motion when trimmed.
+    by_motion: usize,
+}
+
+impl Expected {
+    fn add(&mut self, plan: &Plan, leaf: &Leaf) {
+        self.segments += 1;
+        match plan.expected_clips(leaf) {
+            Some(clips) => {
+                self.clips += clips.len() as u64;
+                self.clip_frames += clips.iter().map(|c| c.end - c.start).sum::<u64>();
+            }
+            None => self.by_motion += 1,
+        }
+    }
+
+    fn of(plan: &Plan) -> Expected {
+        let mut e = Expected::default();
+        for leaf in &plan.leaves {
+            e.add(plan, leaf);
+        }
+        e
+    }
+
+    /// `384 clips`, or `120 clips + those found in 64 segments cut into instances`.
+    fn clips_text(&self) -> String {
+        match (self.by_motion, self.segments - self.by_motion) {
+            (0, _) => format!("{} clips", self.clips),
+            (n, 0) => format!("the clips found in {n} segments cut into instances"),
+            (n, _) => format!(
+                "{} clips + those found in {n} segments cut into instances",
+                self.clips
+            ),
+        }
+    }
+}
+
+/// The plan as text tables: totals and expected size, then segments and clips per class, and
+/// segments per weather, time, location and character.
 #[must_use]
 pub fn summary(spec: &Spec, plan: &Plan) -> String {
     let fps = plan.fps;
     let total_frames: u64 = plan.sessions.iter().map(|s| s.frames).sum();
-    let clip_frames: u64 = plan
-        .leaves
-        .iter()
-        .map(|l| l.end_frame - l.start_frame)
-        .sum();
+    let expected = Expected::of(plan);
     let c = &spec.file.counts;
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "dataset {} (seed {}): {} classes, {} labels, {} animations × {} variants × {} scenes × {} viewpoints = {} clips in {} sessions",
+        "dataset {} (seed {}): {} classes, {} labels, {} animations × {} variants × {} scenes × {} viewpoints = {} segments in {} sessions",
         plan.name,
         plan.seed,
         spec.file.classes.len(),
@@ -58,22 +108,23 @@ pub fn summary(spec: &Spec, plan: &Plan) -> String {
     let [w, h] = spec.file.dataset.resolution;
     let _ = writeln!(
         out,
-        "expected size: {} clips, {} frames at {fps} fps, {:.2} h of video ({w}×{h}); timelines {:.2} h (lengths estimated from the source bags; DSI transitions may add frames)\n",
-        plan.leaves.len(),
-        clip_frames,
-        seconds(clip_frames, fps) / 3600.0,
+        "expected size: {}, {} clip frames at {fps} fps, {:.2} h of video ({w}×{h}); timelines {} frames, {:.2} h (lengths estimated from the source bags; DSI transitions may add frames)\n",
+        expected.clips_text(),
+        expected.clip_frames,
+        seconds(expected.clip_frames, fps) / 3600.0,
+        total_frames,
         seconds(total_frames, fps) / 3600.0,
     );
 
-    let mut per_class: BTreeMap<(String, String), (u32, usize, usize, u64)> = BTreeMap::new();
+    let mut per_class: BTreeMap<(String, String), (u32, usize, Expected)> = BTreeMap::new();
     for leaf in &plan.leaves {
         let scene = &plan.scenes[leaf.scene];
         let class = &spec.file.classes[plan.animations[scene.animation].class];
-        let e = per_class
+        per_class
             .entry((class.category.clone(), class.action.clone()))
-            .or_insert((leaf.label_id, 0, 0, 0));
-        e.2 += 1;
-        e.3 += leaf.end_frame - leaf.start_frame;
+            .or_insert((leaf.label_id, 0, Expected::default()))
+            .2
+            .add(plan, leaf);
     }
     for anim in &plan.animations {
         let class = &spec.file.classes[anim.class];
@@ -83,14 +134,23 @@ pub fn summary(spec: &Spec, plan: &Plan) -> String {
     }
     let rows: Vec<Vec<String>> = per_class
         .iter()
-        .map(|((cat, act), (label, anims, clips, frames))| {
+        .map(|((cat, act), (label, anims, e))| {
+            let (clips, minutes) = if e.by_motion == 0 {
+                (
+                    e.clips.to_string(),
+                    format!("{:.1}", seconds(e.clip_frames, fps) / 60.0),
+                )
+            } else {
+                ("instances".to_string(), "–".to_string())
+            };
             vec![
                 cat.clone(),
                 act.clone(),
                 label.to_string(),
                 anims.to_string(),
-                clips.to_string(),
-                format!("{:.1}", seconds(*frames, fps) / 60.0),
+                e.segments.to_string(),
+                clips,
+                minutes,
             ]
         })
         .collect();
@@ -100,11 +160,17 @@ pub fn summary(spec: &Spec, plan: &Plan) -> String {
             "action",
             "label_id",
             "animations",
+            "segments",
             "clips",
-            "minutes",
+            "clip minutes",
         ],
         &rows,
     ));
+    if expected.by_motion > 0 {
+        out.push_str(
+            "(instances: found from the motion when the segments are trimmed; not known from the plan)\n",
+        );
+    }
     let count_by = |f: &dyn Fn(&SceneNode) -> String| {
         let mut m: BTreeMap<String, usize> = BTreeMap::new();
         for leaf in &plan.leaves {
@@ -132,16 +198,17 @@ pub fn summary(spec: &Spec, plan: &Plan) -> String {
             })
             .collect();
         out.push('\n');
-        out.push_str(&crate::table::table(&[name, "clips", "%"], &rows));
+        out.push_str(&crate::table::table(&[name, "segments", "%"], &rows));
     }
     out
 }
 
-/// The plan as CSV, one row per clip.
+/// The plan as CSV, one row per segment; `expected_clips` is how many clips `trim` will cut out
+/// of it (empty for a segment cut into `instances`: its motion decides).
 #[must_use]
 pub fn csv(spec: &Spec, plan: &Plan) -> String {
     let mut out = String::from(
-        "id,session,category,action,label_id,animation,variant,scene,viewpoint,weather,clock,location,character_height_m,camera_distance_m,camera_azimuth_deg,camera_height_m,start_s,end_s,content_start_s,content_end_s\n",
+        "id,session,category,action,label_id,animation,variant,scene,viewpoint,weather,clock,location,character_height_m,camera_distance_m,camera_azimuth_deg,camera_height_m,start_s,end_s,content_start_s,content_end_s,expected_clips\n",
     );
     let quote = |s: &str| {
         if s.contains([',', '"', '\n']) {
@@ -157,7 +224,7 @@ pub fn csv(spec: &Spec, plan: &Plan) -> String {
         let vp = &scene.viewpoints[leaf.viewpoint as usize];
         let _ = writeln!(
             out,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{:.1},{:.3},{:.4},{:.4},{:.4},{:.4}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{:.1},{:.3},{:.4},{:.4},{:.4},{:.4},{}",
             quote(&leaf.id),
             quote(&plan.sessions[leaf.session].name),
             quote(&class.category),
@@ -178,6 +245,8 @@ pub fn csv(spec: &Spec, plan: &Plan) -> String {
             seconds(leaf.end_frame, plan.fps),
             seconds(leaf.content_start_frame, plan.fps),
             seconds(leaf.content_end_frame, plan.fps),
+            plan.expected_clips(leaf)
+                .map_or_else(String::new, |clips| clips.len().to_string()),
         );
     }
     out

@@ -36,7 +36,6 @@ use self::shard::Shard;
 use crate::bags::capture::{Capture, TimelineError};
 use crate::bags::render::{RenderBagError, RenderedVideo};
 use crate::dataset::capture::{CaptureError, Converted};
-use crate::dataset::clips::ClipMode;
 use crate::dataset::plan::Plan;
 use crate::dataset::spec::Spec;
 use crate::pipeline::PipelineError;
@@ -379,33 +378,15 @@ fn clip_policies(
     }
 }
 
-/// The clips `trim` will cut out of `session`'s segments by the policies `trim` is given
-/// ([`clip_policies`]), as far as the plan tells: exact for `whole` and `windows` at the plan's
-/// rate; a segment cut into `instances` counts as one, since its motion decides (the progress
-/// line corrects the total when a session's clips are cut).
+/// The clips `trim` will cut out of `session`'s segments ([`Plan::expected_clips`]); a segment
+/// cut into `instances` counts as one, since its motion decides (the progress line corrects the
+/// total when a session's clips are cut).
 fn estimated_clips(plan: &Plan, session: &crate::dataset::plan::Session) -> u64 {
-    let policies = clip_policies(&plan.clips);
     plan.leaves[session.leaves.clone()]
         .iter()
         .map(|leaf| {
-            let policy = usize::try_from(leaf.label_id)
-                .ok()
-                .and_then(|i| plan.labels.get(i))
-                .and_then(|label| policies.of(label).ok());
-            match policy {
-                Some(policy) if policy.policy != ClipMode::Instances => {
-                    let segment = crate::trim::plan::FrameRange {
-                        segment: 0,
-                        part: None,
-                        start_frame: leaf.start_frame,
-                        frame_count: leaf.end_frame.saturating_sub(leaf.start_frame),
-                        action: leaf.content_start_frame..leaf.content_end_frame,
-                        animation_start_frame: leaf.content_start_frame,
-                    };
-                    crate::trim::policy::clips_of(&segment, &policy, None).len() as u64
-                }
-                _ => 1,
-            }
+            plan.expected_clips(leaf)
+                .map_or(1, |clips| clips.len() as u64)
         })
         .sum()
 }

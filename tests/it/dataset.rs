@@ -65,7 +65,7 @@ fn plan_counts_and_its_three_formats_agree() {
     let text = stdout(&o);
     assert!(
         text.contains(
-            "2 animations × 2 variants × 3 scenes × 2 viewpoints = 24 clips in 2 sessions"
+            "2 animations × 2 variants × 3 scenes × 2 viewpoints = 24 segments in 2 sessions"
         ),
         "{text}"
     );
@@ -84,6 +84,28 @@ fn plan_counts_and_its_three_formats_agree() {
         serde_json::from_str(&stdout(&autoact(&["plan", arg(&spec), "--format", "json"]))).unwrap();
     assert_eq!(json["plan"]["leaves"].as_array().unwrap().len(), 24);
     assert_eq!(json["plan"]["labels"], serde_json::json!(["walk", "wave"]));
+    // The default policy (`whole`): one clip a segment, in all three formats.
+    assert!(text.contains("expected size: 24 clips,"), "{text}");
+    assert_eq!(json["expected"]["clips"], 24);
+    assert!(csv.lines().skip(1).all(|l| l.ends_with(",1")), "{csv}");
+
+    // Clips found from the motion cannot be counted before it is trimmed: said, not guessed.
+    let spec = write(
+        dir.path(),
+        "i.toml",
+        &spec_text(
+            1,
+            "variants = 2\nscenes = 3\nviewpoints = 2",
+            "[clips]\npolicy = \"instances\"",
+        ),
+    );
+    let text = stdout(&autoact(&["plan", arg(&spec)]));
+    assert!(
+        text.contains("expected size: the clips found in 24 segments cut into instances,"),
+        "{text}"
+    );
+    let csv = stdout(&autoact(&["plan", arg(&spec), "--format", "csv"]));
+    assert!(csv.lines().skip(1).all(|l| l.ends_with(',')), "{csv}");
 }
 
 fn segments(path: &Path) -> Vec<Segment> {
@@ -244,7 +266,7 @@ fn capture_bags_are_deterministic_labelled_and_keep_the_character_in_frame() {
     let info = autoact(&["info", arg(&bags[0])]);
     let text = stdout(&info);
     assert!(
-        text.contains("hierarchy (/segments): 1 categories, 1 actions, 1 animations, 2 variants, 4 scenes, 12 clips"),
+        text.contains("hierarchy (/segments): 1 categories, 1 actions, 1 animations, 2 variants, 4 scenes, 12 segments"),
         "{text}"
     );
     assert!(text.contains("verdict: valid"), "{text}");
@@ -354,7 +376,7 @@ fn the_papers_ntu_scale_plan_has_exact_counts_and_unique_ids() {
     );
     let summary = stdout(&autoact(&["plan", arg(&spec)]));
     assert!(
-        summary.contains("1566 animations × 1 variants × 4 scenes × 3 viewpoints = 18792 clips"),
+        summary.contains("1566 animations × 1 variants × 4 scenes × 3 viewpoints = 18792 segments"),
         "{summary}"
     );
 }
@@ -404,8 +426,8 @@ fn a_spec_source_may_be_a_file_import_reads() {
         )),
     ]));
     assert_eq!(
-        planned.lines().find(|l| l.contains("clips in")),
-        from_bag.lines().find(|l| l.contains("clips in")),
+        planned.lines().find(|l| l.contains("segments in")),
+        from_bag.lines().find(|l| l.contains("segments in")),
         "{planned}\n{from_bag}"
     );
     let json = write(dir.path(), "wave.json", "[]");

@@ -653,7 +653,7 @@ fn fresh_run() -> Option<(tempfile::TempDir, PathBuf, PathBuf)> {
 
 /// The progress line, written to a log (stderr not a terminal), gives the clip total from its
 /// first line: the clips the plan's policies cut (here `walk`'s 4-frame windows, several per
-/// segment), not the plan's segments.
+/// segment), not the plan's segments; and `autoact plan` gave the same total beforehand.
 #[test]
 fn the_progress_line_gives_the_clips_to_be_cut_from_its_first_line() {
     let Some((_dir, spec, out)) = fresh_run() else {
@@ -679,6 +679,12 @@ fn the_progress_line_gives_the_clips_to_be_cut_from_its_first_line() {
         .unwrap_or_default();
     assert_eq!(total, manifest.lines().count(), "first line: {first}");
     assert!(total > segments, "{total} clips, {segments} segments");
+    // `autoact plan` promises the same clips before anything is made.
+    let plan = stdout(&autoact(&["plan", arg(&spec)]));
+    assert!(
+        plan.contains(&format!("expected size: {total} clips,")),
+        "{total} clips cut; the plan said:\n{plan}"
+    );
 }
 
 /// x264 options (or a preset) x264 does not take stop `generate` before it writes its journal
