@@ -69,14 +69,22 @@ impl Expected {
         e
     }
 
-    /// `384 clips`, or `120 clips + those found in 64 segments cut into instances`.
-    fn clips_text(&self) -> String {
+    /// `384 clips, 19200 clip frames at 30 fps, 0.18 h of video (320×240)`, with the segments
+    /// cut into instances said apart (their clips are not counted).
+    fn size_text(&self, fps: f64, [w, h]: [u32; 2]) -> String {
+        let counted = format!(
+            "{} clips, {} clip frames at {fps} fps, {:.2} h of video ({w}×{h})",
+            self.clips,
+            self.clip_frames,
+            seconds(self.clip_frames, fps) / 3600.0
+        );
         match (self.by_motion, self.segments - self.by_motion) {
-            (0, _) => format!("{} clips", self.clips),
-            (n, 0) => format!("the clips found in {n} segments cut into instances"),
+            (0, _) => counted,
+            (n, 0) => format!(
+                "the clips found in {n} segments cut into instances (not known from the plan; {w}×{h} at {fps} fps)"
+            ),
             (n, _) => format!(
-                "{} clips + those found in {n} segments cut into instances",
-                self.clips
+                "{counted}, plus the clips found in {n} segments cut into instances (not known from the plan)"
             ),
         }
     }
@@ -105,13 +113,10 @@ pub fn summary(spec: &Spec, plan: &Plan) -> String {
         plan.leaves.len(),
         plan.sessions.len(),
     );
-    let [w, h] = spec.file.dataset.resolution;
     let _ = writeln!(
         out,
-        "expected size: {}, {} clip frames at {fps} fps, {:.2} h of video ({w}×{h}); timelines {} frames, {:.2} h (lengths estimated from the source bags; DSI transitions may add frames)\n",
-        expected.clips_text(),
-        expected.clip_frames,
-        seconds(expected.clip_frames, fps) / 3600.0,
+        "expected size: {}; timelines {} frames, {:.2} h (lengths estimated from the source bags; DSI transitions may add frames)\n",
+        expected.size_text(fps, spec.file.dataset.resolution),
         total_frames,
         seconds(total_frames, fps) / 3600.0,
     );

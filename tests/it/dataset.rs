@@ -101,7 +101,9 @@ fn plan_counts_and_its_three_formats_agree() {
     );
     let text = stdout(&autoact(&["plan", arg(&spec)]));
     assert!(
-        text.contains("expected size: the clips found in 24 segments cut into instances,"),
+        text.contains(
+            "expected size: the clips found in 24 segments cut into instances (not known from the plan"
+        ),
         "{text}"
     );
     let csv = stdout(&autoact(&["plan", arg(&spec), "--format", "csv"]));
