@@ -587,8 +587,22 @@ pub fn generate(job: &GenerateJob, stop: &AtomicBool) -> Result<GenerateSummary,
         summary.lists = Some(lists);
     }
     run.remove_run_dirs(true)?;
+    if !run.job.keep_intermediates {
+        remove_empty_dirs(
+            &[CAPTURES_DIR, RENDERS_DIR, PREVIEWS_DIR].map(|d| run.job.output.join(d)),
+        );
+    }
     summary.total_seconds = started.elapsed().as_secs_f64();
     Ok(summary)
+}
+
+/// Removes each of `dirs` that is empty: the intermediates' folders once a run without
+/// `--keep-intermediates` has deleted what they held (`previews/` stays when `--previews` filled
+/// it). A folder that is not empty, or not there, is left as it is.
+fn remove_empty_dirs(dirs: &[PathBuf]) {
+    for dir in dirs {
+        let _ = std::fs::remove_dir(dir);
+    }
 }
 
 /// The output folder, held for one run (`flock` on `.autoact-generate.lock`): a second

@@ -191,18 +191,21 @@ fn reference() -> Option<&'static (tempfile::TempDir, PathBuf, PathBuf)> {
 }
 
 /// One uninterrupted run without `--keep-intermediates` (its renders draw only the clips'
-/// frames), with the frames it drew logged: the spec, the output folder and the log.
-fn skipping() -> Option<&'static (tempfile::TempDir, PathBuf, PathBuf)> {
-    static SKIPPING: OnceLock<Option<(tempfile::TempDir, PathBuf, PathBuf)>> = OnceLock::new();
+/// frames), with the frames it drew logged: the output folder, the log and the run's wall time.
+fn skipping() -> Option<&'static (tempfile::TempDir, PathBuf, PathBuf, std::time::Duration)> {
+    type Skipping = (tempfile::TempDir, PathBuf, PathBuf, std::time::Duration);
+    static SKIPPING: OnceLock<Option<Skipping>> = OnceLock::new();
     SKIPPING
         .get_or_init(|| {
             let (_, spec, _) = reference()?;
             let dir = tempfile::tempdir().unwrap();
             let out = dir.path().join("skipping");
             let log = dir.path().join("drawn.log");
+            let start = std::time::Instant::now();
             let o = generate(spec, &out, &["--drawn-log", arg(&log)]);
+            let took = start.elapsed();
             assert!(o.status.success(), "{}", stderr(&o));
-            Some((dir, out, log))
+            Some((dir, out, log, took))
         })
         .as_ref()
 }
@@ -242,7 +245,7 @@ fn frame_digests(ffmpeg: &autoact::video::Ffmpeg, video: &Path) -> Vec<String> {
 /// frame.
 #[test]
 fn a_run_that_draws_only_the_clips_frames_makes_the_same_dataset() {
-    let (Some((_keep, _, single)), Some((_dir, out, log))) = (reference(), skipping()) else {
+    let (Some((_keep, _, single)), Some((_dir, out, log, _))) = (reference(), skipping()) else {
         return;
     };
     let ffmpeg = common::ffmpeg_or_skip(module_path!()).unwrap();
@@ -367,7 +370,7 @@ fn three_shards_merged_equal_one_run_byte_for_byte() {
 
 #[test]
 fn a_run_killed_at_many_points_then_rerun_equals_an_uninterrupted_one() {
-    let (Some((_keep, spec, _)), Some((_dir, skipped, _))) = (reference(), skipping()) else {
+    let (Some((_keep, spec, _)), Some((_dir, skipped, _, _))) = (reference(), skipping()) else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
@@ -406,12 +409,10 @@ fn a_run_killed_at_many_points_then_rerun_equals_an_uninterrupted_one() {
             "{file}"
         );
     }
-    // Without --keep-intermediates nothing of the captures and renders is left.
-    for sub in ["captures", "renders"] {
-        let left: Vec<_> = std::fs::read_dir(out.join(sub))
-            .map(|d| d.map(|e| e.unwrap().path()).collect())
-            .unwrap_or_default();
-        assert!(left.is_empty(), "{sub}: {left:?}");
+    // Without --keep-intermediates nothing of the captures and renders is left, not even their
+    // empty folders.
+    for sub in ["captures", "renders", "previews"] {
+        assert!(!out.join(sub).exists(), "{sub} is left");
     }
     // A finished folder: a re-run renders nothing and cuts nothing.
     let o = generate(spec, &out, &[]);
@@ -458,7 +459,7 @@ fn a_run_killed_at_many_points_then_rerun_equals_an_uninterrupted_one() {
 /// as an uninterrupted run does.
 #[test]
 fn the_dataset_wide_files_are_written_once_after_the_last_session() {
-    let (Some((_keep, spec, _)), Some((_dir, skipped, _))) = (reference(), skipping()) else {
+    let (Some((_keep, spec, _)), Some((_dir, skipped, _, _))) = (reference(), skipping()) else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
@@ -501,22 +502,27 @@ fn the_dataset_wide_files_are_written_once_after_the_last_session() {
 
 /// A real `kill -9` (SIGKILL: no handler, no clean-up, its ffmpeg orphaned) at seeded random
 /// moments, five seeds: each seed kills successive runs in one folder (at most six times), each
-/// either after 0.05–2 s of work or once it has drawn 1–150 frames (so kills land inside renders,
-/// past a session's first segment too, however slow the start-up), then lets a run finish; every
-/// folder ends byte-identical to an uninterrupted run, with no intermediate left, and no frame
-/// was drawn twice beyond the segment each kill interrupted.
+/// either after 2–90 % of an uninterrupted run's wall time or once it has drawn from one frame to
+/// all but one of that run's (so kills land inside the run however fast the machine is, and
+/// inside renders past a session's first segment too, however slow the start-up), then lets a
+/// run finish; every folder ends byte-identical to an uninterrupted run, with no intermediate
+/// left, and no frame was drawn twice beyond the segment each kill interrupted.
 #[test]
 fn runs_killed_with_sigkill_at_random_moments_then_rerun_equal_an_uninterrupted_one() {
     use std::process::{Command, Stdio};
     use std::time::{Duration, Instant};
-    let (Some((_keep, spec, _)), Some((_dir, skipped, _))) = (reference(), skipping()) else {
+    let (Some((_keep, spec, _)), Some((_dir, skipped, skipped_log, took))) =
+        (reference(), skipping())
+    else {
         return;
     };
+    let drawn = drawn_frames(&std::fs::read_to_string(skipped_log).unwrap()).len() as u64;
     let dir = tempfile::tempdir().unwrap();
     let mut kills = 0;
     for seed in 1..=5_u64 {
         let out = dir.path().join(format!("seed{seed}"));
-        // splitmix64: the delays are the same on every run of the test.
+        // splitmix64: the kill moments are the same fractions of the run on every run of the
+        // test.
         let mut state = seed;
         let mut next = || {
             state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
@@ -528,8 +534,9 @@ fn runs_killed_with_sigkill_at_random_moments_then_rerun_equal_an_uninterrupted_
         let log = dir.path().join(format!("seed{seed}.log"));
         let (mut from, mut runs, mut seed_kills) = (0, Vec::new(), 0);
         for _ in 0..6 {
-            let delay = Duration::from_millis(50 + next() % 1950);
-            let frames = (next() % 2 == 0).then(|| 1 + next() % 150);
+            #[expect(clippy::cast_precision_loss, reason = "below 1,000")]
+            let delay = took.mul_f64(0.02 + 0.88 * (next() % 1000) as f64 / 1000.0);
+            let frames = (next() % 2 == 0).then(|| 1 + next() % drawn.saturating_sub(1).max(1));
             let mut args = vec!["-q", "generate", arg(spec), "-o", arg(&out)];
             args.extend(OPTIONS);
             args.extend(["--drawn-log", arg(&log)]);
@@ -590,11 +597,8 @@ fn runs_killed_with_sigkill_at_random_moments_then_rerun_equal_an_uninterrupted_
                 "seed {seed}: {file}"
             );
         }
-        for sub in ["captures", "renders"] {
-            let left: Vec<_> = std::fs::read_dir(out.join(sub))
-                .map(|d| d.map(|e| e.unwrap().path()).collect())
-                .unwrap_or_default();
-            assert!(left.is_empty(), "seed {seed}: {sub}: {left:?}");
+        for sub in ["captures", "renders", "previews"] {
+            assert!(!out.join(sub).exists(), "seed {seed}: {sub} is left");
         }
     }
     assert!(kills >= 5, "only {kills} runs were killed before finishing");
