@@ -80,7 +80,9 @@ print(f"medians of {len(rows)} runs: {int(clips)} clips, {int(frames)} clip fram
 for k, name in enumerate(names, start=3):
     sec = med(k)
     extra = f", {rendered / sec:.0f} rendered frames/s" if name == "render" and sec > 0 else ""
-    print(f"  {name:8s} {sec:7.2f} s  {frames / sec if sec > 0 else float('inf'):8.0f} frames/s{extra}")
+    # generate prints stage times to 0.1 s: a stage under 0.05 s has no meaningful rate.
+    rate_text = f"{frames / sec:8.0f} frames/s" if sec >= 0.05 else "   (under 0.05 s)"
+    print(f"  {name:8s} {sec:7.2f} s  {rate_text}{extra}")
 wall = med(7)
 rate = frames / wall
 print(f"  chain    {wall:7.2f} s  {rate:8.0f} frames/s")

@@ -1,6 +1,7 @@
 //! The hierarchical recording plan: category → action → animation → variant → scene → viewpoint,
 //! every scene drawn (weather, time, location, character) and every viewpoint placed (Random
-//! Camera Moving) from the spec's seed, every leaf a segment on a capture session's timeline (cut into clips by `trim`).
+//! Camera Moving) from the spec's seed, every leaf a segment on a capture session's timeline
+//! (which `trim` cuts into clips).
 //!
 //! **Draws.** Each scene has its own ChaCha8 stream, a hash (FNV-1a) of its id
 //! `<category>/<action>/<animation>/v<variant>/s<scene>` under the dataset seed: the same spec and
