@@ -15,6 +15,8 @@
 //! the spec as `[clips]` and per class as `[class.clips]` (a class's keys override the dataset's),
 //! and on `autoact trim` as options that override both.
 
+use std::ops::Range;
+
 use serde::{Deserialize, Serialize};
 
 /// What a clip is.
@@ -209,11 +211,77 @@ impl ClipPolicy {
         }
         Ok(())
     }
+
+    /// The frames a clip may cover in a segment of `segment` frames whose animation plays over
+    /// `action`: the segment with `include_lead`, else the animation.
+    #[must_use]
+    pub fn bounds(&self, segment: &Range<u64>, action: &Range<u64>) -> Range<u64> {
+        if self.include_lead {
+            segment.clone()
+        } else {
+            action.clone()
+        }
+    }
+
+    /// The clips of a segment (`segment` frames, the animation over `action`) by a `whole` or
+    /// `windows` policy, each as its frames and the animation's frames in it; windows without
+    /// any animation frame (wholly in a lead) are left out. `None` for `instances`, whose clips
+    /// the motion decides.
+    #[must_use]
+    pub fn fixed_clips(
+        &self,
+        segment: &Range<u64>,
+        action: &Range<u64>,
+    ) -> Option<Vec<(Range<u64>, Range<u64>)>> {
+        let bounds = self.bounds(segment, action);
+        match self.policy {
+            ClipMode::Whole => Some(vec![(bounds, action.clone())]),
+            ClipMode::Windows => Some(
+                windows(&bounds, self.length_frames, self.stride_frames, self.tail)
+                    .into_iter()
+                    .filter_map(|w| {
+                        let act = w.start.max(action.start)..w.end.min(action.end);
+                        (act.start < act.end).then_some((w, act))
+                    })
+                    .collect(),
+            ),
+            ClipMode::Instances => None,
+        }
+    }
+}
+
+/// Windows of `length` frames every `stride` over `span`, with the frames after the last full
+/// window by `tail` ([`Tail`]).
+#[must_use]
+pub fn windows(span: &Range<u64>, length: u64, stride: u64, tail: Tail) -> Vec<Range<u64>> {
+    let (length, stride) = (length.max(1), stride.max(1));
+    let mut out = Vec::new();
+    let mut start = span.start;
+    while start + length <= span.end {
+        out.push(start..start + length);
+        start += stride;
+    }
+    let covered = out.last().map_or(span.start, |w| w.end);
+    if covered >= span.end || span.is_empty() {
+        return out;
+    }
+    match tail {
+        Tail::Drop => {}
+        Tail::Shift => {
+            let from = span.end.saturating_sub(length).max(span.start);
+            out.push(from..span.end);
+        }
+        Tail::Keep => {
+            let from = out.last().map_or(span.start, |w| w.start + stride);
+            out.push(from..span.end);
+        }
+    }
+    out
 }
 
 #[cfg(test)]
 mod tests {
-    use super::{ClipMode, ClipPolicy, ClipsSection, Tail};
+    use super::{ClipMode, ClipPolicy, ClipsSection, Tail, windows};
 
     #[test]
     fn a_section_overrides_only_the_keys_it_sets_and_bad_values_name_their_key() {
@@ -244,5 +312,36 @@ mod tests {
                 .contains("min_frames")
         );
         base.validate().unwrap();
+    }
+
+    #[test]
+    fn windows_have_exact_counts_lengths_and_strides_and_each_tail_rule() {
+        // 100 frames, windows of 30 every 20: 0, 20, 40, 60 (ends 90); 10 frames left.
+        let span = 0..100;
+        let full = vec![0..30, 20..50, 40..70, 60..90];
+        assert_eq!(windows(&span, 30, 20, Tail::Drop), full);
+        let mut shifted = full.clone();
+        shifted.push(70..100);
+        assert_eq!(windows(&span, 30, 20, Tail::Shift), shifted);
+        let mut kept = full.clone();
+        kept.push(80..100);
+        assert_eq!(windows(&span, 30, 20, Tail::Keep), kept);
+        // An exact fit has no tail whatever the rule; non-overlapping windows.
+        for tail in [Tail::Drop, Tail::Shift, Tail::Keep] {
+            assert_eq!(
+                windows(&(10..70), 20, 20, tail),
+                vec![10..30, 30..50, 50..70]
+            );
+            // A span shorter than a window.
+            let short = windows(&(5..15), 20, 10, tail);
+            let expected = usize::from(tail != Tail::Drop);
+            assert_eq!(short.len(), expected, "{tail:?}");
+            assert!(short.iter().all(|w| *w == (5..15)), "{tail:?}: {short:?}");
+        }
+        // Gaps between windows when the stride is longer than a window.
+        assert_eq!(
+            windows(&(0..50), 10, 20, Tail::Drop),
+            vec![0..10, 20..30, 40..50]
+        );
     }
 }

@@ -22,7 +22,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use super::clips::{ClipMode, ClipPolicy};
+use super::clips::ClipPolicy;
 use super::spec::{SessionBy, Spec};
 use crate::camera::{
     CameraError, Intrinsics, Shot, Subject, Viewpoint, framing_band, random_viewpoints,
@@ -306,21 +306,16 @@ impl Plan {
     pub fn expected_clips(&self, leaf: &Leaf) -> Option<Vec<Range<u64>>> {
         let label = self.labels.get(usize::try_from(leaf.label_id).ok()?)?;
         let policy = self.clips.get(label).copied().unwrap_or_default();
-        if policy.policy == ClipMode::Instances || policy.validate().is_err() {
+        if policy.validate().is_err() {
             return None;
         }
-        let segment = crate::trim::plan::FrameRange {
-            segment: 0,
-            part: None,
-            start_frame: leaf.start_frame,
-            frame_count: leaf.end_frame.saturating_sub(leaf.start_frame),
-            action: leaf.content_start_frame..leaf.content_end_frame,
-            animation_start_frame: leaf.content_start_frame,
-        };
+        let segment = leaf.start_frame..leaf.end_frame.max(leaf.start_frame);
+        let action = leaf.content_start_frame..leaf.content_end_frame;
         Some(
-            crate::trim::policy::clips_of(&segment, &policy, None)
-                .iter()
-                .map(|clip| clip.start_frame..clip.end_frame())
+            policy
+                .fixed_clips(&segment, &action)?
+                .into_iter()
+                .map(|(frames, _)| frames)
                 .collect(),
         )
     }

@@ -7,7 +7,7 @@ use std::ops::Range;
 use super::TrimError;
 use super::motion::{Segmentation, instances};
 use super::plan::FrameRange;
-use crate::dataset::clips::{ClipMode, ClipPolicy, ClipsSection, Tail};
+use crate::dataset::clips::{ClipMode, ClipPolicy, ClipsSection};
 
 /// The clip policy of each class: the plan's (or the default), with `trim`'s options over it.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -44,11 +44,7 @@ pub fn clips_of(
     speeds: Option<&[f64]>,
 ) -> Vec<FrameRange> {
     let action = segment.action.clone();
-    let bounds = if policy.include_lead {
-        segment.start_frame..segment.end_frame()
-    } else {
-        action.clone()
-    };
+    let frames = segment.start_frame..segment.end_frame();
     let clip = |part: Option<u32>, frames: Range<u64>, act: Range<u64>| FrameRange {
         segment: segment.segment,
         part,
@@ -65,27 +61,20 @@ pub fn clips_of(
             .collect()
     };
     match policy.policy {
-        ClipMode::Whole => vec![clip(None, bounds, action)],
-        ClipMode::Windows => numbered(
-            windows(
-                &bounds,
-                policy.length_frames,
-                policy.stride_frames,
-                policy.tail,
-            )
+        ClipMode::Whole => policy
+            .fixed_clips(&frames, &action)
             .into_iter()
-            .filter_map(|w| {
-                let act = w.start.max(action.start)..w.end.min(action.end);
-                (act.start < act.end).then_some((w, act))
-            })
+            .flatten()
+            .map(|(frames, act)| clip(None, frames, act))
             .collect(),
-        ),
+        ClipMode::Windows => numbered(policy.fixed_clips(&frames, &action).unwrap_or_default()),
         ClipMode::Instances => {
             let seg = Segmentation {
                 min_frames: policy.min_frames,
                 max_frames: policy.max_frames,
                 min_rest_frames: policy.min_rest_frames,
             };
+            let bounds = policy.bounds(&frames, &action);
             let found = speeds.map(|s| instances(s, &seg)).unwrap_or_default();
             numbered(
                 found
@@ -105,38 +94,9 @@ pub fn clips_of(
     }
 }
 
-/// Windows of `length` frames every `stride` over `span`, with the frames after the last full
-/// window by `tail` ([`Tail`]).
-#[must_use]
-pub fn windows(span: &Range<u64>, length: u64, stride: u64, tail: Tail) -> Vec<Range<u64>> {
-    let (length, stride) = (length.max(1), stride.max(1));
-    let mut out = Vec::new();
-    let mut start = span.start;
-    while start + length <= span.end {
-        out.push(start..start + length);
-        start += stride;
-    }
-    let covered = out.last().map_or(span.start, |w| w.end);
-    if covered >= span.end || span.is_empty() {
-        return out;
-    }
-    match tail {
-        Tail::Drop => {}
-        Tail::Shift => {
-            let from = span.end.saturating_sub(length).max(span.start);
-            out.push(from..span.end);
-        }
-        Tail::Keep => {
-            let from = out.last().map_or(span.start, |w| w.start + stride);
-            out.push(from..span.end);
-        }
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
-    use super::{clips_of, windows};
+    use super::clips_of;
     use crate::dataset::clips::{ClipMode, ClipPolicy, Tail};
     use crate::trim::plan::FrameRange;
 
@@ -150,37 +110,6 @@ mod tests {
             action: 115..215,
             animation_start_frame: 115,
         }
-    }
-
-    #[test]
-    fn windows_have_exact_counts_lengths_and_strides_and_each_tail_rule() {
-        // 100 frames, windows of 30 every 20: 0, 20, 40, 60 (ends 90); 10 frames left.
-        let span = 0..100;
-        let full = vec![0..30, 20..50, 40..70, 60..90];
-        assert_eq!(windows(&span, 30, 20, Tail::Drop), full);
-        let mut shifted = full.clone();
-        shifted.push(70..100);
-        assert_eq!(windows(&span, 30, 20, Tail::Shift), shifted);
-        let mut kept = full.clone();
-        kept.push(80..100);
-        assert_eq!(windows(&span, 30, 20, Tail::Keep), kept);
-        // An exact fit has no tail whatever the rule; non-overlapping windows.
-        for tail in [Tail::Drop, Tail::Shift, Tail::Keep] {
-            assert_eq!(
-                windows(&(10..70), 20, 20, tail),
-                vec![10..30, 30..50, 50..70]
-            );
-            // A span shorter than a window.
-            let short = windows(&(5..15), 20, 10, tail);
-            let expected = usize::from(tail != Tail::Drop);
-            assert_eq!(short.len(), expected, "{tail:?}");
-            assert!(short.iter().all(|w| *w == (5..15)), "{tail:?}: {short:?}");
-        }
-        // Gaps between windows when the stride is longer than a window.
-        assert_eq!(
-            windows(&(0..50), 10, 20, Tail::Drop),
-            vec![0..10, 20..30, 40..50]
-        );
     }
 
     #[test]
