@@ -204,8 +204,9 @@ pub fn read_png(path: &Path) -> Result<(u32, u32, Vec<u8>), VideoError> {
 /// Tiles frames left to right, top to bottom, `columns` per row, each scaled to `tile_width`
 /// pixels wide (keeping its aspect; shrinking averages pixels, enlarging repeats them), with a
 /// 2-pixel border around and between tiles and each tile's label in its top-left corner (5×7
-/// font, doubled when tiles are at least 200 pixels wide). Rows are as tall as the tallest
-/// scaled tile. Returns `(width, height, rgb24)`; no tiles give `(0, 0, [])`.
+/// font, doubled when tiles are at least 200 pixels wide and every label fits so; a label too
+/// long for its tile even at the font's size is cut and ends in `..`). Rows are as tall as the
+/// tallest scaled tile. Returns `(width, height, rgb24)`; no tiles give `(0, 0, [])`.
 ///
 /// # Errors
 /// [`VideoError::InvalidSettings`] when `tile_width` or `columns` is 0 or a tile's buffer is
@@ -262,6 +263,13 @@ pub fn contact_sheet(
     #[expect(clippy::cast_possible_truncation, reason = "checked above")]
     let (sheet_width, sheet_height) = (sheet_width as u32, sheet_height as u32);
     let mut sheet = BORDER_RGB.repeat(sheet_width as usize * sheet_height as usize);
+    // One text size for the whole sheet: doubled on wide tiles when every label fits so.
+    let label_scale =
+        if tile_width >= 200 && tiles.iter().all(|t| label_fits(t.label, 2, tile_width)) {
+            2
+        } else {
+            1
+        };
 
     for ((index, tile), &height) in (0_u32..).zip(tiles).zip(&scaled_heights) {
         let x0 = BORDER_PX + (index % columns) * (tile_width + BORDER_PX);
@@ -280,6 +288,7 @@ pub fn contact_sheet(
                 (x0, y0),
                 (tile_width, height),
                 tile.label,
+                label_scale,
             );
         }
     }
@@ -335,8 +344,14 @@ fn draw_label(
     (x0, y0): (u32, u32),
     (cell_w, cell_h): (u32, u32),
     label: &str,
+    scale: u32,
 ) {
-    let scale = if cell_w >= 200 { 2 } else { 1 };
+    let label = if label_fits(label, scale, cell_w) {
+        label.to_owned()
+    } else {
+        shortened(label, |text| label_fits(text, scale, cell_w))
+    };
+    let label = label.as_str();
     let pad = scale;
     let box_w = (text_width(label, scale) + 2 * pad).min(cell_w);
     let box_h = (GLYPH_H * scale + 2 * pad).min(cell_h);
@@ -363,9 +378,25 @@ fn draw_label(
     }
 }
 
+/// Whether `label` fits, with its box's padding, in a tile `cell_w` pixels wide at `scale`.
+fn label_fits(label: &str, scale: u32, cell_w: u32) -> bool {
+    text_width(label, scale) + 2 * scale <= cell_w
+}
+
+/// The longest start of `label` that, with `..` after it, `fits`: the whole label when it
+/// fits, `..` alone when no start does.
+fn shortened(label: &str, fits: impl Fn(&str) -> bool) -> String {
+    let mut out = label.to_owned();
+    while !out.is_empty() && !fits(&format!("{out}..")) {
+        out.pop();
+    }
+    out.push_str("..");
+    out
+}
+
 #[cfg(test)]
 mod tests {
-    use super::{BORDER_PX, BORDER_RGB, Tile, contact_sheet, read_png, write_png};
+    use super::{BORDER_PX, BORDER_RGB, Tile, contact_sheet, read_png, shortened, write_png};
 
     fn pattern(w: u32, h: u32, seed: u8) -> Vec<u8> {
         (0..w * h * 3)
@@ -472,6 +503,71 @@ mod tests {
                 .iter()
                 .all(|&(x, y)| x < BORDER_PX + 14 && y < BORDER_PX + 9)
         );
+    }
+
+    /// The columns of `sheet` (`w` wide) that hold label text (white pixels).
+    fn text_columns(sheet: &[u8], w: u32) -> Vec<u32> {
+        let mut xs: Vec<u32> = sheet
+            .chunks_exact(3)
+            .enumerate()
+            .filter(|(_, px)| *px == [255, 255, 255])
+            .map(|(i, _)| i as u32 % w)
+            .collect();
+        xs.sort_unstable();
+        xs.dedup();
+        xs
+    }
+
+    #[test]
+    fn long_labels_shrink_then_shorten_instead_of_running_off_the_tile() {
+        let grey = [128_u8; 3].repeat(320 * 240);
+        let sheet_of = |label: &str, tile_width: u32| {
+            let tile = Tile {
+                rgb24: &grey,
+                width: 320,
+                height: 240,
+                label,
+            };
+            contact_sheet(&[tile], 1, tile_width).unwrap()
+        };
+        // 17 characters: 202 px at the doubled size, too wide for a 200 px tile; 101 px at
+        // the font's own size, which fits, so the whole label is drawn small.
+        let label = "MIDNIGHT OLDER 84";
+        let (w, _, sheet) = sheet_of(label, 200);
+        let xs = text_columns(&sheet, w);
+        let width = xs.last().unwrap() - xs.first().unwrap() + 1;
+        assert!(width <= 101, "{width} px");
+        // A short label keeps the doubled size.
+        let (w, _, sheet) = sheet_of("DAWN", 200);
+        let xs = text_columns(&sheet, w);
+        assert!(xs.last().unwrap() - xs.first().unwrap() + 1 > 23 + 1);
+        // In one sheet with the long label, the short one is drawn small too.
+        let tiles: Vec<Tile<'_>> = ["DAWN", label]
+            .into_iter()
+            .map(|label| Tile {
+                rgb24: &grey,
+                width: 320,
+                height: 240,
+                label,
+            })
+            .collect();
+        let (w, _, sheet) = contact_sheet(&tiles, 2, 200).unwrap();
+        let xs = text_columns(&sheet, w);
+        let first_tile: Vec<u32> = xs.into_iter().filter(|&x| x < BORDER_PX + 200).collect();
+        assert_eq!(
+            first_tile.last().unwrap() - first_tile.first().unwrap() + 1,
+            23
+        );
+        // Too long even small: cut, with `..`, inside the tile.
+        let long = "A".repeat(40);
+        let (w, _, sheet) = sheet_of(&long, 100);
+        let xs = text_columns(&sheet, w);
+        assert!(*xs.last().unwrap() < BORDER_PX + 100 - 1, "{xs:?}");
+        assert_eq!(
+            shortened(&long, |t| t.len() <= 10),
+            format!("{}..", "A".repeat(8))
+        );
+        assert_eq!(shortened("ABC", |t| t.len() <= 1), "..");
     }
 
     #[test]
