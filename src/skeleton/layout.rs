@@ -233,7 +233,7 @@ pub struct BoneOverride {
 }
 
 /// The built-in layouts: (name, aliases, TOML text).
-const BUILTIN: [(&str, &[&str], &str); 9] = [
+const BUILTIN: [(&str, &[&str], &str); 10] = [
     (
         "coco-wholebody-133",
         &["h3wb", "coco-wholebody"],
@@ -261,6 +261,11 @@ const BUILTIN: [(&str, &[&str], &str); 9] = [
         "zed-body-34",
         &["zed", "body-34"],
         include_str!("layouts/zed-body-34.toml"),
+    ),
+    (
+        "mediapipe-pose-33",
+        &["mediapipe", "blazepose"],
+        include_str!("layouts/mediapipe-pose-33.toml"),
     ),
     (
         "azure-kinect-32",

@@ -120,6 +120,8 @@ fn layouts_list_shows_every_builtin() {
         "h36m-17",
         "h36m-32",
         "zed-body-34",
+        "mediapipe-pose-33",
+        "azure-kinect-32",
         "autoact-landmarks",
     ] {
         assert!(out.contains(name), "{name} missing from:\n{out}");

@@ -1881,3 +1881,77 @@ fn dsi_on_a_clip_cut_by_hundreds_of_gaps_opens_two_files_per_person() {
     assert!(frames.windows(2).all(|w| w[0].0 < w[1].0));
     assert!(frames.len() >= 880, "{} frames", frames.len());
 }
+
+/// The 33 landmarks of the checked-in MediaPipe detection (`tests/data`, Apache-2.0), as
+/// (x, y, z) in its normalised image units, y down.
+fn mediapipe_landmarks() -> Vec<[f64; 3]> {
+    let text = std::fs::read_to_string(repo("tests/data/mediapipe_pose_landmarks.pbtxt")).unwrap();
+    let value = |line: &str, key: &str| {
+        line.trim()
+            .strip_prefix(key)
+            .map(|v| v.trim().parse::<f64>().unwrap())
+    };
+    let mut points = Vec::new();
+    let mut lines = text.lines();
+    while let Some(line) = lines.next() {
+        if line.trim() == "landmark {" {
+            let mut xyz = [f64::NAN; 3];
+            for (slot, key) in xyz.iter_mut().zip(["x:", "y:", "z:"]) {
+                *slot = value(lines.next().unwrap(), key).unwrap();
+            }
+            points.push(xyz);
+        }
+    }
+    points
+}
+
+#[test]
+fn a_mediapipe_detection_converts_with_hands_and_feet_driven() {
+    // A real MediaPipe Pose detection (not a pose we posed): imported as MMPose-style JSON with
+    // the built-in layout and converted, no frame takes the degenerate-input path, and the hands
+    // (aimed at the index knuckle, twisted by the knuckle line) and feet (aimed at the toes)
+    // leave rest.
+    let landmarks = mediapipe_landmarks();
+    assert_eq!(landmarks.len(), 33);
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("mediapipe.json");
+    let frames: Vec<serde_json::Value> = (0..3)
+        .map(|k| serde_json::json!({"frame_id": k, "instances": [{"keypoints": landmarks}]}))
+        .collect();
+    std::fs::write(&json, serde_json::to_string(&frames).unwrap()).unwrap();
+    let (pose, anim) = (dir.path().join("p.mcap"), dir.path().join("a.mcap"));
+    let o = autoact(&[
+        "import",
+        arg(&json),
+        "--layout",
+        "mediapipe",
+        "--fps",
+        "30",
+        "-o",
+        arg(&pose),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = autoact(&["convert", arg(&pose), "-o", arg(&anim), "--fps", "30"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        common::stdout(&o).contains("0 frames needed the degenerate-input path"),
+        "{}",
+        common::stdout(&o)
+    );
+    let frames = bone_frames(&anim);
+    assert_eq!(frames.len(), 3);
+    let (_, frame) = &frames[0];
+    for bone in [
+        "l_hand",
+        "r_hand",
+        "l_foot",
+        "r_foot",
+        "l_forearm",
+        "r_thigh",
+    ] {
+        let i = frame.bone_names.iter().position(|b| b == bone).unwrap();
+        let q = &frame.local_rotations[i];
+        let angle_deg = 2.0 * q.w.abs().min(1.0).acos().to_degrees();
+        assert!(angle_deg > 1.0, "{bone} at rest ({angle_deg:.2}°)");
+    }
+}
