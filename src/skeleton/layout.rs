@@ -233,7 +233,7 @@ pub struct BoneOverride {
 }
 
 /// The built-in layouts: (name, aliases, TOML text).
-const BUILTIN: [(&str, &[&str], &str); 10] = [
+const BUILTIN: [(&str, &[&str], &str); 11] = [
     (
         "coco-wholebody-133",
         &["h3wb", "coco-wholebody"],
@@ -267,6 +267,7 @@ const BUILTIN: [(&str, &[&str], &str); 10] = [
         &["mediapipe", "blazepose"],
         include_str!("layouts/mediapipe-pose-33.toml"),
     ),
+    ("smpl-24", &["smpl"], include_str!("layouts/smpl-24.toml")),
     (
         "azure-kinect-32",
         &["azure-kinect", "k4abt", "orbbec-femto"],

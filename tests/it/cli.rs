@@ -121,6 +121,7 @@ fn layouts_list_shows_every_builtin() {
         "h36m-32",
         "zed-body-34",
         "mediapipe-pose-33",
+        "smpl-24",
         "azure-kinect-32",
         "autoact-landmarks",
     ] {
