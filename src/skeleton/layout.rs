@@ -233,7 +233,7 @@ pub struct BoneOverride {
 }
 
 /// The built-in layouts: (name, aliases, TOML text).
-const BUILTIN: [(&str, &[&str], &str); 11] = [
+const BUILTIN: [(&str, &[&str], &str); 12] = [
     (
         "coco-wholebody-133",
         &["h3wb", "coco-wholebody"],
@@ -268,6 +268,11 @@ const BUILTIN: [(&str, &[&str], &str); 11] = [
         include_str!("layouts/mediapipe-pose-33.toml"),
     ),
     ("smpl-24", &["smpl"], include_str!("layouts/smpl-24.toml")),
+    (
+        "smplx-55",
+        &["smplx", "smpl-x"],
+        include_str!("layouts/smplx-55.toml"),
+    ),
     (
         "azure-kinect-32",
         &["azure-kinect", "k4abt", "orbbec-femto"],

@@ -122,6 +122,7 @@ fn layouts_list_shows_every_builtin() {
         "zed-body-34",
         "mediapipe-pose-33",
         "smpl-24",
+        "smplx-55",
         "azure-kinect-32",
         "autoact-landmarks",
     ] {
