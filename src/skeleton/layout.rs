@@ -754,6 +754,24 @@ mod tests {
         }
     }
 
+    /// SMPL-X's body is SMPL's first 22 joints, so its table maps them as `smpl-24` does: the
+    /// two TOML files cannot share the lines, this keeps them from drifting apart.
+    #[test]
+    fn smplx_maps_its_body_as_smpl_does() {
+        let smpl = Layout::builtin("smpl-24").unwrap();
+        let smplx = Layout::builtin("smplx-55").unwrap();
+        assert_eq!(smplx.joints[..22], smpl.joints[..22]);
+        let body = |layout: &Layout| {
+            layout
+                .landmarks
+                .iter()
+                .filter(|(landmark, _)| !landmark.ends_with(char::is_numeric))
+                .map(|(landmark, expr)| (landmark.clone(), expr.clone()))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(body(&smplx), body(&smpl));
+    }
+
     #[test]
     fn coco_wholebody_drives_fingers_and_h36m_leaves_them_at_rest() {
         let rig = Rig::standard();

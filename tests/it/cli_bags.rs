@@ -1910,7 +1910,9 @@ fn a_mediapipe_detection_converts_with_hands_and_feet_driven() {
     // A real MediaPipe Pose detection (not a pose we posed): imported as MMPose-style JSON with
     // the built-in layout and converted, no frame takes the degenerate-input path, and the hands
     // (aimed at the index knuckle, twisted by the knuckle line) and feet (aimed at the toes)
-    // leave rest.
+    // leave rest. The file holds image-normalised landmarks (x and y scaled by the image's width
+    // and height), not the metric world landmarks the layout is for, so this checks the table on
+    // a real detector's arrangement of points, not the angles it gives.
     let landmarks = mediapipe_landmarks();
     assert_eq!(landmarks.len(), 33);
     let dir = tempfile::tempdir().unwrap();
